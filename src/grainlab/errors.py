@@ -1,0 +1,51 @@
+"""Errors and warnings that grainlab raises to its users.
+
+Every error names the offending field, the value it received and what is allowed, so that a
+message read at the command line is enough to fix the input. The CLI turns any
+:class:`GrainlabError` into a one-paragraph message and a non-zero exit status, never a
+traceback.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+class GrainlabError(Exception):
+    """Base class of every error grainlab raises on purpose."""
+
+
+class InputError(GrainlabError, ValueError):
+    """A user-supplied value is outside what is allowed.
+
+    Parameters
+    ----------
+    field:
+        Name of the input field, as the user wrote it (``"radii[3]"``, ``"--alpha"``).
+    value:
+        The value received.
+    allowed:
+        What would have been accepted, in words (``"a positive number of metres"``).
+    """
+
+    def __init__(self, field: str, value: Any, allowed: str):
+        self.field = field
+        self.value = value
+        self.allowed = allowed
+        super().__init__(f"{field} = {value!r} is not allowed: expected {allowed}.")
+
+
+class GeometryError(GrainlabError, ValueError):
+    """A packing geometry is inconsistent (overlapping particles, a cell that does not tile)."""
+
+
+class ConvergenceError(GrainlabError, RuntimeError):
+    """An iterative solve did not converge; the message gives the residual reached."""
+
+
+class GrainlabWarning(UserWarning):
+    """Base class of grainlab's warnings."""
+
+
+class RattlerWarning(GrainlabWarning):
+    """A particle carries no contact and takes no part in the load-bearing network."""
