@@ -1,0 +1,1 @@
+"""The ``grainlab`` command line: one command per lab test and per report."""

@@ -115,8 +115,16 @@ def packing_c(large_diameter: float = ROD_DIAMETER) -> DiscPacking2D:
 
 
 def packing_d(large_diameter: float = 0.75 * INCH) -> DiscPacking2D:
-    """Packing D of two disc sizes (seed 000 Fig. 3, Table 1: e = 0.2154, CN = 4.67)."""
-    raise NotImplementedError
+    """Packing D of two disc sizes (seed 000 Fig. 3, Table 1: e = 0.2154, CN = 4.67).
+
+    PROVISIONAL."""
+    big = large_diameter / 2
+    small = big * 2 / 3
+    a = SQRT3 * (big + small)
+    lattice = [[a, 0.0], [a / 2, a * SQRT3 / 2]]
+    centres = [[0.0, 0.0], [a / 2, a * SQRT3 / 6], [a, a * SQRT3 / 3]]
+    return DiscPacking2D(PeriodicCell2D(lattice), centres, [big, small, small], "D",
+                         ("large", "small1", "small2"))
 
 
 _REGISTRY: dict[str, tuple[Callable[[], DiscPacking2D], str]] = {

@@ -202,8 +202,6 @@ def run_rotated_stress_path(
     """
     iso = consolidate_isotropically(model, path.confining_stress)
     start = iso
-    if path.control == "p":  # the p-controlled path starts from the same isotropic state
-        start = iso
     recorder = _Recorder(model)
     reference = start.strain.copy()
     recorder.record("isotropic", 1.0, start, reference, None, 0)
@@ -217,13 +215,21 @@ def run_rotated_stress_path(
         except ConvergenceError as error:
             step /= 2.0
             if step < minimum_step:
-                n_sliding = int(np.count_nonzero(state.contacts.sliding))
+                contacts = state.contacts
+                mobilised = friction_mobilisation(
+                    contacts.normal_force, contacts.tangential_force,
+                    model.law.friction_coefficient,
+                )
                 outcome = {
                     "status": "failure",
                     "reason": (
-                        f"no equilibrium beyond the stress ratio {ratio:.6g} "
-                        f"({n_sliding} of {model.n_contacts} contacts sliding, "
-                        f"{int(np.count_nonzero(state.contacts.open))} open): {error}"
+                        f"no equilibrium beyond the stress ratio {ratio:.6g}: of "
+                        f"{model.n_contacts} contacts, {int(np.count_nonzero(mobilised > 0.99))}"
+                        f" have mobilised over 99 % of their friction, "
+                        f"{int(np.count_nonzero(contacts.sliding))} slide and "
+                        f"{int(np.count_nonzero(contacts.open))} are open; the smallest "
+                        f"eigenvalue of D fell to {np.linalg.eigvalsh(model.stiffness_matrix(state))[0]:.3g} Pa "
+                        f"({error})"
                     ),
                     "failure_stress_ratio": ratio,
                 }
