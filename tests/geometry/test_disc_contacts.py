@@ -240,3 +240,26 @@ def test_rotation_rotates_branches():
     rotated = c0.branch @ rotation_matrix_2d(angle).T
     # same contact order (particles and images are unchanged by a rotation)
     np.testing.assert_allclose(c1.branch, rotated, atol=1e-15)
+
+
+BASES = [[[1, 0], [1, 1]], [[2, 1], [1, 1]], [[1, 3], [0, 1]], [[1, 0], [5, 1]]]
+
+
+@pytest.mark.parametrize("name", ["A", "B", "C", "hexagonal"])
+@pytest.mark.parametrize("basis", BASES, ids=["shear1", "u2111", "shear3", "shear5"])
+def test_change_of_lattice_basis_gives_the_same_contacts(name, basis, request):
+    """A unimodular change of the lattice vectors draws the same periodic packing."""
+    if name == "B" and basis == [[1, 0], [5, 1]]:
+        request.applymarker(pytest.mark.xfail(strict=True, reason=CENTRES_FAR_FROM_CELL_BUG))
+    packing = named_packing(name)
+    assert abs(np.linalg.det(basis)) == 1
+    redrawn = DiscPacking2D(
+        PeriodicCell2D(np.array(basis, float) @ packing.cell.lattice),
+        packing.centres,
+        packing.radii,
+        labels=packing.labels,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RattlerWarning)
+        assert _signature(redrawn)[1:] == _signature(packing)[1:]
+    assert redrawn.void_ratio == pytest.approx(packing.void_ratio, rel=1e-12)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from enum import Enum
+from enum import StrEnum
 from pathlib import Path
 
 import numpy as np
@@ -53,14 +53,14 @@ app = typer.Typer(
 console = Console()
 
 
-class Law(str, Enum):
+class Law(StrEnum):
     """Contact laws offered at the command line."""
 
     hertz_mindlin = "hertz-mindlin"
     linear = "linear"
 
 
-class Control(str, Enum):
+class Control(StrEnum):
     """What the stress path holds constant."""
 
     sigma3 = "sigma3"
@@ -124,7 +124,8 @@ def table_command(
         )
         lines.append(
             f"{name},{packing.void_ratio!r},{'' if paper_e is None else paper_e},{cn!r},"
-            f"{'' if paper_cn is None else paper_cn},{per},\"{packing_description(name)}\""
+            f"{'' if paper_cn is None else paper_cn},{per},"
+            f"\"{packing_description(name)}\""
         )
     console.print(table)
     for name in packing_names():
@@ -204,7 +205,9 @@ def load_command(
     alpha: float = typer.Option(
         30.0, help="Direction of sigma_1 from the Y axis towards +X [deg], in [-90, 90]."
     ),
-    out: Path | None = typer.Option(None, help="Output folder [default: packing2d-PACKING-alphaALPHA]"),
+    out: Path | None = typer.Option(
+        None, help="Output folder [default: packing2d-PACKING-alphaALPHA]"
+    ),
     law: Law = LAW_OPTION,
     friction_angle: float = PHI_OPTION,
     shear_modulus: float = G_OPTION,

@@ -25,11 +25,126 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from grainlab._validate import in_range, positive
 from grainlab.contact.coulomb import SLIDING_TOLERANCE, coulomb_limit
 from grainlab.contact.law2d import ContactState2D
 from grainlab.errors import ConvergenceError
+
+# -- compiled kernels (scalar law -> array kernel; the class below is the thin launcher) -------
+
+
+@njit(inline="always")
+def _normal_stiffness_scalar(force, radius, shear_modulus, poisson_ratio):
+    """c_n of eq. 17 for one contact [N/m^2]; 0 when open, -1 past the law's range."""
+    if force <= 0.0:
+        return 0.0
+    a = np.sqrt(2.0 * (1.0 - poisson_ratio) * radius * force / (np.pi * shear_modulus))
+    bracket = 2.0 * np.log(2.0 * radius / a) - 1.0
+    if bracket <= 0.0:
+        return -1.0
+    return 2.0 * np.pi * shear_modulus / ((1.0 - poisson_ratio) * bracket)
+
+
+@njit(inline="always")
+def _normal_force_scalar(approach, radius, shear_modulus, poisson_ratio, guess):
+    """Invert delta(f) = (1 - nu)/(pi G) f ln(2r/a(f)) for one contact by a safeguarded Newton
+    iteration on y = ln f. Returns 0 when open and -1 past the law's range or on failure."""
+    if approach <= 0.0:
+        return 0.0
+    compliance = (1.0 - poisson_ratio) / (np.pi * shear_modulus)
+    log_kappa = np.log(2.0 * (1.0 - poisson_ratio) * radius / (np.pi * shear_modulus))
+    log_2r = np.log(2.0 * radius)
+    hi = np.log(2.0 * np.pi * shear_modulus * radius / (np.e * (1.0 - poisson_ratio)))
+    if approach >= compliance * np.exp(hi) * 0.5 * (1.0 - 1e-12):
+        return -1.0
+    lo = np.log(np.finfo(np.float64).tiny)
+    start = guess if guess > 0.0 else approach / (compliance * np.log(2e3))
+    y = min(max(np.log(start), lo), hi)
+    for _ in range(200):
+        f = np.exp(y)
+        log_ratio = log_2r - 0.5 * (log_kappa + y)
+        g = compliance * f * log_ratio - approach
+        slope = compliance * f * (log_ratio - 0.5)
+        step = g / slope if slope > 0.0 else np.inf
+        if abs(step) <= 1e-13 * max(1.0, abs(y)):
+            return np.exp(y - step)
+        if g < 0.0:
+            lo = y
+        elif g > 0.0:
+            hi = y
+        y_new = y - step
+        y = y_new if lo < y_new < hi else 0.5 * (lo + hi)
+    return -1.0
+
+
+@njit(inline="always")
+def _tangential_piece_scalar(ft, du, fn_mid, fn_end, radius, shear_modulus, poisson_ratio,
+                             psi, mu):
+    """One sub-increment of eq. 18 at normal force fn_mid, cut to mu fn_end at its end."""
+    limit = mu * max(fn_mid, 0.0)
+    if limit <= 0.0:
+        return 0.0
+    kn = _normal_stiffness_scalar(fn_mid, radius, shear_modulus, poisson_ratio)
+    k0 = kn / psi
+    start, load = ft, du
+    if ft * du < 0.0:  # unloading: elastic with c_n / Psi until f_t reaches zero
+        trial = ft + k0 * du
+        if trial * ft >= 0.0:
+            start, load = trial, 0.0
+        else:
+            start, load = 0.0, trial / k0
+    result = start
+    if load != 0.0:  # loading: s = sqrt(1 - |f_t|/T) falls by c_n |du| / (2 Psi T)
+        s0 = np.sqrt(min(max(1.0 - abs(start) / limit, 0.0), 1.0))
+        s1 = max(s0 - kn * abs(load) / (2.0 * psi * limit), 0.0)
+        result = np.sign(load) * limit * (1.0 - s1 * s1)
+    end_limit = mu * max(fn_end, 0.0)
+    return min(max(result, -end_limit), end_limit)
+
+
+@njit(cache=True)
+def hertz_mindlin_normal_kernel(force_or_approach, radius, shear_modulus, poisson_ratio, guess,
+                                invert, out):
+    """c_n(f) (invert=False) or f(delta) (invert=True) for every contact, into ``out``."""
+    for c in range(out.shape[0]):
+        if invert:
+            out[c] = _normal_force_scalar(force_or_approach[c], radius[c], shear_modulus,
+                                          poisson_ratio, guess[c])
+        else:
+            out[c] = _normal_stiffness_scalar(force_or_approach[c], radius[c], shear_modulus,
+                                              poisson_ratio)
+
+
+@njit(cache=True)
+def hertz_mindlin_update_kernel(
+    approach0, normal0, tangential0, d_normal, d_tangential, radius,
+    shear_modulus, poisson_ratio, psi, mu, substeps,
+    approach, normal, tangential,
+):
+    """Integrate eqs. 17-18 over one displacement increment for every contact (outputs last).
+
+    Returns the number of contacts whose force left the range of eq. 17 (then -1 in normal)."""
+    out_of_range = 0
+    for c in range(approach0.shape[0]):
+        approach[c] = approach0[c] + d_normal[c]
+        fn = _normal_force_scalar(approach[c], radius[c], shear_modulus, poisson_ratio, normal0[c])
+        normal[c] = fn
+        if fn < 0.0:
+            out_of_range += 1
+            tangential[c] = 0.0
+            continue
+        ft = tangential0[c]
+        du = d_tangential[c] / substeps
+        for k in range(substeps):
+            fn_mid = normal0[c] + (fn - normal0[c]) * (k + 0.5) / substeps
+            fn_end = normal0[c] + (fn - normal0[c]) * (k + 1.0) / substeps
+            ft = _tangential_piece_scalar(ft, du, fn_mid, fn_end, radius[c], shear_modulus,
+                                          poisson_ratio, psi, mu)
+        tangential[c] = ft if fn > 0.0 else 0.0
+    return out_of_range
+
 
 PAPER_SHEAR_MODULUS = 1.05e8
 """G~ of seed 000 [Pa] (15000 psi = 105000 kN/m^2)."""
@@ -110,21 +225,28 @@ class ModifiedHertzMindlin2D:
         """Force [N/m] past which eq. 17 gives a negative compliance (a = 2 r e^(-1/2))."""
         return 2.0 * np.pi * self.shear_modulus * radius / (np.e * (1.0 - self.poisson_ratio))
 
+    def _normal_kernel(self, values, radius, guess, invert: bool) -> np.ndarray:
+        values = np.asarray(values, dtype=float)
+        flat = np.ascontiguousarray(values.reshape(-1))
+        m = flat.shape[0]
+        out = np.empty(m)
+        guesses = np.zeros(m) if guess is None else np.ascontiguousarray(
+            np.broadcast_to(np.asarray(guess, dtype=float).reshape(-1), (m,)))
+        hertz_mindlin_normal_kernel(
+            flat,
+            np.ascontiguousarray(np.broadcast_to(np.asarray(radius, float).reshape(-1), (m,))),
+            self.shear_modulus, self.poisson_ratio, guesses, invert, out,
+        )
+        if np.any(out < 0.0):
+            raise ConvergenceError(
+                "A contact left the range of seed 000 eq. 17 (contact half-width beyond "
+                "2 r e^(-1/2)): the stress is too high for this shear modulus."
+            )
+        return out.reshape(values.shape)
+
     def normal_stiffness(self, normal_force: np.ndarray, radius: np.ndarray) -> np.ndarray:
         """c_n [N/m^2] from eq. 17; zero for an open contact."""
-        force = np.asarray(normal_force, dtype=float)
-        radius = np.broadcast_to(np.asarray(radius, dtype=float), force.shape)
-        stiffness = np.zeros_like(force)
-        loaded = force > 0.0
-        a = self.half_width(force[loaded], radius[loaded])
-        bracket = 2.0 * np.log(2.0 * radius[loaded] / a) - 1.0
-        if np.any(bracket <= 0.0):
-            raise ConvergenceError(
-                "A normal force exceeds the range of seed 000 eq. 17 (contact half-width "
-                "beyond 2 r e^(-1/2)); the stress level is too high for this G."
-            )
-        stiffness[loaded] = 2.0 * np.pi * self.shear_modulus / ((1.0 - self.poisson_ratio) * bracket)
-        return stiffness
+        return self._normal_kernel(normal_force, radius, None, invert=False)
 
     def normal_approach(self, normal_force: np.ndarray, radius: np.ndarray) -> np.ndarray:
         """delta(f_n) = (1 - nu) / (pi G) f_n ln(2 r / a) [m], the integral of eq. 17."""
@@ -139,47 +261,12 @@ class ModifiedHertzMindlin2D:
         )
         return approach
 
-    def normal_force(self, approach: np.ndarray, radius: np.ndarray) -> np.ndarray:
-        """Invert delta(f_n) [N/m]: safeguarded Newton on y = ln f_n; 0 where delta <= 0."""
-        approach = np.asarray(approach, dtype=float)
-        radius = np.broadcast_to(np.asarray(radius, dtype=float), approach.shape)
-        force = np.zeros_like(approach)
-        loaded = approach > 0.0
-        if not np.any(loaded):
-            return force
-        delta, r = approach[loaded], radius[loaded]
-        f_max = self.largest_normal_force(r)
-        if np.any(delta > self.normal_approach(f_max, r) * (1.0 - 1e-12)):
-            raise ConvergenceError(
-                "A normal approach exceeds the range of seed 000 eq. 17: the contact would need "
-                "a half-width beyond 2 r e^(-1/2). Lower the stress or raise the shear modulus."
-            )
-        compliance_factor = (1.0 - self.poisson_ratio) / (np.pi * self.shear_modulus)
-        log_kappa = np.log(self._kappa(r))
-        log_2r = np.log(2.0 * r)
-        lo = np.full_like(delta, np.log(np.finfo(float).tiny))
-        hi = np.log(f_max)
-        # Start from the linear estimate delta ~ compliance * f * ln(2r/a(f)) with a ~ 1e-3 r.
-        y = np.clip(np.log(delta / (compliance_factor * np.log(2e3))), lo, hi)
-        for _ in range(100):
-            f = np.exp(y)
-            log_ratio = log_2r - 0.5 * (log_kappa + y)  # ln(2r/a)
-            g = compliance_factor * f * log_ratio - delta
-            lo = np.where(g < 0.0, y, lo)
-            hi = np.where(g > 0.0, y, hi)
-            slope = compliance_factor * f * (log_ratio - 0.5)  # dg/dy
-            step = np.divide(g, slope, out=np.full_like(g, np.inf), where=slope > 0.0)
-            y_new = y - step
-            outside = ~((y_new > lo) & (y_new < hi))
-            y_new = np.where(outside, 0.5 * (lo + hi), y_new)
-            if np.all(np.abs(y_new - y) <= 1e-14 * np.maximum(1.0, np.abs(y))):
-                y = y_new
-                break
-            y = y_new
-        else:
-            raise ConvergenceError("Inverting the normal law of seed 000 eq. 17 did not converge.")
-        force[loaded] = np.exp(y)
-        return force
+    def normal_force(
+        self, approach: np.ndarray, radius: np.ndarray, guess: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Invert delta(f_n) [N/m] by a safeguarded Newton iteration on y = ln f_n; 0 where
+        delta <= 0. ``guess`` (forces [N/m], e.g. of the previous increment) speeds it up."""
+        return self._normal_kernel(approach, radius, guess, invert=True)
 
     # -- tangential law ---------------------------------------------------------------------
     def tangent_stiffness(
@@ -202,45 +289,26 @@ class ModifiedHertzMindlin2D:
 
         The normal force follows the closed-form approach exactly; the tangential force is
         integrated in :attr:`substeps` pieces along which f_n varies linearly, each with the
-        closed-form solution of eq. 18 at that piece's mean normal force.
+        closed-form solution of eq. 18 at that piece's mean normal force (compiled kernel
+        :func:`hertz_mindlin_update_kernel`).
         """
-        approach = state.normal_approach + d_normal
-        normal = self.normal_force(approach, radius)
-        tangential = np.array(state.tangential_force, dtype=float)
-        mu = self.friction_coefficient
-        du = np.asarray(d_tangential, dtype=float) / self.substeps
-        f0 = state.normal_force
-        for k in range(self.substeps):
-            fn_mid = f0 + (normal - f0) * (k + 0.5) / self.substeps
-            fn_end = f0 + (normal - f0) * (k + 1.0) / self.substeps
-            tangential = self._tangential_piece(tangential, du, fn_mid, fn_end, radius, mu)
-        closed = normal > 0.0
-        tangential = np.where(closed, tangential, 0.0)
-        limit = coulomb_limit(normal, mu)
-        sliding = closed & (np.abs(tangential) >= (1.0 - SLIDING_TOLERANCE) * limit)
-        return ContactState2D(approach, normal, tangential, sliding)
-
-    def _tangential_piece(self, ft, du, fn_mid, fn_end, radius, mu):
-        """One sub-increment of eq. 18 at normal force fn_mid, then cut to mu fn_end."""
-        kn = self.normal_stiffness(fn_mid, radius)
-        k0 = kn / self.psi
-        limit = mu * np.maximum(fn_mid, 0.0)
-        # Unloading (du against f_t): elastic with c_n / Psi until f_t reaches zero.
-        against = ft * du < 0.0
-        trial = ft + k0 * du
-        crosses = against & (trial * ft < 0.0)
-        remainder = np.where(
-            crosses, np.divide(trial, k0, out=np.zeros_like(trial), where=k0 > 0), 0.0
+        m = state.normal_force.shape[0]
+        approach, normal, tangential = np.empty(m), np.empty(m), np.empty(m)
+        out_of_range = hertz_mindlin_update_kernel(
+            np.ascontiguousarray(state.normal_approach, dtype=float),
+            np.ascontiguousarray(state.normal_force, dtype=float),
+            np.ascontiguousarray(state.tangential_force, dtype=float),
+            np.ascontiguousarray(d_normal, dtype=float),
+            np.ascontiguousarray(d_tangential, dtype=float),
+            np.ascontiguousarray(np.broadcast_to(radius, (m,)), dtype=float),
+            self.shear_modulus, self.poisson_ratio, self.psi, self.friction_coefficient,
+            self.substeps, approach, normal, tangential,
         )
-        start = np.where(against & ~crosses, trial, np.where(crosses, 0.0, ft))
-        load = np.where(against & ~crosses, 0.0, np.where(crosses, remainder, du))
-        # Loading: s = sqrt(1 - |f_t|/T) decreases by c_n |du| / (2 Psi T).
-        safe = np.where(limit > 0.0, limit, 1.0)
-        s0 = np.sqrt(np.clip(1.0 - np.abs(start) / safe, 0.0, 1.0))
-        s1 = np.maximum(s0 - kn * np.abs(load) / (2.0 * self.psi * safe), 0.0)
-        direction = np.where(load != 0.0, np.sign(load), np.sign(start))
-        loaded_value = direction * safe * (1.0 - s1**2)
-        result = np.where(load != 0.0, loaded_value, start)
-        result = np.where(limit > 0.0, result, 0.0)
-        end_limit = mu * np.maximum(fn_end, 0.0)
-        return np.clip(result, -end_limit, end_limit)
+        if out_of_range:
+            raise ConvergenceError(
+                f"{out_of_range} contact(s) left the range of seed 000 eq. 17 (half-width beyond "
+                "2 r e^(-1/2)): the stress is too high for this shear modulus."
+            )
+        limit = coulomb_limit(normal, self.friction_coefficient)
+        sliding = (normal > 0.0) & (np.abs(tangential) >= (1.0 - SLIDING_TOLERANCE) * limit)
+        return ContactState2D(approach, normal, tangential, sliding)

@@ -96,7 +96,7 @@ class DiscPacking2D:
         """The packing mapped by an orthogonal map x -> M x (a rotation or a mirror)."""
         matrix = np.asarray(matrix, dtype=float)
         if not np.allclose(matrix @ matrix.T, np.eye(2), atol=1e-12):
-            raise InputError("matrix", matrix.tolist(), "an orthogonal 2x2 matrix (discs stay round)")
+            raise InputError("matrix", matrix.tolist(), "an orthogonal 2x2 matrix")
         return DiscPacking2D(
             self.cell.transformed(matrix),
             self.centres @ matrix.T,

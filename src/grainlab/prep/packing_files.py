@@ -119,7 +119,8 @@ def write_packing(packing: DiscPacking2D, path: str | Path) -> Path:
             writer.writerow(["kind", "x", "y", "radius", "label"])
             for vector in packing.cell.lattice:
                 writer.writerow(["lattice", repr(float(vector[0])), repr(float(vector[1])), "", ""])
-            for (x, y), r, label in zip(packing.centres, packing.radii, packing.labels, strict=True):
+            rows = zip(packing.centres, packing.radii, packing.labels, strict=True)
+            for (x, y), r, label in rows:
                 writer.writerow(["particle", repr(float(x)), repr(float(y)), repr(float(r)), label])
         return path
     raise InputError("path", str(path), "a file ending in .toml or .csv")

@@ -9,7 +9,7 @@ adds 0.25 in rods, packing D 0.75 in and 0.5 in rods).
 name       geometry                                                            e         CN
 =========  ==================================================================  ========  ====
 square     square lattice of equal discs (Fig. 1a)                             0.27324   4
-rhombic    rhombic lattice of equal discs, rhombus angle 75 deg (Fig. 1b)      0.22985   4
+rhombic    rhombic lattice of equal discs, rhombus angle 80 deg (Fig. 1b)      0.25397   4
 hexagonal  triangular lattice of equal discs (Fig. 1c)                         0.10266   6
 A          equal discs, rows stacked alternately square and triangular         0.18795   5
 B          equal discs, kagome (trihexagonal) arrangement                      0.47021   4
@@ -44,13 +44,15 @@ def square_packing(diameter: float = ROD_DIAMETER) -> DiscPacking2D:
 
 
 def rhombic_packing(
-    diameter: float = ROD_DIAMETER, angle: float = np.radians(75.0)
+    diameter: float = ROD_DIAMETER, angle: float = np.radians(80.0)
 ) -> DiscPacking2D:
     """Rhombic packing of equal discs (seed 000 Fig. 1b): rows of touching discs, each row
     resting on the one below at ``angle`` [rad] from the row direction, in (60, 90] degrees.
 
     Each disc touches 2 neighbours in its row and 1 in each adjacent row (CN = 4);
-    e = 4 sin(angle) / pi - 1. At 60 degrees it becomes the hexagonal packing (CN 6)."""
+    e = 4 sin(angle) / pi - 1. At 60 degrees it becomes the hexagonal packing (CN 6). Under an
+    isotropic stress each contact carries |f_t|/f_n = cot(angle), so the packing holds only if
+    angle > 90 deg - phi_mu (75 deg for phi_mu = 15 deg); the default is 80 deg."""
     if not (np.radians(60.0) < angle <= np.radians(90.0)):
         raise InputError("angle", float(np.degrees(angle)), "a rhombus angle in (60, 90] degrees")
     d = diameter
@@ -129,7 +131,7 @@ def packing_d(large_diameter: float = 0.75 * INCH) -> DiscPacking2D:
 
 _REGISTRY: dict[str, tuple[Callable[[], DiscPacking2D], str]] = {
     "square": (square_packing, "equal discs, square lattice (Fig. 1a)"),
-    "rhombic": (rhombic_packing, "equal discs, rhombic lattice at 75 deg (Fig. 1b)"),
+    "rhombic": (rhombic_packing, "equal discs, rhombic lattice at 80 deg (Fig. 1b)"),
     "hexagonal": (hexagonal_packing, "equal discs, triangular lattice (Fig. 1c)"),
     "A": (packing_a, "equal discs, alternating square/triangular rows (Fig. 3A)"),
     "B": (packing_b, "equal discs, kagome arrangement (Fig. 3B)"),

@@ -9,14 +9,16 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-import matplotlib
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.axes import Axes  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
+from grainlab.lab.test_result import TestResult
 
-from grainlab.lab.test_result import TestResult  # noqa: E402
+
+def new_figure_axes(nrows: int = 1, ncols: int = 1, figsize=(5.0, 3.8), **subplot_kw):
+    """A figure and its axes, made without pyplot (no global state, no GUI backend)."""
+    figure = Figure(figsize=figsize)
+    return figure, figure.subplots(nrows, ncols, **subplot_kw)
 
 
 def axis_label(result: TestResult, column: str) -> str:
@@ -44,7 +46,7 @@ def plot_curves(
     if isinstance(results, TestResult):
         results = [results]
     if ax is None:
-        _, ax = plt.subplots(figsize=(5.0, 3.8))
+        _, ax = new_figure_axes(figsize=(5.0, 3.8))
     for k, result in enumerate(results):
         label = labels[k] if labels is not None else (result.metadata.get("title") or None)
         ax.plot(result.column(x), result.column(y), label=label, **style)
@@ -57,9 +59,8 @@ def plot_curves(
 
 
 def save_figure(figure: Figure, path: str | Path, dpi: int = 150) -> Path:
-    """Save a figure (format from the extension: .png, .pdf, .svg) and close it."""
+    """Save a figure (format from the extension: .png, .pdf, .svg)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     figure.savefig(path, dpi=dpi, bbox_inches="tight")
-    plt.close(figure)
     return path

@@ -4,26 +4,23 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import matplotlib
+import numpy as np
+from matplotlib.collections import LineCollection, PatchCollection
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle, Polygon
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.collections import LineCollection, PatchCollection  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.patches import Circle, Polygon  # noqa: E402
-
-from grainlab.geometry.disc_packing import DiscPacking2D  # noqa: E402
-from grainlab.geometry.power_tessellation import power_tessellation  # noqa: E402
-from grainlab.lab.test_result import TestResult  # noqa: E402
-from grainlab.micromech.regular_packing.model import RegularPackingModel  # noqa: E402
+from grainlab.geometry.disc_packing import DiscPacking2D
+from grainlab.geometry.power_tessellation import power_tessellation
+from grainlab.lab.test_result import TestResult
+from grainlab.micromech.regular_packing.model import RegularPackingModel
+from grainlab.report.curves import new_figure_axes
 
 
 def stress_ratio_strain_figure(results: TestResult | Sequence[TestResult]) -> Figure:
     """Seed 000 Fig. 7: stress ratio sigma_1/sigma_3 against eps_x, eps_y and gamma_xy."""
     if isinstance(results, TestResult):
         results = [results]
-    figure, axes = plt.subplots(1, 3, figsize=(12, 3.8), sharey=True)
+    figure, axes = new_figure_axes(1, 3, figsize=(12, 3.8), sharey=True)
     for result in results:
         shear = result.table
         label = f"alpha = {result.load_path.get('alpha_deg', 0):g} deg"
@@ -42,7 +39,7 @@ def strain_ratio_figure(summary: TestResult) -> Figure:
     """Seed 000 Fig. 8: gamma_xy/eps_x and eps_x/eps_y against the loading direction alpha."""
     table = summary.table
     ratio = summary.metadata["parameters"].get("reference_stress_ratio")
-    figure, axes = plt.subplots(1, 2, figsize=(9, 3.8))
+    figure, axes = new_figure_axes(1, 2, figsize=(9, 3.8))
     axes[0].plot(table["alpha_deg"], table["gamma_xy_over_eps_xx"], "o-")
     axes[0].set_ylabel("gamma_xy / eps_x")
     axes[1].plot(table["alpha_deg"], table["eps_xx_over_eps_yy"], "s-")
@@ -54,7 +51,7 @@ def strain_ratio_figure(summary: TestResult) -> Figure:
         f"Packing {summary.specimen.get('packing', '')}: strain ratios at "
         f"sigma_1/sigma_3 = {ratio:g}"
     )
-    figure.tight_layout()
+    figure.set_layout_engine("tight")
     return figure
 
 
@@ -62,7 +59,7 @@ def noncoaxiality_figure(summary: TestResult) -> Figure:
     """Seed 000 Fig. 9: angle between the stress and strain-increment directions vs alpha."""
     table = summary.table
     ratio = summary.metadata["parameters"].get("reference_stress_ratio")
-    figure, ax = plt.subplots(figsize=(5, 3.8))
+    figure, ax = new_figure_axes(figsize=(5, 3.8))
     ax.plot(table["alpha_deg"], table["noncoaxiality_deg"], "o-")
     ax.axhline(0.0, color="k", lw=0.5)
     ax.set_xlabel("alpha [deg]")
@@ -107,7 +104,7 @@ def _draw_packing(ax, packing: DiscPacking2D, reach: int = 1) -> None:
 
 def tessellation_figure(packing: DiscPacking2D) -> Figure:
     """The packing, its periodic cell (dashed) and its radical-plane tessellation (shaded)."""
-    figure, ax = plt.subplots(figsize=(5.5, 5.5))
+    figure, ax = new_figure_axes(figsize=(5.5, 5.5))
     _draw_packing(ax, packing)
     ax.set_title(
         f"Packing {packing.name}: e = {packing.void_ratio:.4f}", fontsize="medium"
@@ -126,7 +123,9 @@ def contact_force_figure(
     """
     normal = result.snapshots["normal_force"]
     tangential = result.snapshots["tangential_force"]
-    figure, axes = plt.subplots(1, len(rows), figsize=(5.5 * len(rows), 5.5), squeeze=False)
+    figure, axes = new_figure_axes(
+        1, len(rows), figsize=(5.5 * len(rows), 5.5), squeeze=False
+    )
     contacts = model.contacts
     lattice = model.packing.cell.lattice
     arrow_length = 0.8 * model.packing.radii.min()
@@ -151,5 +150,5 @@ def contact_force_figure(
             f" deg\nred: normal, green: tangential (max |f| = {scale_force:.3g} N/m)",
             fontsize="small",
         )
-    figure.tight_layout()
+    figure.set_layout_engine("tight")
     return figure

@@ -83,7 +83,16 @@ def consolidate_isotropically(
     state = model.unloaded_state()
     for k in range(1, steps + 1):
         target = np.array([1.0, 1.0, 0.0]) * pressure * k / steps
-        state, _ = solve_stress_target(model, state, target, force_floor=floor)
+        try:
+            state, _ = solve_stress_target(model, state, target, force_floor=floor)
+        except ConvergenceError as error:
+            raise ConvergenceError(
+                f"Packing {model.packing.name!r} cannot carry an isotropic stress of "
+                f"{target[0]:.6g} Pa with this contact law: under uniform strain some contacts "
+                "would need more friction than tan(phi_mu) allows, or would open "
+                f"({error}). Raise the friction angle or use a packing that is stable under "
+                "isotropic stress."
+            ) from None
     return state
 
 
@@ -216,6 +225,7 @@ def run_rotated_stress_path(
             step /= 2.0
             if step < minimum_step:
                 contacts = state.contacts
+                smallest = np.linalg.eigvalsh(model.stiffness_matrix(state))[0]
                 mobilised = friction_mobilisation(
                     contacts.normal_force, contacts.tangential_force,
                     model.law.friction_coefficient,
@@ -228,7 +238,7 @@ def run_rotated_stress_path(
                         f" have mobilised over 99 % of their friction, "
                         f"{int(np.count_nonzero(contacts.sliding))} slide and "
                         f"{int(np.count_nonzero(contacts.open))} are open; the smallest "
-                        f"eigenvalue of D fell to {np.linalg.eigvalsh(model.stiffness_matrix(state))[0]:.3g} Pa "
+                        f"eigenvalue of D fell to {smallest:.3g} Pa "
                         f"({error})"
                     ),
                     "failure_stress_ratio": ratio,
@@ -239,7 +249,9 @@ def run_rotated_stress_path(
         if np.linalg.eigvalsh(stiffness)[0] <= 1e-12 * np.abs(stiffness).max():
             outcome = {
                 "status": "failure",
-                "reason": f"the stiffness D lost positive definiteness at the ratio {trial_ratio:.6g}",
+                "reason": (
+                    f"the stiffness D lost positive definiteness at the ratio {trial_ratio:.6g}"
+                ),
                 "failure_stress_ratio": trial_ratio,
             }
             recorder.record("shear", trial_ratio, new_state, reference, state.strain, iterations)
