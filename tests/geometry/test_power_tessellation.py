@@ -142,7 +142,7 @@ def periodic_voronoi_areas(packing: DiscPacking2D, reach: int = 2) -> np.ndarray
     points, centre_rows = [], []
     for n1 in range(-reach, reach + 1):
         for n2 in range(-reach, reach + 1):
-            for k, c in enumerate(packing.centres):
+            for c in packing.centres:
                 if n1 == 0 and n2 == 0:
                     centre_rows.append(len(points))
                 points.append(c + n1 * lattice[0] + n2 * lattice[1])

@@ -12,8 +12,8 @@ import pytest
 from grainlab.errors import InputError
 from grainlab.lab import TestResult, read_test_result
 
-FLOATS = [0.0, -0.0, 0.1, 1.0 / 3.0, 5e-324, 2.2250738585072014e-308, 1e-300, 1.7976931348623157e308,
-          -1e300, np.nan, np.pi, -123456.789]
+FLOATS = [0.0, -0.0, 0.1, 1.0 / 3.0, 5e-324, 2.2250738585072014e-308, 1e-300,
+          1.7976931348623157e308, -1e300, np.nan, np.pi, -123456.789]
 
 
 def make_result(n: int = len(FLOATS), strings=None) -> TestResult:

@@ -316,9 +316,19 @@ def sweep_command(
     save_figure(strain_ratio_figure(summary), out / "fig8_strain_ratios.png")
     save_figure(noncoaxiality_figure(summary), out / "fig9_noncoaxiality.png")
     table = Table(title=summary.metadata["title"])
-    for column in summary.table.columns:
-        table.add_column(column)
+    shown = {
+        "alpha_deg": ("alpha [deg]", "{:.4g}"), "failure_stress_ratio": ("failure R", "{:.4g}"),
+        "eps_xx": ("eps_x [%]", "{:.4f}"), "eps_yy": ("eps_y [%]", "{:.4f}"),
+        "gamma_xy": ("gamma_xy [%]", "{:.4f}"), "gamma_xy_over_eps_xx": ("gamma/eps_x", "{:.3g}"),
+        "eps_xx_over_eps_yy": ("eps_x/eps_y", "{:.3g}"),
+        "noncoaxiality_deg": ("non-coax. [deg]", "{:.3g}"),
+    }
+    percent = {"eps_xx", "eps_yy", "gamma_xy"}
+    for label, _ in shown.values():
+        table.add_column(label, justify="right")
     for _, row in summary.table.iterrows():
-        table.add_row(*(f"{v:.4g}" for v in row))
+        table.add_row(*(
+            fmt.format(100 * row[c] if c in percent else row[c]) for c, (_, fmt) in shown.items()
+        ))
     console.print(table)
     console.print(f"wrote summary.csv/.h5, one result per alpha and figures in {out}/")

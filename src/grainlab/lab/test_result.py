@@ -257,7 +257,6 @@ def read_test_result(path: str | Path) -> TestResult:
                 dtype={c: str for c in text},
                 keep_default_na=False,
                 na_values={c: [""] for c in columns if c not in text},
-                float_precision="round_trip",
             )
         table = _restore_dtypes(table[columns], dtypes)
         return TestResult(table, meta, {})
