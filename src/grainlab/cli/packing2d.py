@@ -119,7 +119,7 @@ def table_command(
         )
         paper_e, paper_cn = TABLE_1.get(name, (None, None))
         table.add_row(
-            name, f"{packing.void_ratio:.4f}", "" if paper_e is None else f"{paper_e:.4f}",
+            name, f"{packing.void_ratio:.5f}", "" if paper_e is None else f"{paper_e:.4f}",
             f"{cn:.2f}", "" if paper_cn is None else f"{paper_cn:.2f}", per,
         )
         lines.append(
