@@ -265,14 +265,6 @@ def test_tangential_integration_with_changing_normal_force(normal_growth):
     assert one.tangential_force[0] == pytest.approx(exact, rel=5e-3)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "src/grainlab/contact/modified_hertz_mindlin.py update(): the sub-steps interpolate "
-        "f_n linearly between the end forces instead of following f_n(delta) along the "
-        "increment, so raising `substeps` converges to a different curve (error ~5e-4)"
-    ),
-)
 def test_substeps_converge_to_the_ode_solution():
     delta0, a, b, exact = _combined_loading_reference(0.5)
     law = ModifiedHertzMindlin2D(substeps=512)

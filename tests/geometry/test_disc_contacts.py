@@ -122,11 +122,6 @@ def test_contact_invariants(name, transform):
     assert by_label1 == by_label0  # the labels follow the particles
 
 
-CENTRES_FAR_FROM_CELL_BUG = (
-    "src/grainlab/geometry/disc_contacts.py: find_disc_contacts searches images around the "
-    "origin image only (cell.image_offsets(2 r_max)), not around x_j - x_i, so discs whose "
-    "centres lie several lattice vectors apart lose their contacts"
-)
 
 
 @pytest.mark.parametrize(
@@ -134,13 +129,8 @@ CENTRES_FAR_FROM_CELL_BUG = (
     [
         [[0, 0], [1, 0]],
         [[-1, 1], [1, -1]],
-        pytest.param(
-            [[0, 0], [3, 0]], marks=pytest.mark.xfail(strict=True, reason=CENTRES_FAR_FROM_CELL_BUG)
-        ),
-        pytest.param(
-            [[3, -2], [-5, 7]],
-            marks=pytest.mark.xfail(strict=True, reason=CENTRES_FAR_FROM_CELL_BUG),
-        ),
+        [[0, 0], [3, 0]],
+        [[3, -2], [-5, 7]],
     ],
 )
 def test_centres_outside_the_cell_give_the_same_contacts(shift):
@@ -247,10 +237,8 @@ BASES = [[[1, 0], [1, 1]], [[2, 1], [1, 1]], [[1, 3], [0, 1]], [[1, 0], [5, 1]]]
 
 @pytest.mark.parametrize("name", ["A", "B", "C", "hexagonal"])
 @pytest.mark.parametrize("basis", BASES, ids=["shear1", "u2111", "shear3", "shear5"])
-def test_change_of_lattice_basis_gives_the_same_contacts(name, basis, request):
+def test_change_of_lattice_basis_gives_the_same_contacts(name, basis):
     """A unimodular change of the lattice vectors draws the same periodic packing."""
-    if name == "B" and basis == [[1, 0], [5, 1]]:
-        request.applymarker(pytest.mark.xfail(strict=True, reason=CENTRES_FAR_FROM_CELL_BUG))
     packing = named_packing(name)
     assert abs(np.linalg.det(basis)) == 1
     redrawn = DiscPacking2D(

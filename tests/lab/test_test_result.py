@@ -93,16 +93,11 @@ def test_save_writes_both(tmp_path):
     assert_tables_identical(csv_back.table, result.table)
 
 
-DEFAULT_STRING_DTYPE_BUG = (
-    "src/grainlab/lab/test_result.py:254 treats only dtype 'object' columns as text; with "
-    "pandas 3 the default string dtype is 'str', so read_csv turns '' into NaN"
-)
 
 
 @pytest.mark.parametrize(
     "suffix",
-    [pytest.param(".csv", marks=pytest.mark.xfail(strict=True, reason=DEFAULT_STRING_DTYPE_BUG)),
-     ".h5"],
+    [".csv", ".h5"],
 )
 def test_default_string_column_keeps_empty_strings(tmp_path, suffix):
     """A column built from a plain list of str (pandas' default string dtype)."""

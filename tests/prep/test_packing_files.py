@@ -150,11 +150,6 @@ def test_parallel_lattice_in_file_is_a_geometry_error(tmp_path):
         read_packing(path)
 
 
-QUOTE_BUG = (
-    "src/grainlab/prep/packing_files.py:109 and :113 write the name with repr() and "
-    "replace(\"'\", '\"') and the label inside bare double quotes, so a name with an "
-    "apostrophe or a label with a double quote gives invalid TOML"
-)
 
 
 @pytest.mark.parametrize(
@@ -162,10 +157,8 @@ QUOTE_BUG = (
     [
         ("plain name", ("big", "small")),
         ("back\\slash", ("big", "small")),
-        pytest.param("Chang's C", ("big", "small"),
-                     marks=pytest.mark.xfail(strict=True, reason=QUOTE_BUG)),
-        pytest.param("C", ('the "big" one', "small"),
-                     marks=pytest.mark.xfail(strict=True, reason=QUOTE_BUG)),
+        ("Chang's C", ("big", "small")),
+        ("C", ('the "big" one', "small")),
     ],
 )
 def test_toml_round_trip_of_names_and_labels(tmp_path, name, labels):

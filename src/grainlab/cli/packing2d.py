@@ -322,6 +322,7 @@ def sweep_command(
         "gamma_xy": ("gamma_xy [%]", "{:.4f}"), "gamma_xy_over_eps_xx": ("gamma/eps_x", "{:.3g}"),
         "eps_xx_over_eps_yy": ("eps_x/eps_y", "{:.3g}"),
         "noncoaxiality_deg": ("non-coax. [deg]", "{:.3g}"),
+        "initial_noncoaxiality_deg": ("initial non-coax.", "{:.3g}"),
     }
     percent = {"eps_xx", "eps_yy", "gamma_xy"}
     for label, _ in shown.values():

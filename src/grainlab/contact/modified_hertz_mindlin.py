@@ -137,11 +137,20 @@ def hertz_mindlin_update_kernel(
             continue
         ft = tangential0[c]
         du = d_tangential[c] / substeps
+        fn_start = normal0[c]
         for k in range(substeps):
-            fn_mid = normal0[c] + (fn - normal0[c]) * (k + 0.5) / substeps
-            fn_end = normal0[c] + (fn - normal0[c]) * (k + 1.0) / substeps
+            # The displacement path is straight: the approach grows linearly along it.
+            fn_mid = _normal_force_scalar(approach0[c] + d_normal[c] * (k + 0.5) / substeps,
+                                          radius[c], shear_modulus, poisson_ratio, fn_start)
+            fn_end = fn if k == substeps - 1 else _normal_force_scalar(
+                approach0[c] + d_normal[c] * (k + 1.0) / substeps, radius[c], shear_modulus,
+                poisson_ratio, fn_mid)
+            if fn_mid < 0.0 or fn_end < 0.0:
+                out_of_range += 1
+                break
             ft = _tangential_piece_scalar(ft, du, fn_mid, fn_end, radius[c], shear_modulus,
                                           poisson_ratio, psi, mu)
+            fn_start = fn_end
         tangential[c] = ft if fn > 0.0 else 0.0
     return out_of_range
 
@@ -288,8 +297,9 @@ class ModifiedHertzMindlin2D:
         """Integrate eqs. 17–18 over displacement increments (du_n, du_t) [m].
 
         The normal force follows the closed-form approach exactly; the tangential force is
-        integrated in :attr:`substeps` pieces along which f_n varies linearly, each with the
-        closed-form solution of eq. 18 at that piece's mean normal force (compiled kernel
+        integrated in :attr:`substeps` pieces of the straight displacement path (the approach
+        growing linearly), each with the closed-form solution of eq. 18 at the normal force of
+        the piece's mid-point (compiled kernel
         :func:`hertz_mindlin_update_kernel`).
         """
         m = state.normal_force.shape[0]

@@ -106,11 +106,11 @@ def find_disc_contacts(
         raise InputError("tolerance", tolerance, "a relative gap tolerance in (0, 0.1]")
     radii, centres = packing.radii, packing.centres
     reach = 2.0 * radii.max() * (1.0 + tolerance)
-    images, offsets = packing.cell.image_offsets(reach)
-    rows: list[tuple[int, int, int]] = []
+    rows: list[tuple[int, int, int, int]] = []
     n = packing.n_particles
     for i in range(n):
         for j in range(i, n):
+            images, offsets = packing.cell.images_near(centres[j] - centres[i], reach)
             separation = centres[j] + offsets - centres[i]
             distance = np.linalg.norm(separation, axis=1)
             contact_distance = radii[i] + radii[j]
@@ -126,10 +126,10 @@ def find_disc_contacts(
                         f"{-gap[k]:.6g} m ({-gap[k] / contact_distance:.3g} of the sum of radii; "
                         f"allowed: {tolerance:g}). Move them apart or raise the contact tolerance."
                     )
-                rows.append((i, j, int(k)))
+                rows.append((i, j, int(n1), int(n2)))
     idx_i = np.array([r[0] for r in rows], dtype=int)
     idx_j = np.array([r[1] for r in rows], dtype=int)
-    img = images[[r[2] for r in rows]].astype(int) if rows else np.zeros((0, 2), dtype=int)
+    img = np.array([r[2:] for r in rows], dtype=int).reshape(-1, 2)
     branch = centres[idx_j] + img @ packing.cell.lattice - centres[idx_i]
     length = np.linalg.norm(branch, axis=1)
     contacts = DiscContacts(

@@ -51,14 +51,18 @@ class PeriodicCell2D:
         """Area of the cell [m^2] (|det| of the lattice)."""
         return float(abs(np.linalg.det(self.lattice)))
 
-    def image_offsets(self, reach: float) -> tuple[np.ndarray, np.ndarray]:
-        """Integer image indices (k, 2) and their offsets (k, 2) [m] that cover a disc of
-        radius ``reach`` around any point of the cell (the origin image (0, 0) included)."""
+    def images_near(self, separation: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+        """Integer images n (k, 2) and their offsets n.A (k, 2) [m] that include every n with
+        |separation + n.A| <= reach (a superset: callers filter by distance).
+
+        Works for any separation, however many cells apart the two points are."""
         inverse = np.linalg.inv(self.lattice)
-        # |n_i| <= reach * |row i of inverse^T| bounds the lattice coordinates of a disc.
-        bound = np.ceil(reach * np.linalg.norm(inverse, axis=0)).astype(int) + 1
+        fractional = np.asarray(separation, dtype=float) @ inverse
+        span = reach * np.linalg.norm(inverse, axis=0)
+        low = np.floor(-fractional - span).astype(int)
+        high = np.ceil(-fractional + span).astype(int)
         n1, n2 = np.meshgrid(
-            np.arange(-bound[0], bound[0] + 1), np.arange(-bound[1], bound[1] + 1), indexing="ij"
+            np.arange(low[0], high[0] + 1), np.arange(low[1], high[1] + 1), indexing="ij"
         )
         images = np.column_stack([n1.ravel(), n2.ravel()])
         return images, images @ self.lattice

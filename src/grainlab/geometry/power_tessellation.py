@@ -92,12 +92,14 @@ def power_tessellation(packing: DiscPacking2D) -> PowerTessellation:
     """
     lattice = packing.cell.lattice
     reach = float(np.linalg.norm(lattice, axis=1).sum() + 2.0 * packing.radii.max())
-    images, offsets = packing.cell.image_offsets(reach)
     polygons, neighbours, areas = [], [], []
     n = packing.n_particles
     for i in range(n):
         others, deltas, radii_j = [], [], []
         for j in range(n):
+            images, offsets = packing.cell.images_near(
+                packing.centres[j] - packing.centres[i], reach
+            )
             d = packing.centres[j] + offsets - packing.centres[i]
             keep = np.linalg.norm(d, axis=1) <= reach
             if j == i:

@@ -36,6 +36,10 @@ FORMAT_VERSION = 1
 CSV_HEADER_PREFIX = "# grainlab-test-result "
 
 
+TEXT_DTYPES = ("object", "str", "string")
+"""Column dtypes stored as text (pandas 2 uses ``object``, pandas 3 ``str``)."""
+
+
 def software_versions() -> dict[str, str]:
     """Versions of grainlab and of the libraries that shape its numbers."""
     import scipy
@@ -199,8 +203,8 @@ class TestResult:
             table = f.create_group("table")
             for name in self.table.columns:
                 values = self.table[name].to_numpy()
-                if values.dtype == object:
-                    values = values.astype(str).astype(h5py.string_dtype())
+                if str(self.table[name].dtype) in TEXT_DTYPES or values.dtype.kind in "OUT":
+                    values = np.array([str(v) for v in values], dtype=h5py.string_dtype())
                 table.create_dataset(str(name), data=values)
             snaps = f.create_group("snapshots")
             for name, array in self.snapshots.items():
@@ -215,10 +219,7 @@ class TestResult:
 
 def _restore_dtypes(table: pd.DataFrame, dtypes: dict[str, str]) -> pd.DataFrame:
     for name, dtype in dtypes.items():
-        if dtype == "object":
-            table[name] = table[name].astype(object)
-        elif name in table.columns:
-            table[name] = table[name].astype(dtype)
+        table[name] = table[name].astype(dtype)
     return table
 
 
@@ -251,7 +252,7 @@ def read_test_result(path: str | Path) -> TestResult:
             if not header.startswith(CSV_HEADER_PREFIX):
                 raise InputError("path", str(path), "a CSV written by grainlab (header missing)")
             meta, columns, dtypes = _split_metadata(json.loads(header[len(CSV_HEADER_PREFIX):]))
-            text = [c for c, t in dtypes.items() if t == "object"]
+            text = [c for c, t in dtypes.items() if t in TEXT_DTYPES]
             table = pd.read_csv(
                 handle,
                 dtype={c: str for c in text},
@@ -268,7 +269,7 @@ def read_test_result(path: str | Path) -> TestResult:
             data = {}
             for name in columns:
                 values = f["table"][name][()]
-                if dtypes[name] == "object":
+                if dtypes[name] in TEXT_DTYPES:
                     values = np.array([v.decode() if isinstance(v, bytes) else v for v in values],
                                       dtype=object)
                 data[name] = values

@@ -21,6 +21,7 @@ CSV (one row per lattice vector and per disc; ``label`` optional)::
 from __future__ import annotations
 
 import csv
+import json
 import tomllib
 from pathlib import Path
 
@@ -106,11 +107,11 @@ def write_packing(packing: DiscPacking2D, path: str | Path) -> Path:
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".toml":
-        lines = [f"name = {packing.name!r}".replace("'", '"'),
+        lines = [f"name = {json.dumps(packing.name)}",
                  f"lattice = {[list(map(float, v)) for v in packing.cell.lattice]}", ""]
         for (x, y), r, label in zip(packing.centres, packing.radii, packing.labels, strict=True):
             lines += ["[[particles]]", f"x = {float(x)!r}", f"y = {float(y)!r}",
-                      f"radius = {float(r)!r}", f'label = "{label}"', ""]
+                      f"radius = {float(r)!r}", f"label = {json.dumps(label)}", ""]
         path.write_text("\n".join(lines), encoding="utf-8")
         return path
     if suffix == ".csv":

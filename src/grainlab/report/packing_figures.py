@@ -60,7 +60,12 @@ def noncoaxiality_figure(summary: TestResult) -> Figure:
     table = summary.table
     ratio = summary.metadata["parameters"].get("reference_stress_ratio")
     figure, ax = new_figure_axes(figsize=(5, 3.8))
-    ax.plot(table["alpha_deg"], table["noncoaxiality_deg"], "o-")
+    ax.plot(table["alpha_deg"], table["noncoaxiality_deg"], "o-",
+            label=f"at sigma_1/sigma_3 = {ratio:g}")
+    if "initial_noncoaxiality_deg" in table:
+        ax.plot(table["alpha_deg"], table["initial_noncoaxiality_deg"], "s--",
+                label="first increment")
+    ax.legend(fontsize="small")
     ax.axhline(0.0, color="k", lw=0.5)
     ax.set_xlabel("alpha [deg]")
     ax.set_ylabel("non-coaxiality [deg]")

@@ -43,8 +43,9 @@ def run_alpha_sweep(
 ) -> tuple[TestResult, list[TestResult]]:
     """Run ``path`` (with its alpha replaced) for every alpha [rad].
 
-    Returns the summary (one row per alpha: failure stress ratio and the
-    :data:`SUMMARY_COLUMNS` at ``reference_ratio``) as a test result, and the individual results.
+    Returns the summary (one row per alpha: failure stress ratio, the :data:`SUMMARY_COLUMNS`
+    at ``reference_ratio`` and the non-coaxiality of the first increment from the isotropic
+    state) as a test result, and the individual results.
     """
     results, rows = [], []
     for k, alpha in enumerate(alphas):
@@ -55,6 +56,10 @@ def run_alpha_sweep(
             "failure_stress_ratio": result.outcome.get("failure_stress_ratio", np.nan),
         }
         row.update({c: value_at_ratio(result, c, reference_ratio) for c in SUMMARY_COLUMNS})
+        shear = result.table[result.table["stage"] == "shear"]
+        row["initial_noncoaxiality_deg"] = (
+            float(shear["noncoaxiality_deg"].iloc[0]) if len(shear) else np.nan
+        )
         rows.append(row)
         if progress is not None:
             progress(k + 1, len(alphas))
@@ -66,7 +71,7 @@ def run_alpha_sweep(
         parameters={"reference_stress_ratio": reference_ratio},
         units={"alpha_deg": "deg", "failure_stress_ratio": "-",
                "gamma_xy_over_eps_xx": "-", "eps_xx_over_eps_yy": "-",
-               "noncoaxiality_deg": "deg"},
+               "noncoaxiality_deg": "deg", "initial_noncoaxiality_deg": "deg"},
         dimension=2,
         title=f"packing {model.packing.name}: alpha sweep at stress ratio {reference_ratio:g}",
     )
