@@ -1,7 +1,7 @@
 """Seed 000's rotated stress path on regular packings: equilibrium, Coulomb and symmetry.
 
-alpha is the angle of sigma_1 from the Y axis towards +X, so the major direction is
-m = (sin alpha, cos alpha); a packing rotated counter-clockwise by theta under alpha - theta
+alpha is the angle of sigma_1 from the Y axis, counter-clockwise, so the major direction is
+m = (-sin alpha, cos alpha); a packing rotated counter-clockwise by theta under alpha + theta
 is the original packing under alpha, seen from a rotated frame.
 """
 
@@ -58,7 +58,7 @@ def test_path_stress_has_the_requested_principal_axes():
         values, vectors = np.linalg.eigh(np.array([[sxx, sxy], [sxy, syy]]))
         np.testing.assert_allclose(values, [1e4, 3e4], rtol=1e-12)
         major = vectors[:, 1]
-        m = np.array([np.sin(np.radians(alpha_deg)), np.cos(np.radians(alpha_deg))])
+        m = np.array([-np.sin(np.radians(alpha_deg)), np.cos(np.radians(alpha_deg))])
         assert abs(major @ m) == pytest.approx(1.0, rel=1e-12)
     p_path = RotatedStressPath(alpha=0.3, confining_stress=1e4, control="p")
     s = p_path.stress(3.0)
@@ -146,12 +146,12 @@ def test_mirrored_packing_under_mirrored_loading():
 @pytest.mark.parametrize(("name", "theta_deg", "alpha_deg"),
                          [("C", 20.0, 35.0), ("A", -30.0, 10.0), ("B", 25.0, 40.0)])
 def test_rotating_packing_and_loading_together_changes_nothing(name, theta_deg, alpha_deg):
-    """Rotating the packing counter-clockwise by theta turns m = (sin a, cos a) into the
-    direction at a - theta from Y towards +X (clockwise angle): same principal strains, and
-    the principal strain increment direction rotates with the packing."""
+    """Rotating the packing counter-clockwise by theta turns m = (-sin a, cos a) into the
+    direction at a + theta from Y (counter-clockwise): same principal strains, and the
+    principal strain increment direction rotates with the packing."""
     theta = np.radians(theta_deg)
     base, _ = run(name, alpha_deg)
-    turned, _ = run(name, alpha_deg - theta_deg, rotation=theta)
+    turned, _ = run(name, alpha_deg + theta_deg, rotation=theta)
     assert len(base.table) == len(turned.table)
     e1, e2 = principal_strains(base.table), principal_strains(turned.table)
     np.testing.assert_allclose(e2, e1, rtol=1e-6, atol=1e-7 * np.abs(e1).max())
@@ -164,8 +164,8 @@ def test_rotating_packing_and_loading_together_changes_nothing(name, theta_deg, 
         eps_t = np.array([[b.eps_xx, b.gamma_xy / 2], [b.gamma_xy / 2, b.eps_yy]])
         np.testing.assert_allclose(eps_t, R @ eps @ R.T, rtol=0,
                                    atol=1e-6 * np.abs(e1).max() + 1e-14)
-    # the wrong sign convention (alpha + theta) does not reproduce the response
-    wrong, _ = run(name, alpha_deg + theta_deg, rotation=theta)
+    # the wrong sign convention (alpha - theta) does not reproduce the response
+    wrong, _ = run(name, alpha_deg - theta_deg, rotation=theta)
     rows = min(len(wrong.table), len(base.table))
     assert not np.allclose(principal_strains(wrong.table)[:rows], e1[:rows], rtol=1e-3)
 

@@ -203,7 +203,8 @@ TOL_OPTION = typer.Option(DEFAULT_CONTACT_TOLERANCE, help="Relative contact gap 
 def load_command(
     packing: str = typer.Option("C", help=PACKING_HELP),
     alpha: float = typer.Option(
-        30.0, help="Direction of sigma_1 from the Y axis towards +X [deg], in [-90, 90]."
+        30.0, help="Direction of sigma_1 from the Y axis, counter-clockwise [deg], in "
+        "[-90, 90]."
     ),
     out: Path | None = typer.Option(
         None, help="Output folder [default: packing2d-PACKING-alphaALPHA]"

@@ -2,7 +2,8 @@
 
 From the isotropic state sigma_0 (seed 000: 2.5 psi = 17.24 kPa) the principal stress ratio
 R = sigma_1 / sigma_3 grows while the major principal direction m stays at the angle alpha from
-the material Y axis, measured towards +X: m = (sin alpha, cos alpha). The stress is
+the material Y axis, measured counter-clockwise (from +Y towards -X):
+m = (-sin alpha, cos alpha). The stress is
 sigma = sigma_3 I + (sigma_1 - sigma_3) m m^T, with either sigma_3 = sigma_0 held (``"sigma3"``,
 default: the lateral stress of a biaxial test) or the mean stress (sigma_1 + sigma_3)/2 = sigma_0
 held (``"p"``). In the (deviator, shear) plane of Fig. 6 the path is a ray at 2 alpha.
@@ -29,7 +30,8 @@ class RotatedStressPath:
     Attributes
     ----------
     alpha:
-        Angle of the major principal stress from the Y axis towards +X [rad], in [-pi/2, pi/2].
+        Angle of the major principal stress from the Y axis, counter-clockwise [rad], in
+        [-pi/2, pi/2].
     confining_stress:
         sigma_0 of the isotropic start [Pa].
     control:
@@ -62,7 +64,7 @@ class RotatedStressPath:
     @property
     def direction(self) -> np.ndarray:
         """Unit vector m of the major principal stress."""
-        return np.array([np.sin(self.alpha), np.cos(self.alpha)])
+        return np.array([-np.sin(self.alpha), np.cos(self.alpha)])
 
     def principal_stresses(self, ratio: float) -> tuple[float, float]:
         """(sigma_1, sigma_3) [Pa] at stress ratio R."""

@@ -97,10 +97,10 @@ def consolidate_isotropically(
 
 
 def _principal_angle_from_y(xx: float, yy: float, xy: float) -> float:
-    """Angle [deg] of the major principal direction of [[xx, xy], [xy, yy]] from the Y axis
-    towards +X, in (-90, 90]."""
+    """Angle [deg] of the major principal direction of [[xx, xy], [xy, yy]] from the Y axis,
+    counter-clockwise, in (-90, 90]."""
     theta = 0.5 * np.degrees(np.arctan2(2.0 * xy, xx - yy))  # from +X, counter-clockwise
-    return _wrap_half_turn(90.0 - theta)
+    return _wrap_half_turn(theta - 90.0)
 
 
 def _wrap_half_turn(angle: float) -> float:
