@@ -35,14 +35,32 @@ def stress_ratio_strain_figure(results: TestResult | Sequence[TestResult]) -> Fi
     return figure
 
 
+def _broken_at_poles(x: np.ndarray, ratio: np.ndarray, denominator: np.ndarray):
+    """Insert NaN between neighbours whose denominator changes sign, so that a line is not
+    drawn through the pole of a ratio."""
+    xs, ys = [x[0]], [ratio[0]]
+    for k in range(1, len(x)):
+        if denominator[k - 1] * denominator[k] < 0.0:
+            xs.append(np.nan)
+            ys.append(np.nan)
+        xs.append(x[k])
+        ys.append(ratio[k])
+    return np.array(xs), np.array(ys)
+
+
 def strain_ratio_figure(summary: TestResult) -> Figure:
-    """Seed 000 Fig. 8: gamma_xy/eps_x and eps_x/eps_y against the loading direction alpha."""
+    """Seed 000 Fig. 8: gamma_xy/eps_x and eps_x/eps_y against the loading direction alpha.
+
+    Lines break where eps_x (left) or eps_y (right) changes sign: the ratio has a pole there."""
     table = summary.table
     ratio = summary.metadata["parameters"].get("reference_stress_ratio")
     figure, axes = new_figure_axes(1, 2, figsize=(9, 3.8))
-    axes[0].plot(table["alpha_deg"], table["gamma_xy_over_eps_xx"], "o-")
+    alpha = table["alpha_deg"].to_numpy()
+    axes[0].plot(*_broken_at_poles(alpha, table["gamma_xy_over_eps_xx"].to_numpy(),
+                                   table["eps_xx"].to_numpy()), "o-")
     axes[0].set_ylabel("gamma_xy / eps_x")
-    axes[1].plot(table["alpha_deg"], table["eps_xx_over_eps_yy"], "s-")
+    axes[1].plot(*_broken_at_poles(alpha, table["eps_xx_over_eps_yy"].to_numpy(),
+                                   table["eps_yy"].to_numpy()), "s-")
     axes[1].set_ylabel("eps_x / eps_y")
     for ax in axes:
         ax.set_xlabel("alpha [deg]")
