@@ -10,7 +10,7 @@ see :func:`packing_d`).
 name       geometry                                                            e         CN
 =========  ==================================================================  ========  ====
 square     square lattice of equal discs (Fig. 1a)                             0.27324   4
-rhombic    rhombic lattice of equal discs, rhombus angle 80 deg (Fig. 1b)      0.25397   4
+rhombic    rhombic lattice of equal discs, rhombus angle 80 deg (Fig. 1b)      0.25390   4
 hexagonal  triangular lattice of equal discs (Fig. 1c)                         0.10266   6
 A          equal discs, rows stacked alternately square and triangular         0.18795   5
 B          equal discs, kagome (trihexagonal) arrangement                      0.47021   4
