@@ -29,8 +29,11 @@ NETWORK_FORMAT_VERSION = 1
 
 
 def _array(name: str, value, shape: tuple, dtype=float) -> np.ndarray:
-    """Validate the shape (None = any length) and finiteness of an input array."""
-    array = np.asarray(value, dtype=dtype)
+    """Validate the shape (None = any length) and finiteness of an input array; an empty
+    input is accepted as an empty array of the right shape."""
+    array = np.array(value, dtype=dtype)  # a copy: the caller's arrays stay writable
+    if array.size == 0:
+        array = array.reshape(tuple(0 if s is None else s for s in shape))
     if array.ndim != len(shape) or any(s is not None and s != a for s, a in
                                         zip(shape, array.shape, strict=False)):
         expected = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
@@ -62,7 +65,8 @@ class ContactNetwork:
     point_pairs:
         (C,) interaction index of each contact point; every interaction has at least one.
     point_positions:
-        (C, d) contact points [m], in the frame of the first particle's centre as given.
+        (C, d) contact points [m], absolute, next to the first particle's centre as stored in
+        ``positions`` (for a periodic pair the second particle is at x_i + l, not x_j).
     point_normals:
         (C, d) unit contact normals, from the first particle towards the second.
     point_forces:
@@ -122,21 +126,22 @@ class ContactNetwork:
         if not (np.isfinite(self.volume) and self.volume > 0):
             raise InputError("volume", self.volume, "a positive sample volume")
         set_(self, "volume", float(self.volume))
-        pairs = _array("pair_particles", np.asarray(self.pair_particles).reshape(-1, 2), (None, 2),
-                       dtype=np.int64)
+        pairs = _array("pair_particles", self.pair_particles, (None, 2), dtype=np.int64)
         if pairs.size and (pairs.min() < 0 or pairs.max() >= n):
-            raise InputError("pair_particles", int(pairs.max() if pairs.max() >= n else pairs.min()),
-                             f"particle indices in [0, {n - 1}]")
+            bad = int(pairs.max() if pairs.max() >= n else pairs.min())
+            raise InputError("pair_particles", bad, f"particle indices in [0, {n - 1}]")
         set_(self, "pair_particles", pairs)
         p = pairs.shape[0]
-        set_(self, "pair_branches",
-             _array("pair_branches", np.asarray(self.pair_branches, float).reshape(-1, d),
-                    (p, d)))
-        point_pairs = _array("point_pairs", np.asarray(self.point_pairs).reshape(-1), (None,),
-                             dtype=np.int64)
+        branches = _array("pair_branches", self.pair_branches, (p, d))
+        if p and np.any(np.linalg.norm(branches, axis=1) <= 0):
+            k = int(np.argmin(np.linalg.norm(branches, axis=1)))
+            raise InputError(f"pair_branches[{k}]", branches[k].tolist(),
+                             "a non-zero branch vector")
+        set_(self, "pair_branches", branches)
+        point_pairs = _array("point_pairs", self.point_pairs, (None,), dtype=np.int64)
         if point_pairs.size and (point_pairs.min() < 0 or point_pairs.max() >= p):
-            raise InputError("point_pairs", int(point_pairs.max()),
-                             f"interaction indices in [0, {p - 1}]")
+            bad = int(point_pairs.max() if point_pairs.max() >= p else point_pairs.min())
+            raise InputError("point_pairs", bad, f"interaction indices in [0, {p - 1}]")
         if p and np.bincount(point_pairs, minlength=p).min() == 0:
             k = int(np.argmin(np.bincount(point_pairs, minlength=p)))
             raise InputError(f"pair_particles[{k}]", pairs[k].tolist(),
@@ -144,28 +149,27 @@ class ContactNetwork:
         set_(self, "point_pairs", point_pairs)
         c = point_pairs.shape[0]
         for name in ("point_positions", "point_normals", "point_forces"):
-            set_(self, name, _array(name, np.asarray(getattr(self, name), float).reshape(-1, d),
-                                    (c, d)))
+            set_(self, name, _array(name, getattr(self, name), (c, d)))
         lengths = np.linalg.norm(self.point_normals, axis=1)
         if c and np.any(np.abs(lengths - 1.0) > 1e-6):
             k = int(np.argmax(np.abs(lengths - 1.0)))
             raise InputError(f"point_normals[{k}]", self.point_normals[k].tolist(),
                              "a unit vector (length 1 within 1e-6)")
         if self.pair_types is not None:
-            types = _array("pair_types", np.asarray(self.pair_types).reshape(-1), (p,),
-                           dtype=np.int64)
+            types = _array("pair_types", self.pair_types, (p,), dtype=np.int64)
             if types.size and (types.min() < 0 or types.max() >= len(self.type_names)):
                 raise InputError("pair_types", int(types.max()),
                                  f"codes indexing type_names {tuple(self.type_names)}")
             set_(self, "pair_types", types)
         set_(self, "type_names", tuple(str(t) for t in self.type_names))
-        if self.friction_coefficient is not None and not (self.friction_coefficient >= 0):
+        if self.friction_coefficient is not None and not (
+            np.isfinite(self.friction_coefficient) and self.friction_coefficient >= 0
+        ):
             raise InputError("friction_coefficient", self.friction_coefficient,
                              "a friction coefficient >= 0")
         if self.point_sliding is not None:
             set_(self, "point_sliding",
-                 _array("point_sliding", np.asarray(self.point_sliding).reshape(-1), (c,),
-                        dtype=bool))
+                 _array("point_sliding", self.point_sliding, (c,), dtype=bool))
 
     # -- sizes --------------------------------------------------------------------------------
     @property
@@ -229,8 +233,13 @@ class ContactNetwork:
 
     # -- transformations (for invariance checks and frames) -----------------------------------
     def transformed(self, rotation: np.ndarray, shift: np.ndarray | None = None) -> ContactNetwork:
-        """The network rotated by the orthogonal matrix R (x -> R x + shift)."""
+        """The network rotated by the orthogonal matrix R (x -> R x + shift). Entries of
+        ``state`` (plain data) are copied unchanged."""
         rotation = np.asarray(rotation, dtype=float)
+        d = self.dimension
+        if rotation.shape != (d, d) or not np.allclose(rotation @ rotation.T, np.eye(d),
+                                                       atol=1e-10):
+            raise InputError("rotation", rotation.tolist(), f"an orthogonal {d}x{d} matrix")
         shift = np.zeros(self.dimension) if shift is None else np.asarray(shift, dtype=float)
         return _replace(
             self,

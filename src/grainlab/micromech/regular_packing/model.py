@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from grainlab.analysis.contact_network import ContactNetwork
 from grainlab.analysis.contact_stress import stress_from_contact_dyads
 from grainlab.contact.law2d import ContactLaw2D, ContactState2D
 from grainlab.contact.modified_hertz_mindlin import equivalent_radius
@@ -236,6 +237,25 @@ class RegularPackingModel:
         )
         b = self.strain_to_displacement
         return np.einsum("cia,cij,cjb->ab", b, local, b) / self.area
+
+    def contact_network(self, state: RegularPackingState) -> ContactNetwork:
+        """The specimen's contacts and forces as a 2D contact network (one point per contact,
+        at x_i + r_i n) for the microstructure analyses."""
+        p, c = self.packing, self.contacts
+        return ContactNetwork(
+            positions=p.centres,
+            volumes=np.pi * p.radii**2,
+            volume=self.area,
+            pair_particles=np.column_stack([c.particle_i, c.particle_j]),
+            pair_branches=c.branch,
+            point_pairs=np.arange(c.n_contacts),
+            point_positions=p.centres[c.particle_i] + c.contact_point_offset_i,
+            point_normals=c.normal,
+            point_forces=self.force_vectors(state),
+            friction_coefficient=self.law.friction_coefficient,
+            point_sliding=state.contacts.sliding,
+            state={"packing": p.name, "strain_voigt": state.strain.tolist()},
+        )
 
     def describe(self) -> dict:
         """The specimen as plain data for test-result metadata."""

@@ -1,0 +1,122 @@
+"""Every descriptor of one contact-network snapshot, in one compute object.
+
+Runs the stress, connectivity, fabric (both frames), angular distributions, force statistics,
+friction (when the network knows mu) and partial-stress (when it knows contact types) analyses
+and gathers their scalar descriptors into one flat dictionary, the row of a results table.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from grainlab.analysis.angular_distributions import AngularDistributions
+from grainlab.analysis.compute import Compute
+from grainlab.analysis.connectivity import Connectivity
+from grainlab.analysis.contact_network import ContactNetwork
+from grainlab.analysis.contact_stress import StressState
+from grainlab.analysis.fabric import Fabric
+from grainlab.analysis.force_statistics import ForceStatistics
+from grainlab.analysis.friction import Friction
+from grainlab.analysis.partial_stress import PartialStresses
+
+
+class SnapshotAnalysis(Compute):
+    """All microstructure descriptors of one snapshot (seeds 002 and 003).
+
+    Parameters
+    ----------
+    min_contacts:
+        Rattler rule: particles with fewer active interactions are removed recursively.
+    frame_level:
+        ``"points"`` (each contact point is a contact of the contact frame) or ``"pairs"``
+        (pair resultants with the pair's mean normal, the view of seed 002's polyhedra).
+    friction_tolerance:
+        A contact slides when |f_t| >= (1 - tolerance) mu f_n.
+    n_force_bins, n_angle_bins:
+        Bins of the force PDFs and of the angular distributions.
+
+    >>> from grainlab.analysis.synthetic import synthetic_network
+    >>> analysis = SnapshotAnalysis().compute(synthetic_network(2000, a_c=0.2, seed=1))
+    >>> round(analysis.descriptors["coordination_number"], 1)  # 2 x 2000 pairs / 667 particles
+    6.0
+    """
+
+    def __init__(
+        self,
+        min_contacts: int = 2,
+        frame_level: str = "points",
+        friction_tolerance: float = 1e-3,
+        n_force_bins: int = 40,
+        n_angle_bins: int = 18,
+    ) -> None:
+        super().__init__()
+        self.min_contacts = min_contacts
+        self.frame_level = frame_level
+        self.friction_tolerance = friction_tolerance
+        self.n_force_bins = n_force_bins
+        self.n_angle_bins = n_angle_bins
+
+    def _compute(self, network: ContactNetwork) -> None:
+        parts: dict[str, Any] = {
+            "stress": StressState().compute(network),
+            "connectivity": Connectivity(min_contacts=self.min_contacts).compute(network),
+            "fabric": Fabric(frame_level=self.frame_level).compute(network),
+            "angular": AngularDistributions(n_bins=self.n_angle_bins).compute(network),
+            "forces": ForceStatistics(n_bins=self.n_force_bins).compute(network),
+            "friction": None,
+            "partial": None,
+        }
+        if network.friction_coefficient is not None:
+            parts["friction"] = Friction(tolerance=self.friction_tolerance).compute(network)
+        if network.pair_types is not None and network.type_names:
+            parts["partial"] = PartialStresses().compute(network)
+        descriptors: dict[str, Any] = {}
+        for name in ("stress", "connectivity", "fabric", "forces", "friction", "partial"):
+            if parts[name] is not None:
+                descriptors.update(parts[name].descriptors())
+        self._store(network=network, descriptors=descriptors, **parts)
+
+    @property
+    def network(self) -> ContactNetwork:
+        """The analysed network."""
+        return self._get("network")
+
+    @property
+    def descriptors(self) -> dict[str, Any]:
+        """Every scalar descriptor, flat (the row of a results table)."""
+        return self._get("descriptors")
+
+    @property
+    def stress(self) -> StressState:
+        """Stress from contacts (both forms), invariants, principal values and directions."""
+        return self._get("stress")
+
+    @property
+    def connectivity(self) -> Connectivity:
+        """Packing fraction, z, z_c, rattlers, contact-type proportions."""
+        return self._get("connectivity")
+
+    @property
+    def fabric(self) -> Fabric:
+        """Fabric, branch and force tensors and anisotropies in both frames."""
+        return self._get("fabric")
+
+    @property
+    def angular(self) -> AngularDistributions:
+        """Angular distributions and their harmonic fits, both frames."""
+        return self._get("angular")
+
+    @property
+    def forces(self) -> ForceStatistics:
+        """Force PDFs and the length–force correlation."""
+        return self._get("forces")
+
+    @property
+    def friction(self) -> Friction | None:
+        """Sliding proportion and friction mobilisation (None without mu)."""
+        return self._get("friction")
+
+    @property
+    def partial(self) -> PartialStresses | None:
+        """Partial stresses by contact type (None without contact types)."""
+        return self._get("partial")

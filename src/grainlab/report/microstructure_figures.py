@@ -1,0 +1,160 @@
+"""Figures of a contact network's microstructure (seeds 002 and 003).
+
+* polar diagrams of the angular distributions with their harmonic fits (002 Fig. 14);
+* force PDFs, log-linear and log-log (003 Figs. 14, 16);
+* the radial ("neighbour") force network, lines scaled by force and coloured by contact type or
+  by sliding (002 Figs. 12, 18, 21; 003 Fig. 15);
+* anisotropies and q/p (direct and harmonic) against strain (002 Figs. 16–20).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from matplotlib.collections import LineCollection
+from matplotlib.figure import Figure
+
+from grainlab.analysis.angular_distributions import AngularDistributions
+from grainlab.analysis.contact_network import ContactNetwork
+from grainlab.analysis.force_statistics import ForceStatistics
+from grainlab.report.curves import new_figure_axes
+
+_FRAMES = (("contact_frame", "contact frame (n, t)"), ("branch_frame", "branch frame (n', t')"))
+
+
+def polar_distributions_figure(angular: AngularDistributions) -> Figure:
+    """Polar diagrams of P(theta), <l>(theta), <f>(theta) in both frames, data as symbols and
+    the harmonic approximation (seed 002 eq. 26) as lines; theta from the major principal
+    stress direction (vertical in the plots)."""
+    frames = [(getattr(angular, attr), title) for attr, title in _FRAMES]
+    quantities = [c for c in frames[0][0].columns if f"{c}_harmonic" in frames[0][0].columns]
+    figure = Figure(figsize=(3.0 * max(len(quantities), 1), 6.2))
+    for row, (table, title) in enumerate(frames):
+        columns = [c for c in quantities if c in table.columns]
+        for k, column in enumerate(columns):
+            ax = figure.add_subplot(2, len(quantities), row * len(quantities) + k + 1,
+                                    projection="polar")
+            theta = np.radians(table["theta_deg"].to_numpy())
+            values = table[column].to_numpy()
+            fit = table[f"{column}_harmonic"].to_numpy()
+            # Unfold the data by symmetry over the full circle, vertical = compression axis.
+            for sign in (1, -1):
+                for shift in (0.0, np.pi):
+                    angle = np.pi / 2 - sign * theta + shift
+                    ax.plot(angle, np.abs(values), "o", ms=2.5, color="tab:blue")
+                    ax.plot(angle, np.abs(fit), "-", lw=1.0, color="tab:red")
+            ax.set_title(f"{column}\n{title}", fontsize="small")
+            ax.set_xticklabels([])
+            ax.tick_params(labelsize="x-small")
+    figure.set_layout_engine("tight")
+    return figure
+
+
+def force_pdf_figure(forces: ForceStatistics) -> Figure:
+    """PDFs of normal and radial forces normalised by their means: log-linear and log-log."""
+    figure, axes = new_figure_axes(1, 2, figsize=(9.5, 3.8))
+    for name, label, marker in (("normal", "f_n / <f_n>", "o"), ("radial", "f_n' / <f_n'>", "s")):
+        linear: pd.DataFrame = getattr(forces, f"{name}_pdf_linear")
+        logarithmic: pd.DataFrame = getattr(forces, f"{name}_pdf_log")
+        keep = linear["density"] > 0
+        axes[0].semilogy(linear["force_ratio"][keep], linear["density"][keep], marker, ms=3,
+                         label=label)
+        keep = logarithmic["density"] > 0
+        axes[1].loglog(logarithmic["force_ratio"][keep], logarithmic["density"][keep], marker,
+                       ms=3, label=label)
+    for ax in axes:
+        ax.set_xlabel("force / mean force")
+        ax.set_ylabel("probability density")
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize="small")
+    figure.set_layout_engine("tight")
+    return figure
+
+
+def pair_mobilisation(network: ContactNetwork) -> np.ndarray | None:
+    """(P,) largest friction mobilisation |f_t| / (mu f_n) over each pair's points, in [0, 1];
+    None when the network does not know mu."""
+    mu = network.friction_coefficient
+    if mu is None or mu <= 0:
+        return None
+    normal = network.point_normal_forces
+    tangential = np.linalg.norm(network.point_tangential_forces, axis=1)
+    ratio = np.divide(tangential, mu * normal, out=np.zeros_like(normal), where=normal > 0)
+    best = np.zeros(network.n_pairs)
+    np.maximum.at(best, network.point_pairs, np.clip(ratio, 0.0, 1.0))
+    return best
+
+
+def force_network_figure(
+    network: ContactNetwork,
+    color_by: str = "type",
+    plane: tuple[int, int] = (0, -1),
+    slab: float | None = None,
+    mobilisation: np.ndarray | None = None,
+) -> Figure:
+    """The radial force network: a line from each particle centre to its neighbour along the
+    branch vector, width proportional to the radial force f_n' (seed 002 Fig. 12).
+
+    ``color_by`` is ``"type"`` (contact types), ``"sliding"`` (red where the pair slides or, if
+    ``mobilisation`` (per pair, in [0, 1]) is given, coloured by it) or ``"none"``. In 3D only
+    pairs whose mid-point lies within ``slab`` (default: three mean branch lengths) of the
+    sample's mid-plane are drawn, projected on ``plane`` (axis indices).
+    """
+    forces = network.pair_forces
+    branches = network.pair_branches
+    lengths = np.linalg.norm(branches, axis=1)
+    radial = np.einsum("pi,pi->p", forces, branches) / np.where(lengths > 0, lengths, 1.0)
+    start = network.positions[network.pair_particles[:, 0]]
+    keep = radial > 0
+    d = network.dimension
+    a, b = plane[0] % d, plane[1] % d
+    if d == 3:
+        depth = ({0, 1, 2} - {a, b}).pop()
+        middle = start[:, depth] + 0.5 * branches[:, depth]
+        centre = 0.5 * (network.positions[:, depth].min() + network.positions[:, depth].max())
+        thickness = 3.0 * float(np.mean(lengths)) if slab is None else slab
+        keep &= np.abs(middle - centre) <= thickness / 2
+    segments = np.stack([start[keep][:, [a, b]], (start + branches)[keep][:, [a, b]]], axis=1)
+    widths = 4.0 * radial[keep] / max(float(np.mean(radial[radial > 0])), 1e-300)
+    figure, ax = new_figure_axes(figsize=(6.5, 6.5))
+    if color_by == "type" and network.pair_types is not None and network.type_names:
+        palette = ["tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown"]
+        colors = [palette[t % len(palette)] for t in network.pair_types[keep]]
+        for code, name in enumerate(network.type_names):
+            ax.plot([], [], color=palette[code % len(palette)], lw=3, label=name)
+        ax.legend(fontsize="small", loc="upper right")
+    elif color_by == "sliding" and mobilisation is not None:
+        colors = [(m, 0.1, 1.0 - m) for m in np.clip(mobilisation[keep], 0.0, 1.0)]
+        ax.plot([], [], color=(1.0, 0.1, 0.0), lw=3, label="fully mobilised")
+        ax.legend(fontsize="small", loc="upper right")
+    else:
+        colors = "0.2"
+    ax.add_collection(LineCollection(segments, linewidths=widths, colors=colors))
+    ax.autoscale()
+    ax.set_aspect("equal")
+    names = "xyz"
+    ax.set_xlabel(f"{names[a]} [m]")
+    ax.set_ylabel(f"{names[b]} [m]")
+    ax.set_title("radial force network (width proportional to f_n')", fontsize="medium")
+    return figure
+
+
+def anisotropy_evolution_figure(table: pd.DataFrame, strain: str = "eps_q") -> Figure:
+    """Anisotropies and q/p (direct and from the anisotropies) against a strain column."""
+    x = table[strain] if strain in table.columns else table.index
+    figure, axes = new_figure_axes(1, 3, figsize=(14, 3.8))
+    groups = (
+        ("contact frame", ["a_c", "a_ln", "a_lt", "a_fn", "a_ft"]),
+        ("branch frame", ["a_c_branch", "a_ln_branch", "a_fn_branch", "a_ft_branch"]),
+        ("q/p", ["q_over_p", "q_over_p_27a", "q_over_p_27b", "q_over_p_B1"]),
+    )
+    for ax, (title, columns) in zip(axes, groups, strict=True):
+        for column in columns:
+            if column in table.columns:
+                ax.plot(x, table[column], marker=".", label=column)
+        ax.set_title(title, fontsize="medium")
+        ax.set_xlabel(strain if strain in table.columns else "snapshot")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize="x-small")
+    figure.set_layout_engine("tight")
+    return figure
