@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from grainlab.analysis.angular_distributions import AngularDistributions
 from grainlab.analysis.compute import Compute
 from grainlab.analysis.connectivity import Connectivity
@@ -18,6 +20,23 @@ from grainlab.analysis.fabric import Fabric
 from grainlab.analysis.force_statistics import ForceStatistics
 from grainlab.analysis.friction import Friction
 from grainlab.analysis.partial_stress import PartialStresses
+
+
+def harmonic_mobilisation(
+    anisotropies: dict[str, float], mu: float, mu_branch: float, dimension: int
+) -> dict[str, float]:
+    """Friction-mobilisation index from the tangential force anisotropy (seed 002 eq. 28,
+    seed 003 eq. 34): averaging |<f_t>(theta)| = <f_n> a_ft |sin 2 theta| over the directions
+    of a nearly isotropic fabric gives I = c a_ft / mu_bar with c = <|sin 2 theta|>, 2/3 over
+    the sphere and 2/pi over the circle. (The OCR'd eq. 28 prints 5/2 for c; the integral it
+    describes gives 2/3.) mu_bar = mu in the contact frame, <mu'> in the branch frame."""
+    c = 2.0 / 3.0 if dimension == 3 else 2.0 / np.pi
+    out = {}
+    if mu and mu > 0:
+        out["mobilisation_index_harmonic"] = c * anisotropies["a_ft"] / mu
+    if mu_branch and np.isfinite(mu_branch) and mu_branch > 0:
+        out["mobilisation_index_branch_harmonic"] = c * anisotropies["a_ft_branch"] / mu_branch
+    return out
 
 
 class SnapshotAnalysis(Compute):
@@ -74,6 +93,11 @@ class SnapshotAnalysis(Compute):
         for name in ("stress", "connectivity", "fabric", "forces", "friction", "partial"):
             if parts[name] is not None:
                 descriptors.update(parts[name].descriptors())
+        if parts["friction"] is not None:
+            descriptors.update(harmonic_mobilisation(
+                parts["fabric"].anisotropies, network.friction_coefficient,
+                parts["friction"].mean_branch_friction, network.dimension,
+            ))
         self._store(network=network, descriptors=descriptors, **parts)
 
     @property

@@ -103,5 +103,6 @@ def synthetic_network(
         point_normals=normal,
         point_forces=forces,
         friction_coefficient=friction_coefficient,
-        state={"synthetic": True, "a_c": a_c, "a_fn": a_fn, "a_ft": a_ft},
+        state={"synthetic": True, "imposed_a_c": a_c, "imposed_a_fn": a_fn,
+               "imposed_a_ft": a_ft},
     )

@@ -61,8 +61,11 @@ class TrajectoryAnalysis:
     def _single_snapshot(self, index: int, network: ContactNetwork) -> None:
         analysis = SnapshotAnalysis(**self.snapshot_options).compute(network)
         row: dict[str, Any] = {"snapshot": index}
-        row.update({k: v for k, v in network.state.items() if isinstance(v, Number | str)})
-        row.update(analysis.descriptors)
+        descriptors = analysis.descriptors
+        for key, value in network.state.items():  # state entries never hide a descriptor
+            if isinstance(value, Number | str):
+                row[f"state_{key}" if key in descriptors else key] = value
+        row.update(descriptors)
         self._rows.append(row)
         self.last = analysis
 

@@ -38,7 +38,9 @@ SUMMARY = (
     ("a_c", "a_c"), ("a_fn", "a_fn"), ("a_ft", "a_ft"), ("a_c_branch", "a'_c"),
     ("q_over_p_27a", "q/p eq. 27a"), ("q_over_p_27b", "q/p eq. 27b"),
     ("q_over_p_B1", "q/p eq. B1"), ("sliding_proportion", "sliding proportion S"),
-    ("friction_mobilisation", "mobilisation I_mu"),
+    ("mobilisation_index", "mobilisation I_mu"),
+    ("mobilisation_index_harmonic", "I_mu from a_ft (eq. 28)"),
+    ("mobilisation_index_branch", "mobilisation I' (branch frame)"),
     ("pearson_length_force", "C_lf"),
 )
 

@@ -115,7 +115,8 @@ def force_network_figure(
         thickness = 3.0 * float(np.mean(lengths)) if slab is None else slab
         keep &= np.abs(middle - centre) <= thickness / 2
     segments = np.stack([start[keep][:, [a, b]], (start + branches)[keep][:, [a, b]]], axis=1)
-    widths = 4.0 * radial[keep] / max(float(np.mean(radial[radial > 0])), 1e-300)
+    mean_radial = max(float(np.mean(radial[radial > 0])) if np.any(radial > 0) else 0.0, 1e-300)
+    widths = np.clip(1.2 * radial[keep] / mean_radial, 0.1, 6.0)
     figure, ax = new_figure_axes(figsize=(6.5, 6.5))
     if color_by == "type" and network.pair_types is not None and network.type_names:
         palette = ["tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown"]
@@ -135,7 +136,8 @@ def force_network_figure(
     names = "xyz"
     ax.set_xlabel(f"{names[a]} [m]")
     ax.set_ylabel(f"{names[b]} [m]")
-    ax.set_title("radial force network (width proportional to f_n')", fontsize="medium")
+    ax.set_title("radial force network (width proportional to f_n', capped at 5 <f_n'>)",
+                 fontsize="medium")
     return figure
 
 
