@@ -9,8 +9,6 @@ the vectorised tensors on small irregular networks.
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 
@@ -483,10 +481,3 @@ def test_no_active_contact_gives_nan():
     assert d["n_contact_entries"] == 0 and d["n_branch_entries"] == 0
     assert np.isnan(d["a_c"]) and np.isnan(d["q_over_p_27b"]) and np.isnan(d["q_over_p"])
     assert np.isnan(d["a_c_branch_k1"])
-
-
-def test_million_points_is_fast():
-    net = sample_3d(1_000_000, A_C, A_FN, A_FT, seed=17)
-    start = time.perf_counter()
-    Fabric().compute(net)
-    assert time.perf_counter() - start < 5.0
