@@ -1,0 +1,407 @@
+"""Seed 001's micromechanical model: contact -> micro-element -> representative unit.
+
+Notation (seed 001 ch. 2, Table 2.1; compression positive, SI units; E micro-elements with up
+to M contacts in d dimensions):
+
+* contact m of micro-element n: branch vector L (centre to neighbour), normal n = L/|L|,
+  stiffness K = k_n n n + k_r (I - n n) (eq. 2.5), force f the centre exerts on the neighbour;
+* strain of a micro-element: the asymmetric eps^n (eq. 2.9), whose skew part is the spin of the
+  particles relative to the micro-element; spring approach d_delta = eps^n L + d_delta*
+  (eqs. 2.12–2.13) with the non-affine move of the centre particle
+  d_delta* = T eps^n, T = -[sum_m K]^-1 [sum_m K L] (eq. 2.14; Table 2.1 prints it without the
+  minus and subtracts it in eq. 2.15 — the same thing: the centre moves to balance its contact
+  forces, which softens the micro-element). Micro-elements of one contact (binary units) and
+  ``non_affine=False`` use the uniform strain (T = 0);
+* micro-element stress sigma^n = (1/(2 V^n)) sum_m f (x) L (eq. 2.16; each contact belongs to
+  two micro-elements), stiffness C^n (eq. 2.18) as a (d^2 x d^2) matrix on the full tensors;
+* no couple stress (seed 001 §2.4.1): the particle spin (the skew part of the strain) is
+  chosen so that the stress is symmetric. With ``spin="micro-element"`` (default) each
+  micro-element balances its own moment (its particles share one rotation, eq. 2.9), which
+  condenses to a symmetric Voigt stiffness C^n (6 x 6 or 3 x 3, engineering shears) per
+  micro-element; with ``spin="uniform"`` every micro-element takes the same (overall) spin,
+  found from the zero skew part of the overall stress — the uniform-strain hypothesis of
+  seed 001 §4.1, used for binary units, whose single contact would otherwise lose all its shear
+  stiffness to a free spin (``uniform`` requires the homogeneous distribution);
+* representative unit (eqs. 2.20–2.35): C_bar = sum (V^n/V) C^n; the distributive law of
+  strain G^n, homogeneous (eq. 2.30: every micro-element takes the overall strain) or
+  Maxwellian in stiffness space (eqs. 2.32–2.35: v^n = C_bar^-1 (C^n - C_bar),
+  G^n = A Exp(-v^n) V^n/V, A^-1 = sum (V^n/V) Exp(-v^n), the exponential summed as a series to
+  a stated order with a convergence check); overall tangent C = sum_n C^n G^n (eq. 2.31) and
+  local strains eps^n = (V/V^n) G^n eps (eq. 2.27, G acting on strain fractions).
+
+After every increment the structure is updated: contact forces, sliding, separation and bonds;
+branch vectors (L shortens by the symmetric strain and the centre's move) and volumes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from grainlab.contact.spring_contact import SpringContactLaw, SpringState, force_vectors
+from grainlab.errors import ConvergenceError, InputError
+from grainlab.micromech.micro_element.structure import MicroElementStructure
+from grainlab.micromech.micro_element.tensor_basis import bases
+
+DISTRIBUTIONS = ("homogeneous", "maxwellian")
+
+
+def _pinv_batch(matrices: np.ndarray, rcond: float = 1e-12) -> np.ndarray:
+    """Batched inverse, falling back to the pseudo-inverse where singular."""
+    try:
+        inverse = np.linalg.inv(matrices)
+        if np.all(np.isfinite(inverse)):
+            return inverse
+    except np.linalg.LinAlgError:
+        pass
+    return np.linalg.pinv(matrices, rcond=rcond)
+
+
+def exponential_series(v: np.ndarray, order: int) -> tuple[np.ndarray, float]:
+    """Exp(-v) = I - v + v^2/2! - ... summed to ``order`` for a batch of square matrices
+    (..., k, k); returns the sum and the relative size of the last term (convergence)."""
+    k = v.shape[-1]
+    total = np.broadcast_to(np.eye(k), v.shape).copy()
+    term = total.copy()
+    last = 0.0
+    for n in range(1, order + 1):
+        term = -term @ v / n
+        total = total + term
+        last = float(np.max(np.abs(term))) / max(float(np.max(np.abs(total))), 1e-300)
+    return total, last
+
+
+@dataclass
+class MicroElementState:
+    """Mutable state of the model (arrays over micro-elements and contacts)."""
+
+    contacts: SpringState
+    branches: np.ndarray
+    volumes: np.ndarray
+    mask: np.ndarray
+    strain: np.ndarray  # cumulative overall Voigt strain since the model was built
+    residual_stress: np.ndarray  # Voigt stress of the last increment's residual forces
+    history: dict[str, Any] = field(default_factory=dict)
+
+
+class MicroElementModel:
+    """The representative unit of seed 001 as a lab specimen.
+
+    Parameters
+    ----------
+    structure:
+        The micro-elements.
+    law:
+        The contact law (constant or Hertz–Mindlin springs, Coulomb, separation, bonds).
+    distribution:
+        ``"homogeneous"`` (eq. 2.30) or ``"maxwellian"`` (eqs. 2.32–2.35).
+    non_affine:
+        Include the centre particle's equilibrium move (eq. 2.14).
+    series_order:
+        Terms of the Exp series (eq. 2.35); the last term's relative size is checked.
+    series_tolerance:
+        Largest relative size of the last series term before a :class:`ConvergenceError`.
+    """
+
+    def __init__(
+        self,
+        structure: MicroElementStructure,
+        law: SpringContactLaw,
+        distribution: str = "homogeneous",
+        non_affine: bool = True,
+        series_order: int = 30,
+        series_tolerance: float = 1e-8,
+        spin: str = "micro-element",
+    ) -> None:
+        if distribution not in DISTRIBUTIONS:
+            raise InputError("distribution", distribution, " or ".join(DISTRIBUTIONS))
+        if spin not in ("micro-element", "uniform"):
+            raise InputError("spin", spin, "'micro-element' or 'uniform'")
+        if spin == "uniform" and distribution != "homogeneous":
+            raise InputError("spin", spin, "'micro-element' with the Maxwellian distribution "
+                             "(a uniform spin needs the homogeneous distribution)")
+        self.spin = spin
+        if not (1 <= int(series_order) <= 40):
+            raise InputError("series_order", series_order, "an integer in [1, 40]")
+        self.structure = structure
+        self.law = law
+        self.distribution = distribution
+        self.non_affine = bool(non_affine)
+        self.series_order = int(series_order)
+        self.series_tolerance = float(series_tolerance)
+        self.dimension = structure.dimension
+        shape = structure.mask.shape
+        radius = 2 * structure.centre_radii[:, None] * structure.neighbour_radii / (
+            structure.centre_radii[:, None] + structure.neighbour_radii)
+        self.contact_radius = radius  # equivalent radius 2 r1 r2/(r1 + r2) of eq. 2.6
+        self.state = MicroElementState(
+            contacts=law.initial_state(shape, self.dimension),
+            branches=np.array(structure.branches),
+            volumes=np.array(structure.volumes),
+            mask=np.array(structure.mask),
+            strain=np.zeros(6 if self.dimension == 3 else 3),
+            residual_stress=np.zeros(6 if self.dimension == 3 else 3),
+        )
+        self.force_floor = 0.0
+        self._cache: dict[str, Any] | None = None
+
+    # -- geometry -----------------------------------------------------------------------------
+    @property
+    def normals(self) -> np.ndarray:
+        """(E, M, d) current unit contact normals (zero on padding)."""
+        b = self.state.branches
+        length = np.linalg.norm(b, axis=2, keepdims=True)
+        return np.divide(b, length, out=np.zeros_like(b), where=length > 0)
+
+    @property
+    def volume(self) -> float:
+        """V = sum V^n [m^3]."""
+        return float(self.state.volumes.sum())
+
+    # -- the constitutive chain ---------------------------------------------------------------
+    def _local(self) -> dict[str, Any]:
+        """Contact stiffness, non-affine T, stretch maps P, local stiffness and condensation."""
+        if self._cache is not None:
+            return self._cache
+        d = self.dimension
+        st = self.state
+        n = self.normals
+        c = st.contacts
+        shear_mag = np.linalg.norm(c.shear_force, axis=2)
+        kn, kr = self.law.stiffness(c.normal_force, shear_mag, self.contact_radius,
+                                    self.force_floor, touching=c.normal_approach >= 0.0)
+        kn = np.where(st.mask, kn, 0.0)
+        kr = np.where(st.mask, kr, 0.0)
+        eye = np.eye(d)
+        nn = np.einsum("emi,emj->emij", n, n)
+        k = kn[..., None, None] * nn + kr[..., None, None] * (eye - nn)  # (E, M, d, d)
+        branches = st.branches
+        # P_m: approach = P_m eps_full, P[e,m,p,(k,l)] = delta_pk L_l + T[e,p,k,l]
+        affine = np.einsum("pk,eml->empkl", eye, branches)
+        if self.non_affine:
+            a = k.sum(axis=1)  # (E, d, d)
+            b = np.einsum("emqk,eml->eqkl", k, branches)  # sum_m K_qk L_l
+            single = st.mask.sum(axis=1) < 2
+            t = -np.einsum("epq,eqkl->epkl", _pinv_batch(a), b)
+            t[single] = 0.0
+            p = affine + t[:, None]
+        else:
+            p = affine
+        p = p.reshape(p.shape[0], p.shape[1], d, d * d)
+        p = np.where(st.mask[..., None, None], p, 0.0)
+        # C_full[(i,j),(k,l)] = 1/(2V) sum_m K_ip P_p(kl) L_j
+        kp = np.einsum("emip,empq->emiq", k, p)  # (E, M, d, d^2)
+        c_full = np.einsum("emiq,emj->eijq", kp, branches).reshape(-1, d * d, d * d)
+        c_full /= (2.0 * st.volumes)[:, None, None]
+        s, w, s_dual, w_dual = bases(d)
+        c_ss = s_dual @ c_full @ s
+        c_sw = s_dual @ c_full @ w
+        c_ws = w_dual @ c_full @ s
+        c_ww = w_dual @ c_full @ w
+        if self.spin == "micro-element":
+            spin = -_pinv_batch(c_ww) @ c_ws  # skew strain per unit symmetric strain
+        else:  # one spin for all, from the volume-averaged (homogeneous) stiffness
+            weights = st.volumes / st.volumes.sum()
+            spin_all = -np.linalg.pinv(np.einsum("e,eab->ab", weights, c_ww), rcond=1e-12) @ (
+                np.einsum("e,eab->ab", weights, c_ws))
+            spin = np.broadcast_to(spin_all, c_ws.shape).copy()
+        c_local = c_ss + c_sw @ spin
+        self._cache = {"k": k, "kn": kn, "kr": kr, "p": p, "spin": spin, "c_local": c_local}
+        return self._cache
+
+    def _distribution(self) -> dict[str, Any]:
+        """Distribution tensors G^n (E, k, k) and the overall tangent."""
+        local = self._local()
+        if "g" in local:
+            return local
+        c_local = local["c_local"]
+        weights = self.state.volumes / self.volume
+        c_bar = np.einsum("e,eab->ab", weights, c_local)
+        k = c_bar.shape[0]
+        if self.distribution == "homogeneous":
+            g = weights[:, None, None] * np.eye(k)[None]
+            last = 0.0
+        else:
+            v = np.linalg.pinv(c_bar, rcond=1e-12) @ (c_local - c_bar)
+            exp_v, last = exponential_series(v, self.series_order)
+            if last > self.series_tolerance:
+                raise ConvergenceError(
+                    f"The Maxwellian distribution series (eq. 2.35) has not converged at order "
+                    f"{self.series_order}: last term {last:.2e} of the sum (allowed "
+                    f"{self.series_tolerance:g}). Raise series_order or use the homogeneous law."
+                )
+            a_inv = np.einsum("e,eab->ab", weights, exp_v)
+            a = np.linalg.pinv(a_inv, rcond=1e-12)
+            g = np.einsum("ab,ebc->eac", a, exp_v) * weights[:, None, None]
+        tangent = np.einsum("eab,ebc->ac", c_local, g)
+        local.update(g=g, tangent=0.5 * (tangent + tangent.T), c_bar=c_bar,
+                     series_last_term=last, tangent_raw=tangent)
+        return local
+
+    def distribution_tensors(self) -> np.ndarray:
+        """(E, k, k) distribution tensors G^n of eq. 2.27 (they sum to the identity, eq. 2.28)."""
+        return self._distribution()["g"]
+
+    def local_stiffness(self) -> np.ndarray:
+        """(E, k, k) condensed micro-element stiffness C^n (Voigt, engineering shears) [Pa]."""
+        return self._local()["c_local"]
+
+    # -- specimen protocol --------------------------------------------------------------------
+    def tangent(self) -> np.ndarray:
+        """Overall Voigt tangent C = sum C^n G^n (eq. 2.31) [Pa] (symmetrised; the raw one is
+        symmetric for the homogeneous law)."""
+        return self._distribution()["tangent"]
+
+    def stress(self) -> np.ndarray:
+        """Overall Voigt stress (1/V) sum_n V^n sigma^n = (1/2V) sum f (x) L [Pa]."""
+        return self._voigt(self.stress_tensor())
+
+    def stress_tensor(self) -> np.ndarray:
+        """Overall (d, d) stress tensor including any skew part [Pa]."""
+        f = force_vectors(self.state.contacts, self.normals)
+        f = np.where(self.state.mask[..., None], f, 0.0)
+        return np.einsum("emi,emj->ij", f, self.state.branches) / (2.0 * self.volume)
+
+    def micro_element_stresses(self) -> np.ndarray:
+        """(E, d, d) stress of each micro-element (eq. 2.16) [Pa]."""
+        f = force_vectors(self.state.contacts, self.normals)
+        f = np.where(self.state.mask[..., None], f, 0.0)
+        return np.einsum("emi,emj->eij", f, self.state.branches) / (
+            2.0 * self.state.volumes)[:, None, None]
+
+    def strain(self) -> np.ndarray:
+        """Cumulative overall Voigt strain [-] since the model was built."""
+        return self.state.strain.copy()
+
+    def _voigt(self, tensor: np.ndarray) -> np.ndarray:
+        _, _, s_dual, _ = bases(self.dimension)
+        return s_dual @ np.asarray(tensor).reshape(-1)
+
+    def apply_strain(self, strain_increment: np.ndarray) -> None:
+        """Distribute an overall Voigt strain increment to the micro-elements (eq. 2.27),
+        move their contacts (eqs. 2.13–2.15) and update forces and structure."""
+        d_eps = np.asarray(strain_increment, dtype=float)
+        info = self._distribution()
+        st = self.state
+        weights = st.volumes / self.volume
+        local_strain = np.einsum("eab,b->ea", info["g"], d_eps) / weights[:, None]
+        spin = np.einsum("eab,eb->ea", info["spin"], local_strain)
+        s, w, _, _ = bases(self.dimension)
+        full = local_strain @ s.T + spin @ w.T  # (E, d^2)
+        approach = np.einsum("empq,eq->emp", info["p"], full)
+        new_contacts, residual = self.law.update(
+            st.contacts, approach, self.normals, self.contact_radius, st.mask, self.force_floor)
+        d = self.dimension
+        sym = (local_strain @ s.T).reshape(-1, d, d)
+        # Geometry: branches shorten by the symmetric strain and the centre's move (approach
+        # minus the spin part); volumes shrink by the volumetric strain (compression +).
+        translation = approach - np.einsum("eij,emj->emi", (spin @ w.T).reshape(-1, d, d),
+                                           st.branches)
+        st.branches = np.where(st.mask[..., None], st.branches - translation, 0.0)
+        st.volumes = st.volumes * (1.0 - np.trace(sym, axis1=1, axis2=2))
+        st.contacts = new_contacts
+        st.strain = st.strain + d_eps
+        st.residual_stress = self._voigt(np.einsum("emi,emj->ij", residual, st.branches)
+                                         / (2.0 * self.volume))
+        self._cache = None
+
+    def descriptors(self) -> dict[str, Any]:
+        """Counts of sliding, open and bonded contacts, coordination, mobilisation, D."""
+        st = self.state
+        c = st.contacts
+        active = st.mask
+        n_contacts = int(active.sum())
+        mu = self.law.friction_coefficient
+        shear = np.linalg.norm(c.shear_force, axis=2)
+        limit = mu * np.maximum(c.normal_force, 0.0)
+        mobilised = np.divide(shear, limit, out=np.zeros_like(shear), where=limit > 0)
+        open_ = active & (c.normal_force <= 0) & ~c.bonded
+        info = self._distribution()
+        eig = np.linalg.eigvalsh(info["tangent"])
+        return {
+            "n_sliding": int((c.sliding & active).sum()),
+            "n_open": int(open_.sum()),
+            "n_bonded": int((c.bonded & active).sum()),
+            "sliding_fraction": float((c.sliding & active).sum() / max(n_contacts, 1)),
+            "mean_mobilisation": float(mobilised[active & ~open_].mean()) if n_contacts else 0.0,
+            "coordination_number": float((active & ~open_).sum() / st.volumes.size),
+            "void_ratio": self.volume / self.structure.solid_volume() - 1.0,
+            "min_eigenvalue_tangent": float(eig[0]),
+            "series_last_term": float(info["series_last_term"]),
+        }
+
+    def describe(self) -> dict[str, Any]:
+        """The specimen as plain data for metadata."""
+        s = self.structure
+        return {
+            "kind": "micro-element model (seed 001)",
+            "structure": s.name,
+            "structure_description": s.description,
+            "n_micro_elements": s.n_elements,
+            "coordination_number": s.coordination_number,
+            "void_ratio": s.void_ratio(),
+            "dimension": s.dimension,
+            "distribution": self.distribution,
+            "non_affine": self.non_affine,
+            "spin": self.spin,
+            "series_order": self.series_order,
+            "contact_law": self.law.describe(),
+        }
+
+    # -- preparation --------------------------------------------------------------------------
+    def consolidate_isotropically(
+        self, pressure: float, steps: int = 10, tolerance: float = 1e-9,
+        max_iterations: int = 50,
+    ) -> None:
+        """Load from zero force to the isotropic stress ``pressure`` [Pa]: every stress
+        component controlled, equilibrium iterated at each of ``steps`` equal increments;
+        then the cumulative strain is reset to zero (strains of a test count from here).
+
+        Raises
+        ------
+        ConvergenceError
+            The structure cannot carry the isotropic stress (e.g. too few contacts).
+        """
+        if not pressure > 0:
+            raise InputError("pressure", pressure, "a positive isotropic stress in Pa")
+        k = 6 if self.dimension == 3 else 3
+        unit = np.zeros(k)
+        unit[: self.dimension] = 1.0
+        mean_radius = float(np.mean(self.structure.centre_radii))
+        area = mean_radius**2 if self.dimension == 3 else mean_radius
+        self.force_floor = 1e-3 * pressure * area if self.law.hertzian else 0.0
+        self._cache = None
+        try:
+            for step in range(1, steps + 1):
+                self.solve_stress(unit * pressure * step / steps, tolerance, max_iterations)
+                self.force_floor = 0.0 if step >= 1 and not self.law.hertzian else (
+                    self.force_floor)
+        finally:
+            self.force_floor = 0.0
+            self._cache = None
+        self.state.strain = np.zeros(k)
+
+    def solve_stress(self, target: np.ndarray, tolerance: float = 1e-9,
+                     max_iterations: int = 50) -> int:
+        """Strain the specimen until its Voigt stress equals ``target`` [Pa] (all components
+        stress-controlled, Newton iterations with the tangent); returns the iterations."""
+        target = np.asarray(target, dtype=float)
+        scale = max(float(np.linalg.norm(target)), 1e-300)
+        for iteration in range(max_iterations):
+            residual = target - self.stress()
+            if np.linalg.norm(residual) <= tolerance * scale:
+                return iteration
+            tangent = self.tangent()
+            try:
+                step = np.linalg.solve(tangent, residual)
+            except np.linalg.LinAlgError:
+                step = np.linalg.lstsq(tangent, residual, rcond=None)[0]
+            self.apply_strain(step)
+        raise ConvergenceError(
+            f"No equilibrium with the stress {np.round(target, 6).tolist()} Pa after "
+            f"{max_iterations} iterations (residual "
+            f"{np.linalg.norm(target - self.stress()) / scale:.2e} of the stress): the structure "
+            "cannot carry it."
+        )
