@@ -219,7 +219,7 @@ class SpringContactLaw:
     def initial_state(self, shape: tuple[int, ...], dimension: int) -> SpringState:
         """Contacts just touching, no force (bonded if the law is cemented)."""
         zeros = np.zeros(shape)
-        return SpringState(zeros, zeros.copy(), np.zeros(shape + (dimension,)),
+        return SpringState(zeros, zeros.copy(), np.zeros((*shape, dimension)),
                            np.zeros(shape, bool), np.full(shape, self.cemented))
 
     def update(
@@ -256,8 +256,9 @@ class SpringContactLaw:
         mu = self.friction_coefficient
         bonded = state.bonded.copy()
         if self.cemented:
+            shear_strength = self.bond_shear_strength + mu * np.maximum(normal, 0)
             broken = bonded & ((normal < -self.bond_tensile_strength)
-                               | (magnitude > self.bond_shear_strength + mu * np.maximum(normal, 0)))
+                               | (magnitude > shear_strength))
             bonded &= ~broken
             normal = np.where(~bonded & (approach <= 0.0), 0.0, normal)
         limit = np.where(bonded, self.bond_shear_strength + mu * np.maximum(normal, 0.0),

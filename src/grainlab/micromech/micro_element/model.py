@@ -14,14 +14,16 @@ to M contacts in d dimensions):
   ``non_affine=False`` use the uniform strain (T = 0);
 * micro-element stress sigma^n = (1/(2 V^n)) sum_m f (x) L (eq. 2.16; each contact belongs to
   two micro-elements), stiffness C^n (eq. 2.18) as a (d^2 x d^2) matrix on the full tensors;
-* no couple stress (seed 001 §2.4.1): the particle spin (the skew part of the strain) is
-  chosen so that the stress is symmetric. With ``spin="micro-element"`` (default) each
-  micro-element balances its own moment (its particles share one rotation, eq. 2.9), which
-  condenses to a symmetric Voigt stiffness C^n (6 x 6 or 3 x 3, engineering shears) per
-  micro-element; with ``spin="uniform"`` every micro-element takes the same (overall) spin,
-  found from the zero skew part of the overall stress — the uniform-strain hypothesis of
-  seed 001 §4.1, used for binary units, whose single contact would otherwise lose all its shear
-  stiffness to a free spin (``uniform`` requires the homogeneous distribution);
+* particle spin (the skew part of the strain, eq. 2.9): with ``spin="none"`` (default) the
+  particles turn with the micro-element (no skew strain; the strain is the symmetric Cauchy
+  strain of eq. 2.10) and the skew part of the stress, a measure of moment imbalance, is only
+  reported. ``spin="micro-element"`` lets each micro-element's particles take the one rotation
+  that makes its stress increment symmetric (no couple stress, §2.4.1), condensed into a
+  symmetric Voigt stiffness C^n per micro-element; this holds for the linearised increment
+  (sliding contacts can leave a moment imbalance, reported). ``spin="uniform"`` gives every
+  micro-element the same spin, from the overall skew stress (needs the homogeneous
+  distribution). A binary unit must not use "micro-element": its single contact would lose all
+  shear stiffness to a free spin (nu = 1/4 instead of eq. 4.1);
 * representative unit (eqs. 2.20–2.35): C_bar = sum (V^n/V) C^n; the distributive law of
   strain G^n, homogeneous (eq. 2.30: every micro-element takes the overall strain) or
   Maxwellian in stiffness space (eqs. 2.32–2.35: v^n = C_bar^-1 (C^n - C_bar),
@@ -103,6 +105,11 @@ class MicroElementModel:
         Terms of the Exp series (eq. 2.35); the last term's relative size is checked.
     series_tolerance:
         Largest relative size of the last series term before a :class:`ConvergenceError`.
+    spin:
+        Particle spin balanced per ``"micro-element"`` or ``"uniform"`` (module docstring).
+    update_geometry:
+        Update branch vectors and volumes after every increment (large strain); ``False``
+        keeps the initial geometry (small-strain theory).
     """
 
     def __init__(
@@ -113,16 +120,18 @@ class MicroElementModel:
         non_affine: bool = True,
         series_order: int = 30,
         series_tolerance: float = 1e-8,
-        spin: str = "micro-element",
+        spin: str = "none",
+        update_geometry: bool = True,
     ) -> None:
         if distribution not in DISTRIBUTIONS:
             raise InputError("distribution", distribution, " or ".join(DISTRIBUTIONS))
-        if spin not in ("micro-element", "uniform"):
-            raise InputError("spin", spin, "'micro-element' or 'uniform'")
+        if spin not in ("none", "micro-element", "uniform"):
+            raise InputError("spin", spin, "'none', 'micro-element' or 'uniform'")
         if spin == "uniform" and distribution != "homogeneous":
             raise InputError("spin", spin, "'micro-element' with the Maxwellian distribution "
                              "(a uniform spin needs the homogeneous distribution)")
         self.spin = spin
+        self.update_geometry = bool(update_geometry)
         if not (1 <= int(series_order) <= 40):
             raise InputError("series_order", series_order, "an integer in [1, 40]")
         self.structure = structure
@@ -200,7 +209,9 @@ class MicroElementModel:
         c_sw = s_dual @ c_full @ w
         c_ws = w_dual @ c_full @ s
         c_ww = w_dual @ c_full @ w
-        if self.spin == "micro-element":
+        if self.spin == "none":
+            spin = np.zeros_like(c_ws)
+        elif self.spin == "micro-element":
             spin = -_pinv_batch(c_ww) @ c_ws  # skew strain per unit symmetric strain
         else:  # one spin for all, from the volume-averaged (homogeneous) stiffness
             weights = st.volumes / st.volumes.sum()
@@ -208,7 +219,8 @@ class MicroElementModel:
                 np.einsum("e,eab->ab", weights, c_ws))
             spin = np.broadcast_to(spin_all, c_ws.shape).copy()
         c_local = c_ss + c_sw @ spin
-        self._cache = {"k": k, "kn": kn, "kr": kr, "p": p, "spin": spin, "c_local": c_local}
+        self._cache = {"k": k, "kn": kn, "kr": kr, "p": p, "spin": spin, "c_local": c_local,
+                       "c_ww": c_ww}
         return self._cache
 
     def _distribution(self) -> dict[str, Any]:
@@ -299,8 +311,9 @@ class MicroElementModel:
         # minus the spin part); volumes shrink by the volumetric strain (compression +).
         translation = approach - np.einsum("eij,emj->emi", (spin @ w.T).reshape(-1, d, d),
                                            st.branches)
-        st.branches = np.where(st.mask[..., None], st.branches - translation, 0.0)
-        st.volumes = st.volumes * (1.0 - np.trace(sym, axis1=1, axis2=2))
+        if self.update_geometry:
+            st.branches = np.where(st.mask[..., None], st.branches - translation, 0.0)
+            st.volumes = st.volumes * (1.0 - np.trace(sym, axis1=1, axis2=2))
         st.contacts = new_contacts
         st.strain = st.strain + d_eps
         st.residual_stress = self._voigt(np.einsum("emi,emj->ij", residual, st.branches)
@@ -330,7 +343,13 @@ class MicroElementModel:
             "void_ratio": self.volume / self.structure.solid_volume() - 1.0,
             "min_eigenvalue_tangent": float(eig[0]),
             "series_last_term": float(info["series_last_term"]),
+            "stress_asymmetry": self._asymmetry(),
         }
+
+    def _asymmetry(self) -> float:
+        """|skew part| / |stress| of the overall stress tensor [-]."""
+        t = self.stress_tensor()
+        return float(np.linalg.norm(t - t.T) / 2 / max(np.linalg.norm(t), 1e-300))
 
     def describe(self) -> dict[str, Any]:
         """The specimen as plain data for metadata."""
@@ -346,6 +365,7 @@ class MicroElementModel:
             "distribution": self.distribution,
             "non_affine": self.non_affine,
             "spin": self.spin,
+            "update_geometry": self.update_geometry,
             "series_order": self.series_order,
             "contact_law": self.law.describe(),
         }

@@ -1,0 +1,443 @@
+"""The element-test driver: run a :class:`~grainlab.lab.load_path.LoadPath` on a specimen.
+
+Every element test is one mixed stress/strain control (STYLE.md 9; MercuryDPM's
+StressStrainControlBoundary, YADE's stress mask). For each step of a stage the driver
+
+1. expresses the specimen's tangent D (Voigt, engineering shears) in the stage's control
+   frame, ``D* = B D B^T`` with ``B = Q T_sigma(R)`` (:func:`stress_rotation`; the strain
+   transforms with ``B^-T = Q T_eps(R)``, :func:`strain_rotation`), so that c = B sigma and
+   e = B^-T eps are work-conjugate;
+2. solves the mixed system for the unknown strain increments: with E the strain-controlled
+   and S the stress-controlled components,
+   ``D*_SS de_S = (target_S - c_S) - D*_SE de_E`` where ``c_S`` is the current generalised
+   stress (so the error left by the previous step is carried into this one);
+3. applies ``deps = B^T de`` (lab frame), then *iterates* on S: the stress error
+   ``r_S = target_S - c_S`` after the step is removed by corrections ``D*_SS de_S = r_S``
+   (de_E = 0) until ``|r| <= tolerance max(|sigma|, |target_S|) + absolute_tolerance``, at most
+   ``max_iterations`` times. The count is recorded per step (``iterations``, ``converged``,
+   ``stress_error``) and summed in the outcome; a step left unconverged is never silent.
+
+Sub-stepping. A specimen cannot undo an increment, so steps are cut *before* they are applied:
+a step is applied in pieces of a fraction h of it, each predicted with the tangent at its
+start. When the tangent missed a piece's stress change by more than ``substep_threshold``
+(relative to the predicted change |D* de|), h is halved for the following pieces (at most
+``max_halvings`` times, h >= 2^-max_halvings); h doubles back after an accurate piece. When a
+correction makes the error grow, the next correction is halved (same limit).
+
+Failure. The test ends with ``outcome["status"] = "failure"`` when the stress-controlled block
+D*_SS is singular or not positive definite (min eigenvalue of its symmetric part <=
+``singular_tolerance`` x the largest |diagonal entry| of D*: the strength is reached, halving
+cannot help because the tangent is that of the current state), when the error keeps growing
+after ``max_halvings`` halvings, or when ``max_iterations`` corrections did not reduce it.
+Otherwise ``"completed"``. A step that changed the specimen before the failure is recorded.
+
+One row per step (plus row 0, stage ``"initial"``): ``increment`` (global), ``stage``,
+``step`` (within the stage), the lab-frame stresses ``sigma_xx``... and strains
+``eps_xx``... ``gamma_xy`` (names of :mod:`grainlab.lab.columns`), ``sigma_1`` >= ``sigma_2``
+(3D) >= ``sigma_3``, ``p`` (trace/3 in 3D, trace/2 in 2D), ``q`` = sigma_1 - sigma_3,
+``q_over_3``, ``stress_ratio`` = sigma_1/sigma_3 (NaN unless sigma_3 > 0), ``b`` (3D) =
+(sigma_2 - sigma_3)/(sigma_1 - sigma_3) (NaN at isotropic states), ``eps_vol`` (trace),
+``frame_angle`` [rad], ``sub_steps``, ``iterations``, ``stress_error`` (relative), ``converged``,
+then ``specimen.descriptors()``.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from grainlab.errors import GrainlabWarning, InputError
+from grainlab.lab.load_path import LoadPath, LoadStage
+from grainlab.lab.specimen import ElementSpecimen, voigt_labels, voigt_to_tensor
+from grainlab.lab.test_result import TestResult
+
+_PAIRS = {
+    3: ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)),
+    2: ((0, 0), (1, 1), (0, 1)),
+}
+"""Voigt index -> tensor index pair (same order as :mod:`grainlab.lab.specimen`)."""
+
+EXTRA_UNITS = {
+    "step": "-", "b": "-", "frame_angle": "rad", "sub_steps": "-", "iterations": "-",
+    "stress_error": "-", "converged": "-",
+}
+"""Units of the driver's columns that :mod:`grainlab.lab.columns` does not list."""
+
+_UNCONVERGED_LISTED = 50
+
+
+def stress_rotation(rotation: np.ndarray) -> np.ndarray:
+    """Voigt matrix T_sigma (n, n) with sigma' = T_sigma sigma, the stress components in the
+    frame whose basis vectors are the columns of ``rotation`` R (sigma' = R^T sigma R).
+
+    For Voigt indices I = (i, j), J = (k, l):
+    T[I, J] = R_ki R_lj for k = l, and R_ki R_lj + R_li R_kj for k != l (sigma_kl = sigma_lk
+    both stand in sigma_J).
+
+    >>> c = np.cos(0.3); s = np.sin(0.3)
+    >>> T = stress_rotation(np.array([[c, -s], [s, c]]))
+    >>> bool(np.allclose(T[0], [c * c, s * s, 2 * c * s]))
+    True
+    """
+    r = np.asarray(rotation, dtype=float)
+    pairs = _PAIRS[r.shape[0]]
+    t = np.empty((len(pairs), len(pairs)))
+    for a, (i, j) in enumerate(pairs):
+        for b, (k, m) in enumerate(pairs):
+            t[a, b] = r[k, i] * r[m, j] + (r[m, i] * r[k, j] if k != m else 0.0)
+    return t
+
+
+def strain_rotation(rotation: np.ndarray) -> np.ndarray:
+    """Voigt matrix T_eps (n, n) with eps' = T_eps eps for strains with *engineering* shears
+    (gamma = 2 eps) in the frame of ``rotation`` R (eps' = R^T eps R).
+
+    T_eps[I, J] = w_I R_ki R_lj (k = l) or w_I (R_ki R_lj + R_li R_kj)/2 (k != l), with
+    w_I = 1 for normal and 2 for shear rows. It equals T_sigma^-T (work conjugacy:
+    sigma' . eps' = sigma . eps).
+    """
+    r = np.asarray(rotation, dtype=float)
+    pairs = _PAIRS[r.shape[0]]
+    t = np.empty((len(pairs), len(pairs)))
+    for a, (i, j) in enumerate(pairs):
+        weight = 1.0 if i == j else 2.0
+        for b, (k, m) in enumerate(pairs):
+            value = r[k, i] * r[m, j] if k == m else 0.5 * (r[k, i] * r[m, j] + r[m, i] * r[k, j])
+            t[a, b] = weight * value
+    return t
+
+
+def control_matrix(stage: LoadStage, step: float) -> np.ndarray:
+    """B = Q T_sigma(R) (n, n) of ``stage`` at the end of (fractional) ``step``.
+
+    The generalised stress is c = B sigma and the generalised strain e = B^-T eps with
+    B^-T = Q T_eps(R), so a lab strain increment is deps = B^T de.
+    """
+    return stage.basis @ stress_rotation(stage.rotation(step))
+
+
+# -- outcome ------------------------------------------------------------------------------------
+class _Failure(Exception):
+    """Internal: the step cannot be completed; ``applied`` says whether the specimen moved."""
+
+    def __init__(self, reason: str, applied: bool):
+        super().__init__(reason)
+        self.reason = reason
+        self.applied = applied
+
+
+@dataclass
+class _StepReport:
+    sub_steps: int = 0
+    iterations: int = 0
+    error: float = 0.0
+    converged: bool = True
+
+
+@dataclass
+class _Controller:
+    """Numerical settings and the adaptive piece size h (the driver's only state)."""
+
+    max_iterations: int
+    tolerance: float
+    absolute_tolerance: float
+    max_halvings: int
+    substep_threshold: float
+    singular_tolerance: float
+    piece: float = 1.0
+    totals: dict[str, int] = field(default_factory=lambda: {"halvings": 0})
+
+    @property
+    def smallest_piece(self) -> float:
+        return 2.0 ** (-self.max_halvings)
+
+    def check_block(self, d_star: np.ndarray, stress: np.ndarray) -> None:
+        """Raise _Failure(applied=False) when D*_SS is singular or not positive definite."""
+        if not stress.any():
+            return
+        if not np.all(np.isfinite(d_star)):
+            raise _Failure("the specimen's tangent is not finite", applied=False)
+        block = d_star[np.ix_(stress, stress)]
+        scale = float(np.max(np.abs(np.diag(d_star))))
+        lowest = float(np.min(np.linalg.eigvalsh(0.5 * (block + block.T))))
+        if scale <= 0.0 or lowest <= self.singular_tolerance * scale:
+            raise _Failure(
+                "strength reached: the stress-controlled block of the tangent is singular or "
+                f"not positive definite (smallest eigenvalue {lowest:.6g} Pa, "
+                f"largest diagonal stiffness {scale:.6g} Pa)", applied=False)
+
+    def allowed(self, sigma: np.ndarray, target: np.ndarray) -> float:
+        return (self.tolerance * max(float(np.linalg.norm(sigma)), float(np.linalg.norm(target)))
+                + self.absolute_tolerance)
+
+
+def _solve_mixed(d_star: np.ndarray, stress: np.ndarray, de_known: np.ndarray,
+                 dc_wanted: np.ndarray) -> np.ndarray:
+    """Generalised strain increment de (n,) with de_E = de_known_E and
+    (D* de)_S = dc_wanted_S."""
+    de = np.where(stress, 0.0, de_known)
+    if stress.any():
+        strain = ~stress
+        rhs = dc_wanted[stress] - d_star[np.ix_(stress, strain)] @ de[strain]
+        de[stress] = np.linalg.solve(d_star[np.ix_(stress, stress)], rhs)
+    return de
+
+
+def _advance(specimen: ElementSpecimen, stage: LoadStage, k: int, targets: np.ndarray,
+             de_step: np.ndarray, ctl: _Controller) -> _StepReport:
+    """Run step k of ``stage``; raise _Failure on failure."""
+    stress = stage.stress_controlled
+    report = _StepReport()
+    done = 0.0
+    while done < 1.0 - 1e-12:
+        h = min(ctl.piece, 1.0 - done) if stress.any() else 1.0 - done
+        end = done + h
+        b = control_matrix(stage, k - 1 + end)
+        target = targets[k - 1] + end * (targets[k] - targets[k - 1])
+        d_star = b @ specimen.tangent() @ b.T
+        try:
+            ctl.check_block(d_star, stress)
+        except _Failure as failure:
+            failure.applied = report.sub_steps > 0
+            raise
+        de = _solve_mixed(d_star, stress, h * de_step, target - b @ specimen.stress())
+        specimen.apply_strain(b.T @ de)
+        report.sub_steps += 1
+        done = end
+        if stress.any():
+            miss = float(np.linalg.norm((target - b @ specimen.stress())[stress]))
+            predicted = float(np.linalg.norm(d_star @ de))
+            if miss > ctl.substep_threshold * predicted + ctl.absolute_tolerance:
+                if ctl.piece > ctl.smallest_piece:
+                    ctl.piece /= 2.0
+                    ctl.totals["halvings"] += 1
+            elif miss < 0.25 * ctl.substep_threshold * predicted and ctl.piece < 1.0:
+                ctl.piece = min(1.0, 2.0 * ctl.piece)
+
+    b = control_matrix(stage, k)
+    target = targets[k]
+    residual = np.where(stress, target - b @ specimen.stress(), 0.0)
+    error = float(np.linalg.norm(residual))
+    first_error = error
+    damping = 1.0
+    while error > ctl.allowed(specimen.stress(), target[stress]) and \
+            report.iterations < ctl.max_iterations:
+        d_star = b @ specimen.tangent() @ b.T
+        try:
+            ctl.check_block(d_star, stress)
+        except _Failure as failure:
+            failure.applied = True
+            raise
+        de = _solve_mixed(d_star, stress, np.zeros_like(residual), damping * residual)
+        specimen.apply_strain(b.T @ de)
+        report.iterations += 1
+        residual = np.where(stress, target - b @ specimen.stress(), 0.0)
+        new_error = float(np.linalg.norm(residual))
+        if new_error >= error:
+            damping /= 2.0
+            ctl.totals["halvings"] += 1
+            if damping < ctl.smallest_piece:
+                raise _Failure(
+                    "the stress target cannot be reached: the stress error grows after "
+                    f"{ctl.max_halvings} halvings of the correction "
+                    f"(error {new_error:.6g} Pa)", applied=True)
+        error = new_error
+    scale = max(float(np.linalg.norm(specimen.stress())), float(np.linalg.norm(target[stress])))
+    report.error = error / scale if scale > 0.0 else error
+    report.converged = error <= ctl.allowed(specimen.stress(), target[stress])
+    if not report.converged and error >= first_error:
+        raise _Failure(
+            f"the stress target cannot be reached: {report.iterations} corrections did not "
+            f"reduce the stress error ({error:.6g} Pa)", applied=True)
+    return report
+
+
+# -- table rows ---------------------------------------------------------------------------------
+def _strain_column(label: str) -> str:
+    return ("eps_" if label[0] == label[1] else "gamma_") + label
+
+
+def state_row(specimen: ElementSpecimen) -> dict[str, Any]:
+    """Stress, strain and principal-stress columns of the specimen's current state.
+
+    >>> class Rest:
+    ...     dimension = 2
+    ...     def stress(self): return np.array([3.0, 1.0, 0.0])
+    ...     def strain(self): return np.zeros(3)
+    >>> row = state_row(Rest())
+    >>> row["sigma_1"], row["p"], row["stress_ratio"]
+    (3.0, 2.0, 3.0)
+    """
+    dim = specimen.dimension
+    sigma = np.asarray(specimen.stress(), dtype=float)
+    eps = np.asarray(specimen.strain(), dtype=float)
+    labels = voigt_labels(dim)
+    row: dict[str, Any] = {f"sigma_{c}": float(v) for c, v in zip(labels, sigma, strict=True)}
+    row.update({_strain_column(c): float(v) for c, v in zip(labels, eps, strict=True)})
+    principal = np.sort(np.linalg.eigvalsh(voigt_to_tensor(sigma, engineering_shear=False)))
+    s1, s3 = float(principal[-1]), float(principal[0])
+    row["sigma_1"] = s1
+    if dim == 3:
+        row["sigma_2"] = float(principal[1])
+    row["sigma_3"] = s3
+    row["p"] = float(np.sum(sigma[:dim])) / dim
+    q = s1 - s3
+    row["q"] = q
+    row["q_over_3"] = q / 3.0
+    row["stress_ratio"] = s1 / s3 if s3 > 0.0 else math.nan
+    if dim == 3:
+        isotropic = q <= 1e-9 * max(abs(s1), abs(s3))
+        row["b"] = math.nan if isotropic or q == 0.0 else (float(principal[1]) - s3) / q
+    row["eps_vol"] = float(np.sum(eps[:dim]))
+    return row
+
+
+def _record(specimen: ElementSpecimen, stage: str, step: int, increment: int, angle: float,
+            report: _StepReport) -> dict[str, Any]:
+    row: dict[str, Any] = {"increment": increment, "stage": stage, "step": step}
+    row.update(state_row(specimen))
+    row.update({"frame_angle": angle, "sub_steps": report.sub_steps,
+                "iterations": report.iterations, "stress_error": report.error,
+                "converged": report.converged})
+    for key, value in specimen.descriptors().items():
+        if key in row:
+            raise InputError("specimen.descriptors()", key,
+                             "a descriptor name not used by the driver's columns")
+        row[key] = value
+    return row
+
+
+# -- the driver ---------------------------------------------------------------------------------
+def run_element_test(
+    specimen: ElementSpecimen,
+    path: LoadPath,
+    progress: Callable[[int, int], None] | None = None,
+    *,
+    max_iterations: int = 10,
+    tolerance: float = 1e-6,
+    absolute_tolerance: float = 1e-9,
+    max_halvings: int = 6,
+    substep_threshold: float = 0.1,
+    singular_tolerance: float = 1e-9,
+) -> TestResult:
+    """Run the load path ``path`` on ``specimen`` and return the :class:`TestResult`.
+
+    Parameters
+    ----------
+    specimen:
+        Any :class:`~grainlab.lab.specimen.ElementSpecimen` of the path's dimension.
+    path:
+        The :class:`~grainlab.lab.load_path.LoadPath` (presets in
+        :mod:`grainlab.lab.load_path`).
+    progress:
+        Called as ``progress(steps_done, steps_total)`` after each step.
+    max_iterations:
+        Corrections per step at most [-].
+    tolerance:
+        Relative stress error accepted, times max(|sigma|, |target|) [-].
+    absolute_tolerance:
+        Stress error always accepted [Pa].
+    max_halvings:
+        Halvings of the piece size or of a correction at most [-].
+    substep_threshold:
+        Relative miss of the tangent's prediction that halves the next piece [-].
+    singular_tolerance:
+        Relative eigenvalue under which D*_SS counts as singular [-].
+
+    Returns
+    -------
+    TestResult
+        Table as in the module docstring; ``metadata["outcome"]`` holds ``status``
+        (``"completed"``/``"failure"``), for a failure ``reason``, ``stage``, ``step`` (within
+        the stage) and ``increment``, and always ``steps_completed``, ``iterations_total``,
+        ``iterations_max``, ``sub_steps_total``, ``halvings``, ``unconverged_steps``,
+        ``unconverged_increments`` (first 50) and ``stopped`` (stop criteria that ended a stage
+        or the test).
+    """
+    if not isinstance(path, LoadPath):
+        raise InputError("path", path, "a LoadPath (see grainlab.lab.load_path presets)")
+    if specimen.dimension != path.dimension:
+        raise InputError("path.dimension", path.dimension,
+                         f"the specimen's dimension {specimen.dimension}")
+    for name, value in (("max_iterations", max_iterations), ("max_halvings", max_halvings)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise InputError(name, value, "an integer >= 0")
+    for name, value in (("tolerance", tolerance), ("absolute_tolerance", absolute_tolerance),
+                        ("substep_threshold", substep_threshold),
+                        ("singular_tolerance", singular_tolerance)):
+        if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0.0):
+            raise InputError(name, value, "a finite number >= 0")
+    ctl = _Controller(max_iterations, float(tolerance), float(absolute_tolerance),
+                      max_halvings, float(substep_threshold), float(singular_tolerance))
+    rows = [_record(specimen, "initial", 0, 0, 0.0, _StepReport())]
+    outcome: dict[str, Any] = {"status": "completed"}
+    stopped: list[dict[str, Any]] = []
+    unconverged: list[int] = []
+    iterations = [0]
+    sub_steps = 0
+    increment = 0
+    total = path.n_steps
+    ended = False
+    for stage in path.stages:
+        start = control_matrix(stage, 0.0) @ specimen.stress()
+        targets = stage.stress_targets(start)
+        de_step = stage.strain_increment()
+        for k in range(1, stage.n_steps + 1):
+            increment += 1
+            try:
+                report = _advance(specimen, stage, k, targets, de_step, ctl)
+            except _Failure as failure:
+                if failure.applied:
+                    report = _StepReport(converged=False, error=math.nan)
+                    rows.append(_record(specimen, stage.name, k, increment,
+                                        stage.frame_angle(k), report))
+                outcome = {"status": "failure", "reason": failure.reason,
+                           "stage": stage.name, "step": k, "increment": increment}
+                ended = True
+                break
+            iterations.append(report.iterations)
+            sub_steps += report.sub_steps
+            if not report.converged:
+                unconverged.append(increment)
+            row = _record(specimen, stage.name, k, increment, stage.frame_angle(k), report)
+            rows.append(row)
+            if progress is not None:
+                progress(increment, total)
+            hit = next((c for c in stage.stop if c.met(row)), None)
+            if hit is not None:
+                stopped.append({"stage": stage.name, "increment": increment,
+                                "criterion": hit.to_dict()})
+                ended = hit.ends == "test"
+                break
+        if ended:
+            break
+    outcome.update({
+        "steps_completed": len(rows) - 1,
+        "iterations_total": int(sum(iterations)),
+        "iterations_max": int(max(iterations)),
+        "sub_steps_total": sub_steps,
+        "halvings": ctl.totals["halvings"],
+        "unconverged_steps": len(unconverged),
+        "unconverged_increments": unconverged[:_UNCONVERGED_LISTED],
+        "stopped": stopped,
+    })
+    if unconverged:
+        warnings.warn(
+            f"{len(unconverged)} step(s) of {path.name!r} ended with a stress error above the "
+            f"tolerance after {max_iterations} corrections (increments "
+            f"{unconverged[:5]}...); see the 'converged' and 'stress_error' columns",
+            GrainlabWarning, stacklevel=2)
+    parameters = {"max_iterations": max_iterations, "tolerance": tolerance,
+                  "absolute_tolerance": absolute_tolerance, "max_halvings": max_halvings,
+                  "substep_threshold": substep_threshold,
+                  "singular_tolerance": singular_tolerance}
+    return TestResult.create(
+        pd.DataFrame(rows), specimen=specimen.describe(), load_path=path.to_dict(),
+        parameters=parameters, outcome=outcome, units=EXTRA_UNITS,
+        dimension=path.dimension, title=path.name)
