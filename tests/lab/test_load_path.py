@@ -11,6 +11,7 @@ import pytest
 
 from grainlab.errors import InputError
 from grainlab.lab import load_path as lp
+from grainlab.lab import presets
 from grainlab.lab.element_test import run_element_test
 from grainlab.lab.load_path import LoadPath, LoadStage, StopCriterion
 
@@ -105,23 +106,23 @@ def test_stage_validation_names_the_field(changes, field):
 
 def test_path_validation():
     stage2 = LoadStage("s", 1, 2, ("strain",) * 3, (0.0,) * 3)
-    with pytest.raises(InputError, match="path.stages\\[0\\].dimension"):
+    with pytest.raises(InputError, match=r"path.stages\[0\].dimension"):
         LoadPath("p", 3, (stage2,))
-    with pytest.raises(InputError, match="path.stages"):
+    with pytest.raises(InputError, match=r"path\.stages"):
         LoadPath("p", 2, ())
-    with pytest.raises(InputError, match="path.dimension"):
+    with pytest.raises(InputError, match=r"path\.dimension"):
         LoadPath("p", 1, (stage2,))
 
 
 def test_stop_criterion_validation_and_use():
-    with pytest.raises(InputError, match="stop.when"):
+    with pytest.raises(InputError, match=r"stop\.when"):
         StopCriterion("q", 1.0, when="over")
-    with pytest.raises(InputError, match="stop.ends"):
+    with pytest.raises(InputError, match=r"stop\.ends"):
         StopCriterion("q", 1.0, ends="run")
     crit = StopCriterion("eps_zz", 0.01, when="above", absolute=True)
     assert crit.met({"eps_zz": -0.02}) and not crit.met({"eps_zz": 0.001})
     assert StopCriterion("q", 5.0, when="below").met({"q": 4.0})
-    with pytest.raises(InputError, match="stop.quantity"):
+    with pytest.raises(InputError, match=r"stop\.quantity"):
         crit.met({"q": 1.0})
 
 
@@ -164,14 +165,14 @@ PRESET_ARGUMENTS = {
 
 
 def test_registry_lists_every_preset_with_a_description():
-    assert set(lp.preset_names()) == set(PRESET_ARGUMENTS)
-    for name in lp.preset_names():
-        assert lp.preset_description(name)
+    assert set(presets.preset_names()) == set(PRESET_ARGUMENTS)
+    for name in presets.preset_names():
+        assert presets.preset_description(name)
 
 
 @pytest.mark.parametrize("name", sorted(PRESET_ARGUMENTS))
 def test_presets_round_trip_as_plain_data(name):
-    path = lp.preset(name, **PRESET_ARGUMENTS[name])
+    path = presets.preset(name, **PRESET_ARGUMENTS[name])
     data = json.loads(json.dumps(path.to_dict()))
     assert LoadPath.from_dict(data) == path
     assert path.n_steps == sum(s["n_steps"] for s in data["stages"])
@@ -179,24 +180,24 @@ def test_presets_round_trip_as_plain_data(name):
 
 def test_registry_rejects_unknown_names_and_parameters():
     with pytest.raises(InputError, match="preset"):
-        lp.preset("triaxial")
+        presets.preset("triaxial")
     with pytest.raises(InputError, match="oedometer: strain_finale"):
-        lp.preset("oedometer", strain_finale=0.1, n_steps=3)
+        presets.preset("oedometer", strain_finale=0.1, n_steps=3)
     with pytest.raises(InputError, match="also n_steps"):
-        lp.preset("oedometer", strain_final=0.1)
+        presets.preset("oedometer", strain_final=0.1)
 
 
 @pytest.mark.parametrize(("call", "field"), [
-    (lambda: lp.oedometer(strain_final=-0.1, n_steps=3), "strain_final"),
-    (lambda: lp.oedometer(strain_final=0.1, n_steps=3, unload_to_stress=1.0,
+    (lambda: presets.oedometer(strain_final=-0.1, n_steps=3), "strain_final"),
+    (lambda: presets.oedometer(strain_final=0.1, n_steps=3, unload_to_stress=1.0,
                           unload_strain=0.01), "unload_strain"),
-    (lambda: lp.true_triaxial(p=1e5, b=1.5, strain=0.01, n_steps=3), "b"),
-    (lambda: lp.true_triaxial(p=1e5, b=0.5, n_steps=3), "strain"),
-    (lambda: lp.simple_shear(gamma_final=0.1, n_steps=3, vertical_stress=1e5,
+    (lambda: presets.true_triaxial(p=1e5, b=1.5, strain=0.01, n_steps=3), "b"),
+    (lambda: presets.true_triaxial(p=1e5, b=0.5, n_steps=3), "strain"),
+    (lambda: presets.simple_shear(gamma_final=0.1, n_steps=3, vertical_stress=1e5,
                              constant="volume"), "constant"),
-    (lambda: lp.triaxial_compression(confining=1e5, axial_strain=0.1, n_steps=3,
+    (lambda: presets.triaxial_compression(confining=1e5, axial_strain=0.1, n_steps=3,
                                      drained="yes"), "drained"),
-    (lambda: lp.isotropic_compression(p_final=1e5, n_steps=3, dimension=1), "dimension"),
+    (lambda: presets.isotropic_compression(p_final=1e5, n_steps=3, dimension=1), "dimension"),
 ])
 def test_preset_validation(call, field):
     with pytest.raises(InputError) as info:
@@ -206,7 +207,7 @@ def test_preset_validation(call, field):
 
 def test_true_triaxial_direction_keeps_p_and_b():
     for b in (0.0, 0.25, 0.5, 1.0):
-        nx, ny, nz = lp.true_triaxial_direction(b)
+        nx, ny, nz = presets.true_triaxial_direction(b)
         assert abs(nx + ny + nz) < 1e-15
         assert math.isclose((nx - ny), b * (nz - ny), abs_tol=1e-15)
 
@@ -214,7 +215,7 @@ def test_true_triaxial_direction_keeps_p_and_b():
 # -- closed-form elastic answers ----------------------------------------------------------------
 @pytest.mark.parametrize("dimension", [2, 3])
 def test_isotropic_compression(dimension):
-    result = run(lp.isotropic_compression(p_final=2e5, n_steps=4, dimension=dimension),
+    result = run(presets.isotropic_compression(p_final=2e5, n_steps=4, dimension=dimension),
                  dimension)
     last = result.table.iloc[-1]
     bulk = K if dimension == 3 else LAMBDA + G  # plane-strain in-plane bulk modulus
@@ -225,7 +226,7 @@ def test_isotropic_compression(dimension):
 
 @pytest.mark.parametrize("dimension", [2, 3])
 def test_oedometer_k0_and_unloading(dimension):
-    result = run(lp.oedometer(strain_final=0.01, n_steps=5, unload_to_stress=1e5,
+    result = run(presets.oedometer(strain_final=0.01, n_steps=5, unload_to_stress=1e5,
                               dimension=dimension), dimension)
     v, h = ("sigma_zz", "sigma_xx") if dimension == 3 else ("sigma_yy", "sigma_xx")
     loading = stage_rows(result, "loading")
@@ -240,13 +241,13 @@ def test_oedometer_k0_and_unloading(dimension):
 
 
 def test_oedometer_unload_by_strain():
-    result = run(lp.oedometer(strain_final=0.01, n_steps=4, unload_strain=0.004))
+    result = run(presets.oedometer(strain_final=0.01, n_steps=4, unload_strain=0.004))
     assert math.isclose(result.table["eps_zz"].iloc[-1], 0.006, rel_tol=1e-12)
 
 
 @pytest.mark.parametrize("drained", [True, False])
 def test_triaxial_compression(drained):
-    result = run(lp.triaxial_compression(confining=1e5, axial_strain=0.01, n_steps=5,
+    result = run(presets.triaxial_compression(confining=1e5, axial_strain=0.01, n_steps=5,
                                          drained=drained))
     shear = stage_rows(result, "shear")
     start = stage_rows(result, "consolidation").iloc[-1]
@@ -263,7 +264,7 @@ def test_triaxial_compression(drained):
 
 
 def test_triaxial_extension():
-    result = run(lp.triaxial_extension(confining=1e5, axial_strain=0.001, n_steps=5,
+    result = run(presets.triaxial_extension(confining=1e5, axial_strain=0.001, n_steps=5,
                                        consolidation_steps=3))
     shear = stage_rows(result, "shear")
     d_axial = shear["eps_zz"] - stage_rows(result, "consolidation")["eps_zz"].iloc[-1]
@@ -275,13 +276,13 @@ def test_triaxial_extension():
 
 @pytest.mark.parametrize("b", [0.0, 0.3, 0.75, 1.0])
 def test_true_triaxial_keeps_p_and_b(b):
-    result = run(lp.true_triaxial(p=1e5, b=b, strain=0.002, n_steps=6))
+    result = run(presets.true_triaxial(p=1e5, b=b, strain=0.002, n_steps=6))
     shear = stage_rows(result, "shear")
     assert np.allclose(shear["p"], 1e5, rtol=1e-9)
     assert np.allclose(shear["b"], b, atol=1e-9)
     assert np.allclose(shear[["sigma_yz", "sigma_xz", "sigma_xy"]], 0.0, atol=1e-6)
     # deviatoric stress 2G times the conjugate deviatoric strain along n_d
-    n_d = lp.true_triaxial_direction(b)
+    n_d = presets.true_triaxial_direction(b)
     strain_d = shear[["eps_xx", "eps_yy", "eps_zz"]].to_numpy() @ n_d
     stress_d = shear[["sigma_xx", "sigma_yy", "sigma_zz"]].to_numpy() @ n_d
     assert np.allclose(stress_d, 2 * G * strain_d, rtol=1e-9)
@@ -293,7 +294,7 @@ def test_true_triaxial_keeps_p_and_b(b):
 
 
 def test_true_triaxial_to_q_final():
-    result = run(lp.true_triaxial(p=1e5, b=0.4, q_final=6e4, n_steps=4))
+    result = run(presets.true_triaxial(p=1e5, b=0.4, q_final=6e4, n_steps=4))
     last = result.table.iloc[-1]
     assert math.isclose(last["q"], 6e4, rel_tol=1e-9)
     assert math.isclose(last["b"], 0.4, rel_tol=1e-9)
@@ -302,7 +303,7 @@ def test_true_triaxial_to_q_final():
 
 def test_circular_octahedral_path():
     p, q = 1e5, 4e4
-    result = run(lp.circular_octahedral(p=p, radius_q=q, n_steps=24, alpha0=0.2))
+    result = run(presets.circular_octahedral(p=p, radius_q=q, n_steps=24, alpha0=0.2))
     circle = stage_rows(result, "circle")
     s = circle[["sigma_xx", "sigma_yy", "sigma_zz"]].to_numpy()
     deviator = s - s.mean(axis=1, keepdims=True)
@@ -323,7 +324,7 @@ def test_circular_octahedral_path():
 @pytest.mark.parametrize("dimension", [2, 3])
 @pytest.mark.parametrize("constant", ["vertical_stress", "height"])
 def test_simple_shear(dimension, constant):
-    result = run(lp.simple_shear(gamma_final=0.004, n_steps=4, vertical_stress=1e5,
+    result = run(presets.simple_shear(gamma_final=0.004, n_steps=4, vertical_stress=1e5,
                                  k0_consolidation_steps=5, constant=constant,
                                  dimension=dimension), dimension)
     shear_c, v = ("xz", "zz") if dimension == 3 else ("xy", "yy")
@@ -337,7 +338,7 @@ def test_simple_shear(dimension, constant):
 
 
 def test_biaxial():
-    result = run(lp.biaxial(confining=1e5, strain=0.002, n_steps=4), 2)
+    result = run(presets.biaxial(confining=1e5, strain=0.002, n_steps=4), 2)
     shear = stage_rows(result, "shear")
     start = stage_rows(result, "consolidation").iloc[-1]
     d_v = shear["eps_yy"] - start["eps_yy"]
@@ -347,8 +348,9 @@ def test_biaxial():
 
 @pytest.mark.parametrize("dimension", [2, 3])
 def test_cyclic_shear(dimension):
-    path = lp.cyclic_shear(amplitude=1e-3, n_cycles=2, steps_per_quarter=3, dimension=dimension,
-                           vertical_stress=1e5, k0_consolidation_steps=2)
+    path = presets.cyclic_shear(amplitude=1e-3, n_cycles=2, steps_per_quarter=3,
+                                dimension=dimension, vertical_stress=1e5,
+                                k0_consolidation_steps=2)
     result = run(path, dimension)
     c = "xz" if dimension == 3 else "xy"
     cycles = result.table[result.table["stage"].str.startswith("cycle_")]
