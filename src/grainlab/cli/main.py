@@ -9,7 +9,7 @@ import typer
 from rich.console import Console
 
 from grainlab._version import __version__
-from grainlab.cli import analyse, packing2d
+from grainlab.cli import analyse, microelement, packing2d
 from grainlab.cli.errors import friendly_errors
 
 app = typer.Typer(
@@ -25,6 +25,7 @@ app = typer.Typer(
 )
 app.add_typer(packing2d.app, name="packing2d")
 app.command("analyse")(analyse.analyse_command)
+app.add_typer(microelement.app, name="microelement")
 console = Console()
 
 

@@ -357,7 +357,7 @@ def run_element_test(
     progress: Callable[[int, int], None] | None = None,
     *,
     max_iterations: int = 10,
-    tolerance: float = 1e-6,
+    tolerance: float = 1e-4,
     absolute_tolerance: float = 1e-9,
     max_halvings: int = 6,
     substep_threshold: float = 0.5,

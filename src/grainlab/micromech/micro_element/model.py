@@ -44,6 +44,7 @@ import numpy as np
 
 from grainlab.contact.spring_contact import SpringContactLaw, SpringState, force_vectors
 from grainlab.errors import ConvergenceError, InputError
+from grainlab.micromech.micro_element.kernels import local_stiffness_kernel
 from grainlab.micromech.micro_element.structure import MicroElementStructure
 from grainlab.micromech.micro_element.tensor_basis import bases
 
@@ -163,14 +164,23 @@ class MicroElementModel:
         )
         self.force_floor = 0.0
         self._cache: dict[str, Any] | None = None
+        self._derived: dict[str, np.ndarray] = {}
+
+    def _invalidate(self) -> None:
+        """Forget everything derived from the state (after the state changed)."""
+        self._cache = None
+        self._derived = {}
 
     # -- geometry -----------------------------------------------------------------------------
     @property
     def normals(self) -> np.ndarray:
         """(E, M, d) current unit contact normals (zero on padding)."""
-        b = self.state.branches
-        length = np.linalg.norm(b, axis=2, keepdims=True)
-        return np.divide(b, length, out=np.zeros_like(b), where=length > 0)
+        if "normals" not in self._derived:
+            b = self.state.branches
+            length = np.linalg.norm(b, axis=2, keepdims=True)
+            self._derived["normals"] = np.divide(b, length, out=np.zeros_like(b),
+                                                 where=length > 0)
+        return self._derived["normals"]
 
     @property
     def volume(self) -> float:
@@ -184,34 +194,18 @@ class MicroElementModel:
             return self._cache
         d = self.dimension
         st = self.state
-        n = self.normals
         c = st.contacts
         shear_mag = np.linalg.norm(c.shear_force, axis=2)
         kn, kr = self.law.stiffness(c.normal_force, shear_mag, self.contact_radius,
                                     self.force_floor, touching=c.normal_approach >= 0.0)
         kn = np.where(st.mask, kn, 0.0)
         kr = np.where(st.mask, kr, 0.0)
-        eye = np.eye(d)
-        nn = np.einsum("emi,emj->emij", n, n)
-        k = kn[..., None, None] * nn + kr[..., None, None] * (eye - nn)  # (E, M, d, d)
-        branches = st.branches
-        # P_m: approach = P_m eps_full, P[e,m,p,(k,l)] = delta_pk L_l + T[e,p,k,l]
-        affine = np.einsum("pk,eml->empkl", eye, branches)
-        if self.non_affine:
-            a = k.sum(axis=1)  # (E, d, d)
-            b = np.einsum("emqk,eml->eqkl", k, branches)  # sum_m K_qk L_l
-            single = st.mask.sum(axis=1) < 2
-            t = -np.einsum("epq,eqkl->epkl", _pinv_batch(a), b)
-            t[single] = 0.0
-            p = affine + t[:, None]
-        else:
-            p = affine
-        p = p.reshape(p.shape[0], p.shape[1], d, d * d)
-        p = np.where(st.mask[..., None, None], p, 0.0)
-        # C_full[(i,j),(k,l)] = 1/(2V) sum_m K_ip P_p(kl) L_j
-        kp = np.einsum("emip,empq->emiq", k, p)  # (E, M, d, d^2)
-        c_full = np.einsum("emiq,emj->eijq", kp, branches).reshape(-1, d * d, d * d)
-        c_full /= (2.0 * st.volumes)[:, None, None]
+        e_count, m_count = st.mask.shape
+        p = np.empty((e_count, m_count, d, d * d))
+        c_full = np.empty((e_count, d * d, d * d))
+        local_stiffness_kernel(np.ascontiguousarray(st.branches), np.ascontiguousarray(st.mask),
+                               np.ascontiguousarray(kn), np.ascontiguousarray(kr),
+                               np.ascontiguousarray(st.volumes), self.non_affine, p, c_full)
         s, w, s_dual, w_dual = bases(d)
         c_ss = s_dual @ c_full @ s
         c_sw = s_dual @ c_full @ w
@@ -227,7 +221,7 @@ class MicroElementModel:
                 np.einsum("e,eab->ab", weights, c_ws))
             spin = np.broadcast_to(spin_all, c_ws.shape).copy()
         c_local = c_ss + c_sw @ spin
-        self._cache = {"k": k, "kn": kn, "kr": kr, "p": p, "spin": spin, "c_local": c_local,
+        self._cache = {"kn": kn, "kr": kr, "p": p, "spin": spin, "c_local": c_local,
                        "c_ww": c_ww}
         return self._cache
 
@@ -280,9 +274,13 @@ class MicroElementModel:
 
     def stress_tensor(self) -> np.ndarray:
         """Overall (d, d) stress tensor including any skew part [Pa]."""
-        f = force_vectors(self.state.contacts, self.normals)
-        f = np.where(self.state.mask[..., None], f, 0.0)
-        return np.einsum("emi,emj->ij", f, self.state.branches) / (2.0 * self.volume)
+        if "stress" not in self._derived:
+            f = force_vectors(self.state.contacts, self.normals)
+            f = np.where(self.state.mask[..., None], f, 0.0)
+            d = self.dimension
+            self._derived["stress"] = (f.reshape(-1, d).T @ self.state.branches.reshape(-1, d)
+                                       / (2.0 * self.volume))
+        return self._derived["stress"].copy()
 
     def micro_element_stresses(self) -> np.ndarray:
         """(E, d, d) stress of each micro-element (eq. 2.16) [Pa]."""
@@ -310,7 +308,7 @@ class MicroElementModel:
         spin = np.einsum("eab,eb->ea", info["spin"], local_strain)
         s, w, _, _ = bases(self.dimension)
         full = local_strain @ s.T + spin @ w.T  # (E, d^2)
-        approach = np.einsum("empq,eq->emp", info["p"], full)
+        approach = (info["p"] @ full[:, None, :, None])[..., 0]
         new_contacts, residual = self.law.update(
             st.contacts, approach, self.normals, self.contact_radius, st.mask, self.force_floor)
         d = self.dimension
@@ -326,7 +324,7 @@ class MicroElementModel:
         st.strain = st.strain + d_eps
         st.residual_stress = self._voigt(np.einsum("emi,emj->ij", residual, st.branches)
                                          / (2.0 * self.volume))
-        self._cache = None
+        self._invalidate()
 
     def descriptors(self) -> dict[str, Any]:
         """Counts of sliding, open and bonded contacts, coordination, mobilisation, D."""
@@ -400,7 +398,7 @@ class MicroElementModel:
         mean_radius = float(np.mean(self.structure.centre_radii))
         area = mean_radius**2 if self.dimension == 3 else mean_radius
         self.force_floor = 1e-3 * pressure * area if self.law.hertzian else 0.0
-        self._cache = None
+        self._invalidate()
         try:
             for step in range(1, steps + 1):
                 self.solve_stress(unit * pressure * step / steps, tolerance, max_iterations)
@@ -408,7 +406,7 @@ class MicroElementModel:
                     self.force_floor)
         finally:
             self.force_floor = 0.0
-            self._cache = None
+            self._invalidate()
         self.state.strain = np.zeros(k)
 
     def solve_stress(self, target: np.ndarray, tolerance: float = 1e-9,
