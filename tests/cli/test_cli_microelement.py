@@ -61,7 +61,7 @@ def test_run_triaxial_writes_result_derived_and_figure(tmp_path):
     # drained: the lateral stresses stay at sigma0 = 100 kPa on converged rows
     converged = test.table[test.table["converged"]]
     # driver tolerance: 1e-4 of the norm of the whole stress (sigma_zz grows to ~3 sigma_xx)
-    np.testing.assert_allclose(converged["sigma_xx"], 1e5, rtol=1e-3)
+    np.testing.assert_allclose(converged["sigma_xx"], 1e5, rtol=2e-3)
     derived = read_test_result(tmp_path / "derived.h5").table
     assert {"phi_mobilised", "q_over_p", "oct_x", "lode_angle"} <= set(derived.columns)
     assert (tmp_path / "result.h5").stat().st_size > 0
