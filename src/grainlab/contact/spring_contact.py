@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from grainlab._validate import in_range, positive
 
@@ -228,59 +229,35 @@ class SpringContactLaw:
     ) -> tuple[SpringState, np.ndarray]:
         """Apply relative-displacement (approach) increments S + (d,) [m].
 
-        Returns the new state and the residual force vectors S + (d,) [N] removed by sliding,
-        separation or bond breakage (eqs. 2.3–2.4). ``active`` masks padded entries.
+        Returns the new state and the residual force vectors S + (d,) [N]: the linearised trial
+        (instantaneous K) minus what the contact carries after sliding, separation, bond
+        breakage or the curvature of the Hertzian law (eqs. 2.3–2.4). ``active`` masks padded
+        entries. Integrated by the compiled :func:`spring_update_kernel`.
         """
-        normals = np.asarray(normals, dtype=float)
-        dd = np.asarray(approach_increment, dtype=float)
-        dn = np.einsum("...i,...i->...", dd, normals)
-        dt = dd - dn[..., None] * normals
-        shear_old = state.shear_force - np.einsum(
-            "...i,...i->...", state.shear_force, normals)[..., None] * normals  # re-project
-        kn, kr = self.stiffness(state.normal_force, np.linalg.norm(shear_old, axis=-1), radius,
-                                force_floor, touching=state.normal_approach >= 0.0)
-        approach = state.normal_approach + dn
-        # Normal: exact spring law of the approach; bonded contacts also carry tension.
-        normal = np.where(approach > 0.0, self.normal_force_of_approach(approach, radius), 0.0)
-        if self.cemented:
-            tension = np.where(approach < 0.0, -self._tension_stiffness(radius, kn) * -approach,
-                               0.0)
-            normal = np.where(state.bonded & (approach < 0.0), tension, normal)
-        trial_normal_increment = kn * dn  # what the linearised K predicted
-        # Tangential: trial with the instantaneous k_r; unloading uses the initial stiffness.
-        k_unload = self._initial_shear_stiffness(state.normal_force, radius)
-        reversing = np.einsum("...i,...i->...", dt, shear_old) < 0.0
-        k_shear = np.where(reversing, k_unload, kr)
-        shear_trial = shear_old + k_shear[..., None] * dt
-        magnitude = np.linalg.norm(shear_trial, axis=-1)
-        mu = self.friction_coefficient
-        bonded = state.bonded.copy()
-        if self.cemented:
-            shear_strength = self.bond_shear_strength + mu * np.maximum(normal, 0)
-            broken = bonded & ((normal < -self.bond_tensile_strength)
-                               | (magnitude > shear_strength))
-            bonded &= ~broken
-            normal = np.where(~bonded & (approach <= 0.0), 0.0, normal)
-        limit = np.where(bonded, self.bond_shear_strength + mu * np.maximum(normal, 0.0),
-                         mu * np.maximum(normal, 0.0))
-        sliding = (magnitude > limit) & (limit >= 0.0) & ~bonded
-        scale = np.divide(limit, magnitude, out=np.zeros_like(magnitude), where=magnitude > 0)
-        shear = np.where((magnitude > limit)[..., None], scale[..., None] * shear_trial,
-                         shear_trial)
-        closed = (normal > 0.0) | bonded
-        shear = np.where(closed[..., None], shear, 0.0)
-        sliding &= closed
-        # Residual force: the linearised trial minus what the contact carries.
-        predicted_normal = state.normal_force + trial_normal_increment
-        residual = ((predicted_normal - normal)[..., None] * normals + (shear_trial - shear))
-        if active is not None:
-            keep = np.asarray(active, dtype=bool)
-            normal = np.where(keep, normal, 0.0)
-            shear = np.where(keep[..., None], shear, 0.0)
-            residual = np.where(keep[..., None], residual, 0.0)
-            sliding &= keep
-            approach = np.where(keep, approach, 0.0)
-        return SpringState(approach, normal, shear, sliding, bonded), residual
+        increment = np.asarray(approach_increment, dtype=float)
+        shape, d = increment.shape[:-1], increment.shape[-1]
+        rows = int(np.prod(shape))
+        flat = lambda a, dt=float: np.ascontiguousarray(  # noqa: E731
+            np.broadcast_to(np.asarray(a, dtype=dt), shape).reshape(rows))
+        vec = lambda a: np.ascontiguousarray(  # noqa: E731
+            np.broadcast_to(np.asarray(a, dtype=float), (*shape, d)).reshape(rows, d))
+        out = (np.empty(rows), np.empty(rows), np.empty((rows, d)), np.empty(rows, bool),
+               np.empty(rows, bool), np.empty((rows, d)))
+        hertz = self.hertzian
+        spring_update_kernel(
+            flat(state.normal_approach), flat(state.normal_force), vec(state.shear_force),
+            flat(state.bonded, bool), vec(increment), vec(normals), flat(radius),
+            flat(np.ones(shape, bool) if active is None else active, bool), float(force_floor),
+            hertz, float(self.normal_stiffness or 0.0), float(self.shear_stiffness or 0.0),
+            float(self._modulus()) if hertz else 0.0,
+            mindlin_c2(self.poisson_ratio) if hertz else 0.0, self.friction_coefficient,
+            float(self.bond_tensile_strength), float(self.bond_shear_strength), self.cemented,
+            *out,
+        )
+        approach, normal, shear, sliding, bonded, residual = out
+        return SpringState(approach.reshape(shape), normal.reshape(shape),
+                           shear.reshape(*shape, d), sliding.reshape(shape),
+                           bonded.reshape(shape)), residual.reshape(*shape, d)
 
     def _initial_shear_stiffness(self, normal_force, radius) -> np.ndarray:
         kn, _ = self.stiffness(np.maximum(normal_force, 0.0), np.zeros_like(normal_force), radius,
@@ -297,3 +274,118 @@ class SpringContactLaw:
         k, _ = self.stiffness(np.full_like(np.asarray(kn, float), max(
             self.bond_tensile_strength, 1e-12)), np.zeros_like(np.asarray(kn, float)), radius)
         return k
+
+
+# -- compiled update (scalar law -> array kernel; the class methods above launch it) -----------
+@njit(inline="always")
+def _stiffness_scalar(fn, shear, radius, touching, force_floor, hertzian, kn_const, ks_const,
+                      modulus, c2, mu):
+    """(k_n, k_r) of one contact on the loading branch (see SpringContactLaw.stiffness)."""
+    closed = fn > 0.0 or touching
+    limit = mu * max(fn, 0.0)
+    ratio = shear / limit if limit > 0.0 else 1.0
+    if hertzian:
+        f_eval = max(fn, force_floor)
+        kn = 0.0
+        if closed or force_floor > 0.0:
+            kn = HERTZ_C1 * radius * modulus * max(f_eval / (radius * radius * modulus),
+                                                   0.0) ** HERTZ_ALPHA
+        if fn > 0.0:
+            kr = c2 * kn * min(max(1.0 - ratio, 0.0), 1.0) ** (1.0 / 3.0)
+        elif force_floor > 0.0:
+            kr = c2 * kn
+        else:
+            kr = 0.0
+        return kn, kr
+    kn = kn_const if (closed or force_floor > 0.0) else 0.0
+    kr = ks_const if (closed and ratio < 1.0 - 1e-9) else 0.0
+    if (not closed) and force_floor > 0.0:
+        kr = ks_const
+    return kn, kr
+
+
+@njit(inline="always")
+def _normal_force_scalar(approach, radius, hertzian, kn_const, modulus):
+    if approach <= 0.0:
+        return 0.0
+    if not hertzian:
+        return kn_const * approach
+    a = HERTZ_ALPHA
+    kappa = ((1 - a) * HERTZ_C1 * radius ** (1 - 2 * a) * modulus ** (1 - a)) ** (1 / (1 - a))
+    return kappa * approach ** (1 / (1 - a))
+
+
+@njit(cache=True)
+def spring_update_kernel(approach0, normal0, shear0, bonded0, increment, normals, radius,
+                         active, force_floor, hertzian, kn_const, ks_const, modulus, c2, mu,
+                         bond_tensile, bond_shear, cemented,
+                         approach, normal, shear, sliding, bonded, residual):
+    """Integrate seed 001's contact law for N contacts (rows), outputs last (see
+    SpringContactLaw.update for the rules)."""
+    n_rows, d = increment.shape
+    for c in range(n_rows):
+        for i in range(d):
+            shear[c, i] = 0.0
+            residual[c, i] = 0.0
+        sliding[c] = False
+        bonded[c] = bonded0[c]
+        if not active[c]:
+            approach[c] = 0.0
+            normal[c] = 0.0
+            continue
+        dn = 0.0
+        old_n = 0.0
+        for i in range(d):
+            dn += increment[c, i] * normals[c, i]
+            old_n += shear0[c, i] * normals[c, i]
+        dt = np.empty(d)
+        old = np.empty(d)
+        old_mag = 0.0
+        reverse = 0.0
+        for i in range(d):
+            dt[i] = increment[c, i] - dn * normals[c, i]
+            old[i] = shear0[c, i] - old_n * normals[c, i]
+            old_mag += old[i] * old[i]
+            reverse += dt[i] * old[i]
+        old_mag = np.sqrt(old_mag)
+        kn, kr = _stiffness_scalar(normal0[c], old_mag, radius[c], approach0[c] >= 0.0,
+                                   force_floor, hertzian, kn_const, ks_const, modulus, c2, mu)
+        a = approach0[c] + dn
+        approach[c] = a
+        fn = _normal_force_scalar(a, radius[c], hertzian, kn_const, modulus)
+        if cemented and bonded0[c] and a < 0.0:
+            k_tension = kn_const if not hertzian else _stiffness_scalar(
+                max(bond_tensile, 1e-12), 0.0, radius[c], True, 0.0, True, kn_const,
+                ks_const, modulus, c2, mu)[0]
+            fn = k_tension * a
+        # tangential trial: unloading (against the current shear) with the initial stiffness
+        if reverse < 0.0:
+            k0 = _stiffness_scalar(max(normal0[c], 0.0), 0.0, radius[c], True, 0.0, hertzian,
+                                   kn_const, ks_const, modulus, c2, mu)[0]
+            k_shear = (c2 if hertzian else ks_const / kn_const) * k0
+        else:
+            k_shear = kr
+        trial = np.empty(d)
+        magnitude = 0.0
+        for i in range(d):
+            trial[i] = old[i] + k_shear * dt[i]
+            magnitude += trial[i] * trial[i]
+        magnitude = np.sqrt(magnitude)
+        is_bonded = bonded0[c]
+        if cemented and is_bonded:
+            if fn < -bond_tensile or magnitude > bond_shear + mu * max(fn, 0.0):
+                is_bonded = False
+                if a <= 0.0:
+                    fn = 0.0
+        bonded[c] = is_bonded
+        limit = (bond_shear if is_bonded else 0.0) + mu * max(fn, 0.0)
+        slides = magnitude > limit and not is_bonded
+        scale = limit / magnitude if (magnitude > limit and magnitude > 0.0) else 1.0
+        closed = fn > 0.0 or is_bonded
+        predicted = normal0[c] + kn * dn
+        for i in range(d):
+            s_i = scale * trial[i] if closed else 0.0
+            shear[c, i] = s_i
+            residual[c, i] = (predicted - fn) * normals[c, i] + (trial[i] - s_i)
+        normal[c] = fn
+        sliding[c] = slides and closed

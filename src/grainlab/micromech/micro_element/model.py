@@ -232,7 +232,7 @@ class MicroElementModel:
             return local
         c_local = local["c_local"]
         weights = self.state.volumes / self.volume
-        c_bar = np.einsum("e,eab->ab", weights, c_local)
+        c_bar = np.tensordot(weights, c_local, axes=1)
         k = c_bar.shape[0]
         if self.distribution == "homogeneous":
             g = weights[:, None, None] * np.eye(k)[None]
@@ -246,10 +246,10 @@ class MicroElementModel:
                     f"{self.series_order}: last term {last:.2e} of the sum (allowed "
                     f"{self.series_tolerance:g}). Raise series_order or use the homogeneous law."
                 )
-            a_inv = np.einsum("e,eab->ab", weights, exp_v)
+            a_inv = np.tensordot(weights, exp_v, axes=1)
             a = np.linalg.pinv(a_inv, rcond=1e-12)
-            g = np.einsum("ab,ebc->eac", a, exp_v) * weights[:, None, None]
-        tangent = np.einsum("eab,ebc->ac", c_local, g)
+            g = (a @ exp_v) * weights[:, None, None]
+        tangent = (c_local @ g).sum(axis=0)
         local.update(g=g, tangent=0.5 * (tangent + tangent.T), c_bar=c_bar,
                      series_last_term=last, tangent_raw=tangent)
         return local
@@ -304,8 +304,8 @@ class MicroElementModel:
         info = self._distribution()
         st = self.state
         weights = st.volumes / self.volume
-        local_strain = np.einsum("eab,b->ea", info["g"], d_eps) / weights[:, None]
-        spin = np.einsum("eab,eb->ea", info["spin"], local_strain)
+        local_strain = (info["g"] @ d_eps) / weights[:, None]
+        spin = (info["spin"] @ local_strain[:, :, None])[..., 0]
         s, w, _, _ = bases(self.dimension)
         full = local_strain @ s.T + spin @ w.T  # (E, d^2)
         approach = (info["p"] @ full[:, None, :, None])[..., 0]
@@ -315,8 +315,8 @@ class MicroElementModel:
         sym = (local_strain @ s.T).reshape(-1, d, d)
         # Geometry: branches shorten by the symmetric strain and the centre's move (approach
         # minus the spin part); volumes shrink by the volumetric strain (compression +).
-        translation = approach - np.einsum("eij,emj->emi", (spin @ w.T).reshape(-1, d, d),
-                                           st.branches)
+        translation = approach if self.spin == "none" else approach - np.einsum(
+            "eij,emj->emi", (spin @ w.T).reshape(-1, d, d), st.branches)
         if self.update_geometry:
             st.branches = np.where(st.mask[..., None], st.branches - translation, 0.0)
             st.volumes = st.volumes * (1.0 - np.trace(sym, axis1=1, axis2=2))
