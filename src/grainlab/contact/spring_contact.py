@@ -259,22 +259,6 @@ class SpringContactLaw:
                            shear.reshape(*shape, d), sliding.reshape(shape),
                            bonded.reshape(shape)), residual.reshape(*shape, d)
 
-    def _initial_shear_stiffness(self, normal_force, radius) -> np.ndarray:
-        kn, _ = self.stiffness(np.maximum(normal_force, 0.0), np.zeros_like(normal_force), radius,
-                               touching=np.ones(np.shape(normal_force), bool))
-        ratio = mindlin_c2(self.poisson_ratio) if self.hertzian else (
-            self.shear_stiffness / self.normal_stiffness)
-        return ratio * kn
-
-    def _tension_stiffness(self, radius, kn) -> np.ndarray:
-        """Stiffness of a bond in tension [N/m]: the normal stiffness (constant springs) or
-        the Hertzian stiffness at the bond strength."""
-        if not self.hertzian:
-            return np.full_like(np.asarray(kn, dtype=float), self.normal_stiffness)
-        k, _ = self.stiffness(np.full_like(np.asarray(kn, float), max(
-            self.bond_tensile_strength, 1e-12)), np.zeros_like(np.asarray(kn, float)), radius)
-        return k
-
 
 # -- compiled update (scalar law -> array kernel; the class methods above launch it) -----------
 @njit(inline="always")
@@ -379,7 +363,7 @@ def spring_update_kernel(approach0, normal0, shear0, bonded0, increment, normals
                     fn = 0.0
         bonded[c] = is_bonded
         limit = (bond_shear if is_bonded else 0.0) + mu * max(fn, 0.0)
-        slides = magnitude > limit and not is_bonded
+        slides = magnitude >= (1.0 - 1e-9) * limit and limit > 0.0 and not is_bonded
         scale = limit / magnitude if (magnitude > limit and magnitude > 0.0) else 1.0
         closed = fn > 0.0 or is_bonded
         predicted = normal0[c] + kn * dn
