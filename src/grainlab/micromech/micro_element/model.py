@@ -207,10 +207,13 @@ class MicroElementModel:
                                np.ascontiguousarray(kn), np.ascontiguousarray(kr),
                                np.ascontiguousarray(st.volumes), self.non_affine, p, c_full)
         s, w, s_dual, w_dual = bases(d)
-        c_ss = s_dual @ c_full @ s
-        c_sw = s_dual @ c_full @ w
-        c_ws = w_dual @ c_full @ s
-        c_ww = w_dual @ c_full @ w
+        # One BLAS product for the four blocks: [S' ; W'] C [S W] on the (E, d^2, d^2) batch.
+        left = np.vstack([s_dual, w_dual])
+        right = np.hstack([s, w])
+        n_s = s.shape[1]
+        blocks = np.einsum("ai,eij,jb->eab", left, c_full, right, optimize=True)
+        c_ss, c_sw = blocks[:, :n_s, :n_s], blocks[:, :n_s, n_s:]
+        c_ws, c_ww = blocks[:, n_s:, :n_s], blocks[:, n_s:, n_s:]
         if self.spin == "none":
             spin = np.zeros_like(c_ws)
         elif self.spin == "micro-element":
@@ -249,7 +252,7 @@ class MicroElementModel:
             a_inv = np.tensordot(weights, exp_v, axes=1)
             a = np.linalg.pinv(a_inv, rcond=1e-12)
             g = (a @ exp_v) * weights[:, None, None]
-        tangent = (c_local @ g).sum(axis=0)
+        tangent = c_bar if self.distribution == "homogeneous" else (c_local @ g).sum(axis=0)
         local.update(g=g, tangent=0.5 * (tangent + tangent.T), c_bar=c_bar,
                      series_last_term=last, tangent_raw=tangent)
         return local
