@@ -9,47 +9,13 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
+from elastic_specimens import LAMBDA, NU, E, ElasticSpecimen, G  # noqa: F401
 
 from grainlab.errors import InputError
 from grainlab.lab import derived, presets
 from grainlab.lab.element_test import run_element_test
 
-E, NU = 8.0e7, 0.25
-LAMBDA = E * NU / ((1 + NU) * (1 - 2 * NU))
-G = E / (2 * (1 + NU))
 K0_ELASTIC = NU / (1 - NU)
-
-
-class ElasticSpecimen:
-    """Isotropic linear elasticity (3D or 2D plane strain) from an initial stress."""
-
-    def __init__(self, dimension=3, initial_stress=None):
-        self.dimension = dimension
-        n = 6 if dimension == 3 else 3
-        m = np.zeros(n)
-        m[:dimension] = 1.0
-        self.D = LAMBDA * np.outer(m, m) + G * np.diag(
-            np.r_[2.0 * np.ones(dimension), np.ones(n - dimension)])
-        self.eps = np.zeros(n)
-        self.s0 = np.zeros(n) if initial_stress is None else np.asarray(initial_stress, float)
-
-    def stress(self):
-        return self.s0 + self.D @ self.eps
-
-    def strain(self):
-        return self.eps.copy()
-
-    def tangent(self):
-        return self.D.copy()
-
-    def apply_strain(self, increment):
-        self.eps = self.eps + increment
-
-    def descriptors(self):
-        return {}
-
-    def describe(self):
-        return {"kind": "isotropic linear elastic"}
 
 
 # -- K0 -----------------------------------------------------------------------------------------
