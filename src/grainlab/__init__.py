@@ -16,6 +16,7 @@ Quick start::
     0.1388
 """
 
+import grainlab._numba_setup  # noqa: F401  (threading layer, before any kernel)
 from grainlab._version import __version__
 from grainlab.errors import ConvergenceError, GeometryError, GrainlabError, InputError
 from grainlab.geometry.disc_packing import DiscPacking2D
