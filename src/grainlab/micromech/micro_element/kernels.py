@@ -84,7 +84,7 @@ def local_stiffness_kernel(branches, mask, kn, kr, volumes, non_affine, p_out, c
                         b[q, k * d + col] += stiff[m, q, k] * branches[e, m, col]
         t = np.zeros((d, dd))
         if non_affine and count >= 2:
-            t = -(_inverse_or_pinv(a) @ b)
+            t = -(np.ascontiguousarray(_inverse_or_pinv(a)) @ b)
         for i in range(dd):
             for j in range(dd):
                 c_out[e, i, j] = 0.0
