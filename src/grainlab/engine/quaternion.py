@@ -1,0 +1,104 @@
+"""Unit quaternions for rigid-body orientation (Numba; STYLE.md 2).
+
+Convention: q = (w, x, y, z), scalar first, Hamilton product. A unit quaternion q maps body-frame
+vectors to the world frame, v_world = R(q) v_body, with
+
+    R(q) = [[1 - 2(y^2 + z^2), 2(xy - wz),       2(xz + wy)      ],
+            [2(xy + wz),       1 - 2(x^2 + z^2), 2(yz - wx)      ],
+            [2(xz - wy),       2(yz + wx),       1 - 2(x^2 + y^2)]],
+
+and R(p q) = R(p) R(q): the product p q first applies q, then p.
+
+The scalar laws (:func:`rotate`) are inlined into kernels; the array helpers allocate their
+small results and are meant for Python code and tests.
+
+>>> import numpy as np
+>>> q = np.array([np.cos(np.pi / 4), 0.0, 0.0, np.sin(np.pi / 4)])  # 90 deg about z
+>>> np.round(quat_to_matrix(q) @ np.array([1.0, 0.0, 0.0]), 12) + 0.0
+array([0., 1., 0.])
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+
+@njit(inline="always")
+def rotate(w, x, y, z, vx, vy, vz):
+    """R(q) v for q = (w, x, y, z) (unit) and v = (vx, vy, vz); returns three floats."""
+    return (
+        (1.0 - 2.0 * (y * y + z * z)) * vx + 2.0 * (x * y - w * z) * vy
+        + 2.0 * (x * z + w * y) * vz,
+        2.0 * (x * y + w * z) * vx + (1.0 - 2.0 * (x * x + z * z)) * vy
+        + 2.0 * (y * z - w * x) * vz,
+        2.0 * (x * z - w * y) * vx + 2.0 * (y * z + w * x) * vy
+        + (1.0 - 2.0 * (x * x + y * y)) * vz,
+    )
+
+
+@njit(cache=True)
+def quat_to_matrix(q):
+    """Rotation matrix (3, 3) of a unit quaternion q (4,) = (w, x, y, z)."""
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    m = np.empty((3, 3))
+    m[0, 0] = 1.0 - 2.0 * (y * y + z * z)
+    m[0, 1] = 2.0 * (x * y - w * z)
+    m[0, 2] = 2.0 * (x * z + w * y)
+    m[1, 0] = 2.0 * (x * y + w * z)
+    m[1, 1] = 1.0 - 2.0 * (x * x + z * z)
+    m[1, 2] = 2.0 * (y * z - w * x)
+    m[2, 0] = 2.0 * (x * z - w * y)
+    m[2, 1] = 2.0 * (y * z + w * x)
+    m[2, 2] = 1.0 - 2.0 * (x * x + y * y)
+    return m
+
+
+@njit(cache=True, parallel=True)
+def quat_to_matrices_kernel(q, out):
+    """Rotation matrices of N unit quaternions: ``q`` (N, 4) -> ``out`` (N, 3, 3)."""
+    for i in prange(q.shape[0]):
+        w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+        out[i, 0, 0] = 1.0 - 2.0 * (y * y + z * z)
+        out[i, 0, 1] = 2.0 * (x * y - w * z)
+        out[i, 0, 2] = 2.0 * (x * z + w * y)
+        out[i, 1, 0] = 2.0 * (x * y + w * z)
+        out[i, 1, 1] = 1.0 - 2.0 * (x * x + z * z)
+        out[i, 1, 2] = 2.0 * (y * z - w * x)
+        out[i, 2, 0] = 2.0 * (x * z - w * y)
+        out[i, 2, 1] = 2.0 * (y * z + w * x)
+        out[i, 2, 2] = 1.0 - 2.0 * (x * x + y * y)
+
+
+def quat_to_matrices(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices (N, 3, 3) of unit quaternions ``q`` (N, 4), w first."""
+    q = np.ascontiguousarray(q, dtype=np.float64).reshape(-1, 4)
+    out = np.empty((q.shape[0], 3, 3))
+    quat_to_matrices_kernel(q, out)
+    return out
+
+
+@njit(cache=True)
+def quat_multiply(p, q):
+    """Hamilton product p q (4,) of quaternions p, q (4,): R(p q) = R(p) R(q)."""
+    pw, px, py, pz = p[0], p[1], p[2], p[3]
+    qw, qx, qy, qz = q[0], q[1], q[2], q[3]
+    out = np.empty(4)
+    out[0] = pw * qw - px * qx - py * qy - pz * qz
+    out[1] = pw * qx + px * qw + py * qz - pz * qy
+    out[2] = pw * qy - px * qz + py * qw + pz * qx
+    out[3] = pw * qz + px * qy - py * qx + pz * qw
+    return out
+
+
+@njit(cache=True)
+def quat_normalise(q):
+    """q / |q| (4,); the identity (1, 0, 0, 0) for a zero quaternion."""
+    n = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    out = np.zeros(4)
+    if n == 0.0:
+        out[0] = 1.0
+        return out
+    for k in range(4):
+        out[k] = q[k] / n
+    return out
