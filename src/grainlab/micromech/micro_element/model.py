@@ -211,7 +211,10 @@ class MicroElementModel:
         left = np.vstack([s_dual, w_dual])
         right = np.hstack([s, w])
         n_s = s.shape[1]
-        blocks = np.einsum("ai,eij,jb->eab", left, c_full, right, optimize=True)
+        e_n, k = c_full.shape[0], c_full.shape[1]
+        half = (c_full.reshape(e_n * k, k) @ right).reshape(e_n, k, -1)  # C [S W]
+        blocks = (half.transpose(0, 2, 1).reshape(-1, k) @ left.T).reshape(
+            e_n, -1, left.shape[0]).transpose(0, 2, 1)  # [S' ; W'] C [S W], two GEMMs
         c_ss, c_sw = blocks[:, :n_s, :n_s], blocks[:, :n_s, n_s:]
         c_ws, c_ww = blocks[:, n_s:, :n_s], blocks[:, n_s:, n_s:]
         if self.spin == "none":
@@ -311,7 +314,7 @@ class MicroElementModel:
         spin = (info["spin"] @ local_strain[:, :, None])[..., 0]
         s, w, _, _ = bases(self.dimension)
         full = local_strain @ s.T + spin @ w.T  # (E, d^2)
-        approach = (info["p"] @ full[:, None, :, None])[..., 0]
+        approach = np.einsum("empq,eq->emp", info["p"], full)
         new_contacts, residual = self.law.update(
             st.contacts, approach, self.normals, self.contact_radius, st.mask, self.force_floor)
         d = self.dimension

@@ -1,0 +1,543 @@
+"""Contact dynamics (Moreau-Jean / NSCD) time step for rigid sphere-based bodies
+(Numba; research/cd_engines.md 6.1-6.3, 6.6; STYLE.md 2, 8, 10, 12).
+
+Time step (theta-scheme, per body; translation and angular velocity in the world frame)::
+
+    v_free = v_i + h M^-1 F_ext              F_ext = m g (constant over the step)
+    w_free = w_i                             (gyroscopic term: see below)
+    q_m    = q_i (+) (1 - theta) h (v_i, w_i) detection configuration
+    detect contacts at q_m: point x_a, frame (n, t, s), gap g_a, arms r_ia, r_ja
+    solve  U = U_free + W P,  law(U, P, g)   NLGS on the impulses P [N s]
+    v_{i+1} = v_free + M^-1 H P
+    q_{i+1} = q_m (+) theta h (v_{i+1}, w_{i+1})
+
+h [s] is the time step, theta in [0.5, 1]. Rotations use the exponential map of the rotation
+vector h w on the unit quaternion (world frame: q <- exp(h w / 2) q).
+
+Gyroscopic term. Spheres have isotropic inertia, so w x I w = 0 and nothing is neglected.
+For aggregates it is neglected by default, as LMGC90 does (6.1, pitfall 7). With
+``gyroscopic=True`` it is added to w_free semi-implicitly (one linearised backward-Euler step
+in the body frame, w_b' = w_b - h J^-1 (w_b x I w_b) with J = I + h ([w_b] I - [I w_b]) ), which
+is stable where the explicit term is not.
+
+Contact law (IQS_CLB, 6.2). The impulse P = P_n n + P_t t + P_s s acts on body j (and -P on
+body i); U is the relative velocity of j with respect to i at the contact point at the END of
+the step, in the local frame (U_n > 0: separating). With the gap g at q_m::
+
+    U_n' = U_n + max(0, g) / h,   U_n' >= 0,  P_n >= 0,  U_n' P_n = 0
+    |P_T| <= mu P_n;  |P_T| < mu P_n => U_T = 0;  else U_T = -lambda P_T, lambda >= 0
+
+An open gap lets the bodies approach by at most g within the step; an existing overlap
+(g < 0) is NOT pushed apart (no max(0, g) < 0 term): overlaps are never corrected violently,
+and are reported as ``max_overlap`` (pitfall 4).
+
+NLGS (6.3). Body accumulators: body velocities are kept up to date with every impulse
+update, so the local right-hand side of contact a is its current relative velocity minus
+W_aa P_a (O(1) per update, no W_ab stored). The exact 3 x 3 Delassus block
+W_aa = F (K_i + K_j) F^T, K_b = m_b^-1 1 + [r_b]^T I_b^-1 [r_b] (world inverse inertia, walls:
+K = 0) is built from the arms; W_tt is clamped to >= 1e-6 W_nn (pitfall 5). Local solution:
+open (P = 0) if U'_free,n >= 0; else the sticking solution P = -W^-1 U'_free if det W is not
+tiny and P lies in the cone; else (sliding, or a singular block) projections from the previous
+P, normal first P_n = max(0, P_n - U'_n / W_nn), then tangential on the disc,
+P_T = proj_{|P_T| <= mu P_n}(P_T - U_T / lambda_max(W_TT)), repeated (at most 100 times) until
+the change is below 1e-12 relative. Contacts are visited in one seeded random permutation per
+step. Warm start: the previous step's force (impulse / h, world frame) of the same
+(body_i, body_j, member_i, member_j).
+
+Convergence (both must be <= ``tolerance`` after a sweep, checked every sweep):
+
+- change   = ||P^k - P^(k-1)|| / ||P^k||                          (0 when both vanish)
+- residual = ||w P - proj_K(w P - (U' + mu |U_T| e_n))|| / max(||U_free||, ||w P||, ||U'||)
+
+with w = W_nn per contact (so w P is a velocity [m/s] and the residual has no units; the
+natural-map residual of Siconos, K the Coulomb cone). A step that hits ``max_iterations`` is
+flagged (``converged=False``) with its residual in the :class:`StepReport`, never silently;
+``strict=True`` raises :class:`~grainlab.errors.ConvergenceError` instead.
+
+>>> import numpy as np
+>>> from grainlab.engine.state import BodyState, ShapeLibrary
+>>> library = ShapeLibrary.from_spheres([0.5])
+>>> state = BodyState.from_library(library, [0], [[0.0, 0.0, 0.5]], density=1000.0)
+>>> step = ContactDynamicsStep(dt=1e-3, gravity=(0.0, 0.0, -9.81))
+>>> report = step.step(state, library, walls=([[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]]))
+>>> report.n_contacts, report.converged, abs(float(state.velocities[0, 2])) < 1e-12
+(1, True, True)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numba import njit
+
+from grainlab.engine.broad_phase import CellListBroadPhase
+from grainlab.engine.narrow_phase import Contacts, NarrowPhase
+from grainlab.engine.quaternion import quat_to_matrices
+from grainlab.engine.state import BodyState, ShapeLibrary
+from grainlab.errors import ConvergenceError, InputError
+
+_TINY = 1e-300
+_WTT_CLAMP = 1e-6  # W_tt >= 1e-6 W_nn (LMGC90, pitfall 5)
+_DET_TINY = 1e-12  # det W below 1e-12 W_nn^3: singular block, use projections
+_LOCAL_ITERATIONS = 100
+_LOCAL_TOLERANCE = 1e-12
+
+
+# --------------------------------------------------------------------------------------------
+# Scalar laws
+# --------------------------------------------------------------------------------------------
+
+
+@njit(inline="always")
+def project_cone(mu, zn, zt, zs):
+    """Projection of (zn, zt, zs) on the Coulomb cone {|z_T| <= mu z_n}."""
+    norm_t = math.sqrt(zt * zt + zs * zs)
+    if norm_t <= mu * zn:
+        return zn, zt, zs
+    if mu * norm_t <= -zn:
+        return 0.0, 0.0, 0.0
+    a = (zn + mu * norm_t) / (1.0 + mu * mu)
+    if norm_t > 0.0:
+        f = mu * a / norm_t
+        return a, f * zt, f * zs
+    return a, 0.0, 0.0
+
+
+@njit(inline="always")
+def local_solve(w, un, ut, us, mu, pn, pt, ps):
+    """Impulse (P_n, P_t, P_s) [N s] of one contact with Delassus block ``w`` (3, 3) [1/kg]
+    and corrected free relative velocity (un, ut, us) [m/s] (U' with P = 0), starting from
+    (pn, pt, ps): open, stick (3 x 3 solve) or projections (module docstring)."""
+    if un >= 0.0:
+        return 0.0, 0.0, 0.0
+    wnn = w[0, 0]
+    a, b, c = w[1, 1], w[1, 2], w[2, 2]
+    det = (wnn * (a * c - b * w[2, 1]) - w[0, 1] * (w[1, 0] * c - b * w[2, 0])
+           + w[0, 2] * (w[1, 0] * w[2, 1] - a * w[2, 0]))
+    if det > _DET_TINY * wnn * wnn * wnn:
+        # Cramer's rule: W x = -U
+        rn, rt, rs = -un, -ut, -us
+        xn = (rn * (a * c - b * w[2, 1]) - w[0, 1] * (rt * c - b * rs)
+              + w[0, 2] * (rt * w[2, 1] - a * rs)) / det
+        xt = (wnn * (rt * c - b * rs) - rn * (w[1, 0] * c - b * w[2, 0])
+              + w[0, 2] * (w[1, 0] * rs - rt * w[2, 0])) / det
+        xs = (wnn * (a * rs - rt * w[2, 1]) - w[0, 1] * (w[1, 0] * rs - rt * w[2, 0])
+              + rn * (w[1, 0] * w[2, 1] - a * w[2, 0])) / det
+        if xn > 0.0 and math.sqrt(xt * xt + xs * xs) <= mu * xn * (1.0 + 1e-12):
+            return xn, xt, xs
+    # projections, normal first then tangential on the disc
+    half = 0.5 * (a + c)
+    lam = half + math.sqrt(0.25 * (a - c) * (a - c) + 0.5 * (b + w[2, 1]) * 0.5 * (b + w[2, 1]))
+    rho_t = 1.0 / lam
+    pn, pt, ps = project_cone(mu, pn, pt, ps)
+    for _ in range(_LOCAL_ITERATIONS):
+        vn = un + wnn * pn + w[0, 1] * pt + w[0, 2] * ps
+        qn = max(0.0, pn - vn / wnn)
+        vt = ut + w[1, 0] * qn + a * pt + b * ps
+        vs = us + w[2, 0] * qn + w[2, 1] * pt + c * ps
+        qt, qs = pt - rho_t * vt, ps - rho_t * vs
+        norm_t = math.sqrt(qt * qt + qs * qs)
+        limit = mu * qn
+        if norm_t > limit:
+            f = limit / norm_t
+            qt, qs = f * qt, f * qs
+        change = abs(qn - pn) + abs(qt - pt) + abs(qs - ps)
+        pn, pt, ps = qn, qt, qs
+        if change <= _LOCAL_TOLERANCE * (abs(pn) + abs(pt) + abs(ps)) + _TINY:
+            break
+    return pn, pt, ps
+
+
+@njit(inline="always")
+def _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j, velocities, spins):
+    """Local (n, t, s) velocity of body j relative to body i at contact k [m/s]."""
+    ux, uy, uz = 0.0, 0.0, 0.0
+    j = body_j[k]
+    if j >= 0:
+        wx, wy, wz = spins[j, 0], spins[j, 1], spins[j, 2]
+        rx, ry, rz = arm_j[k, 0], arm_j[k, 1], arm_j[k, 2]
+        ux += velocities[j, 0] + wy * rz - wz * ry
+        uy += velocities[j, 1] + wz * rx - wx * rz
+        uz += velocities[j, 2] + wx * ry - wy * rx
+    i = body_i[k]
+    if i >= 0:
+        wx, wy, wz = spins[i, 0], spins[i, 1], spins[i, 2]
+        rx, ry, rz = arm_i[k, 0], arm_i[k, 1], arm_i[k, 2]
+        ux -= velocities[i, 0] + wy * rz - wz * ry
+        uy -= velocities[i, 1] + wz * rx - wx * rz
+        uz -= velocities[i, 2] + wx * ry - wy * rx
+    return (frame[k, 0, 0] * ux + frame[k, 0, 1] * uy + frame[k, 0, 2] * uz,
+            frame[k, 1, 0] * ux + frame[k, 1, 1] * uy + frame[k, 1, 2] * uz,
+            frame[k, 2, 0] * ux + frame[k, 2, 1] * uy + frame[k, 2, 2] * uz)
+
+
+@njit(inline="always")
+def _apply(k, dn, dt_, ds, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+           velocities, spins):
+    """Add the local impulse change (dn, dt_, ds) of contact k to its two bodies."""
+    px = frame[k, 0, 0] * dn + frame[k, 1, 0] * dt_ + frame[k, 2, 0] * ds
+    py = frame[k, 0, 1] * dn + frame[k, 1, 1] * dt_ + frame[k, 2, 1] * ds
+    pz = frame[k, 0, 2] * dn + frame[k, 1, 2] * dt_ + frame[k, 2, 2] * ds
+    for side in range(2):
+        b = body_j[k] if side == 0 else body_i[k]
+        if b < 0:
+            continue
+        sign = 1.0 if side == 0 else -1.0
+        if side == 0:
+            rx, ry, rz = arm_j[k, 0], arm_j[k, 1], arm_j[k, 2]
+        else:
+            rx, ry, rz = arm_i[k, 0], arm_i[k, 1], arm_i[k, 2]
+        fx, fy, fz = sign * px, sign * py, sign * pz
+        velocities[b, 0] += inv_mass[b] * fx
+        velocities[b, 1] += inv_mass[b] * fy
+        velocities[b, 2] += inv_mass[b] * fz
+        tx, ty, tz = ry * fz - rz * fy, rz * fx - rx * fz, rx * fy - ry * fx
+        for d in range(3):
+            spins[b, d] += (inv_inertia[b, d, 0] * tx + inv_inertia[b, d, 1] * ty
+                            + inv_inertia[b, d, 2] * tz)
+
+
+# --------------------------------------------------------------------------------------------
+# Array kernels (outputs last)
+# --------------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, out):
+    """Local Delassus blocks W_aa (C, 3, 3) [1/kg] = F (K_i + K_j) F^T (module docstring)."""
+    k_world = np.empty((3, 3))
+    skew = np.empty((3, 3))
+    for k in range(body_i.shape[0]):
+        k_world[:, :] = 0.0
+        for side in range(2):
+            b = body_j[k] if side == 0 else body_i[k]
+            if b < 0:
+                continue
+            r = arm_j[k] if side == 0 else arm_i[k]
+            skew[0, 0], skew[0, 1], skew[0, 2] = 0.0, -r[2], r[1]
+            skew[1, 0], skew[1, 1], skew[1, 2] = r[2], 0.0, -r[0]
+            skew[2, 0], skew[2, 1], skew[2, 2] = -r[1], r[0], 0.0
+            # [r]^T I^-1 [r] = -[r] I^-1 [r]
+            k_world -= skew @ inv_inertia[b] @ skew
+            for d in range(3):
+                k_world[d, d] += inv_mass[b]
+        w = frame[k] @ k_world @ frame[k].T
+        for d in (1, 2):
+            w[d, d] = max(w[d, d], _WTT_CLAMP * w[0, 0])
+        out[k] = w
+
+
+@njit(cache=True)
+def nlgs_kernel(
+    body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
+    mu, gap, dt, order, tolerance, max_iterations,
+    impulses, velocities, spins, delassus, residuals,
+):
+    """Frictional unilateral contact problem on impulses by nonlinear Gauss-Seidel.
+
+    Inputs: contact bodies ``body_i``, ``body_j`` (C,) (negative: a fixed wall, infinite
+    mass); local frames ``frame`` (C, 3, 3), rows n (from i to j), t, s; arms (C, 3) [m] from
+    each body's centre to the contact point; ``inv_mass`` (N,) [1/kg]; world inverse inertia
+    tensors ``inv_inertia`` (N, 3, 3) [1/(kg m^2)]; free velocities (N, 3) [m/s] and angular
+    velocities (N, 3) [rad/s]; friction ``mu`` (C,); ``gap`` (C,) [m] at the detection
+    configuration; time step ``dt`` [s]; visiting ``order`` (C,) (a permutation).
+
+    Outputs: ``impulses`` (C, 3) local (P_n, P_t, P_s) [N s] (in: warm start; out: solution);
+    ``velocities``, ``spins`` (N, 3) end-of-step velocities; ``delassus`` (C, 3, 3);
+    ``residuals`` (2,) = (relative change, natural-map residual) of the last sweep.
+    Returns the number of sweeps done (``max_iterations`` when not converged).
+    """
+    n_contacts = body_i.shape[0]
+    velocities[:, :] = free_velocities
+    spins[:, :] = free_spins
+    residuals[0] = 0.0
+    residuals[1] = 0.0
+    if n_contacts == 0:
+        return 0
+    delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, delassus)
+    shift = np.empty(n_contacts)
+    free_norm2 = 0.0
+    for k in range(n_contacts):
+        shift[k] = max(0.0, gap[k]) / dt
+        un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
+                                        free_velocities, free_spins)
+        free_norm2 += (un + shift[k]) ** 2 + ut * ut + us * us
+    for k in range(n_contacts):  # warm start
+        _apply(k, impulses[k, 0], impulses[k, 1], impulses[k, 2], body_i, body_j, frame,
+               arm_i, arm_j, inv_mass, inv_inertia, velocities, spins)
+    iterations = 0
+    while iterations < max_iterations:
+        iterations += 1
+        change2 = 0.0
+        for m in range(n_contacts):
+            k = order[m]
+            w = delassus[k]
+            un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
+                                            velocities, spins)
+            p0, p1, p2 = impulses[k, 0], impulses[k, 1], impulses[k, 2]
+            # free (P_k = 0) corrected velocity
+            fn = un + shift[k] - (w[0, 0] * p0 + w[0, 1] * p1 + w[0, 2] * p2)
+            ft = ut - (w[1, 0] * p0 + w[1, 1] * p1 + w[1, 2] * p2)
+            fs = us - (w[2, 0] * p0 + w[2, 1] * p1 + w[2, 2] * p2)
+            q0, q1, q2 = local_solve(w, fn, ft, fs, mu[k], p0, p1, p2)
+            d0, d1, d2 = q0 - p0, q1 - p1, q2 - p2
+            change2 += d0 * d0 + d1 * d1 + d2 * d2
+            impulses[k, 0], impulses[k, 1], impulses[k, 2] = q0, q1, q2
+            _apply(k, d0, d1, d2, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+                   velocities, spins)
+        # check pass (no update)
+        p_norm2, wp_norm2, u_norm2, res2 = 0.0, 0.0, 0.0, 0.0
+        for k in range(n_contacts):
+            un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
+                                            velocities, spins)
+            un += shift[k]
+            wk = delassus[k, 0, 0]
+            pn, pt, ps = wk * impulses[k, 0], wk * impulses[k, 1], wk * impulses[k, 2]
+            p_norm2 += impulses[k, 0] ** 2 + impulses[k, 1] ** 2 + impulses[k, 2] ** 2
+            wp_norm2 += pn * pn + pt * pt + ps * ps
+            u_norm2 += un * un + ut * ut + us * us
+            slip = math.sqrt(ut * ut + us * us)
+            cn, ct, cs = project_cone(mu[k], pn - (un + mu[k] * slip), pt - ut, ps - us)
+            res2 += (pn - cn) ** 2 + (pt - ct) ** 2 + (ps - cs) ** 2
+        change = 0.0 if change2 == 0.0 else math.sqrt(change2 / max(p_norm2, _TINY))
+        scale = max(math.sqrt(free_norm2), math.sqrt(wp_norm2), math.sqrt(u_norm2), _TINY)
+        residual = math.sqrt(res2) / scale
+        residuals[0] = change
+        residuals[1] = residual
+        if change <= tolerance and residual <= tolerance:
+            break
+    return iterations
+
+
+# --------------------------------------------------------------------------------------------
+# Python launcher
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class StepReport:
+    """Outcome of one :meth:`ContactDynamicsStep.step`.
+
+    ``n_contacts``; NLGS ``iterations`` (sweeps), ``converged``, ``change`` and ``residual``
+    (module docstring); ``max_overlap`` [m] = max(0, -min gap) at the detection
+    configuration; the ``contacts`` detected, their ``frames`` (C, 3, 3) (rows n, t, s),
+    ``impulses`` (C, 3) local (P_n, P_t, P_s) [N s] and end-of-step relative velocities
+    ``relative_velocity`` (C, 3) local [m/s] (U, without the gap correction).
+    """
+
+    n_contacts: int
+    iterations: int
+    converged: bool
+    change: float
+    residual: float
+    max_overlap: float
+    contacts: Contacts
+    frames: np.ndarray
+    impulses: np.ndarray
+    relative_velocity: np.ndarray
+
+
+def contact_frames(normals: np.ndarray) -> np.ndarray:
+    """Local frames (C, 3, 3), rows (n, t, s): t is n x e normalised, e the axis least
+    aligned with n, and s = n x t."""
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    axis = np.zeros_like(n)
+    axis[np.arange(n.shape[0]), np.argmin(np.abs(n), axis=1)] = 1.0
+    t = np.cross(n, axis)
+    t /= np.linalg.norm(t, axis=1)[:, None]
+    s = np.cross(n, t)
+    return np.ascontiguousarray(np.stack([n, t, s], axis=1))
+
+
+def rotate_quaternions(q: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """exp(rotation / 2) q, normalised, for unit quaternions q (N, 4) and world rotation
+    vectors (N, 3) [rad]."""
+    angle = np.linalg.norm(rotation, axis=1)
+    half = 0.5 * angle
+    with np.errstate(invalid="ignore", divide="ignore"):
+        factor = np.where(angle > 0.0, np.sin(half) / np.where(angle > 0.0, angle, 1.0), 0.5)
+    dw = np.cos(half)
+    dv = factor[:, None] * rotation
+    w, v = q[:, 0], q[:, 1:]
+    out = np.empty_like(q)
+    out[:, 0] = dw * w - np.sum(dv * v, axis=1)
+    out[:, 1:] = dw[:, None] * v + w[:, None] * dv + np.cross(dv, v)
+    return out / np.linalg.norm(out, axis=1)[:, None]
+
+
+def _positive(name: str, value, allow_zero: bool = False) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if not math.isfinite(x) or x < 0.0 or (x == 0.0 and not allow_zero):
+        raise InputError(name, value, "a finite number " + (">= 0" if allow_zero else "> 0"))
+    return x
+
+
+class ContactDynamicsStep:
+    """One NSCD time step for sphere-based rigid bodies and fixed plane walls.
+
+    Parameters
+    ----------
+    dt:
+        Time step h [s] > 0 (pitfall 6: v_max h <= 0.01-0.05 d_min).
+    theta:
+        theta-scheme parameter in [0.5, 1].
+    tolerance:
+        NLGS tolerance on both the relative change and the residual (> 0, no units).
+    max_iterations:
+        NLGS sweep cap (>= 1).
+    gravity:
+        Acceleration (3,) [m/s^2].
+    friction:
+        Coulomb coefficient mu >= 0 of every contact.
+    alert:
+        Alert distance [m] >= 0; None: 0.1 x the smallest member radius (6.2).
+    gyroscopic:
+        Add w x I w semi-implicitly (module docstring); False neglects it.
+    strict:
+        Raise :class:`~grainlab.errors.ConvergenceError` when NLGS does not converge.
+    seed:
+        Seed of the per-step random visiting order.
+    """
+
+    def __init__(
+        self, dt: float, theta: float = 0.5, tolerance: float = 1e-5,
+        max_iterations: int = 1000, gravity=(0.0, 0.0, 0.0), friction: float = 0.4,
+        alert: float | None = None, gyroscopic: bool = False, strict: bool = False,
+        seed: int = 0,
+    ) -> None:
+        self.dt = _positive("dt", dt)
+        theta_value = _positive("theta", theta)
+        if not 0.5 <= theta_value <= 1.0:
+            raise InputError("theta", theta, "a number in [0.5, 1]")
+        self.theta = theta_value
+        self.tolerance = _positive("tolerance", tolerance)
+        if isinstance(max_iterations, bool) or not isinstance(max_iterations, int | np.integer) \
+                or max_iterations < 1:
+            raise InputError("max_iterations", max_iterations, "an integer >= 1")
+        self.max_iterations = int(max_iterations)
+        g = np.asarray(gravity, dtype=np.float64)
+        if g.shape != (3,) or not np.isfinite(g).all():
+            raise InputError("gravity", gravity, "a finite (3,) acceleration in m/s^2")
+        self.gravity = g
+        self.friction = _positive("friction", friction, allow_zero=True)
+        self.alert = None if alert is None else _positive("alert", alert, allow_zero=True)
+        self.gyroscopic = bool(gyroscopic)
+        self.strict = bool(strict)
+        self._rng = np.random.default_rng(seed)
+        self._warm: dict[tuple[int, int, int, int], np.ndarray] = {}
+        self._broad: CellListBroadPhase | None = None
+        self._narrow: NarrowPhase | None = None
+
+    def _phases(self, library: ShapeLibrary) -> tuple[CellListBroadPhase, NarrowPhase]:
+        if self._narrow is None:
+            alert = self.alert if self.alert is not None else \
+                0.1 * float(library.sphere_radii.min())
+            self._broad = CellListBroadPhase(alert=alert)
+            self._narrow = NarrowPhase(alert=alert)
+        return self._broad, self._narrow
+
+    def _free_spins(self, state: BodyState, rotations: np.ndarray) -> np.ndarray:
+        omega = np.array(state.angular_velocities, dtype=np.float64)
+        if not self.gyroscopic:
+            return omega
+        h = self.dt
+        for b in range(state.n_bodies):
+            inertia = np.diag(state.inertias[b])
+            wb = rotations[b].T @ omega[b]
+            iw = inertia @ wb
+            torque = np.cross(wb, iw)
+            jac = inertia + h * (_skew(wb) @ inertia - _skew(iw))
+            wb = wb - h * np.linalg.solve(jac, torque)
+            omega[b] = rotations[b] @ wb
+        return omega
+
+    def step(self, state: BodyState, library: ShapeLibrary, walls=None) -> StepReport:
+        """Advance ``state`` in place by one step; ``walls`` is None or
+        (points (W, 3) [m], normals (W, 3)) of fixed planes, normals pointing into the bodies'
+        region."""
+        h, theta = self.dt, self.theta
+        broad, narrow = self._phases(library)
+        wall_points, wall_normals = (None, None) if walls is None else walls
+        n_bodies = state.n_bodies
+        rotations = quat_to_matrices(state.orientations)
+        # free velocities and detection configuration q_m
+        free_v = np.ascontiguousarray(state.velocities + h * self.gravity[None, :])
+        free_w = np.ascontiguousarray(self._free_spins(state, rotations))
+        x_m = state.positions + (1.0 - theta) * h * state.velocities
+        q_m = rotate_quaternions(state.orientations, (1.0 - theta) * h * state.angular_velocities)
+        predicted = replace(state, positions=x_m, orientations=q_m)
+        bounding = library.bounding_radius[state.shape_ids]
+        pad = float(bounding.max()) + broad.alert + 1e-9
+        lo, hi = x_m.min(axis=0) - pad, x_m.max(axis=0) + pad
+        pairs = broad.find_pairs(x_m, bounding, lo, hi)
+        contacts = narrow.detect(predicted, library, pairs, wall_points, wall_normals)
+        n_contacts = contacts.n_contacts
+        # local frames, arms, masses and world inverse inertia at q_m
+        frames = contact_frames(contacts.normal)
+        arm_i = np.zeros((n_contacts, 3))
+        inner = contacts.body_i >= 0
+        arm_i[inner] = contacts.point[inner] - x_m[contacts.body_i[inner]]
+        arm_j = np.ascontiguousarray(contacts.point - x_m[contacts.body_j])
+        inv_mass = 1.0 / state.masses
+        r_m = quat_to_matrices(q_m)
+        inv_inertia = np.ascontiguousarray(
+            np.einsum("nij,nj,nkj->nik", r_m, 1.0 / state.inertias, r_m))
+        keys = list(zip(contacts.body_i.tolist(), contacts.body_j.tolist(),
+                        contacts.member_i.tolist(), contacts.member_j.tolist(), strict=True))
+        impulses = np.zeros((n_contacts, 3))
+        for k, key in enumerate(keys):
+            force = self._warm.get(key)
+            if force is not None:
+                impulses[k] = h * (frames[k] @ force)
+        velocities = np.empty((n_bodies, 3))
+        spins = np.empty((n_bodies, 3))
+        delassus = np.empty((n_contacts, 3, 3))
+        residuals = np.zeros(2)
+        order = self._rng.permutation(n_contacts).astype(np.int64)
+        iterations = nlgs_kernel(
+            contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
+            inv_mass, inv_inertia, free_v, free_w, np.full(n_contacts, self.friction),
+            contacts.gap, h, order, self.tolerance, self.max_iterations,
+            impulses, velocities, spins, delassus, residuals,
+        )
+        change, residual = float(residuals[0]), float(residuals[1])
+        converged = n_contacts == 0 or (change <= self.tolerance and residual <= self.tolerance)
+        if not converged and self.strict:
+            raise ConvergenceError(
+                f"NLGS did not converge in {iterations} sweeps: relative change {change:.3e}, "
+                f"residual {residual:.3e} (tolerance {self.tolerance:.3e}, "
+                f"{n_contacts} contacts).")
+        # warm start of the next step: forces in the world frame
+        forces = np.einsum("cji,cj->ci", frames, impulses) / h
+        self._warm = {key: forces[k] for k, key in enumerate(keys)}
+        relative = _relative_velocities(contacts, frames, arm_i, arm_j, velocities, spins)
+        # end-of-step configuration
+        state.velocities[:] = velocities
+        state.angular_velocities[:] = spins
+        state.positions[:] = x_m + theta * h * velocities
+        state.orientations[:] = rotate_quaternions(q_m, theta * h * spins)
+        max_overlap = float(max(0.0, -contacts.gap.min())) if n_contacts else 0.0
+        return StepReport(
+            n_contacts=n_contacts, iterations=int(iterations), converged=bool(converged),
+            change=change, residual=residual, max_overlap=max_overlap, contacts=contacts,
+            frames=frames, impulses=impulses, relative_velocity=relative,
+        )
+
+
+def _skew(r: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+
+
+def _relative_velocities(contacts, frames, arm_i, arm_j, velocities, spins) -> np.ndarray:
+    """Local relative velocities (C, 3) of body j w.r.t. body i (NumPy twin of the kernel's
+    scalar law, STYLE.md 12)."""
+    bj, bi = contacts.body_j, contacts.body_i
+    u = velocities[bj] + np.cross(spins[bj], arm_j)
+    inner = bi >= 0
+    u[inner] -= velocities[bi[inner]] + np.cross(spins[bi[inner]], arm_i[inner])
+    return np.einsum("cij,cj->ci", frames, u)

@@ -1,0 +1,216 @@
+"""Moreau-Jean / NSCD time step against closed forms: inelastic impact, resting and sliding
+contact, rolling on an incline, a resting column (research/cd_engines.md 6.1-6.3; STYLE.md 11).
+
+Incline cases (gravity g vertical, wall normal tilted by theta, friction mu, solid sphere
+I = 2/5 m r^2): with rotation locked the sphere sticks if tan(theta) < mu and otherwise slides
+with a = g (sin theta - mu cos theta). Free to rotate it rolls without slipping
+(a = 5/7 g sin theta) if tan(theta) < 7 mu / 2, and otherwise slips with
+a = g (sin theta - mu cos theta) (the friction torque spins it up, but the contact keeps slipping).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from grainlab.engine.contact_dynamics import ContactDynamicsStep, StepReport, nlgs_kernel
+from grainlab.engine.state import BodyState, ShapeLibrary
+from grainlab.errors import ConvergenceError
+from grainlab.geometry.sphere_aggregate import tetrahedral_aggregate
+
+G = 9.81
+R = 0.5
+DT = 1e-3
+TOL = 1e-5
+FLOOR = ([[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]])
+
+
+def spheres(positions, radius=R):
+    library = ShapeLibrary.from_spheres([radius])
+    state = BodyState.from_library(library, [0] * len(positions), positions, density=1000.0)
+    return library, state
+
+
+def assert_contact_laws(report: StepReport, mu: float, dt: float = DT, tol: float = TOL):
+    """Signorini and Coulomb at every contact of one step (impulse scale: the largest P_n,
+    velocity scale: g dt or the largest free velocity)."""
+    assert report.converged, (report.iterations, report.change, report.residual)
+    if report.n_contacts == 0:
+        return
+    p, u, gap = report.impulses, report.relative_velocity, report.contacts.gap
+    p_scale = max(float(np.abs(p[:, 0]).max()), 1e-30)
+    u_scale = max(G * dt, float(np.abs(u).max()))
+    assert (p[:, 0] >= -tol * p_scale).all()
+    slip_impulse = np.linalg.norm(p[:, 1:], axis=1)
+    assert (slip_impulse <= mu * p[:, 0] * (1.0 + tol) + tol * p_scale).all()
+    corrected = u[:, 0] + np.maximum(gap, 0.0) / dt
+    assert (corrected >= -100.0 * tol * u_scale).all()  # no approach beyond tolerance
+    active = p[:, 0] > tol * p_scale
+    assert (np.abs(corrected[active]) <= 100.0 * tol * u_scale).all()  # complementarity
+
+
+def test_head_on_collision_is_perfectly_inelastic_and_conserves_momentum():
+    library, state = spheres([[0.0, 0.0, 0.0], [1.02, 0.0, 0.0]])
+    state.velocities[0] = [1.0, 0.0, 0.0]
+    state.velocities[1] = [-0.5, 0.0, 0.0]
+    p0 = state.momentum().copy()
+    step = ContactDynamicsStep(dt=DT, friction=0.4)
+    # IQS lets the spheres close the gap g at q_m at most by g within a step, so the approach
+    # velocity decays geometrically (g/h, g/(4h), ...) to 0: never a rebound
+    previous = None
+    for _ in range(100):
+        report = step.step(state, library)
+        assert_contact_laws(report, 0.4)
+        np.testing.assert_allclose(state.momentum(), p0, rtol=1e-13, atol=1e-13)
+        gap = np.linalg.norm(state.positions[1] - state.positions[0]) - 2 * R
+        assert gap >= -1e-12
+        approach = state.velocities[0, 0] - state.velocities[1, 0]
+        assert approach >= -1e-12  # no separation, no rebound
+        if previous is not None:
+            assert approach <= previous + 1e-12
+        previous = approach
+    np.testing.assert_allclose(state.velocities[:, 0], 0.25, atol=1e-9)
+    assert report.n_contacts == 1 and report.max_overlap < 1e-12  # in contact, at rest
+    np.testing.assert_allclose(state.velocities[:, 1:], 0.0, atol=1e-15)
+
+
+def test_dropped_sphere_comes_to_rest_on_wall_without_rebound():
+    library, state = spheres([[0.0, 0.0, R + 0.02]])
+    m = state.masses[0]
+    step = ContactDynamicsStep(dt=DT, gravity=(0.0, 0.0, -G))
+    landed = False
+    for _ in range(400):
+        report = step.step(state, library, FLOOR)
+        assert_contact_laws(report, 0.4)
+        assert state.positions[0, 2] - R >= -1e-12  # no penetration
+        landed = landed or (report.n_contacts and report.impulses[0, 0] > 0.0)
+        if landed:
+            assert state.velocities[0, 2] <= 1e-12  # no rebound
+    assert landed
+    assert abs(state.velocities[0, 2]) < 1e-9
+    assert report.impulses[0, 0] == pytest.approx(m * G * DT, rel=1e-6)
+    assert report.iterations >= 1 and report.residual <= TOL
+
+
+def incline_run(theta, mu, lock_rotation, n_steps=100):
+    normal = np.array([-np.sin(theta), 0.0, np.cos(theta)])
+    library, state = spheres([R * normal])
+    if lock_rotation:
+        state.inertias[:] = 1e20  # rotation effectively locked
+    step = ContactDynamicsStep(dt=DT, gravity=(0.0, 0.0, -G), friction=mu)
+    walls = ([[0.0, 0.0, 0.0]], [normal])
+    for _ in range(n_steps):
+        report = step.step(state, library, walls)
+        assert_contact_laws(report, mu)
+        assert report.n_contacts == 1
+    downhill = -np.array([np.cos(theta), 0.0, np.sin(theta)])
+    t = n_steps * DT
+    np.testing.assert_allclose(state.velocities[0] @ normal, 0.0, atol=1e-12)
+    return float(state.velocities[0] @ downhill) / t, state, report
+
+
+def test_incline_sticks_when_rotation_locked_and_tan_below_mu():
+    a, state, _ = incline_run(np.arctan(0.3), mu=0.4, lock_rotation=True)
+    assert abs(a) < 1e-9
+    np.testing.assert_allclose(state.velocities, 0.0, atol=1e-10)
+
+
+@pytest.mark.parametrize("lock_rotation", [True, False])
+def test_incline_slides_with_coulomb_acceleration(lock_rotation):
+    # tan(theta) = 1 > 7 mu / 2 = 0.7: slips even when free to roll
+    theta, mu = np.pi / 4, 0.2
+    a, _, report = incline_run(theta, mu, lock_rotation)
+    expected = G * (np.sin(theta) - mu * np.cos(theta))
+    assert a == pytest.approx(expected, rel=1e-2)
+    np.testing.assert_allclose(np.linalg.norm(report.impulses[0, 1:]),
+                               mu * report.impulses[0, 0], rtol=1e-6)
+
+
+def test_incline_rolls_without_slipping_below_seven_mu_over_two():
+    theta, mu = np.arctan(0.5), 0.4  # tan = 0.5 < 1.4
+    a, _, report = incline_run(theta, mu, lock_rotation=False)
+    assert a == pytest.approx(5.0 / 7.0 * G * np.sin(theta), rel=1e-2)
+    np.testing.assert_allclose(report.relative_velocity[0, 1:], 0.0, atol=1e-9)
+    assert np.linalg.norm(report.impulses[0, 1:]) < mu * report.impulses[0, 0]
+
+
+def test_column_of_five_spheres_rests_on_wall():
+    n = 5
+    library, state = spheres([[0.0, 0.0, R + 2 * R * k] for k in range(n)])
+    start = state.positions.copy()
+    m = state.masses[0]
+    step = ContactDynamicsStep(dt=DT, gravity=(0.0, 0.0, -G), friction=0.4)
+    iterations = []
+    for _ in range(200):
+        report = step.step(state, library, FLOOR)
+        assert_contact_laws(report, 0.4)
+        assert report.n_contacts == n
+        iterations.append(report.iterations)
+        wall = report.contacts.body_i < 0
+        assert report.impulses[wall, 0].sum() == pytest.approx(n * m * G * DT, rel=1e-4)
+    np.testing.assert_allclose(state.positions, start, atol=1e-8)
+    assert report.max_overlap < 1e-8
+    assert max(iterations) < step.max_iterations
+    assert iterations[-1] <= iterations[0]  # warm start helps
+
+
+def test_pyramid_obeys_contact_laws_every_step():
+    # three spheres on the floor (slightly apart) carrying a fourth; friction holds or slides
+    base = [[np.cos(a) * 0.6, np.sin(a) * 0.6, R] for a in (0.0, 2.1, 4.2)]
+    top = [[0.0, 0.0, R + np.sqrt((2 * R + 0.01) ** 2 - 0.36)]]
+    library, state = spheres(base + top)
+    mu = 0.3
+    step = ContactDynamicsStep(dt=DT, gravity=(0.0, 0.0, -G), friction=mu, seed=3)
+    for _ in range(100):
+        report = step.step(state, library, FLOOR)
+        assert_contact_laws(report, mu)
+        assert report.n_contacts >= 3
+
+
+def test_aggregate_settles_with_gyroscopic_term():
+    agg = tetrahedral_aggregate(radius=0.25, lam=0.5)
+    library = ShapeLibrary.from_aggregates([agg])
+    height = float(agg.bounding_radius) + 0.01
+    state = BodyState.from_library(library, [0], [[0.0, 0.0, height]], density=1000.0)
+    state.angular_velocities[0] = [0.3, -0.2, 0.5]
+    step = ContactDynamicsStep(dt=DT, gravity=(0.0, 0.0, -G), gyroscopic=True)
+
+    def energy():
+        return state.kinetic_energy() + state.masses[0] * G * state.positions[0, 2]
+
+    start = energy()
+    for _ in range(400):
+        report = step.step(state, library, FLOOR)
+        assert_contact_laws(report, 0.4)
+        assert report.max_overlap < 1e-6
+        assert energy() <= start * (1.0 + 1e-9)  # contacts never create energy
+    assert report.n_contacts >= 1
+    np.testing.assert_allclose(np.linalg.norm(state.orientations, axis=1), 1.0, atol=1e-12)
+
+
+def test_non_convergence_is_reported_and_strict_mode_raises():
+    positions = [[0.0, 0.0, R + 2 * R * k] for k in range(5)]
+    library, state = spheres(positions)
+    step = ContactDynamicsStep(dt=DT, gravity=(0.0, 0.0, -G), max_iterations=1)
+    report = step.step(state, library, FLOOR)
+    assert not report.converged and report.iterations == 1 and report.change > TOL
+    library, state = spheres(positions)
+    strict = ContactDynamicsStep(dt=DT, gravity=(0.0, 0.0, -G), max_iterations=1, strict=True)
+    with pytest.raises(ConvergenceError, match="did not converge"):
+        strict.step(state, library, FLOOR)
+
+
+def test_kernel_with_no_contacts_returns_free_velocities():
+    empty_i = np.zeros(0, dtype=np.int64)
+    v_free = np.array([[1.0, 2.0, 3.0]])
+    w_free = np.array([[0.1, 0.0, 0.0]])
+    velocities, spins, residuals = np.empty((1, 3)), np.empty((1, 3)), np.ones(2)
+    iterations = nlgs_kernel(
+        empty_i, empty_i, np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
+        np.ones(1), np.eye(3)[None], v_free, w_free, np.zeros(0), np.zeros(0), DT, empty_i,
+        TOL, 10, np.zeros((0, 3)), velocities, spins, np.zeros((0, 3, 3)), residuals,
+    )
+    assert iterations == 0
+    np.testing.assert_array_equal(velocities, v_free)
+    np.testing.assert_array_equal(spins, w_free)
+    np.testing.assert_array_equal(residuals, 0.0)
