@@ -1,0 +1,8 @@
+"""The discrete engine: bodies as structure-of-arrays state, a shape library, detection
+(cell-list broad phase, narrow phase per shape pair) and solvers (Moreau–Jean contact dynamics
+with nonlinear Gauss–Seidel); compute kernels are Numba functions over plain arrays.
+
+Modules: :mod:`~grainlab.engine.state`, :mod:`~grainlab.engine.quaternion`,
+:mod:`~grainlab.engine.broad_phase`, :mod:`~grainlab.engine.narrow_phase`,
+:mod:`~grainlab.engine.contact_dynamics`.
+"""
