@@ -79,12 +79,13 @@ class SnapshotAnalysis(Compute):
         parts: dict[str, Any] = {
             "stress": StressState().compute(network),
             "connectivity": Connectivity(min_contacts=self.min_contacts).compute(network),
-            "fabric": Fabric(frame_level=self.frame_level).compute(network),
-            "angular": AngularDistributions(n_bins=self.n_angle_bins).compute(network),
+            "angular": AngularDistributions(n_bins=self.n_angle_bins,
+                                            frame_level=self.frame_level).compute(network),
             "forces": ForceStatistics(n_bins=self.n_force_bins).compute(network),
             "friction": None,
             "partial": None,
         }
+        parts["fabric"] = parts["angular"].fabric  # computed once, shared
         if network.friction_coefficient is not None:
             parts["friction"] = Friction(tolerance=self.friction_tolerance).compute(network)
         if network.pair_types is not None and network.type_names:
