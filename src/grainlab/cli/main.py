@@ -45,7 +45,7 @@ def demo(
     path = packing2d.RotatedStressPath(alpha=np.radians(30.0))
     result = packing2d.run_rotated_stress_path(model, path)
     packing2d.save_figure(packing2d.tessellation_figure(model.packing), out / "tessellation_C.png")
-    packing2d._report_load(model, result, out)
+    packing2d.report_load(model, result, out)
 
 
 @app.command()

@@ -234,10 +234,10 @@ def load_command(
         result = run_rotated_stress_path(
             model, path, progress=lambda f: bar.update(task, completed=f)
         )
-    _report_load(model, result, out)
+    report_load(model, result, out)
 
 
-def _report_load(model, result, out: Path) -> None:
+def report_load(model, result, out: Path) -> None:
     csv_path, h5_path = result.save(out)
     save_figure(stress_ratio_strain_figure(result), out / "fig7_stress_ratio_strains.png")
     save_figure(contact_force_figure(model, result), out / "fig10_contact_forces.png")

@@ -65,10 +65,6 @@ class SpringState:
         """Contacts that carry no force (separated)."""
         return (self.normal_force <= 0.0) & ~self.bonded
 
-    @property
-    def force(self) -> np.ndarray:
-        """Force vectors f = f_n n + f_r need the normals: see :func:`force_vectors`."""
-        raise AttributeError("use force_vectors(state, normals)")
 
 
 def force_vectors(state: SpringState, normals: np.ndarray) -> np.ndarray:

@@ -37,7 +37,7 @@ branch vectors (L shortens by the symmetric strain and the centre's move) and vo
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -94,7 +94,6 @@ class MicroElementState:
     mask: np.ndarray
     strain: np.ndarray  # cumulative overall Voigt strain since the model was built
     residual_stress: np.ndarray  # Voigt stress of the last increment's residual forces
-    history: dict[str, Any] = field(default_factory=dict)
 
 
 class MicroElementModel:
