@@ -207,8 +207,9 @@ def test_kernel_with_no_contacts_returns_free_velocities():
     velocities, spins, residuals = np.empty((1, 3)), np.empty((1, 3)), np.ones(2)
     iterations = nlgs_kernel(
         empty_i, empty_i, np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
-        np.ones(1), np.eye(3)[None], v_free, w_free, np.zeros(0), np.zeros(0), DT, empty_i,
-        TOL, 10, np.zeros((0, 3)), velocities, spins, np.zeros((0, 3, 3)), residuals,
+        np.ones(1), np.eye(3)[None], v_free, w_free, np.zeros((0, 3)), np.zeros(0), np.zeros(0),
+        np.zeros(0), np.zeros(0), np.zeros(0), DT, empty_i, TOL, 10, np.zeros((0, 3)),
+        velocities, spins, np.zeros(0), np.zeros((0, 3, 3)), residuals,
     )
     assert iterations == 0
     np.testing.assert_array_equal(velocities, v_free)

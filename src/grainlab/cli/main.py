@@ -9,15 +9,15 @@ import typer
 from rich.console import Console
 
 from grainlab._version import __version__
-from grainlab.cli import analyse, microelement, packing2d
+from grainlab.cli import analyse, discrete, microelement, packing2d
 from grainlab.cli.errors import friendly_errors
 
 app = typer.Typer(
     help=(
         "grainlab — a virtual laboratory for granular materials. Describe particles, run the "
-        "tests a soil or powder lab runs, on a micromechanical theory (and, soon, a discrete "
-        "simulation) of the packing, and read the answer as a test result (CSV/HDF5) with "
-        "figures. Start with `grainlab demo`."
+        "tests a soil or powder lab runs, on a micromechanical theory or a discrete "
+        "simulation (contact dynamics) of the packing, and read the answer as a test result "
+        "(CSV/HDF5) with figures. Start with `grainlab demo`."
     ),
     no_args_is_help=True,
     rich_markup_mode="markdown",
@@ -26,6 +26,11 @@ app = typer.Typer(
 app.add_typer(packing2d.app, name="packing2d")
 app.command("analyse")(analyse.analyse_command)
 app.add_typer(microelement.app, name="microelement")
+app.command("triaxial")(discrete.triaxial_command)
+app.command("compaction")(discrete.compaction_command)
+app.command("oedometer")(discrete.oedometer_command)
+app.command("resume")(discrete.resume_command)
+app.command("vtk")(discrete.vtk_command)
 console = Console()
 
 
@@ -57,3 +62,7 @@ def version() -> None:
 def main() -> None:
     """Console-script entry point."""
     app()
+
+
+if __name__ == "__main__":
+    main()

@@ -44,7 +44,18 @@ the change is below 1e-12 relative. Contacts are visited in one seeded random pe
 step. Warm start: the previous step's force (impulse / h, world frame) of the same
 (body_i, body_j, member_i, member_j).
 
-Convergence (both must be <= ``tolerance`` after a sweep, checked every sweep):
+Sweeps. ``sweep="serial"`` runs :func:`nlgs_kernel` in the seeded random order above.
+``sweep="coloured"`` (the default) greedily colours the contacts so that no two of one colour
+share a body (:mod:`~grainlab.engine.contact_colouring`, linear in C) and runs
+:func:`~grainlab.engine.nlgs_parallel.nlgs_coloured_kernel`: the colours one after the other,
+the contacts of a colour in parallel (``numba.prange``), the contacts of mobile
+(stress-controlled) walls last in a serial loop, as they all share their wall. The same local
+solver and convergence measures, in a fixed order: the solution agrees with the serial sweep
+within the tolerance and does not depend on the number of threads.
+
+Convergence (both must be <= ``tolerance`` after a sweep; the change is measured in every
+sweep, the residual, which costs a pass over the contacts, only after sweeps whose change is
+below the tolerance and at the cap):
 
 - change   = ||P^k - P^(k-1)|| / ||P^k||                          (0 when both vanish)
 - residual = ||w P - proj_K(w P - (U' + mu |U_T| e_n))|| / max(||U_free||, ||w P||, ||U'||)
@@ -70,12 +81,14 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from numba import njit
+from numba import get_num_threads, njit
 
 from grainlab.engine.broad_phase import CellListBroadPhase
+from grainlab.engine.contact_colouring import colour_contacts
 from grainlab.engine.narrow_phase import Contacts, NarrowPhase
 from grainlab.engine.quaternion import quat_to_matrices
 from grainlab.engine.state import BodyState, ShapeLibrary
+from grainlab.engine.wall_box import WallBox
 from grainlab.errors import ConvergenceError, InputError
 
 _TINY = 1e-300
@@ -83,6 +96,7 @@ _WTT_CLAMP = 1e-6  # W_tt >= 1e-6 W_nn (LMGC90, pitfall 5)
 _DET_TINY = 1e-12  # det W below 1e-12 W_nn^3: singular block, use projections
 _LOCAL_ITERATIONS = 100
 _LOCAL_TOLERANCE = 1e-12
+_SWEEPS = ("coloured", "serial")
 
 
 # --------------------------------------------------------------------------------------------
@@ -94,7 +108,7 @@ _LOCAL_TOLERANCE = 1e-12
 def project_cone(mu, zn, zt, zs):
     """Projection of (zn, zt, zs) on the Coulomb cone {|z_T| <= mu z_n}."""
     norm_t = math.sqrt(zt * zt + zs * zs)
-    if norm_t <= mu * zn:
+    if zn >= 0.0 and norm_t <= mu * zn:
         return zn, zt, zs
     if mu * norm_t <= -zn:
         return 0.0, 0.0, 0.0
@@ -151,8 +165,10 @@ def local_solve(w, un, ut, us, mu, pn, pt, ps):
 
 
 @njit(inline="always")
-def _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j, velocities, spins):
-    """Local (n, t, s) velocity of body j relative to body i at contact k [m/s]."""
+def _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j, velocities, spins,
+                       wall_normals, wall_speeds):
+    """Local (n, t, s) velocity of body j relative to body i at contact k [m/s]; a wall
+    (body_i = -1 - w) moves with the speed ``wall_speeds[w]`` along its normal."""
     ux, uy, uz = 0.0, 0.0, 0.0
     j = body_j[k]
     if j >= 0:
@@ -168,6 +184,11 @@ def _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j, velocities, spins
         ux -= velocities[i, 0] + wy * rz - wz * ry
         uy -= velocities[i, 1] + wz * rx - wx * rz
         uz -= velocities[i, 2] + wx * ry - wy * rx
+    else:
+        w = -1 - i
+        ux -= wall_speeds[w] * wall_normals[w, 0]
+        uy -= wall_speeds[w] * wall_normals[w, 1]
+        uz -= wall_speeds[w] * wall_normals[w, 2]
     return (frame[k, 0, 0] * ux + frame[k, 0, 1] * uy + frame[k, 0, 2] * uz,
             frame[k, 1, 0] * ux + frame[k, 1, 1] * uy + frame[k, 1, 2] * uz,
             frame[k, 2, 0] * ux + frame[k, 2, 1] * uy + frame[k, 2, 2] * uz)
@@ -175,14 +196,19 @@ def _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j, velocities, spins
 
 @njit(inline="always")
 def _apply(k, dn, dt_, ds, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-           velocities, spins):
-    """Add the local impulse change (dn, dt_, ds) of contact k to its two bodies."""
+           velocities, spins, wall_normals, wall_inv_mass, wall_speeds):
+    """Add the local impulse change (dn, dt_, ds) of contact k to its two bodies (a wall
+    moves only along its normal, with inverse mass ``wall_inv_mass[w]``, 0 if driven)."""
     px = frame[k, 0, 0] * dn + frame[k, 1, 0] * dt_ + frame[k, 2, 0] * ds
     py = frame[k, 0, 1] * dn + frame[k, 1, 1] * dt_ + frame[k, 2, 1] * ds
     pz = frame[k, 0, 2] * dn + frame[k, 1, 2] * dt_ + frame[k, 2, 2] * ds
     for side in range(2):
         b = body_j[k] if side == 0 else body_i[k]
         if b < 0:
+            w = -1 - b
+            if wall_inv_mass[w] > 0.0:
+                wall_speeds[w] -= wall_inv_mass[w] * (
+                    px * wall_normals[w, 0] + py * wall_normals[w, 1] + pz * wall_normals[w, 2])
             continue
         sign = 1.0 if side == 0 else -1.0
         if side == 0:
@@ -199,14 +225,28 @@ def _apply(k, dn, dt_, ds, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_in
                             + inv_inertia[b, d, 2] * tz)
 
 
+@njit(inline="always")
+def brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds):
+    """Speed limit of the mobile walls as a unilateral constraint s_w <= s_max solved in the
+    Gauss-Seidel sweep: a brake impulse B_w >= 0 [N s] (outward) with
+    B_w (s_max - s_w) = 0, updated by projection B_w <- max(0, B_w + m_w (s_w - s_max))."""
+    for w in range(wall_speeds.shape[0]):
+        if wall_inv_mass[w] > 0.0 and wall_max_speeds[w] < np.inf:
+            new = max(0.0, brakes[w] + (wall_speeds[w] - wall_max_speeds[w]) / wall_inv_mass[w])
+            wall_speeds[w] -= wall_inv_mass[w] * (new - brakes[w])
+            brakes[w] = new
+
+
 # --------------------------------------------------------------------------------------------
 # Array kernels (outputs last)
 # --------------------------------------------------------------------------------------------
 
 
 @njit(cache=True)
-def delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, out):
-    """Local Delassus blocks W_aa (C, 3, 3) [1/kg] = F (K_i + K_j) F^T (module docstring)."""
+def delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, wall_normals,
+                    wall_inv_mass, out):
+    """Local Delassus blocks W_aa (C, 3, 3) [1/kg] = F (K_i + K_j) F^T (module docstring);
+    a wall w contributes K = wall_inv_mass[w] n_w n_w^T."""
     k_world = np.empty((3, 3))
     skew = np.empty((3, 3))
     for k in range(body_i.shape[0]):
@@ -214,6 +254,11 @@ def delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, 
         for side in range(2):
             b = body_j[k] if side == 0 else body_i[k]
             if b < 0:
+                w = -1 - b
+                for d in range(3):
+                    for e in range(3):
+                        k_world[d, e] += (wall_inv_mass[w] * wall_normals[w, d]
+                                          * wall_normals[w, e])
                 continue
             r = arm_j[k] if side == 0 else arm_i[k]
             skew[0, 0], skew[0, 1], skew[0, 2] = 0.0, -r[2], r[1]
@@ -232,8 +277,9 @@ def delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, 
 @njit(cache=True)
 def nlgs_kernel(
     body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
+    wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
     mu, gap, dt, order, tolerance, max_iterations,
-    impulses, velocities, spins, delassus, residuals,
+    impulses, velocities, spins, wall_speeds, delassus, residuals,
 ):
     """Frictional unilateral contact problem on impulses by nonlinear Gauss-Seidel.
 
@@ -241,41 +287,52 @@ def nlgs_kernel(
     mass); local frames ``frame`` (C, 3, 3), rows n (from i to j), t, s; arms (C, 3) [m] from
     each body's centre to the contact point; ``inv_mass`` (N,) [1/kg]; world inverse inertia
     tensors ``inv_inertia`` (N, 3, 3) [1/(kg m^2)]; free velocities (N, 3) [m/s] and angular
-    velocities (N, 3) [rad/s]; friction ``mu`` (C,); ``gap`` (C,) [m] at the detection
+    velocities (N, 3) [rad/s]; walls: unit normals ``wall_normals`` (W, 3), inverse masses
+    ``wall_inv_mass`` (W,) [1/kg] (0: driven), free normal speeds ``wall_free_speeds`` (W,)
+    [m/s] and speed limits ``wall_max_speeds`` (W,) [m/s] (inf: none; :func:`brake_walls`);
+    friction ``mu`` (C,); ``gap`` (C,) [m] at the detection
     configuration; time step ``dt`` [s]; visiting ``order`` (C,) (a permutation).
 
     Outputs: ``impulses`` (C, 3) local (P_n, P_t, P_s) [N s] (in: warm start; out: solution);
-    ``velocities``, ``spins`` (N, 3) end-of-step velocities; ``delassus`` (C, 3, 3);
+    ``velocities``, ``spins`` (N, 3) end-of-step velocities; ``wall_speeds`` (W,) end-of-step
+    wall normal speeds; ``delassus`` (C, 3, 3);
     ``residuals`` (2,) = (relative change, natural-map residual) of the last sweep.
     Returns the number of sweeps done (``max_iterations`` when not converged).
     """
     n_contacts = body_i.shape[0]
     velocities[:, :] = free_velocities
     spins[:, :] = free_spins
+    wall_speeds[:] = wall_free_speeds
+    brakes = np.zeros(wall_speeds.shape[0])
     residuals[0] = 0.0
     residuals[1] = 0.0
     if n_contacts == 0:
+        brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
         return 0
-    delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, delassus)
+    delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, wall_normals,
+                    wall_inv_mass, delassus)
     shift = np.empty(n_contacts)
     free_norm2 = 0.0
     for k in range(n_contacts):
         shift[k] = max(0.0, gap[k]) / dt
         un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
-                                        free_velocities, free_spins)
+                                        free_velocities, free_spins, wall_normals,
+                                        wall_free_speeds)
         free_norm2 += (un + shift[k]) ** 2 + ut * ut + us * us
     for k in range(n_contacts):  # warm start
         _apply(k, impulses[k, 0], impulses[k, 1], impulses[k, 2], body_i, body_j, frame,
-               arm_i, arm_j, inv_mass, inv_inertia, velocities, spins)
+               arm_i, arm_j, inv_mass, inv_inertia, velocities, spins, wall_normals,
+               wall_inv_mass, wall_speeds)
     iterations = 0
     while iterations < max_iterations:
         iterations += 1
         change2 = 0.0
+        sweep_p2 = 0.0
         for m in range(n_contacts):
             k = order[m]
             w = delassus[k]
             un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
-                                            velocities, spins)
+                                            velocities, spins, wall_normals, wall_speeds)
             p0, p1, p2 = impulses[k, 0], impulses[k, 1], impulses[k, 2]
             # free (P_k = 0) corrected velocity
             fn = un + shift[k] - (w[0, 0] * p0 + w[0, 1] * p1 + w[0, 2] * p2)
@@ -285,13 +342,19 @@ def nlgs_kernel(
             d0, d1, d2 = q0 - p0, q1 - p1, q2 - p2
             change2 += d0 * d0 + d1 * d1 + d2 * d2
             impulses[k, 0], impulses[k, 1], impulses[k, 2] = q0, q1, q2
+            sweep_p2 += q0 * q0 + q1 * q1 + q2 * q2
             _apply(k, d0, d1, d2, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-                   velocities, spins)
+                   velocities, spins, wall_normals, wall_inv_mass, wall_speeds)
+        brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
+        change = 0.0 if change2 == 0.0 else math.sqrt(change2 / max(sweep_p2, _TINY))
+        residuals[0] = change
+        if change > tolerance and iterations < max_iterations:
+            continue  # the residual pass only once the change is small (or at the cap)
         # check pass (no update)
         p_norm2, wp_norm2, u_norm2, res2 = 0.0, 0.0, 0.0, 0.0
         for k in range(n_contacts):
             un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
-                                            velocities, spins)
+                                            velocities, spins, wall_normals, wall_speeds)
             un += shift[k]
             wk = delassus[k, 0, 0]
             pn, pt, ps = wk * impulses[k, 0], wk * impulses[k, 1], wk * impulses[k, 2]
@@ -301,7 +364,6 @@ def nlgs_kernel(
             slip = math.sqrt(ut * ut + us * us)
             cn, ct, cs = project_cone(mu[k], pn - (un + mu[k] * slip), pt - ut, ps - us)
             res2 += (pn - cn) ** 2 + (pt - ct) ** 2 + (ps - cs) ** 2
-        change = 0.0 if change2 == 0.0 else math.sqrt(change2 / max(p_norm2, _TINY))
         scale = max(math.sqrt(free_norm2), math.sqrt(wp_norm2), math.sqrt(u_norm2), _TINY)
         residual = math.sqrt(res2) / scale
         residuals[0] = change
@@ -395,20 +457,24 @@ class ContactDynamicsStep:
     friction:
         Coulomb coefficient mu >= 0 of every contact.
     alert:
-        Alert distance [m] >= 0; None: 0.1 x the smallest member radius (6.2).
+        Alert distance [m] >= 0; None: 0.1 x the smallest member radius (6.2). It grows
+        (``alert_growths`` counts it) when bodies could close a larger gap within one step.
     gyroscopic:
         Add w x I w semi-implicitly (module docstring); False neglects it.
     strict:
         Raise :class:`~grainlab.errors.ConvergenceError` when NLGS does not converge.
     seed:
-        Seed of the per-step random visiting order.
+        Seed of the per-step random visiting order (``sweep="serial"``).
+    sweep:
+        NLGS visiting order: ``"coloured"`` (parallel over graph-coloured contacts) or
+        ``"serial"`` (one seeded random permutation per step); module docstring.
     """
 
     def __init__(
         self, dt: float, theta: float = 0.5, tolerance: float = 1e-5,
         max_iterations: int = 1000, gravity=(0.0, 0.0, 0.0), friction: float = 0.4,
         alert: float | None = None, gyroscopic: bool = False, strict: bool = False,
-        seed: int = 0,
+        seed: int = 0, sweep: str = "coloured",
     ) -> None:
         self.dt = _positive("dt", dt)
         theta_value = _positive("theta", theta)
@@ -429,11 +495,24 @@ class ContactDynamicsStep:
         self.gyroscopic = bool(gyroscopic)
         self.strict = bool(strict)
         self._rng = np.random.default_rng(seed)
-        self._warm: dict[tuple[int, int, int, int], np.ndarray] = {}
+        if sweep not in _SWEEPS:
+            raise InputError("sweep", sweep, "one of " + ", ".join(map(repr, _SWEEPS)))
+        self.sweep = sweep
+        self._warm_keys = np.zeros(0, dtype=np.int64)
+        self._warm_forces = np.zeros((0, 3))
+        self.alert_growths = 0
         self._broad: CellListBroadPhase | None = None
         self._narrow: NarrowPhase | None = None
 
-    def _phases(self, library: ShapeLibrary) -> tuple[CellListBroadPhase, NarrowPhase]:
+    def _phases(self, library: ShapeLibrary, travel: float = 0.0
+                ) -> tuple[CellListBroadPhase, NarrowPhase]:
+        """Broad and narrow phases; the alert distance grows (never shrinks) to 1.5 x
+        ``travel`` [m] when bodies may close a gap larger than it within one step (so that no
+        contact can be missed: tunnelling)."""
+        if self._narrow is not None and travel > self._narrow.alert:
+            self._narrow = None
+            self.alert = 1.5 * travel
+            self.alert_growths += 1
         if self._narrow is None:
             alert = self.alert if self.alert is not None else \
                 0.1 * float(library.sphere_radii.min())
@@ -457,12 +536,43 @@ class ContactDynamicsStep:
         return omega
 
     def step(self, state: BodyState, library: ShapeLibrary, walls=None) -> StepReport:
-        """Advance ``state`` in place by one step; ``walls`` is None or
-        (points (W, 3) [m], normals (W, 3)) of fixed planes, normals pointing into the bodies'
-        region."""
+        """Advance ``state`` in place by one step.
+
+        ``walls`` is None, a :class:`~grainlab.engine.wall_box.WallBox` (moving, driven walls;
+        advanced in place, reactions recorded, per-wall friction) or (points (W, 3) [m],
+        normals (W, 3)) of fixed planes with normals pointing into the bodies' region (friction
+        ``self.friction``)."""
         h, theta = self.dt, self.theta
-        broad, narrow = self._phases(library)
-        wall_points, wall_normals = (None, None) if walls is None else walls
+        box = walls if isinstance(walls, WallBox) else None
+        # largest approach within the step: two bodies (or a body and a wall) closing in
+        speed = float(np.sqrt(np.max(np.sum(state.velocities**2, axis=1)))) \
+            if state.n_bodies else 0.0
+        wall_speed = 0.0
+        if box is not None:
+            moving = np.minimum(np.abs(box.free_speeds(h)), box.max_speeds)
+            wall_speed = float(max(np.max(np.abs(box.speeds)), np.max(moving)))
+        broad, narrow = self._phases(library, h * (2.0 * speed + wall_speed
+                                                   + float(np.linalg.norm(self.gravity)) * h))
+        box = walls if isinstance(walls, WallBox) else None
+        if box is not None:
+            wall_points, wall_normals = box.planes((1.0 - theta) * h)
+            wall_inv_mass = box.inverse_masses()
+            wall_free = box.free_speeds(h)
+            wall_max = np.ascontiguousarray(box.max_speeds, dtype=np.float64)
+            wall_friction = box.friction
+        elif walls is not None:
+            wall_points = np.asarray(walls[0], dtype=np.float64).reshape(-1, 3)
+            wall_normals = np.asarray(walls[1], dtype=np.float64).reshape(-1, 3)
+            n_walls = wall_points.shape[0]
+            wall_inv_mass, wall_free = np.zeros(n_walls), np.zeros(n_walls)
+            wall_max = np.full(n_walls, np.inf)
+            wall_friction = np.full(n_walls, self.friction)
+        else:
+            wall_points = wall_normals = None
+            wall_inv_mass, wall_free, wall_friction = np.zeros(0), np.zeros(0), np.zeros(0)
+            wall_max = np.zeros(0)
+        kernel_normals = np.zeros((0, 3)) if wall_normals is None else \
+            np.ascontiguousarray(wall_normals)
         n_bodies = state.n_bodies
         rotations = quat_to_matrices(state.orientations)
         # free velocities and detection configuration q_m
@@ -487,24 +597,49 @@ class ContactDynamicsStep:
         r_m = quat_to_matrices(q_m)
         inv_inertia = np.ascontiguousarray(
             np.einsum("nij,nj,nkj->nik", r_m, 1.0 / state.inertias, r_m))
-        keys = list(zip(contacts.body_i.tolist(), contacts.body_j.tolist(),
-                        contacts.member_i.tolist(), contacts.member_j.tolist(), strict=True))
+        keys = _contact_keys(contacts, n_bodies, library)
         impulses = np.zeros((n_contacts, 3))
-        for k, key in enumerate(keys):
-            force = self._warm.get(key)
-            if force is not None:
-                impulses[k] = h * (frames[k] @ force)
+        if self._warm_keys.size and n_contacts:
+            where = np.searchsorted(self._warm_keys, keys)
+            where = np.minimum(where, self._warm_keys.size - 1)
+            found = self._warm_keys[where] == keys
+            impulses[found] = h * np.einsum("cij,cj->ci", frames[found],
+                                            self._warm_forces[where[found]])
+        mu = np.full(n_contacts, self.friction)
+        on_wall = ~inner
+        if np.any(on_wall):
+            mu[on_wall] = wall_friction[-1 - contacts.body_i[on_wall]]
         velocities = np.empty((n_bodies, 3))
         spins = np.empty((n_bodies, 3))
+        wall_speeds = np.empty(wall_free.shape[0])
         delassus = np.empty((n_contacts, 3, 3))
         residuals = np.zeros(2)
-        order = self._rng.permutation(n_contacts).astype(np.int64)
-        iterations = nlgs_kernel(
-            contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
-            inv_mass, inv_inertia, free_v, free_w, np.full(n_contacts, self.friction),
-            contacts.gap, h, order, self.tolerance, self.max_iterations,
-            impulses, velocities, spins, delassus, residuals,
-        )
+        kernel_inv_mass = np.ascontiguousarray(wall_inv_mass, dtype=np.float64)
+        if self.sweep == "serial":
+            order = self._rng.permutation(n_contacts).astype(np.int64)
+            iterations = nlgs_kernel(
+                contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
+                inv_mass, inv_inertia, free_v, free_w, kernel_normals,
+                kernel_inv_mass, np.ascontiguousarray(wall_free), wall_max, mu,
+                contacts.gap, h, order, self.tolerance, self.max_iterations,
+                impulses, velocities, spins, wall_speeds, delassus, residuals,
+            )
+        else:
+            # imported here: nlgs_parallel reuses this module's scalar laws
+            from grainlab.engine.nlgs_parallel import nlgs_coloured_kernel, parallel_colours
+
+            colouring = colour_contacts(contacts.body_i, contacts.body_j, kernel_inv_mass,
+                                        n_bodies)
+            n_parallel = parallel_colours(colouring.offsets, colouring.n_colours,
+                                          get_num_threads())
+            iterations = nlgs_coloured_kernel(
+                contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
+                inv_mass, inv_inertia, free_v, free_w, kernel_normals,
+                kernel_inv_mass, np.ascontiguousarray(wall_free), mu,
+                contacts.gap, h, colouring.order, colouring.offsets, n_parallel,
+                self.tolerance, self.max_iterations,
+                impulses, velocities, spins, wall_speeds, delassus, residuals,
+            )
         change, residual = float(residuals[0]), float(residuals[1])
         converged = n_contacts == 0 or (change <= self.tolerance and residual <= self.tolerance)
         if not converged and self.strict:
@@ -512,21 +647,63 @@ class ContactDynamicsStep:
                 f"NLGS did not converge in {iterations} sweeps: relative change {change:.3e}, "
                 f"residual {residual:.3e} (tolerance {self.tolerance:.3e}, "
                 f"{n_contacts} contacts).")
-        # warm start of the next step: forces in the world frame
+        # warm start of the next step: forces in the world frame, sorted by key
         forces = np.einsum("cji,cj->ci", frames, impulses) / h
-        self._warm = {key: forces[k] for k, key in enumerate(keys)}
+        order_keys = np.argsort(keys, kind="stable")
+        self._warm_keys = keys[order_keys]
+        self._warm_forces = forces[order_keys]
         relative = _relative_velocities(contacts, frames, arm_i, arm_j, velocities, spins)
+        if box is not None or wall_normals is not None:
+            if np.any(on_wall):
+                relative[on_wall] -= wall_speeds[-1 - contacts.body_i[on_wall], None] * \
+                    np.einsum("cij,cj->ci", frames[on_wall],
+                              kernel_normals[-1 - contacts.body_i[on_wall]])
         # end-of-step configuration
         state.velocities[:] = velocities
         state.angular_velocities[:] = spins
         state.positions[:] = x_m + theta * h * velocities
         state.orientations[:] = rotate_quaternions(q_m, theta * h * spins)
+        if box is not None:
+            reactions = np.zeros(6)
+            if np.any(on_wall):
+                np.add.at(reactions, -1 - contacts.body_i[on_wall], impulses[on_wall, 0] / h)
+            box.finish_step(wall_speeds, (1.0 - theta) * h, theta * h, reactions)
         max_overlap = float(max(0.0, -contacts.gap.min())) if n_contacts else 0.0
         return StepReport(
             n_contacts=n_contacts, iterations=int(iterations), converged=bool(converged),
             change=change, residual=residual, max_overlap=max_overlap, contacts=contacts,
             frames=frames, impulses=impulses, relative_velocity=relative,
         )
+
+    def warm_start_arrays(self) -> dict[str, np.ndarray]:
+        """The warm-start memory (contact keys and world forces [N]) for checkpoints."""
+        return {"keys": self._warm_keys.copy(), "forces": self._warm_forces.copy()}
+
+    def restore_warm_start(self, arrays: dict[str, np.ndarray]) -> None:
+        """Restore the memory saved by :meth:`warm_start_arrays`."""
+        self._warm_keys = np.asarray(arrays["keys"], dtype=np.int64)
+        self._warm_forces = np.asarray(arrays["forces"], dtype=np.float64).reshape(-1, 3)
+
+    @property
+    def rng_state(self) -> dict:
+        """State of the visiting-order generator (checkpoints)."""
+        return self._rng.bit_generator.state
+
+    @rng_state.setter
+    def rng_state(self, value: dict) -> None:
+        self._rng.bit_generator.state = value
+
+
+def _contact_keys(contacts: Contacts, n_bodies: int, library: ShapeLibrary) -> np.ndarray:
+    """One int64 key per contact (body_i, body_j, member_i, member_j): warm starts match the
+    same member pair from step to step (walls: body_i = -1 - w, member_i = -1)."""
+    stride_m = int(library.sphere_count.max()) + 1
+    stride_b = n_bodies + 64  # room for up to 63 walls below body 0
+    bi = contacts.body_i.astype(np.int64) + 64
+    bj = contacts.body_j.astype(np.int64)
+    mi = contacts.member_i.astype(np.int64) + 1
+    mj = contacts.member_j.astype(np.int64)
+    return ((bi * stride_b + bj) * stride_m + mi) * stride_m + mj
 
 
 def _skew(r: np.ndarray) -> np.ndarray:

@@ -1,0 +1,353 @@
+"""Parallel nonlinear Gauss-Seidel over graph-coloured contacts (Numba; research/cd_engines.md
+6.3; STYLE.md 2, 12).
+
+Same problem, local solver, body accumulators, warm start and convergence measures as
+:func:`~grainlab.engine.contact_dynamics.nlgs_kernel` (see the module docstring of
+:mod:`~grainlab.engine.contact_dynamics`, whose scalar laws are reused); only the visiting
+order differs. The contacts are grouped by
+:func:`~grainlab.engine.contact_colouring.colour_contacts`: no two contacts of one colour share
+a body, so a colour is swept with ``numba.prange`` (each iteration reads and writes only its own
+two bodies: no race, and the result does not depend on which thread ran it), the colours one
+after the other, then the serial group (contacts of mobile walls, which all share their wall)
+in a plain loop. The caller chooses how many leading colours go parallel
+(:func:`parallel_colours`): a colour of fewer than :data:`MIN_PARALLEL` contacts, and every
+colour with one thread, is swept in a plain loop, since waking the threads costs ~10-30 us,
+more than such a colour's work; the result is the same either way.
+
+Layout. The per-contact arrays are first gathered into colour order (one parallel copy per
+step, like one sweep), so that each colour is a contiguous range: a sweep streams through
+memory instead of striding by the number of colours (which missed the cache on every contact
+from ~10^4 contacts on), and the impulses and Delassus blocks are scattered back at the end.
+The sweeps are compiled without the Numba runtime (``_nrt=False``, see
+:func:`_coloured_sweeps`).
+
+Convergence as in ``nlgs_kernel``: the relative change after every sweep, the residual pass
+only after a sweep whose change is below the tolerance (and at the cap).
+
+Determinism. The update sweep is bitwise independent of the number of threads: the colour
+order is fixed and contacts within a colour commute exactly. The sums of the convergence
+measures (relative change, natural-map residual and their norms) are formed over fixed blocks
+of ``_BLOCK`` contacts in parallel, then the block sums are added in block order, so they too
+are independent of the thread count (they differ in rounding from the serial kernel's running
+sums, as does the visiting order). The whole solve, iteration count included, is therefore
+reproducible across thread counts.
+
+>>> import numpy as np
+>>> body = np.array([-1, 0]); other = np.array([0, 1])          # floor - sphere 0 - sphere 1
+>>> frame = np.tile(np.eye(3)[[2, 0, 1]], (2, 1, 1))                 # rows n = e_z, t, s
+>>> arm_i = np.array([[0, 0, 0], [0, 0, 0.5]])
+>>> arm_j = np.array([[0, 0, -0.5], [0, 0, -0.5]]); inv_inertia = np.tile(np.eye(3), (2, 1, 1))
+>>> v_free = np.array([[0, 0, -0.01], [0, 0, -0.01]])
+>>> order, offsets = np.array([0, 1]), np.array([0, 1, 2, 2])  # colours {0}, {1}, no serial
+>>> out = np.zeros((2, 3)), np.empty((2, 3)), np.empty((2, 3)), np.zeros(1)
+>>> delassus, residuals = np.empty((2, 3, 3)), np.zeros(2)
+>>> sweeps = nlgs_coloured_kernel(
+...     body, other, frame, arm_i, arm_j, np.ones(2), inv_inertia, v_free, np.zeros((2, 3)),
+...     np.array([[0.0, 0, 1]]), np.zeros(1), np.zeros(1), np.full(2, 0.4), np.zeros(2), 1e-3,
+...     order, offsets, 2, 1e-10, 100, *out, delassus, residuals)
+>>> bool(np.abs(out[1]).max() < 1e-9), out[0][:, 0].round(6).tolist()   # at rest: P_n = 2mv, mv
+(True, [0.02, 0.01])
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from grainlab.engine.contact_dynamics import (
+    _apply,
+    _relative_velocity,
+    delassus_kernel,
+    local_solve,
+    project_cone,
+)
+
+_TINY = 1e-300  # as in contact_dynamics
+_BLOCK = 1024  # contacts per block of the parallel reductions (fixed: thread-independent)
+MIN_PARALLEL = 2048
+"""Colours with fewer contacts are swept in a plain loop (:func:`parallel_colours`)."""
+
+
+# --------------------------------------------------------------------------------------------
+# Scalar law: one contact update
+# --------------------------------------------------------------------------------------------
+
+
+@njit(inline="always")
+def _update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+                    wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
+                    wall_speeds, delassus):
+    """Local solve of contact k against the current body velocities; applies the impulse
+    change to its bodies and returns its squared norm [N^2 s^2] (as in ``nlgs_kernel``)."""
+    w = delassus[k]
+    un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
+                                    velocities, spins, wall_normals, wall_speeds)
+    p0, p1, p2 = impulses[k, 0], impulses[k, 1], impulses[k, 2]
+    # free (P_k = 0) corrected velocity
+    fn = un + shift[k] - (w[0, 0] * p0 + w[0, 1] * p1 + w[0, 2] * p2)
+    ft = ut - (w[1, 0] * p0 + w[1, 1] * p1 + w[1, 2] * p2)
+    fs = us - (w[2, 0] * p0 + w[2, 1] * p1 + w[2, 2] * p2)
+    q0, q1, q2 = local_solve(w, fn, ft, fs, mu[k], p0, p1, p2)
+    d0, d1, d2 = q0 - p0, q1 - p1, q2 - p2
+    impulses[k, 0], impulses[k, 1], impulses[k, 2] = q0, q1, q2
+    _apply(k, d0, d1, d2, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+           velocities, spins, wall_normals, wall_inv_mass, wall_speeds)
+    return d0 * d0 + d1 * d1 + d2 * d2
+
+
+@njit(inline="always")
+def _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_spins,
+                wall_normals, wall_free_speeds, gap, dt, shift, partial):
+    """Gap shifts max(0, g) / h [m/s] of the contacts of block b, and their ||U'_free||^2
+    [m^2/s^2] into ``partial[b, 0]``."""
+    n_contacts = body_i.shape[0]
+    lo = b * _BLOCK
+    hi = min(lo + _BLOCK, n_contacts)
+    free2 = 0.0
+    for k in range(lo, hi):
+        shift[k] = max(0.0, gap[k]) / dt
+        un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
+                                        free_velocities, free_spins, wall_normals,
+                                        wall_free_speeds)
+        free2 += (un + shift[k]) ** 2 + ut * ut + us * us
+    partial[b, 0] = free2
+
+
+@njit(inline="always")
+def _change_block(b, impulses, delta2, partial):
+    """Sums over the contacts of block b of the sweep's squared impulse changes ``delta2``
+    and squared impulses [N^2 s^2] into ``partial[b, :2]``."""
+    lo = b * _BLOCK
+    hi = min(lo + _BLOCK, impulses.shape[0])
+    change2, p_norm2 = 0.0, 0.0
+    for k in range(lo, hi):
+        change2 += delta2[k]
+        p_norm2 += impulses[k, 0] ** 2 + impulses[k, 1] ** 2 + impulses[k, 2] ** 2
+    partial[b, 0] = change2
+    partial[b, 1] = p_norm2
+
+
+@njit(inline="always")
+def _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins, wall_normals,
+                 wall_speeds, mu, shift, impulses, delassus, partial):
+    """Sums over the contacts of block b of the check pass (as in ``nlgs_kernel``):
+    ``partial[b, :3]`` = (||w P||^2, ||U'||^2, ||natural-map residual||^2) [m^2/s^2]."""
+    n_contacts = body_i.shape[0]
+    lo = b * _BLOCK
+    hi = min(lo + _BLOCK, n_contacts)
+    wp_norm2, u_norm2, res2 = 0.0, 0.0, 0.0
+    for k in range(lo, hi):
+        un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
+                                        velocities, spins, wall_normals, wall_speeds)
+        un += shift[k]
+        wk = delassus[k, 0, 0]
+        pn, pt, ps = wk * impulses[k, 0], wk * impulses[k, 1], wk * impulses[k, 2]
+        wp_norm2 += pn * pn + pt * pt + ps * ps
+        u_norm2 += un * un + ut * ut + us * us
+        slip = math.sqrt(ut * ut + us * us)
+        cn, ct, cs = project_cone(mu[k], pn - (un + mu[k] * slip), pt - ut, ps - us)
+        res2 += (pn - cn) ** 2 + (pt - ct) ** 2 + (ps - cs) ** 2
+    partial[b, 0] = wp_norm2
+    partial[b, 1] = u_norm2
+    partial[b, 2] = res2
+
+
+# --------------------------------------------------------------------------------------------
+# Array kernels (outputs last)
+# --------------------------------------------------------------------------------------------
+
+
+@njit(cache=True, parallel=True, _nrt=False)
+def _coloured_sweeps(
+    body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
+    wall_normals, wall_inv_mass, wall_free_speeds,
+    mu, gap, dt, colour_offsets, n_parallel, tolerance, max_iterations,
+    impulses, velocities, spins, wall_speeds, delassus, residuals, shift, delta2, partial,
+):
+    """Warm start, sweeps and checks of :func:`nlgs_coloured_kernel` on contacts already in
+    group order (group g = contacts ``colour_offsets[g] .. colour_offsets[g + 1] - 1``, the
+    first ``n_parallel`` swept in parallel), with their Delassus blocks given; scratch
+    ``shift`` (C,), ``delta2`` (C,), ``partial`` (n_blocks, 3). Returns the sweeps done.
+
+    Compiled without the Numba runtime (``_nrt=False``): it allocates nothing, and the arrays
+    handed to the inlined scalar laws are then not reference-counted. With the runtime, every
+    inlined call increments and decrements the shared reference count of each array argument
+    atomically (measured: ~35 of the ~42 ns of one ``_relative_velocity`` call), which also
+    serialises the threads on those counters.
+    """
+    n_blocks = partial.shape[0]
+    n_groups = colour_offsets.shape[0] - 1
+    parallel = n_parallel > 0
+    # gap shifts and ||U'_free||^2 per block
+    if parallel:
+        for b in prange(n_blocks):
+            _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_spins,
+                        wall_normals, wall_free_speeds, gap, dt, shift, partial)
+    else:
+        for b in range(n_blocks):
+            _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_spins,
+                        wall_normals, wall_free_speeds, gap, dt, shift, partial)
+    free_norm2 = 0.0
+    for b in range(n_blocks):
+        free_norm2 += partial[b, 0]
+    for c in range(n_groups):  # warm start, group by group
+        lo, hi = colour_offsets[c], colour_offsets[c + 1]
+        if c < n_parallel:
+            for k in prange(lo, hi):
+                _apply(k, impulses[k, 0], impulses[k, 1], impulses[k, 2], body_i, body_j,
+                       frame, arm_i, arm_j, inv_mass, inv_inertia, velocities, spins,
+                       wall_normals, wall_inv_mass, wall_speeds)
+        else:
+            for k in range(lo, hi):
+                _apply(k, impulses[k, 0], impulses[k, 1], impulses[k, 2], body_i, body_j,
+                       frame, arm_i, arm_j, inv_mass, inv_inertia, velocities, spins,
+                       wall_normals, wall_inv_mass, wall_speeds)
+    iterations = 0
+    while iterations < max_iterations:
+        iterations += 1
+        for c in range(n_groups):
+            lo, hi = colour_offsets[c], colour_offsets[c + 1]
+            if c < n_parallel:
+                for k in prange(lo, hi):
+                    delta2[k] = _update_contact(
+                        k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+                        wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
+                        wall_speeds, delassus)
+            else:
+                for k in range(lo, hi):
+                    delta2[k] = _update_contact(
+                        k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+                        wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
+                        wall_speeds, delassus)
+        # relative change of the sweep: sums per block of _BLOCK contacts, then in block order
+        if parallel:
+            for b in prange(n_blocks):
+                _change_block(b, impulses, delta2, partial)
+        else:
+            for b in range(n_blocks):
+                _change_block(b, impulses, delta2, partial)
+        change2, p_norm2 = 0.0, 0.0
+        for b in range(n_blocks):
+            change2 += partial[b, 0]
+            p_norm2 += partial[b, 1]
+        change = 0.0 if change2 == 0.0 else math.sqrt(change2 / max(p_norm2, _TINY))
+        residuals[0] = change
+        if change > tolerance and iterations < max_iterations:
+            continue  # the residual pass only once the change is small (or at the cap)
+        # check pass (no update)
+        if parallel:
+            for b in prange(n_blocks):
+                _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins,
+                             wall_normals, wall_speeds, mu, shift, impulses, delassus, partial)
+        else:
+            for b in range(n_blocks):
+                _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins,
+                             wall_normals, wall_speeds, mu, shift, impulses, delassus, partial)
+        wp_norm2, u_norm2, res2 = 0.0, 0.0, 0.0
+        for b in range(n_blocks):
+            wp_norm2 += partial[b, 0]
+            u_norm2 += partial[b, 1]
+            res2 += partial[b, 2]
+        scale = max(math.sqrt(free_norm2), math.sqrt(wp_norm2), math.sqrt(u_norm2), _TINY)
+        residual = math.sqrt(res2) / scale
+        residuals[1] = residual
+        if change <= tolerance and residual <= tolerance:
+            break
+    return iterations
+
+
+@njit(cache=True, parallel=True)
+def nlgs_coloured_kernel(
+    body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
+    wall_normals, wall_inv_mass, wall_free_speeds,
+    mu, gap, dt, colour_order, colour_offsets, n_parallel_colours, tolerance, max_iterations,
+    impulses, velocities, spins, wall_speeds, delassus, residuals,
+):
+    """Frictional unilateral contact problem on impulses by coloured (parallel) nonlinear
+    Gauss-Seidel.
+
+    Arguments as :func:`~grainlab.engine.contact_dynamics.nlgs_kernel`, with its visiting
+    ``order`` replaced by a colouring (:mod:`~grainlab.engine.contact_colouring`):
+    ``colour_order`` (C,) int64, the contacts grouped; ``colour_offsets`` (G + 1,) int64,
+    group g at rows ``colour_offsets[g] .. colour_offsets[g + 1] - 1`` of ``colour_order``;
+    the groups are visited in order, the first ``n_parallel_colours`` each with ``prange``,
+    the others in a plain loop (results do not depend on ``n_parallel_colours``; see
+    :func:`parallel_colours`). Contacts of a parallel group must not share a body >= 0 nor
+    a mobile wall (the kernel does not check: a conflict would race).
+
+    Outputs: ``impulses`` (C, 3) local (P_n, P_t, P_s) [N s] (in: warm start; out: solution);
+    ``velocities``, ``spins`` (N, 3) end-of-step velocities [m/s], [rad/s]; ``wall_speeds``
+    (W,) end-of-step wall normal speeds [m/s]; ``delassus`` (C, 3, 3) [1/kg];
+    ``residuals`` (2,) = (relative change, natural-map residual) of the last sweep.
+    Returns the number of sweeps done (``max_iterations`` when not converged).
+    """
+    n_contacts = body_i.shape[0]
+    velocities[:, :] = free_velocities
+    spins[:, :] = free_spins
+    wall_speeds[:] = wall_free_speeds
+    residuals[0] = 0.0
+    residuals[1] = 0.0
+    if n_contacts == 0:
+        return 0
+    # gather the contacts into colour order (row m holds contact colour_order[m])
+    c_body_i = np.empty(n_contacts, dtype=np.int64)
+    c_body_j = np.empty(n_contacts, dtype=np.int64)
+    c_frame = np.empty((n_contacts, 3, 3))
+    c_arm_i = np.empty((n_contacts, 3))
+    c_arm_j = np.empty((n_contacts, 3))
+    c_mu = np.empty(n_contacts)
+    c_gap = np.empty(n_contacts)
+    c_impulses = np.empty((n_contacts, 3))
+    c_delassus = np.empty((n_contacts, 3, 3))
+    for m in prange(n_contacts):
+        k = colour_order[m]
+        c_body_i[m] = body_i[k]
+        c_body_j[m] = body_j[k]
+        c_mu[m] = mu[k]
+        c_gap[m] = gap[k]
+        for a in range(3):
+            c_arm_i[m, a] = arm_i[k, a]
+            c_arm_j[m, a] = arm_j[k, a]
+            c_impulses[m, a] = impulses[k, a]
+            for b in range(3):
+                c_frame[m, a, b] = frame[k, a, b]
+    n_blocks = (n_contacts + _BLOCK - 1) // _BLOCK
+    for b in prange(n_blocks):  # Delassus blocks (they allocate: outside _coloured_sweeps)
+        lo = b * _BLOCK
+        hi = min(lo + _BLOCK, n_contacts)
+        delassus_kernel(c_body_i[lo:hi], c_body_j[lo:hi], c_frame[lo:hi], c_arm_i[lo:hi],
+                        c_arm_j[lo:hi], inv_mass, inv_inertia, wall_normals, wall_inv_mass,
+                        c_delassus[lo:hi])
+    iterations = _coloured_sweeps(
+        c_body_i, c_body_j, c_frame, c_arm_i, c_arm_j, inv_mass, inv_inertia, free_velocities,
+        free_spins, wall_normals, wall_inv_mass, wall_free_speeds,
+        c_mu, c_gap, dt, colour_offsets, n_parallel_colours, tolerance, max_iterations,
+        c_impulses, velocities, spins, wall_speeds, c_delassus, residuals,
+        np.empty(n_contacts), np.zeros(n_contacts), np.zeros((n_blocks, 3)))
+    for m in prange(n_contacts):  # scatter back (a permutation: each row written once)
+        k = colour_order[m]
+        for a in range(3):
+            impulses[k, a] = c_impulses[m, a]
+            for b in range(3):
+                delassus[k, a, b] = c_delassus[m, a, b]
+    return iterations
+
+
+# --------------------------------------------------------------------------------------------
+# Python helper
+# --------------------------------------------------------------------------------------------
+
+
+def parallel_colours(colour_offsets, n_colours: int, n_threads: int,
+                     min_size: int = MIN_PARALLEL) -> int:
+    """How many leading colours of a colouring (``colour_offsets``, ``n_colours``; module
+    :mod:`~grainlab.engine.contact_colouring`) :func:`nlgs_coloured_kernel` should sweep in
+    parallel with ``n_threads`` threads: those before the first colour of fewer than
+    ``min_size`` contacts (greedy colours shrink), none with one thread."""
+    if n_threads <= 1:
+        return 0
+    sizes = np.diff(np.asarray(colour_offsets)[: n_colours + 1])
+    small = np.flatnonzero(sizes < min_size)
+    return int(small[0]) if small.size else int(n_colours)

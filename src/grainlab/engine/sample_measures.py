@@ -1,0 +1,178 @@
+"""What a discrete sample in a wall box measures after a step (seed 002 eqs. 2-3, 5-11,
+13-14; seed 003 eq. 13).
+
+Stress from contacts: the volume average of the particles' stresses, every contact counted
+on the particles it touches (walls included)::
+
+    sigma = (1/V) [ sum_pairs l (x) f  +  sum_walls (x_j - p) (x) f ]        [Pa]
+
+symmetrised, compression positive, with f the force [N] that side i (a particle or a wall)
+exerts on particle j at the point p, l = x_j - x_i the branch vector and V the box volume.
+In static equilibrium it equals the stress from the wall reactions exactly (the internal
+contacts cancel pairwise, the rest is the walls' forces times their positions), so the two
+agree only when the sample is quasi-static; both are recorded.
+
+Invariants (seed 002 eqs. 5, 10, 11): sigma_1 >= sigma_2 >= sigma_3 principal stresses,
+p = (sigma_1 + sigma_2 + sigma_3)/3, q = (sigma_1 - sigma_3)/3, sin phi = 3 (q/p)/(2 + q/p);
+logarithmic strains eps_a = ln(L0_a / L_a) (compression positive, eq. 8), eps_p = sum eps_a
+(eq. 9), eps_q = eps_1 - eps_3 (eq. 10) with eps_1 >= eps_3 the largest and smallest of the
+three. Mechanical coordination z_m = (2 C_pp + C_pw) / N_m: force-carrying contacts between
+particles (C_pp) and with walls (C_pw) per particle, over the N_m particles left after
+removing rattlers (fewer than 4 such contacts for frictionless particles, d + 1 = 4; fewer
+than 2 with friction), repeatedly; a frictionless packing is isostatic at z_m = 6 (spheres).
+Inertia number I = max_a |d eps_a/dt| <d> sqrt(rho / p) with the walls' strain rates.
+
+The contact network (analysis layer) keeps the particle-particle contacts that carry a force
+(P_n > 0; the solver also sees open contacts within the alert distance): pairs grouped
+by particle pair, the aggregate pair classes of seed 003 Fig. 8, forces from the impulses
+(f = P / h) and sliding flags (|f_t| >= mu f_n (1 - 1e-6)).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from grainlab.analysis.connectivity import Connectivity
+from grainlab.analysis.contact_network import ContactNetwork
+from grainlab.engine.contact_dynamics import StepReport
+from grainlab.engine.narrow_phase import CONTACT_CLASS_NAMES, classify_aggregate_pairs
+from grainlab.engine.state import SHAPE_AGGREGATE, BodyState, ShapeLibrary
+from grainlab.engine.wall_box import WallBox
+
+_SLIDING = 1e-6
+
+
+def world_forces(report: StepReport, dt: float) -> np.ndarray:
+    """(C, 3) forces [N] side i exerts on body j over the step: frames^T P / h."""
+    return np.einsum("cji,cj->ci", report.frames, report.impulses) / dt
+
+
+def contact_stress(report: StepReport, state: BodyState, volume: float,
+                   dt: float) -> np.ndarray:
+    """(3, 3) stress from contacts [Pa] (module docstring)."""
+    contacts = report.contacts
+    if contacts.n_contacts == 0:
+        return np.zeros((3, 3))
+    f = world_forces(report, dt)
+    x = state.positions
+    inner = contacts.body_i >= 0
+    arm = np.empty_like(f)
+    arm[inner] = x[contacts.body_j[inner]] - x[contacts.body_i[inner]]
+    arm[~inner] = x[contacts.body_j[~inner]] - contacts.point[~inner]
+    moment = np.einsum("ci,cj->ij", arm, f) / volume
+    return 0.5 * (moment + moment.T)
+
+
+def stress_invariants(stress: np.ndarray) -> dict[str, float]:
+    """Principal stresses, p, q, q/p and sin(phi) (seed 002 eqs. 5, 11) of a (3, 3) stress."""
+    s3, s2, s1 = np.linalg.eigvalsh(0.5 * (stress + stress.T))
+    p = (s1 + s2 + s3) / 3.0
+    q = (s1 - s3) / 3.0
+    ratio = q / p if p > 0.0 else float("nan")
+    sin_phi = 3.0 * ratio / (2.0 + ratio) if p > 0.0 else float("nan")
+    return {"sigma_1": float(s1), "sigma_2": float(s2), "sigma_3": float(s3), "p": float(p),
+            "q": float(q), "q_over_p": float(ratio), "sin_phi": float(sin_phi)}
+
+
+def contact_network(report: StepReport, state: BodyState, library: ShapeLibrary,
+                    volume: float, dt: float, friction: float,
+                    extra_state: dict[str, Any] | None = None) -> ContactNetwork:
+    """The particle-particle contact network of the step (module docstring)."""
+    contacts = report.contacts
+    inner = np.flatnonzero((contacts.body_i >= 0) & (report.impulses[:, 0] > 0.0))
+    bi, bj = contacts.body_i[inner], contacts.body_j[inner]
+    forces = world_forces(report, dt)[inner] if contacts.n_contacts else np.zeros((0, 3))
+    n = state.n_bodies
+    key = bi.astype(np.int64) * n + bj
+    pair_keys, point_pairs = np.unique(key, return_inverse=True)
+    pairs = np.stack([pair_keys // n, pair_keys % n], axis=1) if pair_keys.size \
+        else np.zeros((0, 2), dtype=np.int64)
+    branches = state.positions[pairs[:, 1]] - state.positions[pairs[:, 0]] if pairs.size \
+        else np.zeros((0, 3))
+    normals = contacts.normal[inner]
+    fn = np.einsum("ci,ci->c", forces, normals)
+    ft = np.linalg.norm(forces - fn[:, None] * normals, axis=1)
+    sliding = (ft >= friction * fn * (1.0 - _SLIDING)) & (fn > 0.0) if friction > 0.0 \
+        else fn > 0.0
+    pair_types, type_names = None, ()
+    if np.any(library.kind[state.shape_ids] == SHAPE_AGGREGATE) and pairs.size:
+        classified, codes, _ = classify_aggregate_pairs(bi, bj, contacts.member_i[inner],
+                                                        contacts.member_j[inner])
+        ckey = classified[:, 0] * n + classified[:, 1]
+        pair_types = codes[np.searchsorted(ckey, pair_keys)]
+        type_names = CONTACT_CLASS_NAMES
+    return ContactNetwork(
+        positions=state.positions.copy(), volumes=library.volume[state.shape_ids],
+        volume=volume, pair_particles=pairs, pair_branches=branches,
+        point_pairs=point_pairs.reshape(-1), point_positions=contacts.point[inner],
+        point_normals=normals, point_forces=forces, pair_types=pair_types,
+        type_names=type_names, friction_coefficient=friction, point_sliding=sliding,
+        state=dict(extra_state or {}),
+    )
+
+
+def mechanical_coordination(report: StepReport, n_bodies: int, min_contacts: int) -> float:
+    """z_m of the module docstring: (2 C_pp + C_pw) / N_m after removing, repeatedly, the
+    particles with fewer than ``min_contacts`` force-carrying contacts (walls included)."""
+    contacts = report.contacts
+    loaded = report.impulses[:, 0] > 0.0 if contacts.n_contacts else np.zeros(0, bool)
+    bi, bj = contacts.body_i[loaded], contacts.body_j[loaded]
+    alive = np.ones(n_bodies, dtype=bool)
+    while True:
+        keep = alive[bj] & np.where(bi >= 0, alive[np.maximum(bi, 0)], True)
+        counts = np.bincount(bj[keep], minlength=n_bodies)
+        inner = keep & (bi >= 0)
+        counts += np.bincount(bi[inner], minlength=n_bodies)
+        weak = alive & (counts < min_contacts)
+        if not weak.any():
+            break
+        alive &= ~weak
+    n_alive = int(alive.sum())
+    return float(counts[alive].sum() / n_alive) if n_alive else float("nan")
+
+
+def sample_measures(report: StepReport, state: BodyState, library: ShapeLibrary,
+                    box: WallBox, initial_lengths: np.ndarray, dt: float, friction: float,
+                    ) -> tuple[dict[str, float], ContactNetwork]:
+    """One results row (stresses, strains, packing, coordination, inertia number, solver
+    figures) and the contact network it was computed from."""
+    volume = box.volume
+    stress = contact_stress(report, state, volume, dt)
+    row: dict[str, float] = {}
+    for label, (i, j) in zip(("xx", "yy", "zz", "yz", "xz", "xy"),
+                             ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)), strict=True):
+        row[f"sigma_{label}"] = float(stress[i, j])
+    wall = box.wall_stress
+    for label, value in zip(("xx", "yy", "zz"), wall, strict=True):
+        row[f"wall_sigma_{label}"] = float(value)
+    row.update(stress_invariants(stress))
+    strains = np.log(initial_lengths / box.lengths)
+    for label, value in zip(("xx", "yy", "zz"), strains, strict=True):
+        row[f"eps_{label}"] = float(value)
+    row["eps_p"] = float(np.sum(strains))
+    row["eps_q"] = float(np.max(strains) - np.min(strains))
+    rates = np.abs(box.speeds[0::2] + box.speeds[1::2]) / box.lengths
+    mean_d = float(2.0 * np.mean(library.bounding_radius[state.shape_ids]))
+    p = row["p"]
+    row["inertia_number"] = float(np.max(rates) * mean_d * np.sqrt(state.density / p)) \
+        if p > 0.0 else float("nan")
+    network = contact_network(report, state, library, volume, dt, friction)
+    connectivity = Connectivity().compute(network)
+    row["packing_fraction"] = float(np.sum(library.volume[state.shape_ids]) / volume)
+    row["z"] = float(connectivity.coordination_number)
+    row["z_c"] = float(connectivity.connectivity_number)
+    row["z_no_rattlers"] = float(connectivity.coordination_number_no_rattlers)
+    row["z_c_no_rattlers"] = float(connectivity.connectivity_number_no_rattlers)
+    row["rattler_fraction"] = float(connectivity.rattler_fraction)
+    row["z_mechanical"] = mechanical_coordination(report, state.n_bodies,
+                                                  4 if friction == 0.0 else 2)
+    row["n_contacts"] = float(report.n_contacts)
+    row["solver_iterations"] = float(report.iterations)
+    row["solver_converged"] = float(report.converged)
+    row["solver_change"] = report.change
+    row["solver_residual"] = report.residual
+    row["max_overlap_over_d"] = report.max_overlap / mean_d
+    row["kinetic_energy"] = float(state.kinetic_energy())
+    return row, network

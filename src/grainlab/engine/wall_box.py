@@ -1,0 +1,254 @@
+"""A box of six planar walls, each fixed, velocity-controlled or stress-controlled
+(seeds 002/003 §II; research/cd_engines.md 6.5; STYLE.md 9).
+
+Walls are named by the axis they cut and their side: ``x-``, ``x+``, ``y-``, ``y+``, ``z-``,
+``z+``. Wall w is the plane {x_a = c_w} of its axis a with the unit normal n_w pointing into the
+box (+e_a for the ``-`` side, -e_a for the ``+`` side). A wall moves only along its normal, with
+the normal speed s_w [m/s] (s_w > 0: moving into the box, compressing it); its velocity is
+s_w n_w. Controls:
+
+* ``fixed``: s_w = 0;
+* ``velocity``: s_w = value [m/s], prescribed (infinite mass in the contact problem);
+* ``stress``: the wall is a body of mass m_w [kg] pushed into the box by F_w = sigma A_w [N]
+  with sigma = value [Pa] and A_w the current area of its face (the product of the box's two
+  other lengths). Its free speed over a step h is s_w + h F_w / m_w; the contact impulses
+  then act on it like on any body, so that in equilibrium the reaction of the particles equals
+  sigma A_w (LMGC90's driven-force walls).
+
+The reaction R_w [N] of a wall is the normal force the particles exert on it over the last
+step (sum of the normal impulses of its contacts / h), compression positive; the wall stress
+on axis a is the mean of its two walls' R_w / A_w.
+
+>>> box = WallBox(lower=[0, 0, 0], upper=[1, 2, 4])
+>>> box.lengths.tolist(), box.volume, float(box.face_areas[4])
+([1.0, 2.0, 4.0], 8.0, 2.0)
+>>> box.set_control("z+", "velocity", 0.1)
+>>> box.free_speeds(0.5).tolist()
+[0.0, 0.0, 0.0, 0.0, 0.0, 0.1]
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from grainlab.errors import InputError
+
+WALL_NAMES = ("x-", "x+", "y-", "y+", "z-", "z+")
+"""Names of the six walls, in storage order."""
+WALL_CONTROLS = ("fixed", "velocity", "stress")
+"""Control modes of a wall."""
+_AXIS = np.array([0, 0, 1, 1, 2, 2])
+_SIGN = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0])
+
+
+def wall_index(name: str) -> int:
+    """Storage index of the wall called ``name`` (one of :data:`WALL_NAMES`)."""
+    if name not in WALL_NAMES:
+        raise InputError("wall", name, "one of " + ", ".join(WALL_NAMES))
+    return WALL_NAMES.index(name)
+
+
+@dataclass(frozen=True)
+class WallControl:
+    """How one wall is driven: ``mode`` in :data:`WALL_CONTROLS` and its ``value`` (normal
+    speed [m/s] into the box for ``velocity``, compressive stress [Pa] for ``stress``)."""
+
+    mode: str = "fixed"
+    value: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.mode not in WALL_CONTROLS:
+            raise InputError("wall control", self.mode, "one of " + ", ".join(WALL_CONTROLS))
+        v = float(self.value)
+        if not math.isfinite(v):
+            raise InputError("wall control value", self.value, "a finite number")
+        if self.mode == "stress" and v < 0.0:
+            raise InputError("wall stress", self.value, "a compressive stress >= 0 Pa")
+        object.__setattr__(self, "value", v)
+
+
+class WallBox:
+    """Six walls around the box [lower, upper] (module docstring).
+
+    Parameters
+    ----------
+    lower, upper:
+        (3,) corners of the box [m], upper > lower.
+    friction:
+        Coulomb coefficient of the wall-particle contacts (one value or six), >= 0.
+    wall_mass:
+        Mass m_w [kg] of the stress-controlled walls (one value or six), > 0; may be set later
+        (:meth:`set_masses`) from the particles' mass.
+    """
+
+    def __init__(self, lower: Sequence[float], upper: Sequence[float],
+                 friction: float | Sequence[float] = 0.0,
+                 wall_mass: float | Sequence[float] = 1.0) -> None:
+        lo = np.asarray(lower, dtype=np.float64)
+        hi = np.asarray(upper, dtype=np.float64)
+        if lo.shape != (3,) or not np.isfinite(lo).all():
+            raise InputError("lower", lower, "three finite coordinates in m")
+        if hi.shape != (3,) or not np.isfinite(hi).all() or np.any(hi <= lo):
+            raise InputError("upper", upper, "three finite coordinates in m, above lower")
+        self.coordinates = np.array([lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]])
+        self.speeds = np.zeros(6)
+        self.reactions = np.zeros(6)
+        self.controls = [WallControl() for _ in WALL_NAMES]
+        self.friction = self._six("friction", friction, allow_zero=True)
+        self.masses = self._six("wall_mass", wall_mass, allow_zero=False)
+        self.max_speeds = np.full(6, np.inf)
+
+    @staticmethod
+    def _six(name: str, value, allow_zero: bool) -> np.ndarray:
+        values = np.broadcast_to(np.asarray(value, dtype=np.float64), (6,)).copy() \
+            if np.ndim(value) == 0 else np.asarray(value, dtype=np.float64)
+        if values.shape != (6,) or not np.isfinite(values).all() or np.any(values < 0.0) \
+                or (not allow_zero and np.any(values == 0.0)):
+            raise InputError(name, value, "one finite number or six, "
+                             + (">= 0" if allow_zero else "> 0"))
+        return values
+
+    # -- geometry ----------------------------------------------------------------------------
+    @property
+    def normals(self) -> np.ndarray:
+        """(6, 3) unit normals pointing into the box."""
+        n = np.zeros((6, 3))
+        n[np.arange(6), _AXIS] = _SIGN
+        return n
+
+    @property
+    def lower(self) -> np.ndarray:
+        """(3,) lower corner [m]."""
+        return self.coordinates[0::2].copy()
+
+    @property
+    def upper(self) -> np.ndarray:
+        """(3,) upper corner [m]."""
+        return self.coordinates[1::2].copy()
+
+    @property
+    def lengths(self) -> np.ndarray:
+        """(3,) box lengths [m] along x, y, z."""
+        return self.coordinates[1::2] - self.coordinates[0::2]
+
+    @property
+    def volume(self) -> float:
+        """Box volume [m^3]."""
+        return float(np.prod(self.lengths))
+
+    @property
+    def face_areas(self) -> np.ndarray:
+        """(6,) current areas of the walls' faces [m^2]."""
+        lengths = self.lengths
+        areas = np.array([lengths[1] * lengths[2], lengths[0] * lengths[2],
+                          lengths[0] * lengths[1]])
+        return areas[_AXIS]
+
+    def planes(self, advance: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """Points (6, 3) [m] and normals (6, 3) of the planes after moving them for
+        ``advance`` [s] at their current speeds."""
+        coordinates = self.coordinates + advance * self.speeds * _SIGN
+        centre = 0.5 * (self.coordinates[0::2] + self.coordinates[1::2])
+        points = np.tile(centre, (6, 1))
+        points[np.arange(6), _AXIS] = coordinates
+        return points, self.normals
+
+    # -- control -----------------------------------------------------------------------------
+    def set_control(self, wall: str, mode: str, value: float = 0.0) -> None:
+        """Drive ``wall`` (a name of :data:`WALL_NAMES`) by ``mode`` with ``value``."""
+        control = WallControl(mode, value)
+        w = wall_index(wall)
+        self.controls[w] = control
+        if mode == "fixed":
+            self.speeds[w] = 0.0
+        elif mode == "velocity":
+            self.speeds[w] = control.value
+
+    def set_masses(self, wall_mass: float | Sequence[float]) -> None:
+        """Set the masses [kg] of the walls (used by stress-controlled ones)."""
+        self.masses = self._six("wall_mass", wall_mass, allow_zero=False)
+
+    @property
+    def stress_controlled(self) -> np.ndarray:
+        """(6,) True where the wall is stress-controlled."""
+        return np.array([c.mode == "stress" for c in self.controls])
+
+    def driving_forces(self) -> np.ndarray:
+        """(6,) forces F_w = sigma A_w [N] pushing stress-controlled walls into the box."""
+        sigma = np.array([c.value if c.mode == "stress" else 0.0 for c in self.controls])
+        return sigma * self.face_areas
+
+    def inverse_masses(self) -> np.ndarray:
+        """(6,) inverse masses [1/kg] in the contact problem (0 for driven walls)."""
+        return np.where(self.stress_controlled, 1.0 / self.masses, 0.0)
+
+    def free_speeds(self, dt: float) -> np.ndarray:
+        """(6,) normal speeds [m/s] at the end of a step of ``dt`` [s] without contacts."""
+        speeds = np.empty(6)
+        for w, control in enumerate(self.controls):
+            if control.mode == "fixed":
+                speeds[w] = 0.0
+            elif control.mode == "velocity":
+                speeds[w] = control.value
+            else:
+                speeds[w] = self.speeds[w]
+        stress = self.stress_controlled
+        speeds[stress] += dt * self.driving_forces()[stress] / self.masses[stress]
+        return speeds
+
+    def set_max_speeds(self, max_speed: float | Sequence[float]) -> None:
+        """Limit [m/s] (one value or six, > 0, inf for none) on the inward speed of the
+        stress-controlled walls, enforced by the contact solver as a unilateral constraint
+        (a brake that acts only when the wall would move in faster; it never weakens the
+        wall's push on the particles at rest). Used to bound the inertia number."""
+        values = np.broadcast_to(np.asarray(max_speed, dtype=np.float64), (6,)).copy()
+        if np.any(np.isnan(values)) or np.any(values <= 0.0):
+            raise InputError("max_speed", max_speed, "one number or six, > 0 m/s (inf: none)")
+        self.max_speeds = values
+
+    def finish_step(self, speeds: np.ndarray, predicted: float, advance: float,
+                    reactions: np.ndarray) -> None:
+        """End a step: move the walls by ``predicted`` [s] at their old speeds (to where
+        :meth:`planes` put them for detection) and then by ``advance`` [s] at the end-of-step
+        ``speeds`` (6,) [m/s]; record ``reactions`` (6,) [N]."""
+        self.coordinates += predicted * self.speeds * _SIGN
+        self.speeds[:] = speeds
+        self.coordinates += advance * self.speeds * _SIGN
+        self.reactions[:] = reactions
+        if np.any(self.lengths <= 0.0):
+            raise InputError("wall box", self.lengths.tolist(),
+                             "positive lengths: two opposite walls crossed")
+
+    @property
+    def wall_stress(self) -> np.ndarray:
+        """(3,) normal stresses [Pa] on x, y, z: mean of the two walls' R_w / A_w."""
+        per_wall = self.reactions / self.face_areas
+        return 0.5 * (per_wall[0::2] + per_wall[1::2])
+
+    # -- persistence -------------------------------------------------------------------------
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """Plain arrays that restore the box with :meth:`from_arrays` (checkpoints)."""
+        return {
+            "coordinates": self.coordinates.copy(), "speeds": self.speeds.copy(),
+            "reactions": self.reactions.copy(), "friction": self.friction.copy(),
+            "masses": self.masses.copy(), "max_speeds": self.max_speeds.copy(),
+            "control_modes": np.array([WALL_CONTROLS.index(c.mode) for c in self.controls]),
+            "control_values": np.array([c.value for c in self.controls]),
+        }
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> WallBox:
+        """Inverse of :meth:`to_arrays`."""
+        c = np.asarray(arrays["coordinates"], dtype=np.float64)
+        box = cls(c[0::2], c[1::2], friction=arrays["friction"], wall_mass=arrays["masses"])
+        box.coordinates[:] = c
+        box.speeds[:] = arrays["speeds"]
+        box.reactions[:] = arrays["reactions"]
+        box.max_speeds[:] = arrays["max_speeds"]
+        box.controls = [WallControl(WALL_CONTROLS[int(m)], float(v)) for m, v in
+                        zip(arrays["control_modes"], arrays["control_values"], strict=True)]
+        return box

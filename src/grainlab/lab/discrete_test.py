@@ -1,0 +1,404 @@
+"""A load path run on a discrete sample in a box of walls (contact dynamics; seeds 002/003).
+
+:class:`DiscreteTest` turns the stages of a lab :class:`~grainlab.lab.load_path.LoadPath`
+into wall controls (:mod:`grainlab.lab.wall_stages`) and runs them on a
+:class:`~grainlab.engine.simulation.Simulation` through two operations: the stage control
+(walls driven, stage ends decided) and the recorder (one results row every ``record_every``
+steps, a contact-network snapshot every ``snapshot_every``). Everything it needs to go on
+is plain data (:meth:`DiscreteTest.progress_arrays`), so a run can checkpoint and resume.
+
+Per stage:
+
+* interparticle friction: ``compaction_friction`` (default 0, seed 002) in stages without a
+  strain-controlled axis, ``friction`` otherwise;
+* strain rate from the bound on the inertia number (:mod:`grainlab.lab.wall_stages`); the
+  stress-controlled walls are speed-limited to the same rate (their inward free speed at most
+  eps_dot L), with ``compaction_inertia_number`` in stages without a strain-controlled axis;
+* time step h = ``time_step_factor`` x d_min / v, v the largest wall speed of the stage
+  (research/cd_engines.md pitfall 6: v h <= 0.01-0.05 d_min), unless ``dt`` is given;
+* mass of a stress-controlled wall: max(``wall_mass_factor`` x the particles' mass,
+  h F / v_max) with F = sigma A its driving force and v_max its speed limit, so that one
+  step of driving cannot push it past the limit (a lighter wall leaves the solver trading
+  the driving impulse between the speed limit and the contacts, and it stalls: penetrations
+  of several % of a diameter in shear were traced to this).
+
+Strains are logarithmic, compression positive, from the reference box: the box at the end of
+the last stage without a strain-controlled axis (the consolidated sample), or the initial box
+before any. A stage without a strain-controlled axis ends when quasi-static
+(:class:`~grainlab.lab.wall_stages.QuasiStaticCriteria`) or after ``max_stage_steps``
+(then ``outcome`` says it did not settle).
+
+Columns besides :mod:`grainlab.engine.sample_measures`: ``stage``, ``step``, ``time`` [s],
+``dt`` [s], ``unbalanced_force_ratio``, ``kinetic_energy_ratio``, ``friction``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from grainlab.engine.contact_dynamics import ContactDynamicsStep
+from grainlab.engine.sample_measures import sample_measures
+from grainlab.engine.simulation import Periodic, Simulation
+from grainlab.engine.wall_box import WALL_NAMES
+from grainlab.errors import InputError
+from grainlab.lab.load_path import LoadPath
+from grainlab.lab.wall_stages import AXES, QuasiStaticCriteria, WallStage, wall_stages
+from grainlab.prep.loose_sample import DiscreteSample
+
+
+@dataclass(frozen=True)
+class DiscreteTestSettings:
+    """Numerical settings of a discrete test (module docstring for their roles).
+
+    Attributes
+    ----------
+    friction, compaction_friction:
+        Interparticle Coulomb coefficients (>= 0) in shearing and in compaction stages.
+    inertia_number, compaction_inertia_number:
+        Bounds on I (> 0) that set the strain rate and the walls' speed limit.
+    dt:
+        Time step [s]; None: from ``time_step_factor``.
+    time_step_factor:
+        v h / d_min (> 0).
+    theta, tolerance, max_iterations, sweep:
+        Solver settings (:class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`).
+    record_every, snapshot_every:
+        Steps between results rows and between contact-network snapshots (0: none).
+    max_stage_steps:
+        Cap on the steps of one stage (>= 1).
+    wall_mass_factor:
+        Mass of a stress-controlled wall / mass of the particles (> 0).
+    quasi_static:
+        End criteria of stages without a strain-controlled axis.
+    seed:
+        Seed of the solver's visiting order.
+    """
+
+    friction: float = 0.4
+    compaction_friction: float = 0.0
+    inertia_number: float = 1e-3
+    compaction_inertia_number: float = 1e-2
+    dt: float | None = None
+    time_step_factor: float = 0.01
+    theta: float = 0.5
+    tolerance: float = 1e-4
+    max_iterations: int = 1000
+    sweep: str = "coloured"
+    record_every: int = 10
+    snapshot_every: int = 0
+    max_stage_steps: int = 200_000
+    wall_mass_factor: float = 1.0
+    quasi_static: QuasiStaticCriteria = field(default_factory=QuasiStaticCriteria)
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("friction", "compaction_friction"):
+            _number(name, getattr(self, name), minimum=0.0)
+        for name in ("inertia_number", "compaction_inertia_number", "time_step_factor",
+                     "tolerance", "wall_mass_factor"):
+            _number(name, getattr(self, name), minimum=0.0, strict=True)
+        if self.dt is not None:
+            _number("dt", self.dt, minimum=0.0, strict=True)
+        for name, low in (("record_every", 1), ("snapshot_every", 0), ("max_stage_steps", 1),
+                          ("max_iterations", 1)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) \
+                    or value < low:
+                raise InputError(name, value, f"an integer >= {low}")
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data."""
+        data = asdict(self)
+        data["quasi_static"] = self.quasi_static.to_dict()
+        return data
+
+
+def _number(name: str, value: Any, minimum: float, strict: bool = False) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if not math.isfinite(x) or x < minimum or (strict and x <= minimum):
+        raise InputError(name, value, f"a finite number {'>' if strict else '>='} {minimum:g}")
+    return x
+
+
+class DiscreteTest:
+    """A load path on a discrete sample (module docstring).
+
+    Parameters
+    ----------
+    sample:
+        The sample (its box's controls are set by the stages).
+    path:
+        A 3D lab load path (e.g. :func:`grainlab.lab.presets.triaxial_compression`).
+    settings:
+        :class:`DiscreteTestSettings`.
+    on_record, on_snapshot:
+        Optional callables ``(test, row)`` and ``(test, network)`` called after each results
+        row and each snapshot (files, progress bars).
+    """
+
+    def __init__(self, sample: DiscreteSample, path: LoadPath,
+                 settings: DiscreteTestSettings | None = None, *, on_record=None,
+                 on_snapshot=None) -> None:
+        self.sample = sample
+        self.path = path
+        self.settings = settings or DiscreteTestSettings()
+        self.stages: list[WallStage] = wall_stages(path)
+        self.on_record = on_record
+        self.on_snapshot = on_snapshot
+        self.rows: list[dict[str, Any]] = []
+        self.stage_index = 0
+        self.stage_started = False
+        self.stage_start_step = 0
+        self.stage_start_lengths = sample.box.lengths.copy()
+        self.reference_lengths = sample.box.lengths.copy()
+        self.strain_rate = 0.0
+        self.n_snapshots = 0
+        self.finished = False
+        self.outcome: dict[str, Any] = {"stages": []}
+        s = self.settings
+        self.solver = ContactDynamicsStep(
+            dt=s.dt or 1.0, theta=s.theta, tolerance=s.tolerance,
+            max_iterations=s.max_iterations, friction=s.compaction_friction,
+            sweep=s.sweep, seed=s.seed)
+        self.simulation = Simulation(sample, self.solver)
+        self.simulation.add(_StageControl(self))
+        self.simulation.add(_Recorder(self, Periodic(s.record_every)))
+
+    # -- stage logic --------------------------------------------------------------------------
+    @property
+    def stage(self) -> WallStage | None:
+        """The current stage (None when finished)."""
+        return None if self.stage_index >= len(self.stages) else self.stages[self.stage_index]
+
+    def _confining(self, stage: WallStage) -> float:
+        values = [stage.targets[a] for a in stage.stress_axes
+                  if math.isfinite(stage.targets[a])]
+        if values:
+            return max(values)
+        p = self.rows[-1]["p"] if self.rows else math.nan
+        if not (math.isfinite(p) and p > 0.0):
+            raise InputError(f"stage {stage.name!r}", "no stress reference",
+                             "a stress-controlled axis, or a previous stage that loaded the "
+                             "sample (the strain rate follows from the inertia number at p)")
+        return p
+
+    def start_stage(self) -> None:
+        """Set the walls, friction, strain rate and time step of the current stage."""
+        stage = self.stage
+        assert stage is not None
+        s = self.settings
+        sample, box = self.sample, self.sample.box
+        moving = stage.moving_axes
+        p_ref = self._confining(stage)
+        inertia = s.inertia_number if moving else s.compaction_inertia_number
+        d_mean = sample.mean_diameter
+        self.strain_rate = inertia * math.sqrt(p_ref / sample.state.density) / d_mean
+        self.solver.friction = s.friction if moving else s.compaction_friction
+        for a in range(3):
+            mode, target = stage.modes[a], stage.targets[a]
+            lower, upper = WALL_NAMES[2 * a], WALL_NAMES[2 * a + 1]
+            if mode == "fixed":
+                box.set_control(lower, "fixed")
+                box.set_control(upper, "fixed")
+            elif mode == "strain":
+                box.set_control(lower, "fixed")
+                box.set_control(upper, "velocity", math.copysign(1.0, target)
+                                * self.strain_rate * box.lengths[a])
+            else:
+                sigma = target if math.isfinite(target) else self._held_stress(a)
+                box.set_control(lower, "fixed")
+                box.set_control(upper, "stress", sigma)
+        box.set_max_speeds(self.strain_rate * float(box.lengths.max()))
+        if s.dt is None:
+            d_min = 2.0 * float(np.min(sample.library.sphere_radii))
+            speed = self.strain_rate * float(box.lengths.max())
+            self.solver.dt = s.time_step_factor * d_min / speed
+        # stress walls: heavy enough that one step of driving force cannot take them past the
+        # speed limit (h F / m_w <= v_max): otherwise the solver spends its sweeps trading the
+        # driving impulse between the brake and the contacts
+        v_max = self.strain_rate * float(box.lengths.max())
+        force = box.driving_forces()
+        masses = np.maximum(float(np.sum(sample.state.masses)) * s.wall_mass_factor,
+                            self.solver.dt * force / v_max)
+        box.set_masses(masses)
+        self.stage_start_step = self.simulation.step_index
+        self.stage_start_lengths = box.lengths.copy()
+        self.stage_started = True
+
+    def _held_stress(self, axis: int) -> float:
+        if not self.rows:
+            raise InputError(f"stage {self.stage.name!r}: sigma_{AXES[axis] * 2}", "held",
+                             "a stress target: no earlier stage set this stress")
+        return float(self.rows[-1][f"wall_sigma_{AXES[axis] * 2}"])
+
+    def drive(self) -> None:
+        """Keep the strain-controlled walls at a constant logarithmic strain rate."""
+        stage, box = self.stage, self.sample.box
+        if stage is None:
+            return
+        for a in stage.moving_axes:
+            sign = math.copysign(1.0, stage.targets[a])
+            box.set_control(WALL_NAMES[2 * a + 1], "velocity",
+                            sign * self.strain_rate * box.lengths[a])
+
+    def stage_done(self, row: dict[str, Any]) -> tuple[bool, str]:
+        """Whether the current stage ends at this record, and why."""
+        stage = self.stage
+        assert stage is not None
+        for criterion in stage.stop:
+            if criterion.met(row):
+                return True, f"stop criterion {criterion.quantity} {criterion.when} " \
+                             f"{criterion.limit:g}"
+        if stage.moving_axes:
+            strained = np.log(self.stage_start_lengths / self.sample.box.lengths)
+            if all(abs(strained[a]) >= abs(stage.targets[a]) for a in stage.moving_axes):
+                return True, "strain reached"
+        else:
+            targets = {a: self.sample.box.controls[2 * a + 1].value for a in stage.stress_axes}
+            if self.settings.quasi_static.met(row, targets):
+                return True, "quasi-static"
+        if self.simulation.step_index - self.stage_start_step >= self.settings.max_stage_steps:
+            return True, "max_stage_steps reached"
+        return False, ""
+
+    def end_stage(self, reason: str) -> None:
+        """Close the current stage and move to the next."""
+        stage = self.stage
+        assert stage is not None
+        self.outcome["stages"].append({
+            "name": stage.name, "reason": reason,
+            "steps": self.simulation.step_index - self.stage_start_step,
+            "end_step": self.simulation.step_index})
+        if not stage.moving_axes:
+            self.reference_lengths = self.sample.box.lengths.copy()
+        self.stage_index += 1
+        self.stage_started = False
+        ends_test = any(c.met(self.rows[-1]) and c.ends == "test" for c in stage.stop) \
+            if self.rows else False
+        if self.stage is None or ends_test:
+            self.finished = True
+            self.simulation.request_stop()
+
+    # -- records ------------------------------------------------------------------------------
+    def record(self) -> dict[str, Any]:
+        """Measure the sample now; append and return the results row."""
+        sim = self.simulation
+        report = sim.last_report
+        assert report is not None
+        row, network = sample_measures(report, self.sample.state, self.sample.library,
+                                       self.sample.box, self.reference_lengths,
+                                       self.solver.dt, self.solver.friction)
+        net = np.linalg.norm(sim.net_forces(), axis=1)
+        normal_forces = report.impulses[:, 0] / self.solver.dt
+        loaded = normal_forces[normal_forces > 0.0]
+        mean_force = float(np.mean(loaded)) if loaded.size else math.nan
+        row["unbalanced_force_ratio"] = float(np.mean(net) / mean_force) \
+            if loaded.size else math.nan
+        p = row["p"]
+        d_mean = self.sample.mean_diameter
+        n = self.sample.state.n_bodies
+        row["kinetic_energy_ratio"] = row["kinetic_energy"] / (n * p * d_mean**3) \
+            if p > 0.0 else math.nan
+        stage = self.stage
+        full = {"stage": stage.name if stage else "end", "step": sim.step_index,
+                "time": sim.time, "dt": self.solver.dt, "friction": self.solver.friction}
+        full.update(row)
+        self.rows.append(full)
+        every = self.settings.snapshot_every
+        if every and sim.step_index % every == 0:
+            network.state.update({k: v for k, v in full.items() if k != "stage"})
+            network.state["stage"] = full["stage"]
+            self.n_snapshots += 1
+            if self.on_snapshot is not None:
+                self.on_snapshot(self, network)
+        if self.on_record is not None:
+            self.on_record(self, full)
+        return full
+
+    # -- running ------------------------------------------------------------------------------
+    def run(self, max_steps: int | None = None) -> bool:
+        """Run until the path is done (or ``max_steps`` more steps); True when done."""
+        if self.finished:
+            return True
+        if not self.stage_started:
+            self.start_stage()
+        self.simulation.run(max_steps)
+        return self.finished
+
+    # -- persistence --------------------------------------------------------------------------
+    def progress_arrays(self) -> dict[str, Any]:
+        """What a checkpoint needs besides the sample and the solver's memory."""
+        return {
+            "stage_index": self.stage_index, "stage_started": self.stage_started,
+            "stage_start_step": self.stage_start_step,
+            "stage_start_lengths": self.stage_start_lengths.copy(),
+            "reference_lengths": self.reference_lengths.copy(),
+            "strain_rate": self.strain_rate, "n_snapshots": self.n_snapshots,
+            "finished": self.finished, "dt": self.solver.dt, "alert": self.solver.alert,
+            "alert_growths": self.solver.alert_growths,
+            "friction": self.solver.friction, "step_index": self.simulation.step_index,
+            "time": self.simulation.time,
+            "unconverged_steps": self.simulation.unconverged_steps,
+            "unconverged_in_row": self.simulation.unconverged_in_row,
+        }
+
+    def restore_progress(self, data: dict[str, Any]) -> None:
+        """Inverse of :meth:`progress_arrays`."""
+        self.stage_index = int(data["stage_index"])
+        self.stage_started = bool(data["stage_started"])
+        self.stage_start_step = int(data["stage_start_step"])
+        self.stage_start_lengths = np.asarray(data["stage_start_lengths"], dtype=float)
+        self.reference_lengths = np.asarray(data["reference_lengths"], dtype=float)
+        self.strain_rate = float(data["strain_rate"])
+        self.n_snapshots = int(data["n_snapshots"])
+        self.finished = bool(data["finished"])
+        self.solver.dt = float(data["dt"])
+        self.solver.alert = None if data["alert"] is None else float(data["alert"])
+        self.solver.alert_growths = int(data["alert_growths"])
+        self.solver.friction = float(data["friction"])
+        self.simulation.step_index = int(data["step_index"])
+        self.simulation.time = float(data["time"])
+        self.simulation.unconverged_steps = int(data["unconverged_steps"])
+        self.simulation.unconverged_in_row = int(data["unconverged_in_row"])
+
+
+class _StageControl:
+    """Drives the walls every step; starts the next stage when one ended."""
+
+    name = "stage_control"
+
+    def __init__(self, test: DiscreteTest) -> None:
+        self.test = test
+        self.trigger = Periodic(1)
+
+    def act(self, simulation: Simulation) -> None:
+        test = self.test
+        if not test.finished and not test.stage_started:
+            test.start_stage()
+        test.drive()
+
+
+class _Recorder:
+    """Records a results row; decides the end of the stage at each record."""
+
+    name = "recorder"
+
+    def __init__(self, test: DiscreteTest, trigger: Periodic) -> None:
+        self.test = test
+        self.trigger = trigger
+
+    def act(self, simulation: Simulation) -> None:
+        test = self.test
+        if test.finished or not test.stage_started:
+            return
+        row = test.record()
+        done, reason = test.stage_done(row)
+        if done:
+            test.end_stage(reason)

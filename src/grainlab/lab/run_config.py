@@ -1,0 +1,193 @@
+"""The input of a discrete run, as a TOML file a user can write and read (pydantic models).
+
+A run's ``config.toml`` has four tables; every key has a default, an unknown key is an error
+that names it::
+
+    [sample]   shape ("sphere" | "aggregate"), n_particles, d_min [m], size_ratio, eta,
+               density [kg/m^3], packing_fraction (loose start), wall_friction, seed
+    [test]     kind ("compaction" | "triaxial" | "oedometer"), sigma0 [Pa], eps_q_max
+               (triaxial), axial_strain and unload_strain (oedometer)
+    [solver]   friction, compaction_friction, inertia_number, compaction_inertia_number, dt
+               [s] (0: automatic), time_step_factor, theta, tolerance, max_iterations, sweep,
+               max_stage_steps, wall_mass_factor, seed
+    [output]   record_every, snapshot_every, checkpoint_every, vtk_every (steps; 0: never)
+
+>>> config = RunConfig.model_validate({"sample": {"n_particles": 50}})
+>>> config.sample.n_particles, config.test.kind
+(50, 'triaxial')
+>>> try:
+...     RunConfig.model_validate({"sample": {"n_particle": 50}})
+... except InputError as error:
+...     print(error.field)
+sample.n_particle
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any, Literal
+
+import tomli_w
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from grainlab.errors import InputError
+from grainlab.lab.discrete_test import DiscreteTestSettings
+from grainlab.lab.load_path import LoadPath, StopCriterion
+from grainlab.lab.presets import isotropic_compression, oedometer, triaxial_compression
+
+TEST_KINDS = ("compaction", "triaxial", "oedometer")
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+
+class SampleConfig(_Section):
+    """Particles of a loose random sample (:func:`grainlab.prep.loose_sample.loose_sample`)."""
+
+    shape: Literal["sphere", "aggregate"] = "sphere"
+    n_particles: int = Field(1000, ge=1)
+    d_min: float = Field(1e-3, gt=0)
+    size_ratio: float = Field(2.0, ge=1)
+    eta: float = Field(0.4, ge=0, le=0.828)
+    density: float = Field(2600.0, gt=0)
+    packing_fraction: float = Field(0.3, gt=0, le=0.35)
+    wall_friction: float = Field(0.0, ge=0)
+    seed: int = 0
+
+
+class TestConfig(_Section):
+    """The lab test: isotropic compaction to sigma0, then (triaxial) compression at constant
+    lateral stress sigma0 to eps_q_max, or (oedometer) 1-D compression by axial_strain and
+    optional unloading by unload_strain."""
+
+    __test__ = False
+
+    kind: Literal["compaction", "triaxial", "oedometer"] = "triaxial"
+    sigma0: float = Field(1e4, gt=0)
+    eps_q_max: float = Field(0.5, gt=0, le=2.0)
+    axial_strain: float = Field(0.05, gt=0, le=1.0)
+    unload_strain: float = Field(0.0, ge=0, le=1.0)
+
+
+class SolverConfig(_Section):
+    """Numerical settings (:class:`grainlab.lab.discrete_test.DiscreteTestSettings`)."""
+
+    friction: float = Field(0.4, ge=0)
+    compaction_friction: float = Field(0.0, ge=0)
+    inertia_number: float = Field(1e-3, gt=0, le=1.0)
+    compaction_inertia_number: float = Field(1e-2, gt=0, le=1.0)
+    dt: float = Field(0.0, ge=0)
+    time_step_factor: float = Field(0.01, gt=0, le=0.5)
+    theta: float = Field(0.5, ge=0.5, le=1.0)
+    tolerance: float = Field(1e-4, gt=0, lt=1)
+    max_iterations: int = Field(1000, ge=1)
+    sweep: Literal["coloured", "serial"] = "coloured"
+    max_stage_steps: int = Field(200_000, ge=1)
+    wall_mass_factor: float = Field(1.0, gt=0)
+    seed: int = 0
+
+
+class OutputConfig(_Section):
+    """How often (in steps) to record, snapshot, checkpoint and export VTK (0: never)."""
+
+    record_every: int = Field(10, ge=1)
+    snapshot_every: int = Field(0, ge=0)
+    checkpoint_every: int = Field(500, ge=0)
+    vtk_every: int = Field(0, ge=0)
+
+
+class RunConfig(_Section):
+    """The whole input of a run."""
+
+    sample: SampleConfig = Field(default_factory=SampleConfig)
+    test: TestConfig = Field(default_factory=TestConfig)
+    solver: SolverConfig = Field(default_factory=SolverConfig)
+    output: OutputConfig = Field(default_factory=OutputConfig)
+
+    @classmethod
+    def model_validate(cls, obj: Any, **kwargs) -> RunConfig:  # type: ignore[override]
+        """Validate plain data; errors become :class:`InputError` naming the field."""
+        try:
+            return super().model_validate(obj, **kwargs)
+        except ValidationError as error:
+            raise _input_error(error) from None
+
+    @classmethod
+    def read(cls, path: str | Path) -> RunConfig:
+        """Read a TOML file."""
+        path = Path(path)
+        try:
+            data = tomllib.loads(path.read_text())
+        except FileNotFoundError:
+            raise InputError("config", str(path), "an existing TOML file") from None
+        except tomllib.TOMLDecodeError as error:
+            raise InputError("config", str(path), f"valid TOML ({error})") from None
+        return cls.model_validate(data)
+
+    def write(self, path: str | Path) -> Path:
+        """Write as TOML."""
+        path = Path(path)
+        path.write_text(tomli_w.dumps(self.model_dump()))
+        return path
+
+    def with_updates(self, updates: dict[str, dict[str, Any]]) -> RunConfig:
+        """A copy with some keys changed ({section: {key: value}}), validated."""
+        data = self.model_dump()
+        for section, values in updates.items():
+            data.setdefault(section, {}).update(values)
+        return RunConfig.model_validate(data)
+
+    # -- what the config means ----------------------------------------------------------------
+    def load_path(self) -> LoadPath:
+        """The lab load path of the test (presets of :mod:`grainlab.lab.presets`)."""
+        t = self.test
+        compaction = isotropic_compression(p_final=t.sigma0, n_steps=1)
+        if t.kind == "compaction":
+            return compaction
+        if t.kind == "triaxial":
+            shear = triaxial_compression(confining=t.sigma0, axial_strain=t.eps_q_max,
+                                         n_steps=1, consolidation_steps=0)
+            stage = shear.stages[0]
+            stop = (StopCriterion("eps_q", t.eps_q_max, ends="stage"),)
+            stage = type(stage)(**{**stage.__dict__, "stop": stop})
+            return LoadPath("triaxial_compression", 3,
+                            (*_renamed(compaction.stages, "compaction"), stage),
+                            f"isotropic compaction to {t.sigma0:g} Pa, then triaxial "
+                            f"compression at lateral stress {t.sigma0:g} Pa to eps_q = "
+                            f"{t.eps_q_max:g}")
+        path = oedometer(strain_final=t.axial_strain, n_steps=1,
+                         unload_strain=t.unload_strain or None)
+        return LoadPath("oedometer", 3, (*_renamed(compaction.stages, "compaction"),
+                                         *path.stages),
+                        f"isotropic compaction to {t.sigma0:g} Pa, then 1-D compression by "
+                        f"{t.axial_strain:g}" + (f", unloading by {t.unload_strain:g}"
+                                                 if t.unload_strain else ""))
+
+    def settings(self) -> DiscreteTestSettings:
+        """The discrete test's numerical settings."""
+        s = self.solver
+        return DiscreteTestSettings(
+            friction=s.friction, compaction_friction=s.compaction_friction,
+            inertia_number=s.inertia_number,
+            compaction_inertia_number=s.compaction_inertia_number, dt=s.dt or None,
+            time_step_factor=s.time_step_factor, theta=s.theta, tolerance=s.tolerance,
+            max_iterations=s.max_iterations, sweep=s.sweep,
+            record_every=self.output.record_every, snapshot_every=self.output.snapshot_every,
+            max_stage_steps=s.max_stage_steps, wall_mass_factor=s.wall_mass_factor,
+            seed=s.seed)
+
+
+def _renamed(stages, name: str):
+    return tuple(type(s)(**{**s.__dict__, "name": name}) for s in stages)
+
+
+def _input_error(error: ValidationError) -> InputError:
+    first = error.errors()[0]
+    field = ".".join(str(p) for p in first["loc"]) or "config"
+    kind = first["type"]
+    if kind == "extra_forbidden":
+        return InputError(field, first.get("input"), "no such key: see the keys of "
+                          "grainlab.lab.run_config (or `grainlab triaxial --help`)")
+    return InputError(field, first.get("input"), first["msg"].lower())

@@ -1,0 +1,229 @@
+"""Loose random samples for the discrete engine: sizes, shapes and a random placement without
+overlap in a box of walls (seeds 002/003 §II.B; the seeds' geometric deposition is a later
+step).
+
+Sizes (seed 002: "diameters uniform by volume fraction in [d_min, 2 d_min]"; seed 003: R
+uniform by volume in [R_min, 3 R_min]). Equal volume in every size class means a number
+density p(d) proportional to d^-3 on [d_min, d_max]; with u uniform in [0, 1) the inverse of
+its distribution function is
+
+    d = (d_min^-2 - u (d_min^-2 - d_max^-2))^(-1/2)                        [m]
+
+Placement: random sequential addition of the particles' bounding spheres, largest first, in a
+cube sized so that the bounding spheres fill ``packing_fraction`` of it (a loose gas, 0.2 by
+default; random sequential addition jams near 0.38), with a cell grid so that each trial
+costs O(1). Aggregates get uniformly random orientations (unit quaternions from normalised
+4-D Gaussians).
+
+>>> sample = loose_sample(n_particles=20, seed=3)
+>>> sample.state.n_bodies, bool(sample.box.volume > 0)
+(20, True)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from grainlab.engine.state import BodyState, ShapeLibrary
+from grainlab.engine.wall_box import WallBox
+from grainlab.errors import InputError
+from grainlab.geometry.sphere_aggregate import tetrahedral_aggregate
+
+SHAPES = ("sphere", "aggregate")
+"""Particle shapes a loose sample can be made of."""
+
+
+@dataclass
+class DiscreteSample:
+    """Particles and their box: the static ``library``, the changing ``state`` and the walls
+    ``box`` (:class:`~grainlab.engine.wall_box.WallBox`); ``description`` is plain data
+    (shape, sizes, seed) for the results' metadata."""
+
+    library: ShapeLibrary
+    state: BodyState
+    box: WallBox
+    description: dict
+
+    @property
+    def mean_diameter(self) -> float:
+        """Mean diameter of the particles' bounding spheres [m]."""
+        return float(2.0 * np.mean(self.library.bounding_radius[self.state.shape_ids]))
+
+    @property
+    def solid_volume(self) -> float:
+        """Sum of the particle volumes [m^3]."""
+        return float(np.sum(self.library.volume[self.state.shape_ids]))
+
+
+def diameters_uniform_by_volume(n: int, d_min: float, d_max: float,
+                                rng: np.random.Generator) -> np.ndarray:
+    """``n`` diameters [m] with equal volume in every size class of [d_min, d_max] (module
+    docstring); d_max = d_min gives a monodisperse set."""
+    u = rng.random(n)
+    return (d_min**-2 - u * (d_min**-2 - d_max**-2)) ** -0.5
+
+
+def random_orientations(n: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, 4) unit quaternions uniformly distributed on SO(3)."""
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    q[q[:, 0] < 0.0] *= -1.0
+    return q
+
+
+def random_sequential_placement(radii: np.ndarray, side: np.ndarray,
+                                rng: np.random.Generator, max_trials: int = 20000
+                                ) -> np.ndarray:
+    """Centres (n, 3) [m] of spheres of ``radii`` (n,) [m] placed one by one, largest first,
+    at uniformly random positions inside the box [0, side] (3,) without overlapping the box or
+    each other; raises :class:`InputError` when one cannot be placed in ``max_trials``."""
+    n = radii.shape[0]
+    order = np.argsort(-radii, kind="stable")
+    cell = 2.0 * float(radii.max())
+    shape = np.maximum(1, np.floor(side / cell).astype(int))
+    cell_size = side / shape
+    grid: dict[tuple[int, int, int], list[int]] = {}
+    centres = np.zeros((n, 3))
+    for k in order:
+        r = radii[k]
+        lo, hi = np.full(3, r), side - r
+        if np.any(hi < lo):
+            raise InputError("box", side.tolist(), f"room for a particle of radius {r:g} m")
+        for _ in range(max_trials):
+            x = lo + rng.random(3) * (hi - lo)
+            c = np.minimum((x / cell_size).astype(int), shape - 1)
+            free = True
+            for dx in (-1, 0, 1):
+                for dy in (-1, 0, 1):
+                    for dz in (-1, 0, 1):
+                        for other in grid.get((c[0] + dx, c[1] + dy, c[2] + dz), ()):
+                            d = centres[other] - x
+                            if d @ d < (r + radii[other]) ** 2:
+                                free = False
+                                break
+                        if not free:
+                            break
+                    if not free:
+                        break
+                if not free:
+                    break
+            if free:
+                centres[k] = x
+                grid.setdefault((int(c[0]), int(c[1]), int(c[2])), []).append(int(k))
+                break
+        else:
+            raise InputError("packing_fraction", "too high",
+                             f"a looser initial packing: particle {int(k)} found no room in "
+                             f"{max_trials} trials")
+    return centres
+
+
+@lru_cache(maxsize=16)
+def _unit_aggregate(eta: float):
+    """Tetrahedral aggregate of circumscribed radius 1 m (mass properties scale with size)."""
+    return tetrahedral_aggregate(circumscribed_radius=1.0, eta=eta)
+
+
+def aggregate_library(bounding_radii: np.ndarray, eta: float) -> ShapeLibrary:
+    """One tetrahedral aggregate shape of non-convexity ``eta`` per circumscribed radius [m]
+    (volume ~ R^3, inertia ~ R^5 from one exact unit aggregate)."""
+    unit = _unit_aggregate(float(eta))
+    s = np.asarray(bounding_radii, dtype=np.float64)
+    n, k = s.shape[0], unit.n_spheres
+    return ShapeLibrary(
+        kind=np.full(n, 1), sphere_start=np.arange(n) * k, sphere_count=np.full(n, k),
+        sphere_offsets=(s[:, None, None] * unit.centres[None]).reshape(-1, 3),
+        sphere_radii=(s[:, None] * unit.radii[None]).reshape(-1),
+        volume=unit.volume * s**3, principal_inertia=unit.principal_moments[None] * s[:, None]**5,
+        bounding_radius=unit.bounding_radius * s,
+    )
+
+
+def _positive(name: str, value, allow_zero: bool = False) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if not math.isfinite(x) or x < 0.0 or (x == 0.0 and not allow_zero):
+        raise InputError(name, value, "a finite number " + (">= 0" if allow_zero else "> 0"))
+    return x
+
+
+def loose_sample(
+    *, shape: str = "sphere", n_particles: int = 1000, d_min: float = 1e-3,
+    size_ratio: float = 2.0, eta: float = 0.4, density: float = 2600.0,
+    packing_fraction: float = 0.2, aspect: tuple[float, float, float] = (1.0, 1.0, 1.0),
+    wall_friction: float = 0.0, seed: int = 0,
+) -> DiscreteSample:
+    """A loose random sample in a box of fixed walls (module docstring).
+
+    Parameters
+    ----------
+    shape:
+        ``"sphere"`` or ``"aggregate"`` (seed 003's tetrahedral aggregates of 4 spheres).
+    n_particles:
+        Number of particles (>= 1).
+    d_min, size_ratio:
+        Smallest diameter [m] of the particles' bounding spheres and d_max / d_min (>= 1);
+        sizes uniform by volume (seed 002: 2; seed 003: 3).
+    eta:
+        Non-convexity (R - R')/R of the aggregates, in [0, 0.828] (ignored for spheres).
+    density:
+        Particle density [kg/m^3].
+    packing_fraction:
+        Fraction of the box filled by the bounding spheres, in (0, 0.35].
+    aspect:
+        Box side ratios (x, y, z).
+    wall_friction:
+        Coulomb coefficient of the walls (seed 002: 0).
+    seed:
+        Seed of the sizes, positions and orientations.
+    """
+    if shape not in SHAPES:
+        raise InputError("shape", shape, "one of " + ", ".join(SHAPES))
+    if isinstance(n_particles, bool) or not isinstance(n_particles, int | np.integer) \
+            or n_particles < 1:
+        raise InputError("n_particles", n_particles, "an integer >= 1")
+    d_min = _positive("d_min", d_min)
+    ratio = _positive("size_ratio", size_ratio)
+    if ratio < 1.0:
+        raise InputError("size_ratio", size_ratio, "d_max / d_min >= 1")
+    density = _positive("density", density)
+    phi = _positive("packing_fraction", packing_fraction)
+    if phi > 0.35:
+        raise InputError("packing_fraction", packing_fraction,
+                         "a loose initial packing fraction in (0, 0.35]")
+    shape_ratio = np.asarray(aspect, dtype=np.float64)
+    if shape_ratio.shape != (3,) or not np.all(np.isfinite(shape_ratio)) \
+            or np.any(shape_ratio <= 0.0):
+        raise InputError("aspect", aspect, "three positive box side ratios")
+    rng = np.random.default_rng(seed)
+    radii = 0.5 * diameters_uniform_by_volume(int(n_particles), d_min, ratio * d_min, rng)
+    if shape == "sphere":
+        library = ShapeLibrary.from_spheres(radii)
+        description = {"shape": "sphere"}
+    else:
+        eta_value = _positive("eta", eta, allow_zero=True)
+        if eta_value > 2.0 * math.sqrt(2.0) - 2.0:
+            raise InputError("eta", eta, "a non-convexity in [0, 0.828]")
+        library = aggregate_library(radii, eta_value)
+        description = {"shape": "aggregate", "eta": eta_value}
+    bounding = library.bounding_radius
+    volume = float(np.sum(4.0 / 3.0 * np.pi * bounding**3)) / phi
+    side = shape_ratio * (volume / float(np.prod(shape_ratio))) ** (1.0 / 3.0)
+    side = np.maximum(side, 2.0 * bounding.max() * 1.01)
+    positions = random_sequential_placement(bounding, side, rng)
+    orientations = random_orientations(int(n_particles), rng) if shape == "aggregate" else None
+    state = BodyState.from_library(library, np.arange(int(n_particles)), positions, density,
+                                   orientations)
+    box = WallBox(np.zeros(3), side, friction=_positive("wall_friction", wall_friction,
+                                                          allow_zero=True))
+    box.set_masses(float(np.sum(state.masses)))
+    description.update({"n_particles": int(n_particles), "d_min": d_min,
+                        "d_max": ratio * d_min, "density": density,
+                        "initial_packing_fraction": phi, "seed": int(seed)})
+    return DiscreteSample(library, state, box, description)

@@ -1,0 +1,257 @@
+"""Graph colouring of contacts and the coloured (parallel) NLGS sweep against the serial one
+(STYLE.md 11, 12).
+
+The packing: a face-centred cubic lattice of spheres (nearest-neighbour distance 2 R) with
+radii R (1 + 1e-4 (2 u - 1)), u uniform in [0, 1), so that the twelve neighbours of a sphere
+touch within 2e-4 R = 0.2 um: overlapping slightly (not pushed apart) or apart by a gap that
+a step closes at ~2 mm/s ~ 2 g h. It stands on the floor of a wall box whose side walls are
+0.5 R away, so that it slumps, with a stress-controlled top wall touching it, under gravity
+and with random initial velocities of the order of g h: some contacts open, some stick, some
+slide.
+
+With friction, the velocities of a step are not unique in general: from rest, this packing
+slumps into slightly different (each converged, each lawful) motions for different visiting
+orders. With the random initial velocities the serial and coloured solutions agree to
+~1e-7 relative (seeds 0-3), which the comparison checks with margin.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numba
+import numpy as np
+import pytest
+
+import grainlab.engine.nlgs_parallel as nlgs_parallel
+from grainlab.engine.contact_colouring import colour_contacts, colour_contacts_slow
+from grainlab.engine.contact_dynamics import ContactDynamicsStep
+from grainlab.engine.state import BodyState, ShapeLibrary
+from grainlab.engine.wall_box import WallBox
+from grainlab.errors import InputError
+
+R = 1e-3  # m
+DENSITY = 2500.0  # kg/m^3
+G = 9.81  # m/s^2
+DT = 1e-4  # s
+MU = 0.3
+
+
+def fcc_sample(cells=(2, 2, 2), seed=0, speed=2.0 * G * DT):
+    """Library, state and box of the module docstring's packing; ``speed`` [m/s] scales the
+    random initial velocities."""
+    rng = np.random.default_rng(seed)
+    a = 2.0 * np.sqrt(2.0) * R  # cubic cell of the FCC lattice
+    nx, ny, nz = cells
+    sites = np.array([(i, j, k) for i in range(2 * nx + 1) for j in range(2 * ny + 1)
+                      for k in range(2 * nz + 1) if (i + j + k) % 2 == 0], dtype=float)
+    positions = R + 0.5 * a * sites
+    radii = R * (1.0 + 1e-4 * (2.0 * rng.random(len(sites)) - 1.0))
+    library = ShapeLibrary.from_spheres(radii)
+    state = BodyState.from_library(library, np.arange(len(sites)), positions, density=DENSITY)
+    state.velocities[:] = speed * rng.uniform(-1.0, 1.0, state.velocities.shape)
+    upper = 2.0 * R + a * np.array(cells, dtype=float) + np.array([0.5, 0.5, 0.0]) * R
+    lower = -np.array([0.5, 0.5, 0.0]) * R
+    box = WallBox(lower, upper, friction=MU, wall_mass=float(state.masses.sum()))
+    weight = float(state.masses.sum()) * G
+    box.set_control("z+", "stress", 0.5 * weight / float(box.face_areas[5]))
+    return library, state, box
+
+
+def run(sweep, n_steps, sample, tolerance=1e-8):
+    """(state, box, step reports) after ``n_steps`` steps from a copy of ``sample``."""
+    library, state, box = copy.deepcopy(sample)
+    step = ContactDynamicsStep(dt=DT, gravity=(0.0, 0.0, -G), friction=MU, sweep=sweep,
+                               tolerance=tolerance, max_iterations=5000)
+    reports = [step.step(state, library, box) for _ in range(n_steps)]
+    return state, box, reports
+
+
+def assert_coulomb_signorini(report):
+    p = report.impulses
+    assert report.converged, (report.iterations, report.change, report.residual)
+    assert (p[:, 0] >= 0.0).all()
+    assert (np.linalg.norm(p[:, 1:], axis=1) <= MU * p[:, 0] * (1.0 + 1e-9)).all()
+
+
+def assert_complementarity(report, state, box, tol=1e-6):
+    """The contact law against end-of-step relative velocities recomputed here (NumPy, from
+    the end state: x_m = x - theta h v, theta = 0.5): no approach, open or closed, sticking
+    or sliding against the friction."""
+    c, p = report.contacts, report.impulses
+    x_m = state.positions - 0.5 * DT * state.velocities
+    inner = c.body_i >= 0
+    u = state.velocities[c.body_j] + np.cross(state.angular_velocities[c.body_j],
+                                              c.point - x_m[c.body_j])
+    i = c.body_i[inner]
+    u[inner] -= state.velocities[i] + np.cross(state.angular_velocities[i],
+                                               c.point[inner] - x_m[i])
+    wall = -1 - c.body_i[~inner]
+    u[~inner] -= box.speeds[wall, None] * box.normals[wall]
+    u = np.einsum("cij,cj->ci", report.frames, u)
+    u[:, 0] += np.maximum(c.gap, 0.0) / DT
+    u_scale = max(float(np.abs(u).max()), G * DT)
+    active = p[:, 0] > tol * p[:, 0].max()
+    assert (u[:, 0] >= -tol * u_scale).all()
+    assert (np.abs(u[active, 0]) <= tol * u_scale).all()
+    slip = np.linalg.norm(u[:, 1:], axis=1)
+    friction = np.linalg.norm(p[:, 1:], axis=1)
+    sticking = active & (friction < MU * p[:, 0] * (1.0 - 1e-6))
+    assert (slip[sticking] <= tol * u_scale).all()
+    sliding = active & (slip > tol * u_scale)
+    cosine = np.einsum("ci,ci->c", u[sliding, 1:], p[sliding, 1:]) / (
+        slip[sliding] * friction[sliding])
+    assert (cosine <= -1.0 + 1e-6).all()
+    return int(sticking.sum()), int(sliding.sum())
+
+
+# --------------------------------------------------------------------------------------------
+# Colouring
+# --------------------------------------------------------------------------------------------
+
+
+def random_contacts(rng, n_bodies=60, n_pairs=400, n_wall=80):
+    i = rng.integers(0, n_bodies, n_pairs)
+    j = (i + rng.integers(1, n_bodies, n_pairs)) % n_bodies  # j != i
+    walls = rng.integers(0, 4, n_wall)
+    body_i = np.concatenate([i, -1 - walls])
+    body_j = np.concatenate([j, rng.integers(0, n_bodies, n_wall)])
+    mix = rng.permutation(body_i.size)
+    return body_i[mix], body_j[mix]
+
+
+def assert_valid_colouring(colouring, body_i, body_j, wall_inv_mass):
+    n = body_i.size
+    assert np.array_equal(np.sort(colouring.order), np.arange(n))
+    offsets = colouring.offsets
+    assert offsets[0] == 0 and offsets[-1] == n and (np.diff(offsets) >= 0).all()
+    assert offsets.size == colouring.n_colours + 2
+    mobile = (body_i < 0) & (wall_inv_mass[np.maximum(-1 - body_i, 0)] > 0.0)
+    assert np.array_equal(np.sort(colouring.serial), np.flatnonzero(mobile))
+    for c in range(colouring.n_colours):
+        group = colouring.group(c)
+        assert group.size > 0 and np.array_equal(group, np.sort(group))
+        assert not mobile[group].any()
+        bodies = np.concatenate([body_j[group], body_i[group][body_i[group] >= 0]])
+        assert np.unique(bodies).size == bodies.size  # no body twice in one colour
+        assert (colouring.colour[group] == c).all()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_colouring_is_valid_and_equals_the_slow_twin(seed):
+    rng = np.random.default_rng(seed)
+    body_i, body_j = random_contacts(rng)
+    wall_inv_mass = np.array([0.0, 2.0, 0.0, 0.5])  # walls 1 and 3 are mobile
+    colouring = colour_contacts(body_i, body_j, wall_inv_mass)
+    assert_valid_colouring(colouring, body_i, body_j, wall_inv_mass)
+    np.testing.assert_array_equal(colouring.colour,
+                                  colour_contacts_slow(body_i, body_j, wall_inv_mass))
+
+
+def test_colouring_spills_past_63_colours():
+    # a star: 150 contacts on body 0 need 150 colours (three rounds of bit masks)
+    body_j = np.zeros(150, dtype=np.int64)
+    body_i = np.arange(1, 151)
+    body_i[::7] = -1  # some on a driven wall: they still share body 0
+    walls = np.zeros(1)
+    colouring = colour_contacts(body_i, body_j, walls)
+    assert colouring.n_colours == 150 and colouring.serial.size == 0
+    assert_valid_colouring(colouring, body_i, body_j, walls)
+    np.testing.assert_array_equal(colouring.colour, colour_contacts_slow(body_i, body_j, walls))
+
+
+def test_colouring_of_the_packing_is_valid():
+    sample = fcc_sample()
+    _, _, reports = run("coloured", 1, sample)
+    contacts = reports[0].contacts
+    box = sample[2]
+    wall_inv_mass = box.inverse_masses()
+    colouring = colour_contacts(contacts.body_i, contacts.body_j, wall_inv_mass,
+                                sample[1].n_bodies)
+    assert_valid_colouring(colouring, contacts.body_i, contacts.body_j, wall_inv_mass)
+    assert colouring.serial.size > 0  # the stress-controlled top wall carries contacts
+    assert colouring.n_colours < 30
+
+
+# --------------------------------------------------------------------------------------------
+# Coloured against serial sweeps
+# --------------------------------------------------------------------------------------------
+
+
+def test_coloured_and_serial_sweeps_agree_and_obey_the_contact_laws():
+    sample = fcc_sample()
+    results = {sweep: run(sweep, 2, sample) for sweep in ("serial", "coloured")}
+    (state_s, box_s, reports_s), (state_c, box_c, reports_c) = results.values()
+    for report_s, report_c in zip(reports_s, reports_c, strict=True):
+        assert report_s.n_contacts == report_c.n_contacts > 3 * sample[1].n_bodies
+        assert_coulomb_signorini(report_s)
+        assert_coulomb_signorini(report_c)
+    n_stick, n_slide = assert_complementarity(reports_c[-1], state_c, box_c)
+    assert n_stick > 10 and n_slide > 10
+    assert_complementarity(reports_s[-1], state_s, box_s)
+    scale = float(np.abs(state_s.velocities).max())
+    assert scale > G * DT
+    np.testing.assert_allclose(state_c.velocities, state_s.velocities, rtol=0, atol=1e-5 * scale)
+    np.testing.assert_allclose(state_c.angular_velocities, state_s.angular_velocities, rtol=0,
+                               atol=1e-5 * scale / R)
+    np.testing.assert_allclose(box_c.speeds, box_s.speeds, rtol=0, atol=1e-5 * scale)
+    np.testing.assert_allclose(state_c.positions, state_s.positions, rtol=0,
+                               atol=1e-5 * scale * DT)
+
+
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two Numba threads")
+def test_coloured_sweep_does_not_depend_on_the_threads(monkeypatch):
+    # every colour in parallel, whatever its size, on 1 and on 2 threads, and none in parallel
+    sample = fcc_sample(seed=4)
+    threads = numba.get_num_threads()
+    outcomes = []
+    try:
+        for n_threads, forced in ((1, True), (2, True), (2, False)):
+            numba.set_num_threads(n_threads)
+            with monkeypatch.context() as patch:
+                if forced:
+                    patch.setattr(nlgs_parallel, "parallel_colours",
+                                  lambda offsets, n_colours, n_threads: n_colours)
+                outcomes.append(run("coloured", 2, sample, tolerance=1e-6))
+    finally:
+        numba.set_num_threads(threads)
+    reference_state, reference_box, reference_reports = outcomes[0]
+    for state, box, reports in outcomes[1:]:
+        np.testing.assert_array_equal(state.velocities, reference_state.velocities)
+        np.testing.assert_array_equal(state.angular_velocities,
+                                      reference_state.angular_velocities)
+        np.testing.assert_array_equal(state.positions, reference_state.positions)
+        np.testing.assert_array_equal(box.speeds, reference_box.speeds)
+        for report, reference in zip(reports, reference_reports, strict=True):
+            assert report.iterations == reference.iterations
+            np.testing.assert_array_equal(report.impulses, reference.impulses)
+            assert_coulomb_signorini(report)
+
+
+def test_kernel_with_no_contacts_returns_free_velocities():
+    empty_i = np.zeros(0, dtype=np.int64)
+    v_free = np.array([[1.0, 2.0, 3.0]])
+    w_free = np.array([[0.1, 0.0, 0.0]])
+    velocities, spins, residuals = np.empty((1, 3)), np.empty((1, 3)), np.ones(2)
+    iterations = nlgs_parallel.nlgs_coloured_kernel(
+        empty_i, empty_i, np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
+        np.ones(1), np.eye(3)[None], v_free, w_free, np.zeros((0, 3)), np.zeros(0), np.zeros(0),
+        np.zeros(0), np.zeros(0), DT, empty_i, np.zeros(2, dtype=np.int64), 0, 1e-5, 10,
+        np.zeros((0, 3)), velocities, spins, np.zeros(0), np.zeros((0, 3, 3)), residuals,
+    )
+    assert iterations == 0
+    np.testing.assert_array_equal(velocities, v_free)
+    np.testing.assert_array_equal(spins, w_free)
+    np.testing.assert_array_equal(residuals, 0.0)
+
+
+def test_parallel_colours_picks_the_large_leading_colours():
+    offsets = np.array([0, 5000, 9000, 9500, 12000, 12010])  # 4 colours + serial group
+    assert nlgs_parallel.parallel_colours(offsets, 4, n_threads=2) == 2
+    assert nlgs_parallel.parallel_colours(offsets, 4, n_threads=1) == 0
+    assert nlgs_parallel.parallel_colours(offsets, 4, n_threads=2, min_size=10) == 4
+
+
+def test_unknown_sweep_is_an_input_error():
+    with pytest.raises(InputError, match="sweep"):
+        ContactDynamicsStep(dt=DT, sweep="red-black")

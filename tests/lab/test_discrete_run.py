@@ -1,0 +1,163 @@
+"""Discrete lab tests in run folders: wall stages, records, checkpoints, resume after kill -9,
+bad input, VTK export."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grainlab.errors import InputError
+from grainlab.lab.discrete_run import (
+    CHECKPOINT,
+    RESULTS,
+    SNAPSHOTS,
+    export_checkpoint_vtk,
+    resume_run,
+    start_run,
+)
+from grainlab.lab.presets import simple_shear, triaxial_compression
+from grainlab.lab.run_config import RunConfig
+from grainlab.lab.test_result import read_test_result
+from grainlab.lab.wall_stages import wall_stages
+
+SMALL = {
+    "sample": {"n_particles": 40, "seed": 4},
+    "test": {"kind": "triaxial", "eps_q_max": 0.02},
+    "solver": {"compaction_inertia_number": 0.05, "inertia_number": 0.01, "sweep": "serial"},
+    "output": {"record_every": 20, "checkpoint_every": 100, "snapshot_every": 100},
+}
+
+
+def small_config(**updates) -> RunConfig:
+    return RunConfig.model_validate(SMALL).with_updates(updates)
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("run") / "triaxial"
+    run = start_run(folder, small_config())
+    result = run.run()
+    return folder, result
+
+
+def test_wall_stages_of_the_presets():
+    stages = wall_stages(triaxial_compression(confining=5e3, axial_strain=0.2, n_steps=4))
+    assert [s.name for s in stages] == ["consolidation", "shear"]
+    assert stages[0].modes == ("stress", "stress", "stress")
+    assert stages[1].modes == ("stress", "stress", "strain")
+    assert stages[1].targets == (5e3, 5e3, pytest.approx(0.2))
+    with pytest.raises(InputError, match="does not shear"):
+        wall_stages(simple_shear(vertical_stress=1e4, gamma_final=0.1, n_steps=3))
+
+
+def test_triaxial_run_records_every_column_and_agrees_with_walls(finished_run):
+    folder, result = finished_run
+    table = result.table
+    assert list(table["stage"].unique()) == ["compaction", "triaxial_compression"] or \
+        set(table["stage"].unique()) == {"compaction", "shear"}
+    for column in ("p", "q", "q_over_p", "sin_phi", "eps_q", "eps_p", "packing_fraction",
+                   "z", "z_c", "z_no_rattlers", "inertia_number", "solver_iterations",
+                   "wall_sigma_xx", "unbalanced_force_ratio"):
+        assert column in table and np.isfinite(table[column].iloc[-1]), column
+    compaction = table[table["stage"] == "compaction"].iloc[-1]
+    # quasi-static end of compaction: walls at sigma0, contacts agree with walls
+    sigma0 = 1e4
+    for axis in ("xx", "yy", "zz"):
+        assert compaction[f"wall_sigma_{axis}"] == pytest.approx(sigma0, rel=0.011)
+    assert compaction["p"] == pytest.approx(sigma0, rel=0.02)
+    shear = table[table["stage"] != "compaction"]
+    assert shear["eps_q"].iloc[-1] >= 0.02
+    assert shear["inertia_number"].max() <= 0.011  # the user's bound (0.01) holds
+    # lateral walls stay at sigma0 during shear
+    np.testing.assert_allclose(shear["wall_sigma_xx"], sigma0, rtol=0.05)
+    assert result.metadata["outcome"]["finished"]
+    for name in (RESULTS, CHECKPOINT, SNAPSHOTS, "config.toml", "run.log", "results.h5"):
+        assert (folder / name).exists(), name
+    again = read_test_result(folder / RESULTS)
+    np.testing.assert_allclose(again.table["q_over_p"], table["q_over_p"])
+
+
+def test_snapshots_feed_the_analysis_layer(finished_run):
+    from grainlab.analysis import SnapshotAnalysis
+    from grainlab.analysis.snapshot_files import read_snapshots
+
+    folder, _ = finished_run
+    networks = list(read_snapshots(folder / SNAPSHOTS))
+    assert networks and "eps_q" in networks[-1].state
+    descriptors = SnapshotAnalysis().compute(networks[-1]).descriptors
+    assert descriptors["coordination_number"] > 0
+
+
+def test_vtk_export_of_a_checkpoint(finished_run, tmp_path):
+    import meshio
+
+    folder, _ = finished_run
+    paths = export_checkpoint_vtk(folder, tmp_path / "vtk")
+    names = {p.name for p in paths}
+    assert {"particles_000000.vtu", "walls_000000.vtu"} <= names
+    walls = meshio.read(tmp_path / "vtk" / "walls_000000.vtu")
+    assert sum(len(c.data) for c in walls.cells) == 6
+
+
+def test_unknown_key_and_bad_values_name_the_field(tmp_path):
+    (tmp_path / "bad.toml").write_text("[sample]\nn_particle = 10\n")
+    with pytest.raises(InputError, match=r"sample\.n_particle"):
+        RunConfig.read(tmp_path / "bad.toml")
+    with pytest.raises(InputError, match=r"solver\.friction"):
+        RunConfig.model_validate({"solver": {"friction": -0.1}})
+    with pytest.raises(InputError, match=r"sample\.d_min"):
+        RunConfig.model_validate({"sample": {"d_min": -1e-3}})
+
+
+def test_a_run_folder_is_not_overwritten_by_accident(finished_run):
+    folder, _ = finished_run
+    with pytest.raises(InputError, match="resume"):
+        start_run(folder, small_config())
+
+
+def _wait_for(path: Path, timeout: float) -> None:
+    end = time.time() + timeout
+    while not path.exists():
+        if time.time() > end:
+            raise AssertionError(f"{path} did not appear in {timeout} s")
+        time.sleep(0.05)
+
+
+@pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGTERM])
+def test_resume_after_kill_loses_only_the_steps_since_the_checkpoint(tmp_path, finished_run,
+                                                                      how):
+    _, reference = finished_run
+    folder = tmp_path / "killed"
+    config = small_config()
+    folder.mkdir()
+    config.write(tmp_path / "input.toml")
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "grainlab.cli.main", "triaxial", "--out", str(folder),
+         "--config", str(tmp_path / "input.toml"), "--no-progress"],
+        env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        _wait_for(folder / CHECKPOINT, 120)
+        time.sleep(0.3)
+        process.send_signal(how)
+        process.wait(60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert (folder / CHECKPOINT).exists()
+    run = resume_run(folder)
+    assert run.test.simulation.step_index > 0
+    result = run.run()
+    table, expected = result.table, reference.table
+    assert len(table) == len(expected)
+    np.testing.assert_allclose(table["step"], expected["step"])
+    np.testing.assert_allclose(table["q_over_p"], expected["q_over_p"], rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(table["packing_fraction"], expected["packing_fraction"],
+                               rtol=1e-9)
