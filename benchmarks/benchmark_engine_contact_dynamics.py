@@ -18,7 +18,8 @@ state a few warm-up steps (compilation, warm start), then a few timed steps. Pri
 contacts C and colours; sweeps per step; the time per step split into the NLGS kernel, the
 colouring, the broad and narrow phases and the rest of the Python launcher (frames, inertia,
 warm-start look-up, keys...); contact updates per second (C x sweeps / kernel time, the
-kernel's check pass included); ns per contact update; steps per second and particle-steps
+kernel's set-up -- Delassus blocks, gathering -- and convergence checks included); ns per
+contact update; steps per second and particle-steps
 per second. Near-linear growth shows as a near-constant ns per contact update and us per
 particle-step.
 
@@ -170,9 +171,9 @@ def main(sizes: list[int]) -> None:
           f"fraction {FRACTION}, h = {DT:g} s, mu = {FRICTION}, tolerance 1e-5, at most "
           f"{MAX_SWEEPS} sweeps; {numba.config.THREADING_LAYER} layer, {os.cpu_count()} CPUs, "
           f"load average {os.getloadavg()[0]:.2f}")
-    print("per step: sweeps; times in ms: kernel = NLGS kernel (incl. Delassus and the check "
-          "pass of every sweep), col = colouring, bp/np = broad/narrow phase, py = rest of the "
-          "launcher; upd/s = contacts x sweeps / kernel time")
+    print("per step: sweeps; times in ms: kernel = NLGS kernel (set-up and convergence checks "
+          "included), col = colouring, bp/np = broad/narrow phase, py = rest of the launcher; "
+          "upd/s = contacts x sweeps / kernel time")
     header = (f"{'N':>7} {'sweep':>8} {'thr':>3} {'C':>8} {'C/N':>5} {'col':>4} "
               f"{'sweeps':>6} {'kernel':>8} {'col':>6} {'bp':>6} {'np':>6} {'py':>7} "
               f"{'upd/s':>8} {'ns/upd':>6} {'steps/s':>8} {'p-steps/s':>9} {'us/p-st':>7}")

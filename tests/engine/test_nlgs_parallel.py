@@ -236,7 +236,8 @@ def test_kernel_with_no_contacts_returns_free_velocities():
     iterations = nlgs_parallel.nlgs_coloured_kernel(
         empty_i, empty_i, np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
         np.ones(1), np.eye(3)[None], v_free, w_free, np.zeros((0, 3)), np.zeros(0), np.zeros(0),
-        np.zeros(0), np.zeros(0), DT, empty_i, np.zeros(2, dtype=np.int64), 0, 1e-5, 10,
+        np.zeros(0), np.zeros(0), np.zeros(0), DT, empty_i, np.zeros(2, dtype=np.int64), 0,
+        1e-5, 10,
         np.zeros((0, 3)), velocities, spins, np.zeros(0), np.zeros((0, 3, 3)), residuals,
     )
     assert iterations == 0
@@ -247,9 +248,11 @@ def test_kernel_with_no_contacts_returns_free_velocities():
 
 def test_parallel_colours_picks_the_large_leading_colours():
     offsets = np.array([0, 5000, 9000, 9500, 12000, 12010])  # 4 colours + serial group
-    assert nlgs_parallel.parallel_colours(offsets, 4, n_threads=2) == 2
-    assert nlgs_parallel.parallel_colours(offsets, 4, n_threads=1) == 0
+    assert nlgs_parallel.parallel_colours(offsets, 4, n_threads=2, min_size=4000) == 2
+    assert nlgs_parallel.parallel_colours(offsets, 4, n_threads=1, min_size=4000) == 0
     assert nlgs_parallel.parallel_colours(offsets, 4, n_threads=2, min_size=10) == 4
+    big = np.array([0, 9000, 17500, 17600])  # 2 colours + serial group
+    assert nlgs_parallel.parallel_colours(big, 2, n_threads=2) == 2  # default MIN_PARALLEL
 
 
 def test_unknown_sweep_is_an_input_error():

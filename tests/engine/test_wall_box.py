@@ -141,8 +141,7 @@ def test_speed_limit_never_weakens_the_push_at_rest():
     sample.box.set_control("z+", "stress", sigma)
     sample.box.set_masses(float(sample.state.masses[0]))
     sample.box.set_max_speeds(1e-6)  # far below h sigma A / m
-    step = ContactDynamicsStep(dt=1e-4, friction=0.0, tolerance=1e-10, max_iterations=100,
-                               sweep="serial")
+    step = ContactDynamicsStep(dt=1e-4, friction=0.0, tolerance=1e-10, max_iterations=100)
     for _ in range(20):
         step.step(sample.state, sample.library, sample.box)
     assert sample.box.reactions[5] == pytest.approx(sigma * sample.box.face_areas[5], rel=1e-6)

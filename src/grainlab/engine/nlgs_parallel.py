@@ -11,8 +11,8 @@ two bodies: no race, and the result does not depend on which thread ran it), the
 after the other, then the serial group (contacts of mobile walls, which all share their wall)
 in a plain loop. The caller chooses how many leading colours go parallel
 (:func:`parallel_colours`): a colour of fewer than :data:`MIN_PARALLEL` contacts, and every
-colour with one thread, is swept in a plain loop, since waking the threads costs ~10-30 us,
-more than such a colour's work; the result is the same either way.
+colour with one thread, is swept in a plain loop, since waking the threads costs more than
+such a colour's work (~80 us per launch on the 2-core VM); the result is the same either way.
 
 Layout. The per-contact arrays are first gathered into colour order (one parallel copy per
 step, like one sweep), so that each colour is a contiguous range: a sweep streams through
@@ -43,7 +43,8 @@ reproducible across thread counts.
 >>> delassus, residuals = np.empty((2, 3, 3)), np.zeros(2)
 >>> sweeps = nlgs_coloured_kernel(
 ...     body, other, frame, arm_i, arm_j, np.ones(2), inv_inertia, v_free, np.zeros((2, 3)),
-...     np.array([[0.0, 0, 1]]), np.zeros(1), np.zeros(1), np.full(2, 0.4), np.zeros(2), 1e-3,
+...     np.array([[0.0, 0, 1]]), np.zeros(1), np.zeros(1), np.full(1, np.inf),
+...     np.full(2, 0.4), np.zeros(2), 1e-3,
 ...     order, offsets, 2, 1e-10, 100, *out, delassus, residuals)
 >>> bool(np.abs(out[1]).max() < 1e-9), out[0][:, 0].round(6).tolist()   # at rest: P_n = 2mv, mv
 (True, [0.02, 0.01])
@@ -59,6 +60,7 @@ from numba import njit, prange
 from grainlab.engine.contact_dynamics import (
     _apply,
     _relative_velocity,
+    brake_walls,
     delassus_kernel,
     local_solve,
     project_cone,
@@ -66,8 +68,10 @@ from grainlab.engine.contact_dynamics import (
 
 _TINY = 1e-300  # as in contact_dynamics
 _BLOCK = 1024  # contacts per block of the parallel reductions (fixed: thread-independent)
-MIN_PARALLEL = 2048
-"""Colours with fewer contacts are swept in a plain loop (:func:`parallel_colours`)."""
+MIN_PARALLEL = 8192
+"""Colours with fewer contacts are swept in a plain loop (:func:`parallel_colours`): one
+``prange`` launch costs ~80 us with the workqueue layer on the 2-core VM (measured), half the
+work of ~2500 contacts at ~65 ns each; 8192 keeps the launches below ~20 % of a colour."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -162,9 +166,10 @@ def _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins, wall
 @njit(cache=True, parallel=True, _nrt=False)
 def _coloured_sweeps(
     body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
-    wall_normals, wall_inv_mass, wall_free_speeds,
+    wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
     mu, gap, dt, colour_offsets, n_parallel, tolerance, max_iterations,
     impulses, velocities, spins, wall_speeds, delassus, residuals, shift, delta2, partial,
+    brakes,
 ):
     """Warm start, sweeps and checks of :func:`nlgs_coloured_kernel` on contacts already in
     group order (group g = contacts ``colour_offsets[g] .. colour_offsets[g + 1] - 1``, the
@@ -221,6 +226,7 @@ def _coloured_sweeps(
                         k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                         wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
                         wall_speeds, delassus)
+        brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
         # relative change of the sweep: sums per block of _BLOCK contacts, then in block order
         if parallel:
             for b in prange(n_blocks):
@@ -261,7 +267,7 @@ def _coloured_sweeps(
 @njit(cache=True, parallel=True)
 def nlgs_coloured_kernel(
     body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
-    wall_normals, wall_inv_mass, wall_free_speeds,
+    wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
     mu, gap, dt, colour_order, colour_offsets, n_parallel_colours, tolerance, max_iterations,
     impulses, velocities, spins, wall_speeds, delassus, residuals,
 ):
@@ -289,7 +295,9 @@ def nlgs_coloured_kernel(
     wall_speeds[:] = wall_free_speeds
     residuals[0] = 0.0
     residuals[1] = 0.0
+    brakes = np.zeros(wall_speeds.shape[0])
     if n_contacts == 0:
+        brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
         return 0
     # gather the contacts into colour order (row m holds contact colour_order[m])
     c_body_i = np.empty(n_contacts, dtype=np.int64)
@@ -322,10 +330,10 @@ def nlgs_coloured_kernel(
                         c_delassus[lo:hi])
     iterations = _coloured_sweeps(
         c_body_i, c_body_j, c_frame, c_arm_i, c_arm_j, inv_mass, inv_inertia, free_velocities,
-        free_spins, wall_normals, wall_inv_mass, wall_free_speeds,
+        free_spins, wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
         c_mu, c_gap, dt, colour_offsets, n_parallel_colours, tolerance, max_iterations,
         c_impulses, velocities, spins, wall_speeds, c_delassus, residuals,
-        np.empty(n_contacts), np.zeros(n_contacts), np.zeros((n_blocks, 3)))
+        np.empty(n_contacts), np.zeros(n_contacts), np.zeros((n_blocks, 3)), brakes)
     for m in prange(n_contacts):  # scatter back (a permutation: each row written once)
         k = colour_order[m]
         for a in range(3):

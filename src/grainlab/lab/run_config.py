@@ -8,8 +8,8 @@ that names it::
     [test]     kind ("compaction" | "triaxial" | "oedometer"), sigma0 [Pa], eps_q_max
                (triaxial), axial_strain and unload_strain (oedometer)
     [solver]   friction, compaction_friction, inertia_number, compaction_inertia_number, dt
-               [s] (0: automatic), time_step_factor, theta, tolerance, max_iterations, sweep,
-               max_stage_steps, wall_mass_factor, seed
+               [s] (0: automatic), time_step_factor, compaction_time_step_factor, theta,
+               tolerance, max_iterations, sweep, max_stage_steps, wall_mass_factor, seed
     [output]   record_every, snapshot_every, checkpoint_every, vtk_every (steps; 0: never)
 
 >>> config = RunConfig.model_validate({"sample": {"n_particles": 50}})
@@ -79,7 +79,8 @@ class SolverConfig(_Section):
     inertia_number: float = Field(1e-3, gt=0, le=1.0)
     compaction_inertia_number: float = Field(1e-2, gt=0, le=1.0)
     dt: float = Field(0.0, ge=0)
-    time_step_factor: float = Field(0.01, gt=0, le=0.5)
+    time_step_factor: float = Field(0.003, gt=0, le=0.5)
+    compaction_time_step_factor: float = Field(0.01, gt=0, le=0.5)
     theta: float = Field(0.5, ge=0.5, le=1.0)
     tolerance: float = Field(1e-4, gt=0, lt=1)
     max_iterations: int = Field(1000, ge=1)
@@ -172,7 +173,9 @@ class RunConfig(_Section):
             friction=s.friction, compaction_friction=s.compaction_friction,
             inertia_number=s.inertia_number,
             compaction_inertia_number=s.compaction_inertia_number, dt=s.dt or None,
-            time_step_factor=s.time_step_factor, theta=s.theta, tolerance=s.tolerance,
+            time_step_factor=s.time_step_factor,
+            compaction_time_step_factor=s.compaction_time_step_factor, theta=s.theta,
+            tolerance=s.tolerance,
             max_iterations=s.max_iterations, sweep=s.sweep,
             record_every=self.output.record_every, snapshot_every=self.output.snapshot_every,
             max_stage_steps=s.max_stage_steps, wall_mass_factor=s.wall_mass_factor,
