@@ -96,11 +96,17 @@ class DiscreteRun:
         self.resumed = False
         self._vtk = None
         test.on_snapshot = self._write_snapshot
+        test.on_stage_end = self._stage_ended
         out = config.output
         if out.checkpoint_every:
             test.simulation.add(_Every("checkpoint", out.checkpoint_every, self.checkpoint))
         if out.vtk_every:
             test.simulation.add(_Every("vtk", out.vtk_every, self.write_vtk))
+
+    def _stage_ended(self, test: DiscreteTest) -> None:
+        ended = test.outcome["stages"][-1]
+        self.log.info("stage %s ended: %s", ended["name"], ended["reason"])
+        self.checkpoint()
 
     # -- files --------------------------------------------------------------------------------
     def _write_snapshot(self, test: DiscreteTest, network) -> None:
@@ -210,15 +216,9 @@ class DiscreteRun:
             if bar is not None:
                 bar.start()
             while not test.finished and not interrupted:
-                stage_before = test.stage_index
-                chunk = None if max_steps is None else max_steps
-                test.run(chunk)
+                test.run(max_steps)
                 if interrupted:
                     raise KeyboardInterrupt
-                if test.stage_index != stage_before and not test.finished:
-                    self.log.info("stage %s ended: %s", test.stages[stage_before].name,
-                                  test.outcome["stages"][-1]["reason"])
-                    self.checkpoint()
                 if max_steps is not None:
                     break
             if interrupted:

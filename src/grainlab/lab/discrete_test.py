@@ -160,6 +160,7 @@ class DiscreteTest:
         self.stages: list[WallStage] = wall_stages(path)
         self.on_record = on_record
         self.on_snapshot = on_snapshot
+        self.on_stage_end = None
         self.rows: list[dict[str, Any]] = []
         self.stage_index = 0
         self.stage_started = False
@@ -294,6 +295,10 @@ class DiscreteTest:
         if self.stage is None or ends_test:
             self.finished = True
             self.simulation.request_stop()
+        else:
+            self.start_stage()  # before the next step: no step runs on the old controls
+            if self.on_stage_end is not None:
+                self.on_stage_end(self)
 
     # -- records ------------------------------------------------------------------------------
     def record(self) -> dict[str, Any]:

@@ -146,7 +146,8 @@ class RunConfig(_Section):
         t = self.test
         compaction = isotropic_compression(p_final=t.sigma0, n_steps=1)
         if t.kind == "compaction":
-            return compaction
+            return LoadPath("isotropic_compaction", 3, _renamed(compaction.stages, "compaction"),
+                            f"isotropic compaction to {t.sigma0:g} Pa")
         if t.kind == "triaxial":
             shear = triaxial_compression(confining=t.sigma0, axial_strain=t.eps_q_max,
                                          n_steps=1, consolidation_steps=0)
