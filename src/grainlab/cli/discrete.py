@@ -90,7 +90,8 @@ def _run(kind: str, out: Path, config_file: Path | None, overrides: dict, overwr
 
 
 def _options(shape, n, d_min, size_ratio, eta, density, mu, sigma0, inertia, seed, dt,
-             tolerance, sweep, record_every, snapshot_every, checkpoint_every, vtk_every):
+             tolerance, sweep, record_every, snapshot_every, checkpoint_every, vtk_every,
+             max_iterations=None):
     if shape not in (None, "sphere", "aggregate"):
         raise InputError("--shape", shape, "sphere or aggregate")
     return {
@@ -98,7 +99,7 @@ def _options(shape, n, d_min, size_ratio, eta, density, mu, sigma0, inertia, see
                    "eta": eta, "density": density, "seed": seed},
         "test": {"sigma0": sigma0},
         "solver": {"friction": mu, "inertia_number": inertia, "dt": dt,
-                   "tolerance": tolerance, "sweep": sweep},
+                   "tolerance": tolerance, "sweep": sweep, "max_iterations": max_iterations},
         "output": {"record_every": record_every, "snapshot_every": snapshot_every,
                    "checkpoint_every": checkpoint_every, "vtk_every": vtk_every},
     }
@@ -118,6 +119,9 @@ _SEED = typer.Option(None, "--seed", help="Seed of the sample [0].")
 _DT = typer.Option(None, "--dt", help="Time step [s] (0: automatic).")
 _TOL = typer.Option(None, "--tolerance", help="NLGS tolerance [1e-4].")
 _SWEEP = typer.Option(None, "--sweep", help="coloured (parallel) | serial NLGS.")
+_ITER = typer.Option(None, "--max-iterations",
+                     help="NLGS sweep cap per step [1000]; lower is faster, with larger "
+                          "overlaps (docs/discrete_engine.md).")
 _RECORD = typer.Option(None, "--record-every", help="Steps between results rows [10].")
 _SNAP = typer.Option(None, "--snapshot-every", help="Steps between contact snapshots [0].")
 _CKPT = typer.Option(None, "--checkpoint-every", help="Steps between checkpoints [500].")
@@ -135,6 +139,7 @@ def triaxial_command(
     sigma0: float = _SIGMA0, inertia: float = _INERTIA,
     eps_q: float = typer.Option(None, "--eps-q", help="Deviatoric strain to reach [0.5]."),
     seed: int = _SEED, dt: float = _DT, tolerance: float = _TOL, sweep: str = _SWEEP,
+    max_iterations: int = _ITER,
     record_every: int = _RECORD, snapshot_every: int = _SNAP, checkpoint_every: int = _CKPT,
     vtk_every: int = _VTK, config: Path = _CONFIG, overwrite: bool = _OVERWRITE,
     progress: bool = _PROGRESS,
@@ -145,7 +150,7 @@ def triaxial_command(
     until eps_q = eps_1 - eps_3 reaches EPS_Q."""
     overrides = _options(shape, n, d_min, size_ratio, eta, density, mu, sigma0, inertia, seed,
                          dt, tolerance, sweep, record_every, snapshot_every, checkpoint_every,
-                         vtk_every)
+                         vtk_every, max_iterations)
     overrides["test"]["eps_q_max"] = eps_q
     _run("triaxial", out, config, overrides, overwrite, progress)
 
