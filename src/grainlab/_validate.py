@@ -18,6 +18,18 @@ def positive(field: str, value: float, unit: str = "") -> float:
     return number
 
 
+def at_least(field: str, value, minimum: float = 0.0, strict: bool = True) -> float:
+    """Return ``value`` as a float if it is finite and > ``minimum`` (>= when not
+    ``strict``), else raise naming ``field``."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if not math.isfinite(number) or number < minimum or (strict and number == minimum):
+        raise InputError(field, value, f"a finite number {'>' if strict else '>='} {minimum:g}")
+    return number
+
+
 def in_range(
     field: str, value: float, low: float, high: float, unit: str = "", closed: str = "()"
 ) -> float:

@@ -83,6 +83,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numba import get_num_threads, njit
 
+from grainlab._validate import at_least
 from grainlab.engine.broad_phase import CellListBroadPhase
 from grainlab.engine.contact_colouring import colour_contacts
 from grainlab.engine.narrow_phase import Contacts, NarrowPhase
@@ -237,6 +238,29 @@ def brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds):
             brakes[w] = new
 
 
+@njit(inline="always")
+def update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+                    wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
+                    wall_speeds, delassus):
+    """One Gauss-Seidel update (serial and coloured sweeps): local solve of contact k
+    against the current body velocities; applies the impulse change to its bodies and
+    returns its squared norm [N^2 s^2]."""
+    w = delassus[k]
+    un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
+                                    velocities, spins, wall_normals, wall_speeds)
+    p0, p1, p2 = impulses[k, 0], impulses[k, 1], impulses[k, 2]
+    # free (P_k = 0) corrected velocity
+    fn = un + shift[k] - (w[0, 0] * p0 + w[0, 1] * p1 + w[0, 2] * p2)
+    ft = ut - (w[1, 0] * p0 + w[1, 1] * p1 + w[1, 2] * p2)
+    fs = us - (w[2, 0] * p0 + w[2, 1] * p1 + w[2, 2] * p2)
+    q0, q1, q2 = local_solve(w, fn, ft, fs, mu[k], p0, p1, p2)
+    d0, d1, d2 = q0 - p0, q1 - p1, q2 - p2
+    impulses[k, 0], impulses[k, 1], impulses[k, 2] = q0, q1, q2
+    _apply(k, d0, d1, d2, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+           velocities, spins, wall_normals, wall_inv_mass, wall_speeds)
+    return d0 * d0 + d1 * d1 + d2 * d2
+
+
 # --------------------------------------------------------------------------------------------
 # Array kernels (outputs last)
 # --------------------------------------------------------------------------------------------
@@ -330,21 +354,10 @@ def nlgs_kernel(
         sweep_p2 = 0.0
         for m in range(n_contacts):
             k = order[m]
-            w = delassus[k]
-            un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
-                                            velocities, spins, wall_normals, wall_speeds)
-            p0, p1, p2 = impulses[k, 0], impulses[k, 1], impulses[k, 2]
-            # free (P_k = 0) corrected velocity
-            fn = un + shift[k] - (w[0, 0] * p0 + w[0, 1] * p1 + w[0, 2] * p2)
-            ft = ut - (w[1, 0] * p0 + w[1, 1] * p1 + w[1, 2] * p2)
-            fs = us - (w[2, 0] * p0 + w[2, 1] * p1 + w[2, 2] * p2)
-            q0, q1, q2 = local_solve(w, fn, ft, fs, mu[k], p0, p1, p2)
-            d0, d1, d2 = q0 - p0, q1 - p1, q2 - p2
-            change2 += d0 * d0 + d1 * d1 + d2 * d2
-            impulses[k, 0], impulses[k, 1], impulses[k, 2] = q0, q1, q2
-            sweep_p2 += q0 * q0 + q1 * q1 + q2 * q2
-            _apply(k, d0, d1, d2, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-                   velocities, spins, wall_normals, wall_inv_mass, wall_speeds)
+            change2 += update_contact(
+                k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, wall_normals,
+                wall_inv_mass, mu, shift, impulses, velocities, spins, wall_speeds, delassus)
+            sweep_p2 += impulses[k, 0] ** 2 + impulses[k, 1] ** 2 + impulses[k, 2] ** 2
         brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
         change = 0.0 if change2 == 0.0 else math.sqrt(change2 / max(sweep_p2, _TINY))
         residuals[0] = change
@@ -429,16 +442,6 @@ def rotate_quaternions(q: np.ndarray, rotation: np.ndarray) -> np.ndarray:
     return out / np.linalg.norm(out, axis=1)[:, None]
 
 
-def _positive(name: str, value, allow_zero: bool = False) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        x = math.nan
-    if not math.isfinite(x) or x < 0.0 or (x == 0.0 and not allow_zero):
-        raise InputError(name, value, "a finite number " + (">= 0" if allow_zero else "> 0"))
-    return x
-
-
 class ContactDynamicsStep:
     """One NSCD time step for sphere-based rigid bodies and fixed plane walls.
 
@@ -476,12 +479,12 @@ class ContactDynamicsStep:
         alert: float | None = None, gyroscopic: bool = False, strict: bool = False,
         seed: int = 0, sweep: str = "coloured",
     ) -> None:
-        self.dt = _positive("dt", dt)
-        theta_value = _positive("theta", theta)
+        self.dt = at_least("dt", dt)
+        theta_value = at_least("theta", theta)
         if not 0.5 <= theta_value <= 1.0:
             raise InputError("theta", theta, "a number in [0.5, 1]")
         self.theta = theta_value
-        self.tolerance = _positive("tolerance", tolerance)
+        self.tolerance = at_least("tolerance", tolerance)
         if isinstance(max_iterations, bool) or not isinstance(max_iterations, int | np.integer) \
                 or max_iterations < 1:
             raise InputError("max_iterations", max_iterations, "an integer >= 1")
@@ -490,8 +493,8 @@ class ContactDynamicsStep:
         if g.shape != (3,) or not np.isfinite(g).all():
             raise InputError("gravity", gravity, "a finite (3,) acceleration in m/s^2")
         self.gravity = g
-        self.friction = _positive("friction", friction, allow_zero=True)
-        self.alert = None if alert is None else _positive("alert", alert, allow_zero=True)
+        self.friction = at_least("friction", friction, strict=False)
+        self.alert = None if alert is None else at_least("alert", alert, strict=False)
         self.gyroscopic = bool(gyroscopic)
         self.strict = bool(strict)
         self._rng = np.random.default_rng(seed)
@@ -544,22 +547,15 @@ class ContactDynamicsStep:
         ``self.friction``)."""
         h, theta = self.dt, self.theta
         box = walls if isinstance(walls, WallBox) else None
-        # largest approach within the step: two bodies (or a body and a wall) closing in
-        speed = float(np.sqrt(np.max(np.sum(state.velocities**2, axis=1)))) \
-            if state.n_bodies else 0.0
         wall_speed = 0.0
-        if box is not None:
-            moving = np.minimum(np.abs(box.free_speeds(h)), box.max_speeds)
-            wall_speed = float(max(np.max(np.abs(box.speeds)), np.max(moving)))
-        broad, narrow = self._phases(library, h * (2.0 * speed + wall_speed
-                                                   + float(np.linalg.norm(self.gravity)) * h))
-        box = walls if isinstance(walls, WallBox) else None
         if box is not None:
             wall_points, wall_normals = box.planes((1.0 - theta) * h)
             wall_inv_mass = box.inverse_masses()
             wall_free = box.free_speeds(h)
             wall_max = np.ascontiguousarray(box.max_speeds, dtype=np.float64)
             wall_friction = box.friction
+            moving = np.minimum(np.abs(wall_free), wall_max)
+            wall_speed = float(max(np.max(np.abs(box.speeds)), np.max(moving)))
         elif walls is not None:
             wall_points = np.asarray(walls[0], dtype=np.float64).reshape(-1, 3)
             wall_normals = np.asarray(walls[1], dtype=np.float64).reshape(-1, 3)
@@ -571,6 +567,11 @@ class ContactDynamicsStep:
             wall_points = wall_normals = None
             wall_inv_mass, wall_free, wall_friction = np.zeros(0), np.zeros(0), np.zeros(0)
             wall_max = np.zeros(0)
+        # largest approach within the step: two bodies (or a body and a wall) closing in
+        speed = float(np.sqrt(np.max(np.sum(state.velocities**2, axis=1)))) \
+            if state.n_bodies else 0.0
+        broad, narrow = self._phases(library, h * (2.0 * speed + wall_speed
+                                                   + float(np.linalg.norm(self.gravity)) * h))
         kernel_normals = np.zeros((0, 3)) if wall_normals is None else \
             np.ascontiguousarray(wall_normals)
         n_bodies = state.n_bodies

@@ -62,8 +62,8 @@ from grainlab.engine.contact_dynamics import (
     _relative_velocity,
     brake_walls,
     delassus_kernel,
-    local_solve,
     project_cone,
+    update_contact,
 )
 
 _TINY = 1e-300  # as in contact_dynamics
@@ -77,28 +77,6 @@ work of ~2500 contacts at ~65 ns each; 8192 keeps the launches below ~20 % of a 
 # --------------------------------------------------------------------------------------------
 # Scalar law: one contact update
 # --------------------------------------------------------------------------------------------
-
-
-@njit(inline="always")
-def _update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-                    wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
-                    wall_speeds, delassus):
-    """Local solve of contact k against the current body velocities; applies the impulse
-    change to its bodies and returns its squared norm [N^2 s^2] (as in ``nlgs_kernel``)."""
-    w = delassus[k]
-    un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
-                                    velocities, spins, wall_normals, wall_speeds)
-    p0, p1, p2 = impulses[k, 0], impulses[k, 1], impulses[k, 2]
-    # free (P_k = 0) corrected velocity
-    fn = un + shift[k] - (w[0, 0] * p0 + w[0, 1] * p1 + w[0, 2] * p2)
-    ft = ut - (w[1, 0] * p0 + w[1, 1] * p1 + w[1, 2] * p2)
-    fs = us - (w[2, 0] * p0 + w[2, 1] * p1 + w[2, 2] * p2)
-    q0, q1, q2 = local_solve(w, fn, ft, fs, mu[k], p0, p1, p2)
-    d0, d1, d2 = q0 - p0, q1 - p1, q2 - p2
-    impulses[k, 0], impulses[k, 1], impulses[k, 2] = q0, q1, q2
-    _apply(k, d0, d1, d2, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-           velocities, spins, wall_normals, wall_inv_mass, wall_speeds)
-    return d0 * d0 + d1 * d1 + d2 * d2
 
 
 @njit(inline="always")
@@ -216,13 +194,13 @@ def _coloured_sweeps(
             lo, hi = colour_offsets[c], colour_offsets[c + 1]
             if c < n_parallel:
                 for k in prange(lo, hi):
-                    delta2[k] = _update_contact(
+                    delta2[k] = update_contact(
                         k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                         wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
                         wall_speeds, delassus)
             else:
                 for k in range(lo, hi):
-                    delta2[k] = _update_contact(
+                    delta2[k] = update_contact(
                         k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                         wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
                         wall_speeds, delassus)

@@ -352,6 +352,26 @@ def start_run(folder: str | Path, config: RunConfig, *, overwrite: bool = False
     return run
 
 
+def read_checkpoint(path: Path) -> dict[str, Any]:
+    """Everything a checkpoint holds: ``library``, ``state``, ``box`` (objects),
+    ``warm_start`` (arrays), ``rng_state``, ``progress``, ``outcome``, ``description``,
+    ``rows`` (plain data)."""
+    with h5py.File(path, "r") as handle:
+        if handle.attrs.get("format") != CHECKPOINT_FORMAT:
+            raise InputError("checkpoint", str(path), f"a {CHECKPOINT_FORMAT} file")
+        saved: dict[str, Any] = {
+            "library": ShapeLibrary(**{n: handle["library"][n][()] for n in _LIBRARY_FIELDS}),
+            "state": BodyState(**{n: handle["state"][n][()] for n in _STATE_FIELDS},
+                               density=float(handle["state"].attrs["density"])),
+            "box": WallBox.from_arrays({k: v[()] for k, v in handle["box"].items()}),
+            "warm_start": {k: v[()] for k, v in handle["warm_start"].items()},
+            "rows": json.loads(handle["rows"][()]),
+        }
+        for name in ("rng_state", "progress", "outcome", "description"):
+            saved[name] = json.loads(handle.attrs[name])
+    return saved
+
+
 def resume_run(folder: str | Path) -> DiscreteRun:
     """Rebuild a run from its folder's config and last checkpoint (module docstring)."""
     folder = Path(folder)
@@ -363,28 +383,17 @@ def resume_run(folder: str | Path) -> DiscreteRun:
         run = start_run(folder, config, overwrite=True)
         run.log.info("no checkpoint: started again from the beginning")
         return run
-    with h5py.File(path, "r") as handle:
-        if handle.attrs.get("format") != CHECKPOINT_FORMAT:
-            raise InputError("checkpoint", str(path), f"a {CHECKPOINT_FORMAT} file")
-        library = ShapeLibrary(**{n: handle["library"][n][()] for n in _LIBRARY_FIELDS})
-        state = BodyState(**{n: handle["state"][n][()] for n in _STATE_FIELDS},
-                          density=float(handle["state"].attrs["density"]))
-        box = WallBox.from_arrays({k: v[()] for k, v in handle["box"].items()})
-        warm = {k: v[()] for k, v in handle["warm_start"].items()}
-        rng_state = json.loads(handle.attrs["rng_state"])
-        progress = json.loads(handle.attrs["progress"])
-        outcome = json.loads(handle.attrs["outcome"])
-        description = json.loads(handle.attrs["description"])
-        rows = json.loads(handle["rows"][()])
-    sample = DiscreteSample(library, state, box, description)
+    saved = read_checkpoint(path)
+    box = saved["box"]
+    sample = DiscreteSample(saved["library"], saved["state"], box, saved["description"])
     masses = box.masses.copy()
     test = DiscreteTest(sample, config.load_path(), config.settings())
     box.set_masses(masses)
-    test.restore_progress(progress)
-    test.outcome = outcome
-    test.rows = rows
-    test.solver.restore_warm_start(warm)
-    test.solver.rng_state = rng_state
+    test.restore_progress(saved["progress"])
+    test.outcome = saved["outcome"]
+    test.rows = saved["rows"]
+    test.solver.restore_warm_start(saved["warm_start"])
+    test.solver.rng_state = saved["rng_state"]
     _truncate_snapshots(folder / SNAPSHOTS, test.n_snapshots)
     run = DiscreteRun(folder, config, test)
     run.last_checkpoint_step = test.simulation.step_index
@@ -416,12 +425,8 @@ def export_checkpoint_vtk(folder: str | Path, out: str | Path | None = None) -> 
     path = folder / CHECKPOINT
     if not path.exists():
         raise InputError("run folder", str(folder), f"a run folder with a {CHECKPOINT}")
-    with h5py.File(path, "r") as handle:
-        library = ShapeLibrary(**{n: handle["library"][n][()] for n in _LIBRARY_FIELDS})
-        state = BodyState(**{n: handle["state"][n][()] for n in _STATE_FIELDS},
-                          density=float(handle["state"].attrs["density"]))
-        box = WallBox.from_arrays({k: v[()] for k, v in handle["box"].items()})
-        progress = json.loads(handle.attrs["progress"])
+    saved = read_checkpoint(path)
+    library, state, box = saved["library"], saved["state"], saved["box"]
     contacts = None
     snapshots = folder / SNAPSHOTS
     if snapshots.exists() and count_snapshots(snapshots):
@@ -432,7 +437,7 @@ def export_checkpoint_vtk(folder: str | Path, out: str | Path | None = None) -> 
                                 force=net.point_forces, normal=net.point_normals,
                                 sliding=net.point_sliding)
     out = Path(out) if out is not None else folder / "vtk-checkpoint"
-    files = write_vtk_frame(out, 0, float(progress["time"]), positions=state.positions,
+    files = write_vtk_frame(out, 0, float(saved["progress"]["time"]), positions=state.positions,
                             orientations=state.orientations, shape_ids=state.shape_ids,
                             library=library, contacts=contacts,
                             walls=BoxWalls.from_wall_box(box), velocities=state.velocities,

@@ -46,6 +46,7 @@ from typing import Any
 
 import numpy as np
 
+from grainlab._validate import at_least
 from grainlab.engine.contact_dynamics import ContactDynamicsStep
 from grainlab.engine.sample_measures import sample_measures
 from grainlab.engine.simulation import Periodic, Simulation
@@ -104,13 +105,13 @@ class DiscreteTestSettings:
 
     def __post_init__(self) -> None:
         for name in ("friction", "compaction_friction"):
-            _number(name, getattr(self, name), minimum=0.0)
+            at_least(name, getattr(self, name), strict=False)
         for name in ("inertia_number", "compaction_inertia_number", "time_step_factor",
                      "compaction_time_step_factor",
                      "tolerance", "wall_mass_factor"):
-            _number(name, getattr(self, name), minimum=0.0, strict=True)
+            at_least(name, getattr(self, name))
         if self.dt is not None:
-            _number("dt", self.dt, minimum=0.0, strict=True)
+            at_least("dt", self.dt)
         for name, low in (("record_every", 1), ("snapshot_every", 0), ("max_stage_steps", 1),
                           ("max_iterations", 1)):
             value = getattr(self, name)
@@ -123,16 +124,6 @@ class DiscreteTestSettings:
         data = asdict(self)
         data["quasi_static"] = self.quasi_static.to_dict()
         return data
-
-
-def _number(name: str, value: Any, minimum: float, strict: bool = False) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        x = math.nan
-    if not math.isfinite(x) or x < minimum or (strict and x <= minimum):
-        raise InputError(name, value, f"a finite number {'>' if strict else '>='} {minimum:g}")
-    return x
 
 
 class DiscreteTest:

@@ -28,6 +28,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from grainlab._validate import at_least
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
 from grainlab.errors import InputError
@@ -143,16 +144,6 @@ def aggregate_library(bounding_radii: np.ndarray, eta: float) -> ShapeLibrary:
     )
 
 
-def _positive(name: str, value, allow_zero: bool = False) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        x = math.nan
-    if not math.isfinite(x) or x < 0.0 or (x == 0.0 and not allow_zero):
-        raise InputError(name, value, "a finite number " + (">= 0" if allow_zero else "> 0"))
-    return x
-
-
 def loose_sample(
     *, shape: str = "sphere", n_particles: int = 1000, d_min: float = 1e-3,
     size_ratio: float = 2.0, eta: float = 0.4, density: float = 2600.0,
@@ -188,12 +179,12 @@ def loose_sample(
     if isinstance(n_particles, bool) or not isinstance(n_particles, int | np.integer) \
             or n_particles < 1:
         raise InputError("n_particles", n_particles, "an integer >= 1")
-    d_min = _positive("d_min", d_min)
-    ratio = _positive("size_ratio", size_ratio)
+    d_min = at_least("d_min", d_min)
+    ratio = at_least("size_ratio", size_ratio)
     if ratio < 1.0:
         raise InputError("size_ratio", size_ratio, "d_max / d_min >= 1")
-    density = _positive("density", density)
-    phi = _positive("packing_fraction", packing_fraction)
+    density = at_least("density", density)
+    phi = at_least("packing_fraction", packing_fraction)
     if phi > 0.35:
         raise InputError("packing_fraction", packing_fraction,
                          "a loose initial packing fraction in (0, 0.35]")
@@ -207,7 +198,7 @@ def loose_sample(
         library = ShapeLibrary.from_spheres(radii)
         description = {"shape": "sphere"}
     else:
-        eta_value = _positive("eta", eta, allow_zero=True)
+        eta_value = at_least("eta", eta, strict=False)
         if eta_value > 2.0 * math.sqrt(2.0) - 2.0:
             raise InputError("eta", eta, "a non-convexity in [0, 0.828]")
         library = aggregate_library(radii, eta_value)
@@ -220,8 +211,8 @@ def loose_sample(
     orientations = random_orientations(int(n_particles), rng) if shape == "aggregate" else None
     state = BodyState.from_library(library, np.arange(int(n_particles)), positions, density,
                                    orientations)
-    box = WallBox(np.zeros(3), side, friction=_positive("wall_friction", wall_friction,
-                                                          allow_zero=True))
+    box = WallBox(np.zeros(3), side, friction=at_least("wall_friction", wall_friction,
+                                                         strict=False))
     box.set_masses(float(np.sum(state.masses)))
     description.update({"n_particles": int(n_particles), "d_min": d_min,
                         "d_max": ratio * d_min, "density": density,
