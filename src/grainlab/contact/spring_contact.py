@@ -13,7 +13,10 @@ Within an increment the spring is linear (the instantaneous K). A trial force be
 contact's strength is cut back and the excess is the residual force of eqs. 2.3–2.4: sliding
 (|f_r| > mu f_n, k_r -> 0) or separation (f_n < 0, k_n -> 0). Optional cementation adds a bond
 with tensile and shear strengths; a bond that is exceeded breaks for good and the contact becomes
-frictional. A separated contact re-forms when its accumulated normal approach becomes positive
+frictional. A sliding contact (at the Coulomb limit, k_r = 0 in K) that is loaded on takes the
+elastic trial and is returned to the cone, so that its shear force stays equal to the strength
+mu f_n while f_n changes (Fig. 2.5b) instead of falling below it and alternating between
+sticking and sliding from one increment to the next. A separated contact re-forms when its accumulated normal approach becomes positive
 again (the gap has closed); its tangential force restarts from zero.
 
 Forces are those the first particle (the micro-element's centre) exerts on the second, positive
@@ -341,6 +344,12 @@ def spring_update_kernel(approach0, normal0, shear0, bonded0, increment, normals
         # tangential trial: unloading (against the current shear) with the initial stiffness
         if reverse < 0.0:
             k0 = _stiffness_scalar(max(normal0[c], 0.0), 0.0, radius[c], True, 0.0, hertzian,
+                                   kn_const, ks_const, modulus, c2, mu)[0]
+            k_shear = (c2 if hertzian else ks_const / kn_const) * k0
+        elif kr == 0.0 and old_mag > 0.0 and normal0[c] > 0.0:
+            # a sliding contact loaded on: elastic trial, returned to the cone below, so that
+            # its shear force stays at mu f_n as f_n changes (Fig. 2.5b: f_r = strength)
+            k0 = _stiffness_scalar(normal0[c], 0.0, radius[c], True, 0.0, hertzian,
                                    kn_const, ks_const, modulus, c2, mu)[0]
             k_shear = (c2 if hertzian else ks_const / kn_const) * k0
         else:

@@ -49,6 +49,9 @@ from grainlab.micromech.micro_element.structure import MicroElementStructure
 from grainlab.micromech.micro_element.tensor_basis import bases
 
 DISTRIBUTIONS = ("homogeneous", "maxwellian")
+MAXWELLIAN_REFERENCES = ("overall", "average")
+"""Stiffness whose inverse scales the heterogeneity v^n of eq. 2.32: the overall tangent C
+(as printed; self-consistent, iterated) or the volume average C_bar of eq. 2.24."""
 
 
 def _pinv_batch(matrices: np.ndarray, rcond: float = 1e-12) -> np.ndarray:
@@ -96,6 +99,16 @@ class MicroElementState:
     residual_stress: np.ndarray  # Voigt stress of the last increment's residual forces
 
 
+SELF_CONSISTENT_RELAXATION = 0.5
+"""Under-relaxation of the fixed-point iteration on the overall C of eq. 2.32 [-]."""
+SELF_CONSISTENT_TOLERANCE = 1e-9
+"""Change of C, relative to |C_bar|, that ends the fixed-point iteration [-]."""
+SELF_CONSISTENT_MAX_ITERATIONS = 200
+SELF_CONSISTENT_COLLAPSE = 1e-6
+"""Smallest eigenvalue of an iterate, relative to |C_bar|, below which the unit has lost its
+stiffness in some direction and the iteration stops [-]."""
+
+
 class MicroElementModel:
     """The representative unit of seed 001 as a lab specimen.
 
@@ -118,6 +131,10 @@ class MicroElementModel:
     update_geometry:
         Update branch vectors and volumes after every increment (large strain); ``False``
         keeps the initial geometry (small-strain theory).
+    maxwellian_reference:
+        ``"overall"`` (default, eq. 2.32 as printed): v^n = C^-1 (C^n - C_bar) with the
+        overall tangent C = sum C^n G^n (eq. 2.31), which itself depends on v^n; solved as a
+        fixed point (:meth:`_self_consistent`). ``"average"``: C_bar in place of C (explicit).
     """
 
     def __init__(
@@ -130,6 +147,7 @@ class MicroElementModel:
         series_tolerance: float = 1e-12,
         spin: str = "none",
         update_geometry: bool = True,
+        maxwellian_reference: str = "overall",
     ) -> None:
         if distribution not in DISTRIBUTIONS:
             raise InputError("distribution", distribution, " or ".join(DISTRIBUTIONS))
@@ -138,6 +156,10 @@ class MicroElementModel:
         if spin == "uniform" and distribution != "homogeneous":
             raise InputError("spin", spin, "'micro-element' with the Maxwellian distribution "
                              "(a uniform spin needs the homogeneous distribution)")
+        if maxwellian_reference not in MAXWELLIAN_REFERENCES:
+            raise InputError("maxwellian_reference", maxwellian_reference,
+                             " or ".join(MAXWELLIAN_REFERENCES))
+        self.maxwellian_reference = maxwellian_reference
         self.spin = spin
         self.update_geometry = bool(update_geometry)
         if not (1 <= int(series_order) <= 40):
@@ -242,22 +264,61 @@ class MicroElementModel:
         if self.distribution == "homogeneous":
             g = weights[:, None, None] * np.eye(k)[None]
             last = 0.0
+        elif self.maxwellian_reference == "average":
+            g, last = self._maxwellian(c_local, c_bar, c_bar, weights, shift=False)
         else:
-            v = np.linalg.pinv(c_bar, rcond=1e-12) @ (c_local - c_bar)
-            exp_v, last = exponential_series(v, self.series_order)
-            if last > self.series_tolerance:
-                raise ConvergenceError(
-                    f"The Maxwellian distribution series (eq. 2.35) has not converged at order "
-                    f"{self.series_order}: last term {last:.2e} of the sum (allowed "
-                    f"{self.series_tolerance:g}). Raise series_order or use the homogeneous law."
-                )
-            a_inv = np.tensordot(weights, exp_v, axes=1)
-            a = np.linalg.pinv(a_inv, rcond=1e-12)
-            g = (a @ exp_v) * weights[:, None, None]
+            g, last, iterations, converged = self._self_consistent(c_local, c_bar, weights)
+            local.update(reference_iterations=iterations, reference_converged=converged)
         tangent = c_bar if self.distribution == "homogeneous" else (c_local @ g).sum(axis=0)
         local.update(g=g, tangent=0.5 * (tangent + tangent.T), c_bar=c_bar,
                      series_last_term=last, tangent_raw=tangent)
         return local
+
+    def _maxwellian(self, c_local: np.ndarray, c_bar: np.ndarray, reference: np.ndarray,
+                    weights: np.ndarray, shift: bool) -> tuple[np.ndarray, float]:
+        """G^n = A Exp(-v^n) V^n/V with v^n = reference^-1 (C^n - C_bar) (eqs. 2.32–2.35).
+
+        ``shift`` subtracts the smallest real eigenvalue s over all v^n before the series:
+        Exp(-(v - s I)) = e^s Exp(-v), a common scalar that A cancels exactly, so that strongly
+        heterogeneous units (a reference much softer than C_bar) cannot overflow."""
+        v = np.linalg.pinv(reference, rcond=1e-12) @ (c_local - c_bar)
+        if shift:
+            v = v - float(np.min(np.linalg.eigvals(v).real)) * np.eye(v.shape[-1])
+        exp_v, last = exponential_series(v, self.series_order)
+        if last > self.series_tolerance:
+            raise ConvergenceError(
+                f"The Maxwellian distribution series (eq. 2.35) has not converged at order "
+                f"{self.series_order}: last term {last:.2e} of the sum (allowed "
+                f"{self.series_tolerance:g}). Raise series_order or use the homogeneous law."
+            )
+        a = np.linalg.pinv(np.tensordot(weights, exp_v, axes=1), rcond=1e-12)
+        return (a @ exp_v) * weights[:, None, None], last
+
+    def _self_consistent(self, c_local: np.ndarray, c_bar: np.ndarray, weights: np.ndarray,
+                         ) -> tuple[np.ndarray, float, int, bool]:
+        """Eqs. 2.31–2.35 with the overall C in v^n (eq. 2.32 as printed): the fixed point
+        C = sum_n C^n G^n(C), iterated from C_bar with under-relaxation (factor
+        ``SELF_CONSISTENT_RELAXATION``) until the change is below ``SELF_CONSISTENT_TOLERANCE``
+        of |C_bar|. A softer C concentrates the strain more on soft micro-elements, which
+        softens C further: when enough micro-elements have lost their stiffness the iterate
+        stops being positive definite — the unit has no stiffness left in some direction
+        (failure, the peak of a strain-controlled test) and the iteration stops there.
+        Returns G, the last series term, the iterations and whether the fixed point was
+        reached (False also at a collapse)."""
+        reference = c_bar
+        scale = float(np.linalg.norm(c_bar))
+        g, last = self._maxwellian(c_local, c_bar, reference, weights, shift=True)
+        for iteration in range(1, SELF_CONSISTENT_MAX_ITERATIONS + 1):
+            overall = (c_local @ g).sum(axis=0)
+            overall = 0.5 * (overall + overall.T)
+            change = float(np.linalg.norm(overall - reference))
+            if change <= SELF_CONSISTENT_TOLERANCE * scale:
+                return g, last, iteration, True
+            if np.linalg.eigvalsh(overall)[0] <= SELF_CONSISTENT_COLLAPSE * scale:
+                return g, last, iteration, False
+            reference = reference + SELF_CONSISTENT_RELAXATION * (overall - reference)
+            g, last = self._maxwellian(c_local, c_bar, reference, weights, shift=True)
+        return g, last, SELF_CONSISTENT_MAX_ITERATIONS, False
 
     def distribution_tensors(self) -> np.ndarray:
         """(E, k, k) distribution tensors G^n of eq. 2.27 (they sum to the identity, eq. 2.28)."""
@@ -354,6 +415,7 @@ class MicroElementModel:
             "void_ratio": self.volume / self.structure.solid_volume() - 1.0,
             "min_eigenvalue_tangent": float(eig[0]),
             "series_last_term": float(info["series_last_term"]),
+            "self_consistent_iterations": int(info.get("reference_iterations", 0)),
             "stress_asymmetry": self._asymmetry(),
         }
 
@@ -378,6 +440,7 @@ class MicroElementModel:
             "spin": self.spin,
             "update_geometry": self.update_geometry,
             "series_order": self.series_order,
+            "maxwellian_reference": self.maxwellian_reference,
             "contact_law": self.law.describe(),
         }
 

@@ -34,6 +34,12 @@ binary         Hertz–Mindlin, G = 29 GPa, nu = 0.2 (quartz, §4.1)       25° 
 chang2d        linear, k_n = 200 kN/m = 2e5 N/m, k_s/k_n = 1 (§3)       25°    203 kPa
 =============  =======================================================  =====  ==========
 
+Distribution law: the idealized material uses the Maxwellian law with the overall C in
+eq. 2.32 (self-consistent; the only choice with which the unit fails, seed 001 §4.2); binary
+units and 2D packings the homogeneous law (binary units need the uniform spin; on the ch. 3
+packing, where half the micro-elements have three contacts, the self-consistent fixed point
+collapses as soon as a few of them slide — see docs/micro_element.md).
+
 A snapshot file takes the ``idealized`` defaults in 3D and the ``chang2d`` ones in 2D; a
 packing file those of ``chang2d``.
 
@@ -108,6 +114,9 @@ class StructureDefaults:
         Isotropic consolidation stress [Pa].
     spin:
         Particle spin option of :class:`MicroElementModel`.
+    distribution:
+        Distribution law of :class:`MicroElementModel` (``"maxwellian"`` uses the
+        self-consistent reference of eq. 2.32 unless told otherwise).
     source:
         Where the numbers come from.
     """
@@ -121,11 +130,14 @@ class StructureDefaults:
     sigma0: float
     spin: str
     source: str
+    distribution: str = "homogeneous"
 
 
 DEFAULTS = {
     "idealized": StructureDefaults("linear", 1e5, 1.0, 29e9, 0.2, 25.0, 100e3, "none",
-                                   "seed 001 §4.2 (k_n = k_s = 1e5 N/m, phi_mu = 25 deg)"),
+                                   "seed 001 §4.2 (k_n = k_s = 1e5 N/m, phi_mu = 25 deg; "
+                                   "self-consistent Maxwellian distribution, eq. 2.32)",
+                                   "maxwellian"),
     "binary": StructureDefaults("hertz", 1e5, 1.0, 29e9, 0.2, 25.0, 100e3, "uniform",
                                 "seed 001 §4.1 (Hertz-Mindlin, quartz G = 29 GPa, nu = 0.2)"),
     "chang2d": StructureDefaults("linear", 2e5, 1.0, 29e9, 0.2, 25.0, 203e3, "none",
@@ -334,16 +346,19 @@ def build_model(
     poisson_ratio: float | None = None,
     thickness: float | None = None,
     sigma0: float | None = None,
-    distribution: str = "homogeneous",
+    distribution: str | None = None,
     non_affine: bool = True,
     spin: str | None = None,
     update_geometry: bool = True,
+    maxwellian_reference: str = "overall",
 ) -> MicroElementModel:
     """A :class:`MicroElementModel` of ``structure`` consolidated isotropically to
     ``sigma0`` [Pa] (default: :func:`structure_defaults`).
 
     Law options as :func:`build_law`. ``distribution`` ``"homogeneous"`` (eq. 2.30) or
-    ``"maxwellian"`` (eqs. 2.32–2.35); ``non_affine`` the centre particle's move (eq. 2.14);
+    ``"maxwellian"`` (eqs. 2.32–2.35; default: :func:`structure_defaults`, Maxwellian for the
+    idealized material, homogeneous otherwise) with ``maxwellian_reference`` ``"overall"``
+    (eq. 2.32 as printed, self-consistent) or ``"average"`` (C_bar); ``non_affine`` the centre particle's move (eq. 2.14);
     ``spin`` ``"none"``, ``"micro-element"`` or ``"uniform"`` (default ``"uniform"`` for binary
     units, which need it, ``"none"`` otherwise); ``update_geometry`` large-strain updates.
 
@@ -360,6 +375,7 @@ def build_model(
     """
     defaults = structure_defaults(structure)
     spin = defaults.spin if spin is None else spin
+    distribution = defaults.distribution if distribution is None else distribution
     if spin not in SPINS:
         raise InputError("--spin", spin, "one of " + ", ".join(SPINS))
     if structure_kind(structure) == "binary" and spin != "uniform":
@@ -377,7 +393,8 @@ def build_model(
         poisson_ratio=poisson_ratio, thickness=thickness)
     model = MicroElementModel(structure, contact_law, distribution=distribution,
                               non_affine=bool(non_affine), spin=spin,
-                              update_geometry=bool(update_geometry))
+                              update_geometry=bool(update_geometry),
+                              maxwellian_reference=maxwellian_reference)
     model.consolidate_isotropically(pressure, tolerance=CONSOLIDATION_TOLERANCE)
     return model
 
