@@ -47,7 +47,7 @@ def test_sliding_contact_stays_on_the_coulomb_cone():
     state, _ = law.update(state, np.array([[0.0, 0.0, 1e-7]]), normal, np.array([RADIUS]))
     ratios, flags = [], []
     for _ in range(8):  # slip 3e-8 m and approach 1e-8 m per increment: slip wins
-        state, residual = law.update(state, np.array([[3e-8, 0.0, 1e-8]]), normal,
+        state, _ = law.update(state, np.array([[3e-8, 0.0, 1e-8]]), normal,
                                      np.array([RADIUS]))
         ratios.append(np.linalg.norm(state.shear_force[0]) / (mu * state.normal_force[0]))
         flags.append(bool(state.sliding[0]))

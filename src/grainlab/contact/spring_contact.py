@@ -16,8 +16,9 @@ with tensile and shear strengths; a bond that is exceeded breaks for good and th
 frictional. A sliding contact (at the Coulomb limit, k_r = 0 in K) that is loaded on takes the
 elastic trial and is returned to the cone, so that its shear force stays equal to the strength
 mu f_n while f_n changes (Fig. 2.5b) instead of falling below it and alternating between
-sticking and sliding from one increment to the next. A separated contact re-forms when its accumulated normal approach becomes positive
-again (the gap has closed); its tangential force restarts from zero.
+sticking and sliding from one increment to the next. A separated contact re-forms when its
+accumulated normal approach becomes positive again (the gap has closed); its tangential force
+restarts from zero.
 
 Forces are those the first particle (the micro-element's centre) exerts on the second, positive
 in compression; f_r is the tangential (resultant shear) force vector.
