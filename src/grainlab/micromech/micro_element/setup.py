@@ -34,11 +34,10 @@ binary         Hertz–Mindlin, G = 29 GPa, nu = 0.2 (quartz, §4.1)       25° 
 chang2d        linear, k_n = 200 kN/m = 2e5 N/m, k_s/k_n = 1 (§3)       25°    203 kPa
 =============  =======================================================  =====  ==========
 
-Distribution law: the idealized material uses the Maxwellian law with the overall C in
-eq. 2.32 (self-consistent; the only choice with which the unit fails, seed 001 §4.2); binary
-units and 2D packings the homogeneous law (binary units need the uniform spin; on the ch. 3
-packing, where half the micro-elements have three contacts, the self-consistent fixed point
-collapses as soon as a few of them slide — see docs/micro_element.md).
+Distribution law: homogeneous (eq. 2.30) for every structure unless told otherwise. Under it
+the unit never fails (contacts near the major principal axis stay elastic): for the report's
+strengths use ``distribution="maxwellian"``, whose default reference is the overall C of eq.
+2.32 (self-consistent); see docs/micro_element.md for what it gives and where it is fragile.
 
 A snapshot file takes the ``idealized`` defaults in 3D and the ``chang2d`` ones in 2D; a
 packing file those of ``chang2d``.
@@ -135,9 +134,7 @@ class StructureDefaults:
 
 DEFAULTS = {
     "idealized": StructureDefaults("linear", 1e5, 1.0, 29e9, 0.2, 25.0, 100e3, "none",
-                                   "seed 001 §4.2 (k_n = k_s = 1e5 N/m, phi_mu = 25 deg; "
-                                   "self-consistent Maxwellian distribution, eq. 2.32)",
-                                   "maxwellian"),
+                                   "seed 001 §4.2 (k_n = k_s = 1e5 N/m, phi_mu = 25 deg)"),
     "binary": StructureDefaults("hertz", 1e5, 1.0, 29e9, 0.2, 25.0, 100e3, "uniform",
                                 "seed 001 §4.1 (Hertz-Mindlin, quartz G = 29 GPa, nu = 0.2)"),
     "chang2d": StructureDefaults("linear", 2e5, 1.0, 29e9, 0.2, 25.0, 203e3, "none",
@@ -356,8 +353,7 @@ def build_model(
     ``sigma0`` [Pa] (default: :func:`structure_defaults`).
 
     Law options as :func:`build_law`. ``distribution`` ``"homogeneous"`` (eq. 2.30) or
-    ``"maxwellian"`` (eqs. 2.32–2.35; default: :func:`structure_defaults`, Maxwellian for the
-    idealized material, homogeneous otherwise) with ``maxwellian_reference`` ``"overall"``
+    ``"maxwellian"`` (eqs. 2.32–2.35; default: :func:`structure_defaults`, homogeneous) with ``maxwellian_reference`` ``"overall"``
     (eq. 2.32 as printed, self-consistent) or ``"average"`` (C_bar); ``non_affine`` the
     centre particle's move (eq. 2.14); ``spin`` ``"none"``, ``"micro-element"`` or
     ``"uniform"`` (default ``"uniform"`` for binary units, which need it, ``"none"``
