@@ -128,8 +128,11 @@ def test_sweep_b_summary_has_one_row_per_b(tmp_path):
     table = read_test_result(tmp_path / "b0.csv").table
     converged = table[table["converged"] & (table["step"] > 0)]
     assert len(converged) >= 1
-    np.testing.assert_allclose(converged["sigma_2"], converged["sigma_3"], rtol=0,
-                               atol=1e-5 * 1e5)
+    # within the driver's stress tolerance (1e-4 of |sigma|, run_element_test), not tighter
+    size = np.sqrt(converged["sigma_1"] ** 2 + converged["sigma_2"] ** 2
+                   + converged["sigma_3"] ** 2).to_numpy()
+    assert np.all(np.abs(converged["sigma_2"] - converged["sigma_3"]).to_numpy()
+                  <= 2e-4 * size)
     np.testing.assert_allclose(converged["p"], 1e5, rtol=2e-4)  # constant mean stress
     for name in ("b0.5.h5", "b1.csv", "summary.h5", "b_sweep.png", "stress_strain.png"):
         assert (tmp_path / name).stat().st_size > 0

@@ -353,8 +353,9 @@ def build_model(
     ``sigma0`` [Pa] (default: :func:`structure_defaults`).
 
     Law options as :func:`build_law`. ``distribution`` ``"homogeneous"`` (eq. 2.30) or
-    ``"maxwellian"`` (eqs. 2.32–2.35; default: :func:`structure_defaults`, homogeneous) with ``maxwellian_reference`` ``"overall"``
-    (eq. 2.32 as printed, self-consistent) or ``"average"`` (C_bar); ``non_affine`` the
+    ``"maxwellian"`` (eqs. 2.32–2.35; default: :func:`structure_defaults`, homogeneous) with
+    ``maxwellian_reference`` ``"overall"`` (eq. 2.32 as printed, self-consistent) or
+    ``"average"`` (C_bar); ``non_affine`` the
     centre particle's move (eq. 2.14); ``spin`` ``"none"``, ``"micro-element"`` or
     ``"uniform"`` (default ``"uniform"`` for binary units, which need it, ``"none"``
     otherwise); ``update_geometry`` large-strain updates.
