@@ -194,3 +194,19 @@ def test_parsers():
     assert parse_list("--b", "0,0.25, 1") == [0.0, 0.25, 1.0]
     with pytest.raises(InputError, match="--b"):
         parse_list("--b", "0:1:0")
+
+
+def test_run_maxwellian_references_reach_the_model(tmp_path):
+    """--distribution maxwellian uses eq. 2.32 as printed (overall C), maxwellian-average the
+    average stiffness; the metadata says which, and the two laws give different responses."""
+    peaks = {}
+    for choice, reference in (("maxwellian", "overall"), ("maxwellian-average", "average")):
+        out = tmp_path / choice
+        ok("run", "--path", "triaxial_compression", "--distribution", choice, "--set",
+           "n_steps=8", "--out", out)
+        test = read_test_result(out / "result.csv")
+        model = test.metadata["setup"]["model"]
+        assert model["distribution"] == "maxwellian"
+        assert model["maxwellian_reference"] == reference
+        peaks[choice] = float(test.table["sigma_zz"].iloc[-1])
+    assert peaks["maxwellian"] != pytest.approx(peaks["maxwellian-average"], rel=1e-6)

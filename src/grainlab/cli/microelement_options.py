@@ -46,6 +46,7 @@ class Distribution(StrEnum):
 
     homogeneous = "homogeneous"
     maxwellian = "maxwellian"
+    maxwellian_average = "maxwellian-average"
 
 
 class Spin(StrEnum):
@@ -83,7 +84,9 @@ THICKNESS_OPTION = typer.Option(None, "--thickness", help="2D only: disc thickne
                                 "in Pa [default: the mean disc diameter].")
 DISTRIBUTION_OPTION = typer.Option(
     Distribution.homogeneous, help="How the overall strain is shared among micro-elements: "
-    "homogeneous (eq. 2.30) or maxwellian (eqs. 2.32-2.35).")
+    "homogeneous (eq. 2.30), maxwellian (eqs. 2.32-2.35 with the overall stiffness C in "
+    "eq. 2.32 as printed, solved self-consistently) or maxwellian-average (the average "
+    "stiffness C_bar in eq. 2.32).")
 AFFINE_OPTION = typer.Option(True, "--non-affine/--affine", help="Let each centre particle "
                              "move to balance its contact forces (eq. 2.14), or not.")
 SPIN_OPTION = typer.Option(None, help="Particle spin: none, micro-element or uniform "
@@ -174,6 +177,7 @@ class ModelOptions:
     thickness: float | None = None
     sigma0: float | None = None
     distribution: str = "homogeneous"
+    maxwellian_reference: str = "overall"
     non_affine: bool = True
     spin: str | None = None
     update_geometry: bool = True
@@ -193,6 +197,8 @@ class ModelOptions:
             "distribution": self.distribution, "non_affine": self.non_affine,
             "spin": self.spin or defaults.spin, "update_geometry": self.update_geometry,
         }
+        if self.distribution == "maxwellian":
+            out["maxwellian_reference"] = self.maxwellian_reference
         if law == "hertz":
             out.update(shear_modulus_Pa=_or(self.shear_modulus, defaults.shear_modulus),
                        poisson_ratio=_or(self.poisson_ratio, defaults.poisson_ratio))
@@ -215,7 +221,10 @@ def _options(law, kn, ks, friction_angle, shear_modulus, poisson_ratio, thicknes
         law=None if law is None else Law(law).value, normal_stiffness=kn, shear_stiffness=ks,
         friction_angle_deg=friction_angle, shear_modulus=shear_modulus,
         poisson_ratio=poisson_ratio, thickness=thickness, sigma0=sigma0,
-        distribution=Distribution(distribution).value, non_affine=non_affine,
+        distribution="maxwellian" if distribution == Distribution.maxwellian_average
+        else Distribution(distribution).value,
+        maxwellian_reference="average" if distribution == Distribution.maxwellian_average
+        else "overall", non_affine=non_affine,
         spin=None if spin is None else Spin(spin).value, update_geometry=large_strain)
 
 
