@@ -62,6 +62,12 @@ def test_library_from_polyhedra_stores_the_boundary():
         radius = np.max(np.linalg.norm(shape.vertices, axis=1))
         assert lib.bounding_radius[s] == pytest.approx(radius)
         assert lib.volume[s] == shape.volume
+        # each edge lies on the boundary of its two faces
+        for (u, v), (f, g) in zip(lib.edges[e0:e0 + lib.edge_count[s]],
+                                  lib.edge_faces[e0:e0 + lib.edge_count[s]], strict=True):
+            for face in (shape.polygon_faces[f], shape.polygon_faces[g]):
+                assert u in face and v in face
+            assert f != g
         # neighbours: symmetric, one entry per edge end
         for v in range(lib.vertex_count[s]):
             row = lib.vertex_neighbours[lib.vertex_neighbour_start[v0 + v]:

@@ -17,7 +17,8 @@ stored in concatenated arrays, body frame, local vertex ids (0 .. vertex_count -
   (F, 3) (outward, unit) and ``face_offsets`` (F,) [m] (n . v for the face's vertices); face f
   lists its vertices counter-clockwise seen from outside in
   ``face_vertices[face_vertex_start[f]:face_vertex_start[f + 1]]`` (CSR, (F + 1,) and (K,));
-- ``edges`` (E, 2) (each edge of the solid once), rows ``edge_start[s] ..`` (``edge_count[s]``);
+- ``edges`` (E, 2) (each edge of the solid once), rows ``edge_start[s] ..`` (``edge_count[s]``),
+  and ``edge_faces`` (E, 2): the local ids of the two faces sharing each edge;
 - ``vertex_neighbour_start`` (V + 1,) CSR into ``vertex_neighbours`` (2E,): the local ids of
   the vertices joined to each vertex by an edge (hill-climbing supports).
 
@@ -70,6 +71,7 @@ _POLYHEDRON_FIELDS = {
     "face_normals": (np.float64, 3), "face_offsets": (np.float64, 1),
     "face_vertex_start": (np.int64, 1), "face_vertices": (np.int64, 1),
     "edge_start": (np.int64, 1), "edge_count": (np.int64, 1), "edges": (np.int64, 2),
+    "edge_faces": (np.int64, 2),
     "vertex_neighbour_start": (np.int64, 1), "vertex_neighbours": (np.int64, 1),
 }
 
@@ -102,7 +104,7 @@ class ShapeLibrary:
         (S,) radius about the centre of mass enclosing the shape [m].
     vertex_start, vertex_count, vertices, face_start, face_count, face_normals,
     face_offsets, face_vertex_start, face_vertices, edge_start, edge_count, edges,
-    vertex_neighbour_start, vertex_neighbours:
+    edge_faces, vertex_neighbour_start, vertex_neighbours:
         Polyhedron boundaries (module docstring); optional, empty by default.
     """
 
@@ -126,6 +128,7 @@ class ShapeLibrary:
     edge_start: np.ndarray | None = None
     edge_count: np.ndarray | None = None
     edges: np.ndarray | None = None
+    edge_faces: np.ndarray | None = None
     vertex_neighbour_start: np.ndarray | None = None
     vertex_neighbours: np.ndarray | None = None
 
@@ -229,6 +232,14 @@ class ShapeLibrary:
         if np.any(np.diff(self.face_vertex_start[f0:f1 + 1]) < 3):
             raise InputError(f"face_vertex_start (shape {s})", "a face with < 3 vertices",
                              "polygons of at least 3 vertices")
+        if self.edge_faces.shape != self.edges.shape:
+            raise InputError("edge_faces", f"shape {self.edge_faces.shape}",
+                             f"{self.edges.shape}, two faces per edge")
+        faces_of_edges = self.edge_faces[e0:e1]
+        if faces_of_edges.size and (faces_of_edges.min() < 0
+                                    or faces_of_edges.max() >= f1 - f0):
+            raise InputError(f"edge_faces (shape {s})", faces_of_edges.tolist(),
+                             f"local face ids in 0 .. {f1 - f0 - 1}")
         for name, ids in (("face_vertices", local), ("edges", self.edges[e0:e1]),
                           ("vertex_neighbours", self.vertex_neighbours[
                               self.vertex_neighbour_start[v0]:self.vertex_neighbour_start[v1]])):
@@ -326,6 +337,8 @@ class ShapeLibrary:
             face_vertices=np.concatenate([ids for _, ids in csr]),
             edge_start=_starts(edge_count), edge_count=edge_count,
             edges=np.concatenate(edges),
+            edge_faces=np.concatenate([_edge_faces(e, start, ids)
+                                       for e, (start, ids) in zip(edges, csr, strict=True)]),
             vertex_neighbour_start=neighbour_start, vertex_neighbours=neighbours,
         )
 
@@ -358,6 +371,7 @@ class ShapeLibrary:
                                        other.edge_start + self.edges.shape[0]]),
             edge_count=np.concatenate([self.edge_count, other.edge_count]),
             edges=np.concatenate([self.edges, other.edges]),
+            edge_faces=np.concatenate([self.edge_faces, other.edge_faces]),
             vertex_neighbour_start=np.concatenate([
                 self.vertex_neighbour_start[:-1],
                 other.vertex_neighbour_start + self.vertex_neighbour_start[-1]]),
@@ -378,6 +392,18 @@ def _starts(counts: np.ndarray) -> np.ndarray:
     starts = np.zeros(counts.shape[0], dtype=np.int64)
     np.cumsum(counts[:-1], out=starts[1:])
     return starts
+
+
+def _edge_faces(edges: np.ndarray, start: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """(E, 2) local ids of the two polygon faces sharing each edge (u, v), u < v."""
+    owner = {}
+    for f in range(start.shape[0] - 1):
+        loop = ids[start[f]:start[f + 1]]
+        for k in range(loop.shape[0]):
+            u, v = int(loop[k]), int(loop[(k + 1) % loop.shape[0]])
+            owner.setdefault((min(u, v), max(u, v)), []).append(f)
+    out = np.array([owner[(int(u), int(v))] for u, v in edges], dtype=np.int64)
+    return out.reshape(-1, 2)
 
 
 def _vertex_neighbours(edges: list[np.ndarray], vertex_count: np.ndarray
