@@ -21,6 +21,7 @@ the diagnosis.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import os
@@ -55,8 +56,8 @@ CHECKPOINT_VERSION = 1
 
 _STATE_FIELDS = ("positions", "orientations", "velocities", "angular_velocities", "masses",
                  "inertias", "shape_ids")
-_LIBRARY_FIELDS = ("kind", "sphere_start", "sphere_count", "sphere_offsets", "sphere_radii",
-                   "volume", "principal_inertia", "bounding_radius")
+_LIBRARY_FIELDS = tuple(f.name for f in dataclasses.fields(ShapeLibrary))
+"""Every array of the shape library (member spheres and polyhedron vertices, faces, edges)."""
 
 
 class RunInterrupted(GrainlabError, KeyboardInterrupt):
@@ -78,7 +79,8 @@ def build_sample(config: RunConfig) -> DiscreteSample:
     """The loose random sample of ``config.sample``."""
     s = config.sample
     return loose_sample(shape=s.shape, n_particles=s.n_particles, d_min=s.d_min,
-                        size_ratio=s.size_ratio, eta=s.eta, density=s.density,
+                        size_ratio=s.size_ratio, eta=s.eta, n_faces=s.n_faces,
+                        templates=s.templates, density=s.density,
                         packing_fraction=s.packing_fraction, wall_friction=s.wall_friction,
                         seed=s.seed)
 
@@ -310,7 +312,8 @@ _UNITS = {
     "z_no_rattlers": "-", "z_c_no_rattlers": "-", "rattler_fraction": "-", "n_contacts": "-",
     "solver_iterations": "-", "solver_converged": "-", "solver_change": "-",
     "solver_residual": "-", "max_overlap_over_d": "-", "kinetic_energy": "J",
-    "unbalanced_force_ratio": "-", "kinetic_energy_ratio": "-",
+    "unbalanced_force_ratio": "-", "kinetic_energy_ratio": "-", "z_c_points": "-",
+    "fraction_fv": "-", "fraction_ee": "-", "fraction_fe": "-", "fraction_ff": "-",
 }
 
 
@@ -360,7 +363,8 @@ def read_checkpoint(path: Path) -> dict[str, Any]:
         if handle.attrs.get("format") != CHECKPOINT_FORMAT:
             raise InputError("checkpoint", str(path), f"a {CHECKPOINT_FORMAT} file")
         saved: dict[str, Any] = {
-            "library": ShapeLibrary(**{n: handle["library"][n][()] for n in _LIBRARY_FIELDS}),
+            "library": ShapeLibrary(**{n: handle["library"][n][()] for n in _LIBRARY_FIELDS
+                                       if n in handle["library"]}),
             "state": BodyState(**{n: handle["state"][n][()] for n in _STATE_FIELDS},
                                density=float(handle["state"].attrs["density"])),
             "box": WallBox.from_arrays({k: v[()] for k, v in handle["box"].items()}),

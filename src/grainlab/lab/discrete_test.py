@@ -15,13 +15,14 @@ Per stage:
   stress-controlled walls are speed-limited to the same rate (their inward free speed at most
   eps_dot L), with ``compaction_inertia_number`` in stages without a strain-controlled axis;
 * time step h = ``time_step_factor`` (0.003) x d_min / v in shearing stages and
-  ``compaction_time_step_factor`` (0.01) x d_min / v in compaction, v the largest wall speed
-  of the stage (research/cd_engines.md pitfall 6: v h <= 0.01-0.05 d_min), unless ``dt`` is
-  given. In triaxial shear the solver ends each step with small velocity violations (the
-  NLGS residual stalls near 1e-5 relative however many sweeps) and contact dynamics never
-  pushes an overlap back, so overlaps accumulate at a rate that falls faster than h: with
-  0.01 the largest overlap reached 6-9 % of <d> at eps_q = 0.1 on 200 spheres, with 0.003
-  below 1 %;
+  ``compaction_time_step_factor`` (0.01) x d_min / v in compaction, v the largest wall speed of the
+  stage, d_min the smallest member-sphere diameter or, for polyhedra, the smallest inscribed
+  diameter (twice the smallest distance from a centre of mass to a face plane;
+  :func:`time_step_length`) (research/cd_engines.md pitfall 6: v h <= 0.01-0.05 d_min), unless
+  ``dt`` is given. In triaxial shear the solver ends each step with small velocity violations (the
+  NLGS residual stalls near 1e-5 relative however many sweeps) and contact dynamics never pushes an
+  overlap back, so overlaps accumulate at a rate that falls faster than h: with 0.01 the largest
+  overlap reached 6-9 % of <d> at eps_q = 0.1 on 200 spheres, with 0.003 below 1 %;
 * mass of a stress-controlled wall: max(``wall_mass_factor`` x the particles' mass,
   h F / v_max) with F = sigma A its driving force and v_max its speed limit, so that one
   step of driving cannot push it past the limit (a lighter wall leaves the solver trading
@@ -50,11 +51,24 @@ from grainlab._validate import at_least
 from grainlab.engine.contact_dynamics import ContactDynamicsStep
 from grainlab.engine.sample_measures import sample_measures
 from grainlab.engine.simulation import Periodic, Simulation
+from grainlab.engine.state import SHAPE_POLYHEDRON, ShapeLibrary
 from grainlab.engine.wall_box import WALL_NAMES
 from grainlab.errors import InputError
 from grainlab.lab.load_path import LoadPath
 from grainlab.lab.wall_stages import AXES, QuasiStaticCriteria, WallStage, wall_stages
 from grainlab.prep.loose_sample import DiscreteSample
+
+
+def time_step_length(library: ShapeLibrary) -> float:
+    """The length d_min [m] that scales the automatic time step (module docstring): the
+    smallest member-sphere diameter of the sphere-based shapes and the smallest inscribed
+    diameter 2 min_f (n_f . v_f) of the polyhedra (face planes about the centre of mass)."""
+    lengths = []
+    if library.sphere_radii.size:
+        lengths.append(2.0 * float(np.min(library.sphere_radii)))
+    if np.any(library.kind == SHAPE_POLYHEDRON):
+        lengths.append(2.0 * float(np.min(library.face_offsets)))
+    return min(lengths)
 
 
 @dataclass(frozen=True)
@@ -217,7 +231,7 @@ class DiscreteTest:
                 box.set_control(upper, "stress", sigma)
         box.set_max_speeds(self.strain_rate * float(box.lengths.max()))
         if s.dt is None:
-            d_min = 2.0 * float(np.min(sample.library.sphere_radii))
+            d_min = time_step_length(sample.library)
             speed = self.strain_rate * float(box.lengths.max())
             factor = s.time_step_factor if moving else s.compaction_time_step_factor
             self.solver.dt = factor * d_min / speed
