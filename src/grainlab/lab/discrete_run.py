@@ -36,6 +36,7 @@ import numpy as np
 import pandas as pd
 
 from grainlab.analysis.snapshot_files import append_snapshot
+from grainlab.engine.sample_measures import PAIR_TYPE_NAMES
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
@@ -437,9 +438,12 @@ def export_checkpoint_vtk(folder: str | Path, out: str | Path | None = None) -> 
         net = read_snapshot(snapshots, -1)
         first = net.pair_particles[net.point_pairs, 0]
         start = net.positions[first]
+        polyhedra = net.pair_types is not None and net.type_names == PAIR_TYPE_NAMES
         contacts = ContactLines(start=start, end=start + net.pair_branches[net.point_pairs],
                                 force=net.point_forces, normal=net.point_normals,
-                                sliding=net.point_sliding)
+                                sliding=net.point_sliding,
+                                contact_type=net.pair_types[net.point_pairs] if polyhedra
+                                else None)
     out = Path(out) if out is not None else folder / "vtk-checkpoint"
     files = write_vtk_frame(out, 0, float(saved["progress"]["time"]), positions=state.positions,
                             orientations=state.orientations, shape_ids=state.shape_ids,
