@@ -58,3 +58,76 @@ def test_time_step_length_is_the_smallest_inscribed_or_member_diameter():
     assert time_step_length(ShapeLibrary.from_spheres([0.2, 0.5])) == pytest.approx(0.4)
     assert time_step_length(library.concatenate(ShapeLibrary.from_spheres([0.25]))) \
         == pytest.approx(0.5)
+
+
+@pytest.fixture(scope="module")
+def polyhedra_run(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("poly") / "triaxial"
+    config = RunConfig.model_validate(TINY).with_updates(
+        {"output": {"snapshot_every": 20, "vtk_every": 200}})
+    result = start_run(folder, config).run()
+    return folder, config, result
+
+
+def test_polyhedra_triaxial_runs_with_pair_types(polyhedra_run):
+    from grainlab.analysis.snapshot_files import read_snapshots
+
+    folder, _, result = polyhedra_run
+    assert result.metadata["outcome"]["finished"]
+    assert result.metadata["specimen"]["shape"] == "polyhedron"
+    table = result.table
+    shear = table[table["stage"] != "compaction"]
+    assert shear["eps_q"].iloc[-1] >= 0.01
+    loaded = table[table["z"] > 0]
+    fractions = loaded[[f"fraction_{t}" for t in ("fv", "ee", "fe", "ff")]]
+    np.testing.assert_allclose(fractions.sum(axis=1), 1.0)
+    np.testing.assert_allclose(loaded["z_c"], loaded["z"] * (
+        1 + loaded["fraction_fe"] + 2 * loaded["fraction_ff"]))
+    network = list(read_snapshots(folder / "snapshots.h5"))[-1]
+    assert network.type_names == ("point", "fv", "ee", "fe", "ff")
+    assert network.n_points == network.n_pairs  # one resultant per polyhedron pair
+    assert set(network.pair_types.tolist()) <= {1, 2, 3, 4}
+    # ParaView frames written during the run: faceted particles, one line per pair
+    import meshio
+
+    frames = sorted((folder / "vtk").glob("contacts_*.vtu"))
+    assert frames
+    lines = meshio.read(frames[-1]).cell_data_dict["contact_type"]["line"]
+    assert set(lines.tolist()) <= {1, 2, 3, 4}
+
+
+def test_polyhedra_checkpoint_exports_faceted_shapes(polyhedra_run, tmp_path):
+    import meshio
+
+    from grainlab.lab.discrete_run import export_checkpoint_vtk
+
+    folder, _, _ = polyhedra_run
+    paths = export_checkpoint_vtk(folder, tmp_path / "vtk")
+    particles = meshio.read(next(p for p in paths if p.name.startswith("particles")))
+    saved = read_checkpoint(folder / "checkpoint.h5")
+    library = saved["library"]
+    ids = saved["state"].shape_ids
+    assert len(particles.points) == int(library.vertex_count[ids].sum())
+    n_faces = sum(len(block) for block in particles.cells)
+    assert n_faces == int(library.face_count[ids].sum())
+    contacts = meshio.read(next(p for p in paths if p.name.startswith("contacts")))
+    assert set(contacts.cell_data_dict["contact_type"]["line"].tolist()) <= {1, 2, 3, 4}
+
+
+def test_polyhedra_run_resumed_from_a_checkpoint_reproduces_the_rows(polyhedra_run,
+                                                                     tmp_path):
+    from grainlab.lab.discrete_run import resume_run
+
+    _, config, reference = polyhedra_run
+    folder = tmp_path / "interrupted"
+    first = start_run(folder, config)
+    first.run(max_steps=config.output.checkpoint_every + 15)  # then "killed"
+    run = resume_run(folder)
+    assert run.test.simulation.step_index == config.output.checkpoint_every
+    table, expected = run.run().table, reference.table
+    assert len(table) == len(expected)
+    np.testing.assert_array_equal(table["step"], expected["step"])
+    np.testing.assert_allclose(table["q_over_p"], expected["q_over_p"], rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(table["packing_fraction"], expected["packing_fraction"],
+                               rtol=1e-9)
+    np.testing.assert_allclose(table["z_c"], expected["z_c"])
