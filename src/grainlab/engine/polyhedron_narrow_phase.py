@@ -141,9 +141,9 @@ def polyhedron_pairs_kernel(
             if not found:
                 continue
             count, code = pair_manifold(
-                va, na, oa, fsa, face_vertices, ea, nsa, vertex_neighbours,
-                vb, nb, ob, fsb, face_vertices, eb, nsb, vertex_neighbours,
-                g, n_out, cos_tol, sin_tol, pts, gps, ida, idb)
+                va, na, oa, fsa, face_vertices, ea, efa, nsa, vertex_neighbours,
+                vb, nb, ob, fsb, face_vertices, eb, efb, nsb, vertex_neighbours,
+                g, n_out, alert, cos_tol, sin_tol, pts, gps, ida, idb)
             for r in range(count):
                 _store(row, i, j, ida[r], idb[r], gps[r], n_out, pts[r], code,
                        body_i, body_j, member_i, member_j, point, normal, gap, contact_type)

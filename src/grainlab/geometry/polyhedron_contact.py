@@ -36,23 +36,27 @@ Contact type and manifold
 -------------------------
 The supporting feature of A along n (of B along -n) is a FACE when a face normal lies within
 the angle :data:`ANGLE_TOLERANCE` of n (of -n), else an EDGE when an edge at the support vertex
-is perpendicular to n within that angle, else a VERTEX. Since only the direction of n enters,
-a pair whose normal does not turn keeps its type from step to step. The manifold:
+is perpendicular to n within that angle, else a VERTEX. The pair's type follows: face-face ff,
+face-edge (or two parallel edges) fe, edge-edge ee, any vertex fv (the rare vertex-edge and
+vertex-vertex counted with fv). Since only the direction of n enters, a pair whose normal does
+not turn keeps its type from step to step.
 
-- face-face: the incident face clipped by the side planes of the reference face along n
-  (Sutherland-Hodgman); reduced to 3 points (deepest point, the point farthest from it, then
-  the point giving the largest triangle: research/engine_tech.md 3.2 step 6, the seed's "flat
-  contact replaced by three points");
-- face-edge (or two parallel edges): the edge clipped by the face's side planes -> 2 points;
-- edge-edge: the closest points of the two segments -> 1 point;
-- a vertex on either side (vertex-face; the rare vertex-edge and vertex-vertex counted with
-  it) -> 1 point.
+The manifold is the "shadow overlap" of the near-plane parts of both bodies
+(research/engine_tech.md 3.1-3.2): the candidates are
 
-Each point x gets its own gap, the distance between the two features along n, and is written
-at the mid-point between them; the pair's type code follows the number of points: 1 "fv",
-2 "ee" (one point, both features edges), 3 "fe" (two points), 4 "ff" (three points). A clipped
-manifold that degenerates (fewer points than the features suggest) takes the type of its point
-count.
+- the vertices of B's cap (n . b within the alert distance of B's lowest point) whose line
+  along -n enters A, at the entry point of A's upper surface;
+- the vertices of A's cap whose line along +n enters B;
+- the crossings, seen along n, of A's and B's cap edges that face each other (an edge of A
+  bordering a face with n_f . n > 0, of B with n_f . n < 0),
+
+each with its own gap (distance along n between the two surfaces there), written at the
+mid-point, and kept if the gap is within the alert distance. They are reduced to at most three:
+the deepest, the one farthest from it, the one giving the largest triangle (seed 002: a flat
+contact is "replaced by three points", an edge-face contact by two). A vertex-face or
+edge-edge contact alone gives 1 point, an edge on a face 2, two faces 3; more points appear
+only when other features lie within the alert distance, so that the solver also holds them
+(a single point lets the bodies rotate into each other about it).
 
 Feature ids (stable warm-start keys): vertex k -> k, edge e -> n_v + e, face f -> n_v + n_e + f
 (local to the shape). A manifold point made by a vertex of B inside a face of A has ids (face
@@ -61,9 +65,10 @@ of A, vertex of B); a crossing of two edges (edge, edge); a vertex of A inside a
 
 Walls and spheres
 -----------------
-A wall is a plane (p_w, n_w) with the bodies on the side of n_w; the polyhedron's feature
-supporting along -n_w gives 1 (vertex), 2 (edge) or 3 (face, reduced) points, each a vertex
-with gap n_w . (v - p_w). A sphere (centre, radius r) against a polyhedron: the closest point
+A wall is a plane (p_w, n_w) with the bodies on the side of n_w: the vertices with gap
+n_w . (v - p_w) within the alert distance, reduced to three as above; the type is that of the
+polyhedron's feature supporting it along -n_w (vertex fv, edge fe, face ff).
+A sphere (centre, radius r) against a polyhedron: the closest point
 of the polyhedron to the centre (the face of largest signed distance if the centre projects
 inside it, else the nearest edge), one point, type 1 ("fv") for a face or a vertex, 2 ("ee")
 for an edge.
@@ -370,193 +375,160 @@ def _reduce_to_three(points, gaps, count, tol):
 
 
 @njit(inline="always")
-def _clip_polygon(poly, count, vertices, fstart, fverts, f, normal, scratch):
-    """Clip ``poly`` rows 0 .. count-1 by the side planes of face f (containing ``normal``);
-    the result is in ``poly`` (scratch of the same size); returns the new count."""
-    k0, k1 = fstart[f], fstart[f + 1]
-    m = k1 - k0
-    for k in range(m):
-        p = vertices[fverts[k0 + k]]
-        q = vertices[fverts[k0 + (k + 1) % m]]
-        side = np.cross(q - p, normal)
-        n_out = 0
-        for i in range(count):
-            x = poly[i]
-            y = poly[(i + 1) % count]
-            dx = side @ (x - p)
-            dy = side @ (y - p)
-            if dx <= 0.0:
-                scratch[n_out] = x
-                n_out += 1
-            if (dx <= 0.0) != (dy <= 0.0):
-                scratch[n_out] = x + (dx / (dx - dy)) * (y - x)
-                n_out += 1
-        for i in range(n_out):
-            poly[i] = scratch[i]
-        count = n_out
-        if count == 0:
-            return 0
-    return count
+def _line_entry(x, dx, dy, dz, normals, offsets):
+    """Entry parameter t >= -inf of the line x + t d into the polyhedron (half-spaces
+    n . y <= O) and the face it enters through; (t_in, face, hit)."""
+    t_in, t_out, face = -_HUGE, _HUGE, -1
+    for f in range(normals.shape[0]):
+        c = normals[f, 0] * dx + normals[f, 1] * dy + normals[f, 2] * dz
+        r = offsets[f] - (normals[f, 0] * x[0] + normals[f, 1] * x[1] + normals[f, 2] * x[2])
+        if c < -1e-15:
+            t = r / c
+            if t > t_in:
+                t_in, face = t, f
+        elif c > 1e-15:
+            t_out = min(t_out, r / c)
+        elif r < 0.0:
+            return 0.0, -1, False
+    return t_in, face, face >= 0 and t_in <= t_out + 1e-12 * (abs(t_in) + 1.0)
 
 
 @njit(inline="always")
-def _tag_point(x, n, va, fsa, fva, fa, ea, nva, nea, vb, fsb, fvb, fb, eb, nvb, neb, tol):
-    """Feature ids (A, B) of a face-face manifold point x (module docstring)."""
-    best_i, best_di = -1, _HUGE
-    k0, k1 = fsb[fb], fsb[fb + 1]
-    for k in range(k0, k1):
-        d = x - vb[fvb[k]]
-        d = d - (d @ n) * n
-        dd = d @ d
-        if dd < best_di:
-            best_di, best_i = dd, fvb[k]
-    if best_di <= tol * tol:
-        return nva + nea + fa, best_i
-    j0, j1 = fsa[fa], fsa[fa + 1]
-    best_j, best_dj = -1, _HUGE
-    for k in range(j0, j1):
-        d = x - va[fva[k]]
-        d = d - (d @ n) * n
-        dd = d @ d
-        if dd < best_dj:
-            best_dj, best_j = dd, fva[k]
-    if best_dj <= tol * tol:
-        return best_j, nvb + neb + fb
-    return nva + _nearest_side(x, n, va, fsa, fva, fa, ea), \
-        nvb + _nearest_side(x, n, vb, fsb, fvb, fb, eb)
-
-
-@njit(inline="always")
-def _nearest_side(x, n, vertices, fstart, fverts, f, edges):
-    """Edge id of the side of face f nearest to x (distance in the plane normal to n)."""
-    k0, k1 = fstart[f], fstart[f + 1]
-    m = k1 - k0
-    best, best_d = 0, _HUGE
-    for k in range(m):
-        u, v = fverts[k0 + k], fverts[k0 + (k + 1) % m]
-        side = np.cross(vertices[v] - vertices[u], n)
-        d = abs(side @ (x - vertices[u])) / math.sqrt(side @ side)
-        if d < best_d:
-            best_d, best = d, _find_edge(edges, u, v)
-    return best
+def _upper_edge(normals, edge_faces, e, dx, dy, dz):
+    """Whether edge e borders a face whose normal has a positive component along d."""
+    for k in range(2):
+        f = edge_faces[e, k]
+        if normals[f, 0] * dx + normals[f, 1] * dy + normals[f, 2] * dz > 0.0:
+            return True
+    return False
 
 
 @njit(cache=True)
-def pair_manifold(va, na, oa, fsa, fva, ea, nsa, nba,
-                  vb, nb, ob, fsb, fvb, eb, nsb, nbb,
-                  g, normal, cos_tol, sin_tol, points, gaps, ids_a, ids_b):
+def pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
+                  vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
+                  g, normal, alert, cos_tol, sin_tol, points, gaps, ids_a, ids_b):
     """Contact manifold of polyhedra A and B at signed distance ``g`` [m] along ``normal``
     (3,) from A to B (module docstring): writes ``points`` (3, 3) [m] (mid-points), ``gaps``
-    (3,) [m] and feature ids ``ids_a``, ``ids_b`` (3,); returns (count, type code)."""
+    (3,) [m] and feature ids ``ids_a``, ``ids_b`` (3,); returns (count, type code).
+
+    Candidates, each with its own gap along n: the vertices of B's cap (n . b within alert of
+    B's lowest) over A's upper surface, the vertices of A's cap under B's lower surface, and
+    the crossings, seen along n, of the cap edges of A and B that face each other; those with
+    gap <= max(alert, g) are reduced to three."""
     nx, ny, nz = normal[0], normal[1], normal[2]
     nva, nea = va.shape[0], ea.shape[0]
     nvb, neb = vb.shape[0], eb.shape[0]
     kind_a, fa, _ = supporting_feature(va, na, nsa, nba, ea, nx, ny, nz, cos_tol, sin_tol)
     kind_b, fb, top_b = supporting_feature(vb, nb, nsb, nbb, eb, -nx, -ny, -nz, cos_tol,
                                            sin_tol)
-    size = 0.0
+    _, hi = _support(va, nsa, nba, nx, ny, nz, 0)
+    _, neg = _support(vb, nsb, nbb, -nx, -ny, -nz, top_b)
+    lo = -neg
+    band = max(alert, g, 0.0)
+    limit = band + 1e-12 * (abs(hi) + abs(lo))
+    cap_a = np.empty(nva, dtype=np.int64)
+    n_ca = 0
     for v in range(nva):
-        size = max(size, abs(va[v, 0] - va[0, 0]) + abs(va[v, 1] - va[0, 1])
-                   + abs(va[v, 2] - va[0, 2]))
-    tol = 1e-9 * size
-    if kind_a == _FACE and (kind_b == _FACE or kind_b == _EDGE):
-        if kind_b == _FACE:
-            m = fsb[fb + 1] - fsb[fb]
-            cap = m + (fsa[fa + 1] - fsa[fa]) + 2
-            poly = np.empty((cap, 3))
-            scratch = np.empty((cap, 3))
-            for k in range(m):
-                poly[k] = vb[fvb[fsb[fb] + k]]
-            count = _clip_polygon(poly, m, va, fsa, fva, fa, na[fa], scratch)
-        else:
-            poly = np.empty((2, 3))
-            poly[0] = vb[eb[fb, 0]]
-            poly[1] = vb[eb[fb, 1]]
-            count = _clip_segment(poly, va, fsa, fva, fa, na[fa])
-        if count > 0:
-            cos_n = na[fa] @ normal
-            local = np.empty(count)
-            for k in range(count):
-                local[k] = (na[fa] @ poly[k] - oa[fa]) / cos_n
-            idx, kept = _reduce_to_three(poly, local, count, tol)
-            for r in range(kept):
-                x = poly[idx[r]]
-                gaps[r] = local[idx[r]]
-                points[r] = x - 0.5 * gaps[r] * normal
-                if kind_b == _FACE:
-                    ids_a[r], ids_b[r] = _tag_point(x, normal, va, fsa, fva, fa, ea, nva, nea,
-                                                    vb, fsb, fvb, fb, eb, nvb, neb,
-                                                    max(tol, 1e-7 * size))
-                else:
-                    ids_a[r], ids_b[r] = _tag_segment_end(x, vb, eb, fb, nvb, va, fsa, fva,
-                                                          fa, ea, normal, nva, nea,
-                                                          max(tol, 1e-7 * size))
-            return kept, _type_of(kept, kind_a, kind_b)
-    elif kind_b == _FACE and kind_a == _EDGE:
-        poly = np.empty((2, 3))
-        poly[0] = va[ea[fa, 0]]
-        poly[1] = va[ea[fa, 1]]
-        count = _clip_segment(poly, vb, fsb, fvb, fb, nb[fb])
-        if count > 0:
-            cos_n = -(nb[fb] @ normal)
-            local = np.empty(count)
-            for k in range(count):
-                local[k] = (nb[fb] @ poly[k] - ob[fb]) / cos_n
-            idx, kept = _reduce_to_three(poly, local, count, tol)
-            for r in range(kept):
-                x = poly[idx[r]]
-                gaps[r] = local[idx[r]]
-                points[r] = x + 0.5 * gaps[r] * normal
-                ids_b[r], ids_a[r] = _tag_segment_end(x, va, ea, fa, nva, vb, fsb, fvb, fb,
-                                                      eb, normal, nvb, neb,
-                                                      max(tol, 1e-7 * size))
-            return kept, _type_of(kept, kind_a, kind_b)
-    elif kind_a == _EDGE and kind_b == _EDGE:
-        p0, p1 = va[ea[fa, 0]], va[ea[fa, 1]]
-        q0, q1 = vb[eb[fb, 0]], vb[eb[fb, 1]]
-        ta, tb = p1 - p0, q1 - q0
-        cross = np.cross(ta, tb)
-        if cross @ cross > (sin_tol * sin_tol) * (ta @ ta) * (tb @ tb):
-            s, t = _seg_seg(p0, p1, q0, q1)
-            pa = p0 + s * ta
-            pb = q0 + t * tb
-            points[0] = 0.5 * (pa + pb)
-            gaps[0] = g
-            ids_a[0], ids_b[0] = nva + fa, nvb + fb
-            return 1, TYPE_EE
-        # parallel edges: the overlap of their extents along the edge, two points
-        length2 = ta @ ta
-        s0 = (q0 - p0) @ ta / length2
-        s1 = (q1 - p0) @ ta / length2
-        lo_s, hi_s = max(0.0, min(s0, s1)), min(1.0, max(s0, s1))
-        if hi_s > lo_s:
-            for r in range(2):
-                s = lo_s if r == 0 else hi_s
-                x = p0 + s * ta
-                points[r] = x + 0.5 * g * normal
-                gaps[r] = g
-                if s == 0.0 or s == 1.0:
-                    ids_a[r] = ea[fa, 0] if s == 0.0 else ea[fa, 1]
-                    ids_b[r] = nvb + fb
-                else:
-                    ids_a[r] = nva + fa
-                    ids_b[r] = eb[fb, 0] if s == s0 else eb[fb, 1]
-            return 2, TYPE_FE
-    # one point: a vertex on one side (or a degenerate manifold)
-    gaps[0] = g
-    if kind_a == _VERTEX:
-        points[0] = va[fa] + 0.5 * g * normal
-        ids_a[0] = fa
-        ids_b[0] = _code(kind_b, fb, nvb, neb)
-    elif kind_b == _VERTEX:
-        points[0] = vb[fb] - 0.5 * g * normal
-        ids_a[0] = _code(kind_a, fa, nva, nea)
-        ids_b[0] = fb
-    else:
+        if va[v, 0] * nx + va[v, 1] * ny + va[v, 2] * nz >= hi - band - limit:
+            cap_a[n_ca] = v
+            n_ca += 1
+    cap_b = np.empty(nvb, dtype=np.int64)
+    n_cb = 0
+    for v in range(nvb):
+        if vb[v, 0] * nx + vb[v, 1] * ny + vb[v, 2] * nz <= lo + band + limit:
+            cap_b[n_cb] = v
+            n_cb += 1
+    edge_a = np.empty(nea, dtype=np.int64)
+    n_ea = 0
+    for e in range(nea):
+        p, q = ea[e, 0], ea[e, 1]
+        if max(va[p] @ normal, va[q] @ normal) >= hi - band - limit and \
+                _upper_edge(na, efa, e, nx, ny, nz):
+            edge_a[n_ea] = e
+            n_ea += 1
+    edge_b = np.empty(neb, dtype=np.int64)
+    n_eb = 0
+    for e in range(neb):
+        p, q = eb[e, 0], eb[e, 1]
+        if min(vb[p] @ normal, vb[q] @ normal) <= lo + band + limit and \
+                _upper_edge(nb, efb, e, -nx, -ny, -nz):
+            edge_b[n_eb] = e
+            n_eb += 1
+    size = n_ca + n_cb + n_ea * n_eb
+    cand = np.empty((size, 3))
+    local = np.empty(size)
+    cid_a = np.empty(size, dtype=np.int64)
+    cid_b = np.empty(size, dtype=np.int64)
+    count = 0
+    for k in range(n_cb):  # vertices of B over A's upper surface (line going down)
+        b = vb[cap_b[k]]
+        t, f, hit = _line_entry(b, -nx, -ny, -nz, na, oa)
+        if hit and t <= limit:
+            cand[count] = b - 0.5 * t * normal
+            local[count] = t
+            cid_a[count] = nva + nea + f
+            cid_b[count] = cap_b[k]
+            count += 1
+    for k in range(n_ca):  # vertices of A under B's lower surface (line going up)
+        a = va[cap_a[k]]
+        t, f, hit = _line_entry(a, nx, ny, nz, nb, ob)
+        if hit and t <= limit:
+            cand[count] = a + 0.5 * t * normal
+            local[count] = t
+            cid_a[count] = cap_a[k]
+            cid_b[count] = nvb + neb + f
+            count += 1
+    for i in range(n_ea):  # crossings of facing cap edges seen along n
+        e = edge_a[i]
+        p0 = va[ea[e, 0]]
+        da = va[ea[e, 1]] - p0
+        da_perp = da - (da @ normal) * normal
+        for j in range(n_eb):
+            k = edge_b[j]
+            q0 = vb[eb[k, 0]]
+            db = vb[eb[k, 1]] - q0
+            db_perp = db - (db @ normal) * normal
+            w = q0 - p0
+            w_perp = w - (w @ normal) * normal
+            cross = np.cross(da_perp, db_perp) @ normal
+            scale = math.sqrt((da_perp @ da_perp) * (db_perp @ db_perp))
+            if abs(cross) <= 1e-12 * scale:
+                continue
+            s = (np.cross(w_perp, db_perp) @ normal) / cross
+            t = (np.cross(w_perp, da_perp) @ normal) / cross
+            if s < 0.0 or s > 1.0 or t < 0.0 or t > 1.0:
+                continue
+            pa = p0 + s * da
+            pb = q0 + t * db
+            gap_k = (pb - pa) @ normal
+            if gap_k <= limit:
+                cand[count] = 0.5 * (pa + pb)
+                local[count] = gap_k
+                cid_a[count] = nva + e
+                cid_b[count] = nvb + k
+                count += 1
+    kind = _type_of(kind_a, kind_b, ea, eb, fa, fb, va, vb, sin_tol)
+    if count == 0:  # numerically empty: one point at the deepest vertex of B
+        gaps[0] = g
         points[0] = vb[top_b] - 0.5 * g * normal
         ids_a[0] = _code(kind_a, fa, nva, nea)
         ids_b[0] = top_b
-    return 1, TYPE_FV
+        return 1, kind
+    extent = 0.0
+    for k in range(count):
+        extent = max(extent, abs(cand[k, 0] - cand[0, 0]) + abs(cand[k, 1] - cand[0, 1])
+                     + abs(cand[k, 2] - cand[0, 2]))
+    scale = 0.0
+    for v in range(nva):
+        scale = max(scale, abs(va[v, 0] - va[0, 0]) + abs(va[v, 1] - va[0, 1])
+                    + abs(va[v, 2] - va[0, 2]))
+    idx, kept = _reduce_to_three(cand, local, count, 1e-9 * scale)
+    for r in range(kept):
+        points[r] = cand[idx[r]]
+        gaps[r] = local[idx[r]]
+        ids_a[r] = cid_a[idx[r]]
+        ids_b[r] = cid_b[idx[r]]
+    return kept, kind
 
 
 @njit(inline="always")
@@ -569,59 +541,20 @@ def _code(kind, index, n_vertices, n_edges):
 
 
 @njit(inline="always")
-def _type_of(count, kind_a, kind_b):
-    if count >= 3:
+def _type_of(kind_a, kind_b, ea, eb, fa, fb, va, vb, sin_tol):
+    """Pair type from the supporting features: ff, fe (face-edge or parallel edges), ee, fv."""
+    if kind_a == _FACE and kind_b == _FACE:
         return TYPE_FF
-    if count == 2:
+    if (kind_a == _FACE and kind_b == _EDGE) or (kind_a == _EDGE and kind_b == _FACE):
         return TYPE_FE
     if kind_a == _EDGE and kind_b == _EDGE:
+        ta = va[ea[fa, 1]] - va[ea[fa, 0]]
+        tb = vb[eb[fb, 1]] - vb[eb[fb, 0]]
+        cross = np.cross(ta, tb)
+        if cross @ cross <= (sin_tol * sin_tol) * (ta @ ta) * (tb @ tb):
+            return TYPE_FE
         return TYPE_EE
     return TYPE_FV
-
-
-@njit(inline="always")
-def _clip_segment(seg, vertices, fstart, fverts, f, normal):
-    """Clip the segment seg[0] - seg[1] by the side planes of face f; returns 0 or 2."""
-    k0, k1 = fstart[f], fstart[f + 1]
-    m = k1 - k0
-    lo, hi = 0.0, 1.0
-    x0 = seg[0].copy()
-    d = seg[1] - seg[0]
-    for k in range(m):
-        p = vertices[fverts[k0 + k]]
-        q = vertices[fverts[k0 + (k + 1) % m]]
-        side = np.cross(q - p, normal)
-        a = side @ (x0 - p)
-        b = side @ d
-        if abs(b) < 1e-300:
-            if a > 0.0:
-                return 0
-            continue
-        t = -a / b
-        if b > 0.0:
-            hi = min(hi, t)
-        else:
-            lo = max(lo, t)
-        if lo > hi:
-            return 0
-    seg[0] = x0 + lo * d
-    seg[1] = x0 + hi * d
-    if hi - lo <= 1e-12:
-        return 1
-    return 2
-
-
-@njit(inline="always")
-def _tag_segment_end(x, v_edge, e_edge, edge, nv_edge, v_face, fs_face, fv_face, face,
-                     e_face, normal, nv_face, ne_face, tol):
-    """Feature ids (face side, edge side) of an end x of a clipped edge: an end of the edge
-    itself -> (face, vertex); a cut by a side -> (side edge, edge)."""
-    for end in range(2):
-        d = x - v_edge[e_edge[edge, end]]
-        if d @ d <= tol * tol:
-            return nv_face + ne_face + face, e_edge[edge, end]
-    return nv_face + _nearest_side(x, normal, v_face, fs_face, fv_face, face, e_face), \
-        nv_edge + edge
 
 
 # --------------------------------------------------------------------------------------------
@@ -633,46 +566,42 @@ def _tag_segment_end(x, v_edge, e_edge, edge, nv_edge, v_face, fs_face, fv_face,
 def wall_manifold(vertices, normals, fstart, fverts, edges, nstart, nbrs, wall_point,
                   wall_normal, alert, cos_tol, sin_tol, points, gaps, ids):
     """Contact of a polyhedron with the plane wall (``wall_point`` (3,) [m], unit
-    ``wall_normal`` (3,) towards the polyhedron): points (3, 3) [m], gaps (3,) [m] and vertex
-    ids (3,) of the supporting feature along -n_w (module docstring); returns (count, type),
-    count 0 when the nearest vertex is farther than ``alert``."""
+    ``wall_normal`` (3,) towards the polyhedron): the vertices with gap n_w . (v - p_w) <=
+    alert reduced to three (deepest, farthest, largest triangle): points (3, 3) [m]
+    (mid-points), gaps (3,) [m], vertex ids (3,); the type is that of the feature supporting
+    the polyhedron along -n_w (vertex fv, edge fe, face ff). Returns (count, type), count 0
+    when no vertex is within ``alert``."""
     mx, my, mz = wall_normal[0], wall_normal[1], wall_normal[2]
-    kind, index, top = supporting_feature(vertices, normals, nstart, nbrs, edges, -mx, -my,
+    kind, _, top = supporting_feature(vertices, normals, nstart, nbrs, edges, -mx, -my,
                                           -mz, cos_tol, sin_tol)
     g_top = (vertices[top] - wall_point) @ wall_normal
     if g_top > alert:
         return 0, TYPE_NONE
-    if kind == _VERTEX:
-        gaps[0] = g_top
-        points[0] = vertices[top] - 0.5 * g_top * wall_normal
-        ids[0] = top
-        return 1, TYPE_FV
-    if kind == _EDGE:
-        count = 2
-        cand = np.empty((2, 3))
-        local = np.empty(2)
-        which = np.empty(2, dtype=np.int64)
-        for r in range(2):
-            which[r] = edges[index, r]
-    else:
-        count = fstart[index + 1] - fstart[index]
-        cand = np.empty((count, 3))
-        local = np.empty(count)
-        which = np.empty(count, dtype=np.int64)
-        for r in range(count):
-            which[r] = fverts[fstart[index] + r]
-    size = 0.0
-    for r in range(count):
-        cand[r] = vertices[which[r]]
-        local[r] = (cand[r] - wall_point) @ wall_normal
-        size = max(size, abs(cand[r, 0] - cand[0, 0]) + abs(cand[r, 1] - cand[0, 1])
-                   + abs(cand[r, 2] - cand[0, 2]))
-    idx, kept = _reduce_to_three(cand, local, count, 1e-9 * size)
+    n_v = vertices.shape[0]
+    cand = np.empty((n_v, 3))
+    local = np.empty(n_v)
+    which = np.empty(n_v, dtype=np.int64)
+    count = 0
+    scale = 0.0
+    for v in range(n_v):
+        scale = max(scale, abs(vertices[v, 0] - vertices[0, 0])
+                    + abs(vertices[v, 1] - vertices[0, 1]) + abs(vertices[v, 2] - vertices[0, 2]))
+        gap = (vertices[v] - wall_point) @ wall_normal
+        if gap <= alert:
+            cand[count] = vertices[v] - 0.5 * gap * wall_normal
+            local[count] = gap
+            which[count] = v
+            count += 1
+    idx, kept = _reduce_to_three(cand, local, count, 1e-9 * scale)
     for r in range(kept):
         gaps[r] = local[idx[r]]
-        points[r] = cand[idx[r]] - 0.5 * gaps[r] * wall_normal
+        points[r] = cand[idx[r]]
         ids[r] = which[idx[r]]
-    return kept, _type_of(kept, kind, _FACE)
+    if kind == _VERTEX:
+        return kept, TYPE_FV
+    if kind == _EDGE:
+        return kept, TYPE_FE
+    return kept, TYPE_FF
 
 
 @njit(cache=True)
