@@ -27,7 +27,7 @@ Output, rows 0 .. C-1 of arrays allocated by the launcher (C, ...): ``body_i``, 
 ``member_i``, ``member_j`` (member index inside its shape, 0 .. count-1), ``point`` (C, 3) [m],
 ``normal`` (C, 3), ``gap`` (C,) [m]. Body-pair contacts come first, in the order of the
 candidate pairs and then of the members (a, b) lexicographically; then the rows of the pairs
-with a polyhedron (polyhedron-polyhedron: 1-3 points of the pair's manifold; polyhedron-member
+with a polyhedron (polyhedron-polyhedron: 1-4 points of the pair's manifold; polyhedron-member
 sphere: 1 point per member), in the order of the candidate pairs; wall contacts follow, by wall
 then body then member, then the polyhedron-wall rows by wall then body. ``contact_type`` (C,)
 int8 is 0 on sphere-based rows and the pair's type code (1 fv, 2 ee, 3 fe, 4 ff; names
@@ -272,10 +272,14 @@ class NarrowPhase:
     angle_tolerance:
         Angle [rad] classifying the supporting features of polyhedra (face parallel / edge
         perpendicular to the normal within it; :mod:`grainlab.geometry.polyhedron_contact`).
+    max_points:
+        Points kept per polyhedron manifold: 3 (default, seed 002's flat contact) or 4 (the
+        corner a triangle leaves out is held too, at the cost of hyperstatic contacts:
+        :mod:`grainlab.geometry.polyhedron_contact`).
     """
 
     def __init__(self, alert: float, capacity: int = 1024,
-                 angle_tolerance: float = ANGLE_TOLERANCE) -> None:
+                 angle_tolerance: float = ANGLE_TOLERANCE, max_points: int = 3) -> None:
         try:
             value = float(alert)
         except (TypeError, ValueError):
@@ -292,6 +296,9 @@ class NarrowPhase:
         if not (math.isfinite(angle) and 0.0 <= angle < 0.5 * math.pi):
             raise InputError("angle_tolerance", angle_tolerance, "an angle in [0, pi/2) in rad")
         self.angle_tolerance = angle
+        if max_points not in (3, 4) or isinstance(max_points, bool):
+            raise InputError("max_points", max_points, "3 or 4")
+        self.max_points = int(max_points)
         self.alert = value
         self.n_regrowths = 0
         self._allocate(int(capacity))
@@ -356,7 +363,7 @@ class NarrowPhase:
                     lib.edge_start, lib.edge_count, lib.edges, lib.edge_faces,
                     lib.vertex_start, lib.vertex_count, lib.vertex_neighbour_start,
                     lib.vertex_neighbours, body_start, centres, radii, self.alert, cos_tol,
-                    sin_tol, n_pair, *self._buffers)
+                    sin_tol, self.max_points, n_pair, *self._buffers)
             n_all = wall_contacts_kernel(
                 points, normals, positions, bounding, body_start, centres, radii, self.alert,
                 n_pair, *sphere_rows)
@@ -366,7 +373,7 @@ class NarrowPhase:
                     lib.face_start, lib.face_count, lib.face_vertex_start, lib.face_vertices,
                     lib.edge_start, lib.edge_count, lib.edges, lib.vertex_start,
                     lib.vertex_count, lib.vertex_neighbour_start, lib.vertex_neighbours,
-                    self.alert, cos_tol, sin_tol, n_all, *self._buffers)
+                    self.alert, cos_tol, sin_tol, self.max_points, n_all, *self._buffers)
             if n_all <= self.capacity:
                 break
             self._allocate(max(math.ceil(_GROWTH * n_all), self.capacity + 1))

@@ -5,12 +5,13 @@ plane walls: array kernels over candidate pairs around the contact geometry of
 The boundaries of the polyhedron bodies are first moved to the world frame (vertices
 x + R(q) v, normals R(q) n, offsets O + n' . x), body n owning rows ``body_vertex_start[n] ..``
 and ``body_face_start[n] ..``; edges, face CSR and vertex neighbours stay in local ids in the
-:class:`~grainlab.engine.state.ShapeLibrary`. A polyhedron pair gives 1, 2 or 3 rows (the
-pair's manifold), a polyhedron and a member sphere 1 row, a polyhedron and a wall 1-3 rows;
-every row carries the pair's type code (1 fv, 2 ee, 3 fe, 4 ff). member_i/member_j of a
-polyhedron are feature ids (vertex k -> k, edge e -> V + e, face f -> V + E + f), those of a
-sphere its member index, of a wall -1. Rows are written from ``start`` on while they fit;
-the kernels return ``start`` + the rows they needed (the launcher regrows and reruns).
+:class:`~grainlab.engine.state.ShapeLibrary`. A polyhedron pair gives 1 to 4 rows (the
+pair's manifold, up to ``max_points``), a polyhedron and a member sphere 1 row, a polyhedron
+and a wall 1 to 4 rows; every row carries the pair's type code (1 fv, 2 ee, 3 fe, 4 ff).
+member_i/member_j of a polyhedron are feature ids (vertex k -> k, edge e -> V + e,
+face f -> V + E + f), those of a sphere its member index, of a wall -1. Rows are written from
+``start`` on while they fit; the kernels return ``start`` + the rows they needed (the
+launcher regrows and reruns).
 """
 
 from __future__ import annotations
@@ -101,7 +102,7 @@ def polyhedron_pairs_kernel(
     world_normals, world_offsets, face_start, face_count, face_vertex_start, face_vertices,
     edge_start, edge_count, edges, edge_faces, vertex_start, vertex_count,
     vertex_neighbour_start, vertex_neighbours, sphere_body_start, world_centres, world_radii,
-    alert, cos_tol, sin_tol, start,
+    alert, cos_tol, sin_tol, max_points, start,
     body_i, body_j, member_i, member_j, point, normal, gap, contact_type,
 ):
     """Contacts (gap <= alert) of the candidate pairs (P, 2) with at least one polyhedron
@@ -143,7 +144,7 @@ def polyhedron_pairs_kernel(
             count, code = pair_manifold(
                 va, na, oa, fsa, face_vertices, ea, efa, nsa, vertex_neighbours,
                 vb, nb, ob, fsb, face_vertices, eb, efb, nsb, vertex_neighbours,
-                g, n_out, alert, cos_tol, sin_tol, pts, gps, ida, idb)
+                g, n_out, alert, cos_tol, sin_tol, max_points, pts, gps, ida, idb)
             for r in range(count):
                 _store(row, i, j, ida[r], idb[r], gps[r], n_out, pts[r], code,
                        body_i, body_j, member_i, member_j, point, normal, gap, contact_type)
@@ -170,7 +171,7 @@ def polyhedron_walls_kernel(
     body_vertex_start, world_vertices, body_face_start, world_normals, face_start,
     face_count, face_vertex_start, face_vertices, edge_start, edge_count, edges,
     vertex_start, vertex_count, vertex_neighbour_start, vertex_neighbours,
-    alert, cos_tol, sin_tol, start,
+    alert, cos_tol, sin_tol, max_points, start,
     body_i, body_j, member_i, member_j, point, normal, gap, contact_type,
 ):
     """Contacts (gap <= alert) of the polyhedron bodies with plane walls (points (W, 3) [m],
@@ -195,7 +196,7 @@ def polyhedron_walls_kernel(
                 face_vertices, edges[edge_start[s]:edge_start[s] + edge_count[s]],
                 vertex_neighbour_start[vertex_start[s]:vertex_start[s] + vertex_count[s] + 1],
                 vertex_neighbours, wall_points[w], wall_normals[w], alert, cos_tol, sin_tol,
-                pts, gps, ids)
+                max_points, pts, gps, ids)
             for r in range(count):
                 _store(row, -1 - w, n, -1, ids[r], gps[r], wall_normals[w], pts[r], code,
                        body_i, body_j, member_i, member_j, point, normal, gap, contact_type)
