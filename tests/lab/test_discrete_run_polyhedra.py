@@ -4,6 +4,7 @@ through a checkpoint (every array of the library), and the time-step length."""
 from __future__ import annotations
 
 import dataclasses
+import shutil
 
 import numpy as np
 import pytest
@@ -16,11 +17,12 @@ from grainlab.lab.discrete_test import time_step_length
 from grainlab.lab.run_config import RunConfig
 
 TINY = {
-    "sample": {"shape": "polyhedron", "n_faces": 20, "templates": 3, "n_particles": 12,
-               "seed": 1},
+    "sample": {"shape": "polyhedron", "n_faces": 30, "templates": 3, "n_particles": 8,
+               "seed": 2},
     "test": {"kind": "triaxial", "eps_q_max": 0.01},
-    "solver": {"compaction_inertia_number": 0.05, "inertia_number": 0.01, "sweep": "serial"},
-    "output": {"record_every": 10, "checkpoint_every": 50},
+    "solver": {"compaction_inertia_number": 0.05, "inertia_number": 0.01, "sweep": "serial",
+               "compaction_time_step_factor": 0.02},
+    "output": {"record_every": 10, "checkpoint_every": 0},
 }
 
 
@@ -39,15 +41,15 @@ def test_polyhedron_library_goes_through_a_checkpoint(tmp_path):
     config = RunConfig.model_validate(TINY)
     run = start_run(tmp_path / "run", config)
     library = run.test.sample.library
-    assert library.n_shapes == 12 and library.vertices.shape[0] > 0
+    assert library.n_shapes == 8 and library.vertices.shape[0] > 0
     saved = read_checkpoint(run.checkpoint())
     for f in dataclasses.fields(ShapeLibrary):
         np.testing.assert_array_equal(getattr(saved["library"], f.name),
                                       getattr(library, f.name), err_msg=f.name)
     np.testing.assert_array_equal(saved["state"].orientations,
                                   run.test.sample.state.orientations)
-    assert saved["description"]["n_faces"] == 20 and saved["description"]["templates"] == 3
-    assert RunConfig.read(tmp_path / "run" / "config.toml").sample.n_faces == 20
+    assert saved["description"]["n_faces"] == 30 and saved["description"]["templates"] == 3
+    assert RunConfig.read(tmp_path / "run" / "config.toml").sample.n_faces == 30
 
 
 def test_time_step_length_is_the_smallest_inscribed_or_member_diameter():
@@ -62,11 +64,23 @@ def test_time_step_length_is_the_smallest_inscribed_or_member_diameter():
 
 @pytest.fixture(scope="module")
 def polyhedra_run(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("poly") / "triaxial"
+    """A tiny triaxial run; its folder is also copied as it stands at the end of compaction
+    (checkpoint just written), as if the run had been killed there."""
+    root = tmp_path_factory.mktemp("poly")
+    folder, killed = root / "triaxial", root / "killed"
     config = RunConfig.model_validate(TINY).with_updates(
         {"output": {"snapshot_every": 20, "vtk_every": 200}})
-    result = start_run(folder, config).run()
-    return folder, config, result
+    run = start_run(folder, config)
+    stage_ended = run.test.on_stage_end
+
+    def copy_after_the_checkpoint(test):
+        stage_ended(test)
+        if not killed.exists():
+            shutil.copytree(folder, killed)
+
+    run.test.on_stage_end = copy_after_the_checkpoint
+    result = run.run()
+    return folder, killed, result
 
 
 def test_polyhedra_triaxial_runs_with_pair_types(polyhedra_run):
@@ -114,16 +128,13 @@ def test_polyhedra_checkpoint_exports_faceted_shapes(polyhedra_run, tmp_path):
     assert set(contacts.cell_data_dict["contact_type"]["line"].tolist()) <= {1, 2, 3, 4}
 
 
-def test_polyhedra_run_resumed_from_a_checkpoint_reproduces_the_rows(polyhedra_run,
-                                                                     tmp_path):
+def test_polyhedra_run_resumed_from_a_checkpoint_reproduces_the_rows(polyhedra_run):
     from grainlab.lab.discrete_run import resume_run
 
-    _, config, reference = polyhedra_run
-    folder = tmp_path / "interrupted"
-    first = start_run(folder, config)
-    first.run(max_steps=config.output.checkpoint_every + 15)  # then "killed"
-    run = resume_run(folder)
-    assert run.test.simulation.step_index == config.output.checkpoint_every
+    _, killed, reference = polyhedra_run
+    run = resume_run(killed)
+    compaction = reference.metadata["outcome"]["stages"][0]
+    assert run.test.simulation.step_index == compaction["end_step"]
     table, expected = run.run().table, reference.table
     assert len(table) == len(expected)
     np.testing.assert_array_equal(table["step"], expected["step"])
