@@ -125,16 +125,22 @@ def _support(vertices, nstart, nbrs, dx, dy, dz, start):
 
 
 @njit(inline="always")
-def _seg_seg(p0, p1, q0, q1):
-    """Closest points of segments [p0, p1] and [q0, q1] (each (3,)): (s, t) parameters."""
-    d1 = p1 - p0
-    d2 = q1 - q0
-    r = p0 - q0
-    a = d1 @ d1
-    e = d2 @ d2
-    f = d2 @ r
-    c = d1 @ r
-    b = d1 @ d2
+def _cross(ax, ay, az, bx, by, bz):
+    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+
+
+@njit(inline="always")
+def _seg_seg(p, i0, i1, q, j0, j1):
+    """Closest points of segments [p[i0], p[i1]] and [q[j0], q[j1]] (rows of (n, 3) arrays):
+    the link vector from the first to the second (lx, ly, lz) (scalar code)."""
+    d1x, d1y, d1z = p[i1, 0] - p[i0, 0], p[i1, 1] - p[i0, 1], p[i1, 2] - p[i0, 2]
+    d2x, d2y, d2z = q[j1, 0] - q[j0, 0], q[j1, 1] - q[j0, 1], q[j1, 2] - q[j0, 2]
+    rx, ry, rz = p[i0, 0] - q[j0, 0], p[i0, 1] - q[j0, 1], p[i0, 2] - q[j0, 2]
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    f = d2x * rx + d2y * ry + d2z * rz
+    c = d1x * rx + d1y * ry + d1z * rz
+    b = d1x * d2x + d1y * d2y + d1z * d2z
     denom = a * e - b * b
     if denom > 1e-14 * a * e:
         s = min(1.0, max(0.0, (b * f - c * e) / denom))
@@ -147,17 +153,22 @@ def _seg_seg(p0, p1, q0, q1):
     elif t > 1.0:
         t = 1.0
         s = min(1.0, max(0.0, (b - c) / a))
-    return s, t
+    return t * d2x - s * d1x - rx, t * d2y - s * d1y - ry, t * d2z - s * d1z - rz
 
 
 @njit(inline="always")
 def _inside_face(x, vertices, fstart, fverts, f, normal):
     """Whether the projection of x along ``normal`` falls inside face f (CCW about normal)."""
     k0, k1 = fstart[f], fstart[f + 1]
+    nx, ny, nz = normal[0], normal[1], normal[2]
     for k in range(k0, k1):
-        p = vertices[fverts[k]]
-        q = vertices[fverts[k0 + (k - k0 + 1) % (k1 - k0)]]
-        if np.dot(np.cross(q - p, x - p), normal) < 0.0:
+        p = fverts[k]
+        q = fverts[k0 + (k - k0 + 1) % (k1 - k0)]
+        ex, ey, ez = vertices[q, 0] - vertices[p, 0], vertices[q, 1] - vertices[p, 1], \
+            vertices[q, 2] - vertices[p, 2]
+        rx, ry, rz = x[0] - vertices[p, 0], x[1] - vertices[p, 1], x[2] - vertices[p, 2]
+        cx, cy, cz = _cross(ex, ey, ez, rx, ry, rz)
+        if cx * nx + cy * ny + cz * nz < 0.0:
             return False
     return True
 
@@ -261,37 +272,44 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
                 <= hi + margin:
             keep_b[n_b] = e
             n_b += 1
-    # edge-edge axes on faces of the Minkowski difference
+    # edge-edge axes on faces of the Minkowski difference (scalar code: no allocation)
     for i in range(n_a):
         e = keep_a[i]
-        a_n = na[efa[e, 0]]
-        b_n = na[efa[e, 1]]
-        a0 = va[ea[e, 0]]
-        ta = va[ea[e, 1]] - a0
-        bxa = np.cross(b_n, a_n)
+        f0, f1 = efa[e, 0], efa[e, 1]
+        ax_, ay_, az_ = na[f0, 0], na[f0, 1], na[f0, 2]
+        bx_, by_, bz_ = na[f1, 0], na[f1, 1], na[f1, 2]
+        u0, u1 = ea[e, 0], ea[e, 1]
+        a0x, a0y, a0z = va[u0, 0], va[u0, 1], va[u0, 2]
+        tax, tay, taz = va[u1, 0] - a0x, va[u1, 1] - a0y, va[u1, 2] - a0z
+        bxa_x, bxa_y, bxa_z = _cross(bx_, by_, bz_, ax_, ay_, az_)
+        ta2 = tax * tax + tay * tay + taz * taz
         for j in range(n_b):
             k = keep_b[j]
-            c_n = -nb[efb[k, 0]]
-            d_n = -nb[efb[k, 1]]
-            dxc = np.cross(d_n, c_n)
-            cba = c_n @ bxa
-            dba = d_n @ bxa
-            adc = a_n @ dxc
-            bdc = b_n @ dxc
-            if not (cba * dba < 0.0 and adc * bdc < 0.0 and cba * bdc > 0.0):
+            g0, g1 = efb[k, 0], efb[k, 1]
+            cx_, cy_, cz_ = -nb[g0, 0], -nb[g0, 1], -nb[g0, 2]
+            dx_, dy_, dz_ = -nb[g1, 0], -nb[g1, 1], -nb[g1, 2]
+            cba = cx_ * bxa_x + cy_ * bxa_y + cz_ * bxa_z
+            dba = dx_ * bxa_x + dy_ * bxa_y + dz_ * bxa_z
+            if cba * dba >= 0.0:
                 continue
-            b0 = vb[eb[k, 0]]
-            tb = vb[eb[k, 1]] - b0
-            axis = np.cross(ta, tb)
-            size = math.sqrt(axis @ axis)
-            if size <= 1e-12 * math.sqrt((ta @ ta) * (tb @ tb)):
+            dxc_x, dxc_y, dxc_z = _cross(dx_, dy_, dz_, cx_, cy_, cz_)
+            adc = ax_ * dxc_x + ay_ * dxc_y + az_ * dxc_z
+            bdc = bx_ * dxc_x + by_ * dxc_y + bz_ * dxc_z
+            if not (adc * bdc < 0.0 and cba * bdc > 0.0):
                 continue
-            axis = axis / size
-            if axis @ (a0 - ca) < 0.0:
-                axis = -axis
-            s = axis @ (b0 - a0)
+            w0, w1 = eb[k, 0], eb[k, 1]
+            b0x, b0y, b0z = vb[w0, 0], vb[w0, 1], vb[w0, 2]
+            tbx, tby, tbz = vb[w1, 0] - b0x, vb[w1, 1] - b0y, vb[w1, 2] - b0z
+            sx_, sy_, sz_ = _cross(tax, tay, taz, tbx, tby, tbz)
+            size = math.sqrt(sx_ * sx_ + sy_ * sy_ + sz_ * sz_)
+            if size <= 1e-12 * math.sqrt(ta2 * (tbx * tbx + tby * tby + tbz * tbz)):
+                continue
+            sx_, sy_, sz_ = sx_ / size, sy_ / size, sz_ / size
+            if sx_ * (a0x - ca[0]) + sy_ * (a0y - ca[1]) + sz_ * (a0z - ca[2]) < 0.0:
+                sx_, sy_, sz_ = -sx_, -sy_, -sz_
+            s = sx_ * (b0x - a0x) + sy_ * (b0y - a0y) + sz_ * (b0z - a0z)
             if s > best:
-                best, bx, by, bz = s, axis[0], axis[1], axis[2]
+                best, bx, by, bz = s, sx_, sy_, sz_
     if best > alert:
         return best, False
     normal_out[0], normal_out[1], normal_out[2] = bx, by, bz
@@ -305,7 +323,7 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
         if a[0] * sx + a[1] * sy + a[2] * sz < lo - margin:
             continue
         for f in range(nb.shape[0]):
-            d = nb[f] @ a - ob[f]
+            d = nb[f, 0] * a[0] + nb[f, 1] * a[1] + nb[f, 2] * a[2] - ob[f]
             if d < 0.0 or d >= exact:
                 continue
             if _inside_face(a, vb, fsb, fvb, f, nb[f]):
@@ -315,23 +333,20 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
         if b[0] * sx + b[1] * sy + b[2] * sz > hi + margin:
             continue
         for f in range(na.shape[0]):
-            d = na[f] @ b - oa[f]
+            d = na[f, 0] * b[0] + na[f, 1] * b[1] + na[f, 2] * b[2] - oa[f]
             if d < 0.0 or d >= exact:
                 continue
             if _inside_face(b, va, fsa, fva, f, na[f]):
                 exact, nx, ny, nz = d, na[f, 0], na[f, 1], na[f, 2]
     for i in range(n_a):
         e = keep_a[i]
-        p0, p1 = va[ea[e, 0]], va[ea[e, 1]]
         for j in range(n_b):
             k = keep_b[j]
-            q0, q1 = vb[eb[k, 0]], vb[eb[k, 1]]
-            s, t = _seg_seg(p0, p1, q0, q1)
-            link = (q0 + t * (q1 - q0)) - (p0 + s * (p1 - p0))
-            d = math.sqrt(link @ link)
+            lx, ly, lz = _seg_seg(va, ea[e, 0], ea[e, 1], vb, eb[k, 0], eb[k, 1])
+            d = math.sqrt(lx * lx + ly * ly + lz * lz)
             if d < exact and d > 0.0:
                 exact = d
-                nx, ny, nz = link[0] / d, link[1] / d, link[2] / d
+                nx, ny, nz = lx / d, ly / d, lz / d
     if exact < _HUGE and exact > best * (1.0 + 1e-9) + 1e-15:
         normal_out[0], normal_out[1], normal_out[2] = nx, ny, nz
         return exact, exact <= alert
@@ -466,7 +481,8 @@ def pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     n_ea = 0
     for e in range(nea):
         p, q = ea[e, 0], ea[e, 1]
-        if max(va[p] @ normal, va[q] @ normal) >= hi - band - limit and \
+        if max(va[p, 0] * nx + va[p, 1] * ny + va[p, 2] * nz,
+               va[q, 0] * nx + va[q, 1] * ny + va[q, 2] * nz) >= hi - band - limit and \
                 _upper_edge(na, efa, e, nx, ny, nz):
             edge_a[n_ea] = e
             n_ea += 1
@@ -474,7 +490,8 @@ def pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     n_eb = 0
     for e in range(neb):
         p, q = eb[e, 0], eb[e, 1]
-        if min(vb[p] @ normal, vb[q] @ normal) <= lo + band + limit and \
+        if min(vb[p, 0] * nx + vb[p, 1] * ny + vb[p, 2] * nz,
+               vb[q, 0] * nx + vb[q, 1] * ny + vb[q, 2] * nz) <= lo + band + limit and \
                 _upper_edge(nb, efb, e, -nx, -ny, -nz):
             edge_b[n_eb] = e
             n_eb += 1
@@ -502,31 +519,38 @@ def pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
             cid_a[count] = cap_a[k]
             cid_b[count] = nvb + neb + f
             count += 1
-    for i in range(n_ea):  # crossings of facing cap edges seen along n
+    for i in range(n_ea):  # crossings of facing cap edges seen along n (scalar code)
         e = edge_a[i]
-        p0 = va[ea[e, 0]]
-        da = va[ea[e, 1]] - p0
-        da_perp = da - (da @ normal) * normal
+        u0, u1 = ea[e, 0], ea[e, 1]
+        p0x, p0y, p0z = va[u0, 0], va[u0, 1], va[u0, 2]
+        dax, day, daz = va[u1, 0] - p0x, va[u1, 1] - p0y, va[u1, 2] - p0z
+        la = dax * dax + day * day + daz * daz
         for j in range(n_eb):
             k = edge_b[j]
-            q0 = vb[eb[k, 0]]
-            db = vb[eb[k, 1]] - q0
-            db_perp = db - (db @ normal) * normal
-            w = q0 - p0
-            w_perp = w - (w @ normal) * normal
-            cross = np.cross(da_perp, db_perp) @ normal
-            scale = math.sqrt((da_perp @ da_perp) * (db_perp @ db_perp))
-            if abs(cross) <= 1e-12 * scale:
+            w0, w1 = eb[k, 0], eb[k, 1]
+            q0x, q0y, q0z = vb[w0, 0], vb[w0, 1], vb[w0, 2]
+            dbx, dby, dbz = vb[w1, 0] - q0x, vb[w1, 1] - q0y, vb[w1, 2] - q0z
+            # (u x v) . n is the same for u, v and their parts normal to n
+            cx, cy, cz = _cross(dax, day, daz, dbx, dby, dbz)
+            cross = cx * nx + cy * ny + cz * nz
+            if abs(cross) <= 1e-12 * math.sqrt(la * (dbx * dbx + dby * dby + dbz * dbz)):
                 continue
-            s = (np.cross(w_perp, db_perp) @ normal) / cross
-            t = (np.cross(w_perp, da_perp) @ normal) / cross
-            if s < 0.0 or s > 1.0 or t < 0.0 or t > 1.0:
+            wx, wy, wz = q0x - p0x, q0y - p0y, q0z - p0z
+            cx, cy, cz = _cross(wx, wy, wz, dbx, dby, dbz)
+            s = (cx * nx + cy * ny + cz * nz) / cross
+            if s < 0.0 or s > 1.0:
                 continue
-            pa = p0 + s * da
-            pb = q0 + t * db
-            gap_k = (pb - pa) @ normal
+            cx, cy, cz = _cross(wx, wy, wz, dax, day, daz)
+            t = (cx * nx + cy * ny + cz * nz) / cross
+            if t < 0.0 or t > 1.0:
+                continue
+            pax, pay, paz = p0x + s * dax, p0y + s * day, p0z + s * daz
+            pbx, pby, pbz = q0x + t * dbx, q0y + t * dby, q0z + t * dbz
+            gap_k = (pbx - pax) * nx + (pby - pay) * ny + (pbz - paz) * nz
             if gap_k <= limit:
-                cand[count] = 0.5 * (pa + pb)
+                cand[count, 0] = 0.5 * (pax + pbx)
+                cand[count, 1] = 0.5 * (pay + pby)
+                cand[count, 2] = 0.5 * (paz + pbz)
                 local[count] = gap_k
                 cid_a[count] = nva + e
                 cid_b[count] = nvb + k
