@@ -231,6 +231,7 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
     if -low_b - top_a > alert:
         return -low_b - top_a, False
     best = -_HUGE
+    best_kind, best_f, best_g = -1, -1, -1  # 0 face of A, 1 face of B, 2 edge pair
     bx, by, bz = 0.0, 0.0, 1.0
     # face axes of A: s = min_b n.b - O_a
     start = 0
@@ -239,6 +240,7 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
         s = -neg - oa[f]
         if s > best:
             best, bx, by, bz = s, na[f, 0], na[f, 1], na[f, 2]
+            best_kind, best_f = 0, f
             if s > alert:
                 return s, False
     # face axes of B: the axis from A to B is -n_b; s = min_a n_b.a - O_b
@@ -248,6 +250,7 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
         s = -neg - ob[f]
         if s > best:
             best, bx, by, bz = s, -nb[f, 0], -nb[f, 1], -nb[f, 2]
+            best_kind, best_f = 1, f
             if s > alert:
                 return s, False
     # slab of the best face axis
@@ -310,12 +313,28 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
             s = sx_ * (b0x - a0x) + sy_ * (b0y - a0y) + sz_ * (b0z - a0z)
             if s > best:
                 best, bx, by, bz = s, sx_, sy_, sz_
+                best_kind, best_f, best_g = 2, e, k
     if best > alert:
         return best, False
     normal_out[0], normal_out[1], normal_out[2] = bx, by, bz
     if best <= 0.0:
         return best, True
-    # apart: exact distance over the features near the slab
+    # apart: the SAT value is the distance when its witness features realise it (a vertex
+    # over the face, or the closest points of the two edges inside both): O(1) check
+    if best_kind == 0:
+        w, _ = _support(vb, nsb, nbb, -bx, -by, -bz, 0)
+        if _inside_face(vb[w], va, fsa, fva, best_f, na[best_f]):
+            return best, True
+    elif best_kind == 1:
+        w, _ = _support(va, nsa, nba, bx, by, bz, 0)
+        if _inside_face(va[w], vb, fsb, fvb, best_f, nb[best_f]):
+            return best, True
+    elif best_kind == 2:
+        lx, ly, lz = _seg_seg(va, ea[best_f, 0], ea[best_f, 1], vb, eb[best_g, 0],
+                              eb[best_g, 1])
+        if math.sqrt(lx * lx + ly * ly + lz * lz) <= best * (1.0 + 1e-12) + 1e-300:
+            return best, True
+    # otherwise (vertex-vertex, vertex-edge): exact distance over the features near the slab
     exact = _HUGE
     nx, ny, nz = bx, by, bz
     for v in range(va.shape[0]):
