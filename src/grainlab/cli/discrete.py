@@ -48,6 +48,15 @@ def _figures(folder: Path, result) -> list[Path]:
     return paths
 
 
+def _type_fractions(row) -> str:
+    """", contact types fv 0.12 ee ..." from the fraction_<type> columns (polyhedra)."""
+    names = [k for k in row.index if str(k).startswith("fraction_")]
+    if not names:
+        return ""
+    return ", contact types " + " ".join(f"{k[len('fraction_'):]} {row[k]:.3f}"
+                                         for k in names)
+
+
 def _summary(result) -> None:
     table = result.table
     last = table.iloc[-1]
@@ -59,14 +68,15 @@ def _summary(result) -> None:
         c = compaction.iloc[-1]
         console.print(f"end of compaction: packing fraction {c['packing_fraction']:.4f}, "
                       f"z {c['z']:.3f} (no rattlers {c['z_no_rattlers']:.3f}), "
-                      f"p {c['p']:.4g} Pa")
+                      f"z_c {c['z_c']:.3f}, p {c['p']:.4g} Pa{_type_fractions(c)}")
     if len(shear) > 2:
         peak = shear["q_over_p"].max()
         late = shear[shear["eps_q"] >= 0.7 * shear["eps_q"].max()]
         console.print(f"shear: peak q/p {peak:.4f}; over the last 30 % of eps_q: q/p "
                       f"{late['q_over_p'].mean():.4f}, packing fraction "
                       f"{late['packing_fraction'].mean():.4f}, z {late['z'].mean():.3f}; "
-                      f"max inertia number {shear['inertia_number'].max():.2e}")
+                      f"max inertia number {shear['inertia_number'].max():.2e}"
+                      f"{_type_fractions(late.mean(numeric_only=True))}")
 
 
 def _run(kind: str, out: Path, config_file: Path | None, overrides: dict, overwrite: bool,
@@ -80,8 +90,11 @@ def _run(kind: str, out: Path, config_file: Path | None, overrides: dict, overwr
     overrides["test"]["kind"] = kind
     config = config.with_updates(overrides)
     run = start_run(out, config, overwrite=overwrite)
-    console.print(f"run folder [bold]{out}[/] ({config.sample.n_particles} "
-                  f"{config.sample.shape}s, {kind}); Ctrl-C checkpoints, "
+    sample = config.sample
+    shapes = {"sphere": "spheres", "aggregate": "aggregates",
+              "polyhedron": f"polyhedra of {sample.n_faces} faces"}[sample.shape]
+    console.print(f"run folder [bold]{out}[/] ({sample.n_particles} {shapes}, {kind}); "
+                  f"Ctrl-C checkpoints, "
                   f"`grainlab resume {out}` continues")
     result = run.run(progress=progress)
     _summary(result)
@@ -91,12 +104,19 @@ def _run(kind: str, out: Path, config_file: Path | None, overrides: dict, overwr
 
 def _options(shape, n, d_min, size_ratio, eta, density, mu, sigma0, inertia, seed, dt,
              tolerance, sweep, record_every, snapshot_every, checkpoint_every, vtk_every,
-             max_iterations=None):
-    if shape not in (None, "sphere", "aggregate"):
-        raise InputError("--shape", shape, "sphere or aggregate")
+             max_iterations=None, faces=None, templates=None):
+    if shape not in (None, "sphere", "aggregate", "polyhedron"):
+        raise InputError("--shape", shape, "sphere, aggregate or polyhedron")
+    if faces is not None and (faces < 8 or faces % 2):
+        raise InputError("--faces", faces, "an even number of faces >= 8 (seed 002 Table I: "
+                                           "8, 20, 30, 46, 96, 176, 596)")
+    if templates is not None and templates < 0:
+        raise InputError("--templates", templates,
+                         "an integer >= 0 (0: every polyhedron its own)")
     return {
         "sample": {"shape": shape, "n_particles": n, "d_min": d_min, "size_ratio": size_ratio,
-                   "eta": eta, "density": density, "seed": seed},
+                   "eta": eta, "n_faces": faces, "templates": templates, "density": density,
+                   "seed": seed},
         "test": {"sigma0": sigma0},
         "solver": {"friction": mu, "inertia_number": inertia, "dt": dt,
                    "tolerance": tolerance, "sweep": sweep, "max_iterations": max_iterations},
@@ -106,11 +126,17 @@ def _options(shape, n, d_min, size_ratio, eta, density, mu, sigma0, inertia, see
 
 
 # Shared options (None: the config file's or the default value).
-_SHAPE = typer.Option(None, "--shape", help="sphere | aggregate (seed 003 tetrahedral).")
+_SHAPE = typer.Option(None, "--shape", help="sphere | aggregate (seed 003 tetrahedral) | "
+                                             "polyhedron (seed 002 random convex).")
 _N = typer.Option(None, "-n", "--n-particles", help="Number of particles [default 1000].")
 _DMIN = typer.Option(None, "--d-min", help="Smallest diameter [m] [default 1e-3].")
 _RATIO = typer.Option(None, "--size-ratio", help="d_max/d_min, uniform by volume [2].")
 _ETA = typer.Option(None, "--eta", help="Aggregate non-convexity (R-R')/R [0.4].")
+_FACES = typer.Option(None, "--faces", help="Faces of each polyhedron, even, >= 8 (seed 002: "
+                                            "8, 20, 30, 46, 96, 176, 596) [30].")
+_TEMPLATES = typer.Option(None, "--templates",
+                          help="Polyhedra: 0 = every particle its own random shape (seed 002); "
+                               "K = K shapes reused in random orientations (faster) [0].")
 _RHO = typer.Option(None, "--density", help="Particle density [kg/m^3] [2600].")
 _MU = typer.Option(None, "--mu", help="Interparticle friction in shear [0.4].")
 _SIGMA0 = typer.Option(None, "--sigma0", help="Confining stress [Pa] [1e4].")
@@ -135,7 +161,8 @@ _PROGRESS = typer.Option(True, "--progress/--no-progress", help="Show a progress
 @friendly_errors
 def triaxial_command(
     out: Path = _OUT, shape: str = _SHAPE, n: int = _N, d_min: float = _DMIN,
-    size_ratio: float = _RATIO, eta: float = _ETA, density: float = _RHO, mu: float = _MU,
+    size_ratio: float = _RATIO, eta: float = _ETA, faces: int = _FACES,
+    templates: int = _TEMPLATES, density: float = _RHO, mu: float = _MU,
     sigma0: float = _SIGMA0, inertia: float = _INERTIA,
     eps_q: float = typer.Option(None, "--eps-q", help="Deviatoric strain to reach [0.5]."),
     seed: int = _SEED, dt: float = _DT, tolerance: float = _TOL, sweep: str = _SWEEP,
@@ -150,7 +177,7 @@ def triaxial_command(
     until eps_q = eps_1 - eps_3 reaches EPS_Q."""
     overrides = _options(shape, n, d_min, size_ratio, eta, density, mu, sigma0, inertia, seed,
                          dt, tolerance, sweep, record_every, snapshot_every, checkpoint_every,
-                         vtk_every, max_iterations)
+                         vtk_every, max_iterations, faces, templates)
     overrides["test"]["eps_q_max"] = eps_q
     _run("triaxial", out, config, overrides, overwrite, progress)
 
@@ -158,7 +185,8 @@ def triaxial_command(
 @friendly_errors
 def compaction_command(
     out: Path = _OUT, shape: str = _SHAPE, n: int = _N, d_min: float = _DMIN,
-    size_ratio: float = _RATIO, eta: float = _ETA, density: float = _RHO,
+    size_ratio: float = _RATIO, eta: float = _ETA, faces: int = _FACES,
+    templates: int = _TEMPLATES, density: float = _RHO,
     sigma0: float = _SIGMA0, seed: int = _SEED, dt: float = _DT, tolerance: float = _TOL,
     sweep: str = _SWEEP, record_every: int = _RECORD, snapshot_every: int = _SNAP,
     checkpoint_every: int = _CKPT, vtk_every: int = _VTK, config: Path = _CONFIG,
@@ -168,14 +196,15 @@ def compaction_command(
     seed 002's preparation) until quasi-static; reports packing fraction and z."""
     overrides = _options(shape, n, d_min, size_ratio, eta, density, None, sigma0, None, seed,
                          dt, tolerance, sweep, record_every, snapshot_every, checkpoint_every,
-                         vtk_every)
+                         vtk_every, faces=faces, templates=templates)
     _run("compaction", out, config, overrides, overwrite, progress)
 
 
 @friendly_errors
 def oedometer_command(
     out: Path = _OUT, shape: str = _SHAPE, n: int = _N, d_min: float = _DMIN,
-    size_ratio: float = _RATIO, eta: float = _ETA, density: float = _RHO, mu: float = _MU,
+    size_ratio: float = _RATIO, eta: float = _ETA, faces: int = _FACES,
+    templates: int = _TEMPLATES, density: float = _RHO, mu: float = _MU,
     sigma0: float = _SIGMA0, inertia: float = _INERTIA,
     axial_strain: float = typer.Option(None, "--axial-strain",
                                        help="Vertical strain of loading [0.05]."),
@@ -190,7 +219,7 @@ def oedometer_command(
     isotropic compaction to SIGMA0; K0 = sigma_xx / sigma_zz in the results."""
     overrides = _options(shape, n, d_min, size_ratio, eta, density, mu, sigma0, inertia, seed,
                          dt, tolerance, sweep, record_every, snapshot_every, checkpoint_every,
-                         vtk_every)
+                         vtk_every, faces=faces, templates=templates)
     overrides["test"].update({"axial_strain": axial_strain, "unload_strain": unload_strain})
     _run("oedometer", out, config, overrides, overwrite, progress)
 

@@ -518,7 +518,7 @@ class ContactDynamicsStep:
             self.alert_growths += 1
         if self._narrow is None:
             alert = self.alert if self.alert is not None else \
-                0.1 * float(library.sphere_radii.min())
+                0.1 * _smallest_radius(library)
             self._broad = CellListBroadPhase(alert=alert)
             self._narrow = NarrowPhase(alert=alert)
         return self._broad, self._narrow
@@ -697,14 +697,23 @@ class ContactDynamicsStep:
 
 def _contact_keys(contacts: Contacts, n_bodies: int, library: ShapeLibrary) -> np.ndarray:
     """One int64 key per contact (body_i, body_j, member_i, member_j): warm starts match the
-    same member pair from step to step (walls: body_i = -1 - w, member_i = -1)."""
-    stride_m = int(library.sphere_count.max()) + 1
+    same member pair (polyhedra: feature pair) from step to step (walls: body_i = -1 - w,
+    member_i = -1)."""
+    stride_m = max(int(library.sphere_count.max()), library.max_features) + 1
     stride_b = n_bodies + 64  # room for up to 63 walls below body 0
     bi = contacts.body_i.astype(np.int64) + 64
     bj = contacts.body_j.astype(np.int64)
     mi = contacts.member_i.astype(np.int64) + 1
     mj = contacts.member_j.astype(np.int64)
     return ((bi * stride_b + bj) * stride_m + mi) * stride_m + mj
+
+
+def _smallest_radius(library: ShapeLibrary) -> float:
+    """Smallest member-sphere radius or polyhedron inradius about the centre of mass [m]."""
+    radii = [library.sphere_radii]
+    if library.face_offsets.size:
+        radii.append(np.abs(library.face_offsets))
+    return float(np.concatenate(radii).min())
 
 
 def _skew(r: np.ndarray) -> np.ndarray:

@@ -1,5 +1,6 @@
-"""Narrow phase for sphere-based bodies: contact points of candidate pairs and of walls
-(Numba; STYLE.md 2, 3, 8; research/cd_engines.md 6.4).
+"""Narrow phase: contact points of candidate pairs and of walls, for sphere-based bodies here
+and for convex polyhedra through :mod:`grainlab.engine.polyhedron_narrow_phase` (Numba;
+STYLE.md 2, 3, 8; research/cd_engines.md 6.4).
 
 Spheres and aggregates are both lists of member spheres (:class:`~grainlab.engine.state.
 ShapeLibrary`), so one geometry serves all sphere-based shape pairs (sphere-sphere,
@@ -25,10 +26,17 @@ its bounding sphere is within the alert distance.
 Output, rows 0 .. C-1 of arrays allocated by the launcher (C, ...): ``body_i``, ``body_j``,
 ``member_i``, ``member_j`` (member index inside its shape, 0 .. count-1), ``point`` (C, 3) [m],
 ``normal`` (C, 3), ``gap`` (C,) [m]. Body-pair contacts come first, in the order of the
-candidate pairs and then of the members (a, b) lexicographically; wall contacts follow, by wall
-then body then member. The kernels return the number of rows they needed and write only the
-rows that fit; the launcher grows the buffers (to 1.25 x the need) and runs again, never
-truncating (STYLE.md 8). The pair loop is serial so that the order above is deterministic.
+candidate pairs and then of the members (a, b) lexicographically; then the rows of the pairs
+with a polyhedron (polyhedron-polyhedron: 1-4 points of the pair's manifold; polyhedron-member
+sphere: 1 point per member), in the order of the candidate pairs; wall contacts follow, by wall
+then body then member, then the polyhedron-wall rows by wall then body. ``contact_type`` (C,)
+int8 is 0 on sphere-based rows and the pair's type code (1 fv, 2 ee, 3 fe, 4 ff; names
+:data:`POLYHEDRON_CONTACT_TYPE_NAMES`) on every row of a pair with a polyhedron; member ids of a
+polyhedron are feature ids (vertex k -> k, edge e -> V + e, face f -> V + E + f), stable while
+the same features touch (warm-start keys). The kernels return the number of rows they needed
+and write only the rows that fit; the launcher grows the buffers (to 1.25 x the need) and runs
+again, never truncating (STYLE.md 8). The pair loop is serial so that the order above is
+deterministic.
 
 >>> import numpy as np
 >>> from grainlab.engine.state import BodyState, ShapeLibrary
@@ -47,11 +55,21 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
+from grainlab.engine.polyhedron_narrow_phase import (
+    angle_tolerances,
+    polyhedron_pairs_kernel,
+    polyhedron_walls_kernel,
+    world_polyhedra,
+)
 from grainlab.engine.quaternion import rotate
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
+from grainlab.geometry.polyhedron_contact import ANGLE_TOLERANCE
 
 _GROWTH = 1.25
+
+POLYHEDRON_CONTACT_TYPE_NAMES = ("", "fv", "ee", "fe", "ff")
+"""Names of the ``contact_type`` codes of pairs with a polyhedron (0: sphere-based rows)."""
 
 CONTACT_CLASS_NAMES = ("s", "ds", "d", "t", "q", "m")
 """Names of the codes of :func:`classify_aggregate_pairs`: simple, double-simple, double,
@@ -189,7 +207,9 @@ class Contacts:
 
     ``body_i``, ``body_j``, ``member_i``, ``member_j`` (C,) int64; ``point`` (C, 3) [m];
     ``normal`` (C, 3) unit, from i to j; ``gap`` (C,) [m], negative when overlapping. A wall
-    w appears as body_i = -1 - w with member_i = -1.
+    w appears as body_i = -1 - w with member_i = -1. ``contact_type`` (C,) int8: 0 for
+    sphere-based rows, else the polyhedron pair's type (:data:`POLYHEDRON_CONTACT_TYPE_NAMES`);
+    zeros when not given.
     """
 
     body_i: np.ndarray
@@ -199,6 +219,12 @@ class Contacts:
     point: np.ndarray
     normal: np.ndarray
     gap: np.ndarray
+    contact_type: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.contact_type is None:
+            object.__setattr__(self, "contact_type",
+                               np.zeros(np.asarray(self.gap).shape[0], dtype=np.int8))
 
     @property
     def n_contacts(self) -> int:
@@ -243,9 +269,17 @@ class NarrowPhase:
         Alert distance [m] >= 0: member pairs with gap <= alert are contacts.
     capacity:
         Initial rows of the output buffers (>= 1); they grow when a call needs more.
+    angle_tolerance:
+        Angle [rad] classifying the supporting features of polyhedra (face parallel / edge
+        perpendicular to the normal within it; :mod:`grainlab.geometry.polyhedron_contact`).
+    max_points:
+        Points kept per polyhedron manifold: 3 (default, seed 002's flat contact) or 4 (the
+        corner a triangle leaves out is held too, at the cost of hyperstatic contacts:
+        :mod:`grainlab.geometry.polyhedron_contact`).
     """
 
-    def __init__(self, alert: float, capacity: int = 1024) -> None:
+    def __init__(self, alert: float, capacity: int = 1024,
+                 angle_tolerance: float = ANGLE_TOLERANCE, max_points: int = 3) -> None:
         try:
             value = float(alert)
         except (TypeError, ValueError):
@@ -255,6 +289,16 @@ class NarrowPhase:
         if isinstance(capacity, bool) or not isinstance(capacity, int | np.integer) \
                 or capacity < 1:
             raise InputError("capacity", capacity, "an integer >= 1 (rows)")
+        try:
+            angle = float(angle_tolerance)
+        except (TypeError, ValueError):
+            angle = math.nan
+        if not (math.isfinite(angle) and 0.0 <= angle < 0.5 * math.pi):
+            raise InputError("angle_tolerance", angle_tolerance, "an angle in [0, pi/2) in rad")
+        self.angle_tolerance = angle
+        if max_points not in (3, 4) or isinstance(max_points, bool):
+            raise InputError("max_points", max_points, "3 or 4")
+        self.max_points = int(max_points)
         self.alert = value
         self.n_regrowths = 0
         self._allocate(int(capacity))
@@ -264,12 +308,13 @@ class NarrowPhase:
             np.empty(rows, dtype=np.int64), np.empty(rows, dtype=np.int64),
             np.empty(rows, dtype=np.int64), np.empty(rows, dtype=np.int64),
             np.empty((rows, 3)), np.empty((rows, 3)), np.empty(rows),
+            np.zeros(rows, dtype=np.int8),
         )
 
     @property
     def capacity(self) -> int:
         """Rows of the output buffers now."""
-        return int(self._buffers[-1].shape[0])
+        return int(self._buffers[-2].shape[0])
 
     def world_spheres(self, state: BodyState, library: ShapeLibrary):
         """Member spheres in the world frame: (body_start (N + 1,), centres (M, 3) [m],
@@ -299,12 +344,36 @@ class NarrowPhase:
         body_start, centres, radii = self.world_spheres(state, library)
         bounding = np.ascontiguousarray(library.bounding_radius[state.shape_ids])
         positions = np.ascontiguousarray(state.positions)
+        is_poly, bvs, wv, bfs, wn, wo = world_polyhedra(state, library)
+        any_poly = bool(is_poly.any())
+        if any_poly:
+            poly_pairs = np.ascontiguousarray(pairs[is_poly[pairs[:, 0]] | is_poly[pairs[:, 1]]])
+        cos_tol, sin_tol = angle_tolerances(self.angle_tolerance)
+        shape_ids = np.ascontiguousarray(state.shape_ids, dtype=np.int64)
+        lib = library
         while True:
+            self._buffers[-1][:] = 0
+            sphere_rows = self._buffers[:-1]
             n_pair = pair_contacts_kernel(
-                pairs, body_start, centres, radii, self.alert, 0, *self._buffers)
+                pairs, body_start, centres, radii, self.alert, 0, *sphere_rows)
+            if any_poly:
+                n_pair = polyhedron_pairs_kernel(
+                    poly_pairs, is_poly, shape_ids, positions, bvs, wv, bfs, wn, wo,
+                    lib.face_start, lib.face_count, lib.face_vertex_start, lib.face_vertices,
+                    lib.edge_start, lib.edge_count, lib.edges, lib.edge_faces,
+                    lib.vertex_start, lib.vertex_count, lib.vertex_neighbour_start,
+                    lib.vertex_neighbours, body_start, centres, radii, self.alert, cos_tol,
+                    sin_tol, self.max_points, n_pair, *self._buffers)
             n_all = wall_contacts_kernel(
                 points, normals, positions, bounding, body_start, centres, radii, self.alert,
-                n_pair, *self._buffers)
+                n_pair, *sphere_rows)
+            if any_poly:
+                n_all = polyhedron_walls_kernel(
+                    points, normals, positions, bounding, is_poly, shape_ids, bvs, wv, bfs, wn,
+                    lib.face_start, lib.face_count, lib.face_vertex_start, lib.face_vertices,
+                    lib.edge_start, lib.edge_count, lib.edges, lib.vertex_start,
+                    lib.vertex_count, lib.vertex_neighbour_start, lib.vertex_neighbours,
+                    self.alert, cos_tol, sin_tol, self.max_points, n_all, *self._buffers)
             if n_all <= self.capacity:
                 break
             self._allocate(max(math.ceil(_GROWTH * n_all), self.capacity + 1))

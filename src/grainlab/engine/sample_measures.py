@@ -26,6 +26,26 @@ The contact network (analysis layer) keeps the particle-particle contacts that c
 (P_n > 0; the solver also sees open contacts within the alert distance): pairs grouped
 by particle pair, the aggregate pair classes of seed 003 Fig. 8, forces from the impulses
 (f = P / h) and sliding flags (|f_t| >= mu f_n (1 - 1e-6)).
+
+Polyhedra (seed 002 §II.B): the several points of a polyhedron pair are solved as
+independent contacts, but "the net resultant of the calculated forces is attributed to the
+contact with its application point located on the contact plane". In the network each pair
+that involves a polyhedron is ONE interaction with ONE point (:func:`pair_resultants`):
+
+    F = sum_k f_k,    c = sum_k f_n,k p_k / sum_k f_n,k,    n = (sum_k n_k) / |sum_k n_k|
+
+over its loaded points k (f_n,k = f_k . n_k > 0), so c, a convex combination of points on
+the contact plane, lies on it; its type is the pair's fv / ee / fe / ff
+(``Contacts.contact_type``; :data:`PAIR_TYPE_NAMES`). Then z counts particle pairs and the
+connectivity number is seed 002 eq. 14 (eq. 13 with k_fv + k_ee + k_fe + k_ff = 1),
+
+    z_c = z (k_fv + k_ee + 2 k_fe + 3 k_ff) = z (1 + k_fe + 2 k_ff),
+
+i.e. 2 sum_pairs m_type / N with the nominal points m = 1, 1, 2, 3 of each type (the same
+over the pairs between non-rattlers for z_c_no_rattlers). The row also holds
+``fraction_fv`` ... ``fraction_ff`` (k_type among loaded pairs) and ``z_c_points`` =
+2 (loaded solver points between particles) / N, the constraints the solver actually used.
+Spheres and aggregates are unchanged (one network point per member contact).
 """
 
 from __future__ import annotations
@@ -37,11 +57,20 @@ import numpy as np
 from grainlab.analysis.connectivity import Connectivity
 from grainlab.analysis.contact_network import ContactNetwork
 from grainlab.engine.contact_dynamics import StepReport
-from grainlab.engine.narrow_phase import CONTACT_CLASS_NAMES, classify_aggregate_pairs
-from grainlab.engine.state import SHAPE_AGGREGATE, BodyState, ShapeLibrary
+from grainlab.engine.narrow_phase import CONTACT_CLASS_NAMES, Contacts, classify_aggregate_pairs
+from grainlab.engine.state import SHAPE_AGGREGATE, SHAPE_POLYHEDRON, BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
 
 _SLIDING = 1e-6
+
+PAIR_TYPE_NAMES = ("point", "fv", "ee", "fe", "ff")
+"""Names of the pair types of a network with polyhedra, indexed by ``Contacts.contact_type``:
+"point" (0, a pair of sphere-based bodies), "fv", "ee", "fe", "ff" (seed 002; the codes of
+``grainlab.engine.narrow_phase.POLYHEDRON_CONTACT_TYPE_NAMES``)."""
+NOMINAL_POINTS = np.array([1, 1, 1, 2, 3], dtype=np.int64)
+"""Points each pair type stands for in seed 002 eqs. 13-14 (point, fv, ee, fe, ff)."""
+POLYHEDRON_TYPES = PAIR_TYPE_NAMES[1:]
+"""The polyhedron contact types with a ``fraction_<type>`` column in the results."""
 
 
 def world_forces(report: StepReport, dt: float) -> np.ndarray:
@@ -76,41 +105,145 @@ def stress_invariants(stress: np.ndarray) -> dict[str, float]:
             "q": float(q), "q_over_p": float(ratio), "sin_phi": float(sin_phi)}
 
 
+def pair_resultants(body_i: np.ndarray, body_j: np.ndarray, points: np.ndarray,
+                    normals: np.ndarray, forces: np.ndarray, n_bodies: int):
+    """One interaction per body pair from its contact points (module docstring).
+
+    Parameters: ``body_i``, ``body_j`` (C,) int body ids (i < j not required, each pair
+    always in the same order), ``points`` (C, 3) [m], ``normals`` (C, 3) unit, from i to j,
+    ``forces`` (C, 3) [N] on j from i; ``n_bodies`` N. Pairs whose points carry no normal
+    force get the plain mean of their points as centre. A wall w (body_i = -1 - w) works
+    too when ``body_i`` is shifted to be >= 0 by the caller.
+
+    Returns ``pairs`` (P, 2) sorted by i N + j, ``first`` (P,) the first row of each pair,
+    ``counts`` (P,) its number of points, and per pair the resultant ``force`` (P, 3) [N],
+    the force-weighted ``centre`` (P, 3) [m] and the mean unit ``normal`` (P, 3).
+    """
+    key = body_i.astype(np.int64) * n_bodies + body_j
+    pair_keys, first, inverse, counts = np.unique(key, return_index=True, return_inverse=True,
+                                                  return_counts=True)
+    inverse = inverse.reshape(-1)
+    n_pairs = pair_keys.shape[0]
+    pairs = np.stack([pair_keys // n_bodies, pair_keys % n_bodies], axis=1)
+    fn = np.einsum("ci,ci->c", forces, normals)
+    weight = np.bincount(inverse, fn, minlength=n_pairs)
+    force, centre, normal = (np.empty((n_pairs, 3)) for _ in range(3))
+    for axis in range(3):
+        force[:, axis] = np.bincount(inverse, forces[:, axis], minlength=n_pairs)
+        centre[:, axis] = np.bincount(inverse, fn * points[:, axis], minlength=n_pairs)
+        normal[:, axis] = np.bincount(inverse, normals[:, axis], minlength=n_pairs)
+    unloaded = weight <= 0.0  # open points only (VTK of all detected points): plain mean
+    weight[unloaded] = counts[unloaded]
+    for axis in range(3):
+        centre[unloaded, axis] = np.bincount(inverse, points[:, axis],
+                                             minlength=n_pairs)[unloaded]
+    centre /= weight[:, None]
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    return pairs, first, counts, force, centre, normal
+
+
+def contact_types(contacts: Contacts) -> np.ndarray:
+    """(C,) int64 ``contacts.contact_type`` (0 for every row of a narrow phase without
+    polyhedra)."""
+    types = getattr(contacts, "contact_type", None)
+    if types is None:
+        return np.zeros(contacts.n_contacts, dtype=np.int64)
+    return np.asarray(types, dtype=np.int64)
+
+
+def _network_points(contacts: Contacts, rows: np.ndarray, forces: np.ndarray, n: int):
+    """Network points of the loaded particle-particle ``rows``: every row of a sphere-based
+    pair, one resultant point per pair involving a polyhedron. Returns body_i, body_j,
+    points, normals, forces (one per network point), type codes and solver points counts."""
+    bi, bj = contacts.body_i[rows], contacts.body_j[rows]
+    points, normals = contacts.point[rows], contacts.normal[rows]
+    types = contact_types(contacts)[rows]
+    poly = types > 0
+    if not poly.any():
+        return bi, bj, points, normals, forces, types, np.ones(rows.shape[0], np.int64)
+    pairs, first, counts, force, centre, normal = pair_resultants(
+        bi[poly], bj[poly], points[poly], normals[poly], forces[poly], n)
+    single = ~poly
+    return (np.concatenate([bi[single], pairs[:, 0]]),
+            np.concatenate([bj[single], pairs[:, 1]]),
+            np.concatenate([points[single], centre]),
+            np.concatenate([normals[single], normal]),
+            np.concatenate([forces[single], force]),
+            np.concatenate([types[single], types[poly][first]]),
+            np.concatenate([np.ones(int(single.sum()), np.int64), counts]))
+
+
 def contact_network(report: StepReport, state: BodyState, library: ShapeLibrary,
                     volume: float, dt: float, friction: float,
                     extra_state: dict[str, Any] | None = None) -> ContactNetwork:
     """The particle-particle contact network of the step (module docstring)."""
+    network, _ = _contact_network(report, state, library, volume, dt, friction, extra_state)
+    return network
+
+
+def _contact_network(report: StepReport, state: BodyState, library: ShapeLibrary,
+                     volume: float, dt: float, friction: float,
+                     extra_state: dict[str, Any] | None = None
+                     ) -> tuple[ContactNetwork, int]:
+    """The network and the number of loaded solver points between particles."""
     contacts = report.contacts
     inner = np.flatnonzero((contacts.body_i >= 0) & (report.impulses[:, 0] > 0.0))
-    bi, bj = contacts.body_i[inner], contacts.body_j[inner]
     forces = world_forces(report, dt)[inner] if contacts.n_contacts else np.zeros((0, 3))
     n = state.n_bodies
+    bi, bj, points, normals, forces, codes, _ = _network_points(contacts, inner, forces, n)
     key = bi.astype(np.int64) * n + bj
     pair_keys, point_pairs = np.unique(key, return_inverse=True)
     pairs = np.stack([pair_keys // n, pair_keys % n], axis=1) if pair_keys.size \
         else np.zeros((0, 2), dtype=np.int64)
     branches = state.positions[pairs[:, 1]] - state.positions[pairs[:, 0]] if pairs.size \
         else np.zeros((0, 3))
-    normals = contacts.normal[inner]
     fn = np.einsum("ci,ci->c", forces, normals)
     ft = np.linalg.norm(forces - fn[:, None] * normals, axis=1)
     sliding = (ft >= friction * fn * (1.0 - _SLIDING)) & (fn > 0.0) if friction > 0.0 \
         else fn > 0.0
     pair_types, type_names = None, ()
-    if np.any(library.kind[state.shape_ids] == SHAPE_AGGREGATE) and pairs.size:
+    if np.any(library.kind[state.shape_ids] == SHAPE_POLYHEDRON):
+        pair_types = np.zeros(pair_keys.shape[0], dtype=np.int64)
+        pair_types[point_pairs.reshape(-1)] = codes
+        type_names = PAIR_TYPE_NAMES
+    elif np.any(library.kind[state.shape_ids] == SHAPE_AGGREGATE) and pairs.size:
         classified, codes, _ = classify_aggregate_pairs(bi, bj, contacts.member_i[inner],
                                                         contacts.member_j[inner])
         ckey = classified[:, 0] * n + classified[:, 1]
         pair_types = codes[np.searchsorted(ckey, pair_keys)]
         type_names = CONTACT_CLASS_NAMES
-    return ContactNetwork(
+    network = ContactNetwork(
         positions=state.positions.copy(), volumes=library.volume[state.shape_ids],
         volume=volume, pair_particles=pairs, pair_branches=branches,
-        point_pairs=point_pairs.reshape(-1), point_positions=contacts.point[inner],
+        point_pairs=point_pairs.reshape(-1), point_positions=points,
         point_normals=normals, point_forces=forces, pair_types=pair_types,
         type_names=type_names, friction_coefficient=friction, point_sliding=sliding,
         state=dict(extra_state or {}),
     )
+    return network, int(inner.shape[0])
+
+
+def polyhedron_connectivity(network: ContactNetwork, connectivity: Connectivity,
+                            solver_points: int) -> dict[str, float]:
+    """z_c and z_c_no_rattlers of seed 002 eq. 14 (module docstring), the fractions
+    k_fv ... k_ff of loaded pairs as ``fraction_<type>`` and ``z_c_points``, for a network
+    of :func:`contact_network` with polyhedron pair types."""
+    n = network.n_particles
+    active = network.active_pairs()
+    nominal = NOMINAL_POINTS[network.pair_types]
+    rattlers = connectivity.rattlers
+    kept = active & ~rattlers[network.pair_particles[:, 0]] \
+        & ~rattlers[network.pair_particles[:, 1]]
+    n_kept = n - int(rattlers.sum())
+    row = {
+        "z_c": float(2.0 * nominal[active].sum() / n) if n else float("nan"),
+        "z_c_no_rattlers": float(2.0 * nominal[kept].sum() / n_kept) if n_kept
+        else float("nan"),
+        "z_c_points": float(2.0 * solver_points / n) if n else float("nan"),
+    }
+    for name in POLYHEDRON_TYPES:
+        row[f"fraction_{name}"] = float(connectivity.type_proportions[name])
+    return row
 
 
 def mechanical_coordination(report: StepReport, n_bodies: int, min_contacts: int) -> float:
@@ -158,7 +291,7 @@ def sample_measures(report: StepReport, state: BodyState, library: ShapeLibrary,
     p = row["p"]
     row["inertia_number"] = float(np.max(rates) * mean_d * np.sqrt(state.density / p)) \
         if p > 0.0 else float("nan")
-    network = contact_network(report, state, library, volume, dt, friction)
+    network, solver_points = _contact_network(report, state, library, volume, dt, friction)
     connectivity = Connectivity().compute(network)
     row["packing_fraction"] = float(np.sum(library.volume[state.shape_ids]) / volume)
     row["z"] = float(connectivity.coordination_number)
@@ -166,6 +299,8 @@ def sample_measures(report: StepReport, state: BodyState, library: ShapeLibrary,
     row["z_no_rattlers"] = float(connectivity.coordination_number_no_rattlers)
     row["z_c_no_rattlers"] = float(connectivity.connectivity_number_no_rattlers)
     row["rattler_fraction"] = float(connectivity.rattler_fraction)
+    if network.pair_types is not None and network.type_names == PAIR_TYPE_NAMES:
+        row.update(polyhedron_connectivity(network, connectivity, solver_points))
     row["z_mechanical"] = mechanical_coordination(report, state.n_bodies,
                                                   4 if friction == 0.0 else 2)
     row["n_contacts"] = float(report.n_contacts)

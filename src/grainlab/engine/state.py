@@ -1,13 +1,28 @@
 """Static shape library and changing body state, as structure-of-arrays (STYLE.md 1).
 
 :class:`ShapeLibrary` is the static model: one row per shape, frozen for a run. Every shape
-carries a ``kind`` code (:data:`SHAPE_SPHERE`, :data:`SHAPE_AGGREGATE`; :data:`SHAPE_POLYHEDRON`
-is reserved for the polyhedra to come) and its mass properties per unit density. Sphere-based
+carries a ``kind`` code (:data:`SHAPE_SPHERE`, :data:`SHAPE_AGGREGATE`, :data:`SHAPE_POLYHEDRON`)
+and its mass properties per unit density. Sphere-based
 shapes (spheres and aggregates) list their member spheres in concatenated arrays
 ``sphere_offsets`` (M, 3) [m] (body frame: origin at the centre of mass, axes along the
 principal axes) and ``sphere_radii`` (M,) [m]; shape s owns rows
 ``sphere_start[s] .. sphere_start[s] + sphere_count[s] - 1``. A sphere is a one-member shape
 with a zero offset, so the narrow phase treats spheres and aggregates alike.
+
+A convex polyhedron (seed 002) has no member sphere (``sphere_count`` 0); its boundary is
+stored in concatenated arrays, body frame, local vertex ids (0 .. vertex_count - 1):
+
+- ``vertices`` (V, 3) [m], rows ``vertex_start[s] ..`` (``vertex_count[s]`` rows);
+- planar polygon faces, rows ``face_start[s] ..`` (``face_count[s]``) of ``face_normals``
+  (F, 3) (outward, unit) and ``face_offsets`` (F,) [m] (n . v for the face's vertices); face f
+  lists its vertices counter-clockwise seen from outside in
+  ``face_vertices[face_vertex_start[f]:face_vertex_start[f + 1]]`` (CSR, (F + 1,) and (K,));
+- ``edges`` (E, 2) (each edge of the solid once), rows ``edge_start[s] ..`` (``edge_count[s]``),
+  and ``edge_faces`` (E, 2): the local ids of the two faces sharing each edge;
+- ``vertex_neighbour_start`` (V + 1,) CSR into ``vertex_neighbours`` (2E,): the local ids of
+  the vertices joined to each vertex by an edge (hill-climbing supports).
+
+Spheres and aggregates have empty ranges there (count 0).
 
 :class:`BodyState` is what changes: positions x (N, 3) [m] of the centres of mass, unit
 quaternions q (N, 4) (w first; body -> world, :mod:`grainlab.engine.quaternion`), velocities
@@ -36,6 +51,7 @@ import numpy as np
 
 from grainlab.engine.quaternion import quat_to_matrices
 from grainlab.errors import InputError
+from grainlab.geometry.polyhedron import ConvexPolyhedron
 from grainlab.geometry.sphere_aggregate import SphereAggregate
 
 SHAPE_SPHERE = 0
@@ -43,9 +59,21 @@ SHAPE_SPHERE = 0
 SHAPE_AGGREGATE = 1
 """Shape kind code of a rigid aggregate of spheres."""
 SHAPE_POLYHEDRON = 2
-"""Shape kind code reserved for convex polyhedra (not yet supported)."""
+"""Shape kind code of a convex polyhedron (vertices, planar faces and edges; no member
+sphere)."""
 
 _UNIT_TOLERANCE = 1e-8  # |1 - |q|| accepted for a unit quaternion
+_PLANE_TOLERANCE = 1e-9  # relative: vertices may lie this far (x circumradius) outside a face
+
+_POLYHEDRON_FIELDS = {
+    "vertex_start": (np.int64, 1), "vertex_count": (np.int64, 1),
+    "vertices": (np.float64, 3), "face_start": (np.int64, 1), "face_count": (np.int64, 1),
+    "face_normals": (np.float64, 3), "face_offsets": (np.float64, 1),
+    "face_vertex_start": (np.int64, 1), "face_vertices": (np.int64, 1),
+    "edge_start": (np.int64, 1), "edge_count": (np.int64, 1), "edges": (np.int64, 2),
+    "edge_faces": (np.int64, 2),
+    "vertex_neighbour_start": (np.int64, 1), "vertex_neighbours": (np.int64, 1),
+}
 
 
 def _readonly(array: np.ndarray) -> np.ndarray:
@@ -74,6 +102,10 @@ class ShapeLibrary:
         (S, 3) principal moments of inertia per unit density [m^5].
     bounding_radius:
         (S,) radius about the centre of mass enclosing the shape [m].
+    vertex_start, vertex_count, vertices, face_start, face_count, face_normals,
+    face_offsets, face_vertex_start, face_vertices, edge_start, edge_count, edges,
+    edge_faces, vertex_neighbour_start, vertex_neighbours:
+        Polyhedron boundaries (module docstring); optional, empty by default.
     """
 
     kind: np.ndarray
@@ -84,8 +116,24 @@ class ShapeLibrary:
     volume: np.ndarray
     principal_inertia: np.ndarray
     bounding_radius: np.ndarray
+    vertex_start: np.ndarray | None = None
+    vertex_count: np.ndarray | None = None
+    vertices: np.ndarray | None = None
+    face_start: np.ndarray | None = None
+    face_count: np.ndarray | None = None
+    face_normals: np.ndarray | None = None
+    face_offsets: np.ndarray | None = None
+    face_vertex_start: np.ndarray | None = None
+    face_vertices: np.ndarray | None = None
+    edge_start: np.ndarray | None = None
+    edge_count: np.ndarray | None = None
+    edges: np.ndarray | None = None
+    edge_faces: np.ndarray | None = None
+    vertex_neighbour_start: np.ndarray | None = None
+    vertex_neighbours: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        self._fill_polyhedron_defaults()
         for name, dtype in (
             ("kind", np.int64), ("sphere_start", np.int64), ("sphere_count", np.int64),
             ("sphere_offsets", np.float64), ("sphere_radii", np.float64),
@@ -105,13 +153,112 @@ class ShapeLibrary:
             raise InputError("sphere_offsets", f"shape {self.sphere_offsets.shape}",
                              f"({n_members}, 3), one row per member radius")
         for s in range(n_shapes):
-            if self.kind[s] not in (SHAPE_SPHERE, SHAPE_AGGREGATE):
+            if self.kind[s] not in (SHAPE_SPHERE, SHAPE_AGGREGATE, SHAPE_POLYHEDRON):
                 raise InputError(f"kind[{s}]", int(self.kind[s]),
-                                 "SHAPE_SPHERE (0) or SHAPE_AGGREGATE (1)")
+                                 "SHAPE_SPHERE (0), SHAPE_AGGREGATE (1) or SHAPE_POLYHEDRON (2)")
             start, count = int(self.sphere_start[s]), int(self.sphere_count[s])
+            if self.kind[s] == SHAPE_POLYHEDRON:
+                if count != 0:
+                    raise InputError(f"sphere_count[{s}]", count, "0 for a polyhedron")
+                continue
             if count < 1 or start < 0 or start + count > n_members:
                 raise InputError(f"sphere_start[{s}]/sphere_count[{s}]", (start, count),
                                  f"a non-empty range of rows inside 0 .. {n_members - 1}")
+        self._validate_polyhedra()
+
+    def _fill_polyhedron_defaults(self) -> None:
+        """Empty polyhedron arrays (count 0 for every shape) where none were given."""
+        n_shapes = np.asarray(self.kind).reshape(-1).shape[0]
+        for name, (dtype, width) in _POLYHEDRON_FIELDS.items():
+            value = getattr(self, name)
+            if value is None:
+                if name.endswith(("_start", "_count")) and name not in (
+                        "face_vertex_start", "vertex_neighbour_start"):
+                    value = np.zeros(n_shapes, dtype=dtype)
+                elif name in ("face_vertex_start", "vertex_neighbour_start"):
+                    value = np.zeros(1, dtype=dtype)
+                else:
+                    value = np.zeros((0, width) if width > 1 else 0, dtype=dtype)
+            array = np.asarray(value, dtype=dtype)
+            if width > 1:
+                array = array.reshape(-1, width)
+            object.__setattr__(self, name, _readonly(array))
+
+    def _validate_polyhedra(self) -> None:
+        """Ranges, CSR arrays, local ids, unit normals and convexity of polyhedron shapes."""
+        n_shapes = self.kind.shape[0]
+        for name in ("vertex_start", "vertex_count", "face_start", "face_count",
+                     "edge_start", "edge_count"):
+            if getattr(self, name).shape != (n_shapes,):
+                raise InputError(name, f"shape {getattr(self, name).shape}", f"({n_shapes},)")
+        n_faces = self.face_normals.shape[0]
+        n_vertices = self.vertices.shape[0]
+        checks = (
+            ("face_offsets", self.face_offsets.shape, (n_faces,)),
+            ("face_vertex_start", self.face_vertex_start.shape, (n_faces + 1,)),
+            ("vertex_neighbour_start", self.vertex_neighbour_start.shape, (n_vertices + 1,)),
+        )
+        for name, shape, wanted in checks:
+            if shape != wanted:
+                raise InputError(name, f"shape {shape}", f"{wanted}")
+        for name, starts, total in (
+            ("face_vertex_start", self.face_vertex_start, self.face_vertices.shape[0]),
+            ("vertex_neighbour_start", self.vertex_neighbour_start,
+             self.vertex_neighbours.shape[0]),
+        ):
+            if starts[0] != 0 or starts[-1] != total or np.any(np.diff(starts) < 0):
+                raise InputError(name, starts.tolist(),
+                                 f"non-decreasing CSR offsets from 0 to {total}")
+        for s in np.flatnonzero(self.kind == SHAPE_POLYHEDRON):
+            self._validate_polyhedron(int(s))
+
+    def _validate_polyhedron(self, s: int) -> None:
+        ranges = {}
+        for name, total in (("vertex", self.vertices.shape[0]),
+                            ("face", self.face_normals.shape[0]),
+                            ("edge", self.edges.shape[0])):
+            start = int(getattr(self, f"{name}_start")[s])
+            count = int(getattr(self, f"{name}_count")[s])
+            minimum = 4 if name in ("vertex", "face") else 6
+            if count < minimum or start < 0 or start + count > total:
+                raise InputError(f"{name}_start[{s}]/{name}_count[{s}]", (start, count),
+                                 f"a range of at least {minimum} rows inside 0 .. {total - 1}")
+            ranges[name] = (start, start + count)
+        v0, v1 = ranges["vertex"]
+        f0, f1 = ranges["face"]
+        e0, e1 = ranges["edge"]
+        n_local = v1 - v0
+        local = self.face_vertices[self.face_vertex_start[f0]:self.face_vertex_start[f1]]
+        if np.any(np.diff(self.face_vertex_start[f0:f1 + 1]) < 3):
+            raise InputError(f"face_vertex_start (shape {s})", "a face with < 3 vertices",
+                             "polygons of at least 3 vertices")
+        if self.edge_faces.shape != self.edges.shape:
+            raise InputError("edge_faces", f"shape {self.edge_faces.shape}",
+                             f"{self.edges.shape}, two faces per edge")
+        faces_of_edges = self.edge_faces[e0:e1]
+        if faces_of_edges.size and (faces_of_edges.min() < 0
+                                    or faces_of_edges.max() >= f1 - f0):
+            raise InputError(f"edge_faces (shape {s})", faces_of_edges.tolist(),
+                             f"local face ids in 0 .. {f1 - f0 - 1}")
+        for name, ids in (("face_vertices", local), ("edges", self.edges[e0:e1]),
+                          ("vertex_neighbours", self.vertex_neighbours[
+                              self.vertex_neighbour_start[v0]:self.vertex_neighbour_start[v1]])):
+            if ids.size and (ids.min() < 0 or ids.max() >= n_local):
+                raise InputError(f"{name} (shape {s})", [int(ids.min()), int(ids.max())],
+                                 f"local vertex ids in 0 .. {n_local - 1}")
+        normals = self.face_normals[f0:f1]
+        lengths = np.linalg.norm(normals, axis=1)
+        bad = _first_bad_row(~(np.abs(lengths - 1.0) <= 1e-9))
+        if bad is not None:
+            raise InputError(f"face_normals[{f0 + bad}]", normals[bad].tolist(),
+                             "an outward unit normal")
+        points = self.vertices[v0:v1]
+        radius = float(np.max(np.linalg.norm(points, axis=1)))
+        heights = points @ normals.T - self.face_offsets[f0:f1][None, :]
+        if np.max(heights) > _PLANE_TOLERANCE * radius:
+            k = int(np.argmax(np.max(heights, axis=0)))
+            raise InputError(f"face_offsets[{f0 + k}]", float(self.face_offsets[f0 + k]),
+                             "a supporting plane: every vertex on its inner side (convex)")
 
     @property
     def n_shapes(self) -> int:
@@ -155,9 +302,51 @@ class ShapeLibrary:
             bounding_radius=np.array([agg.bounding_radius for agg in aggregates]),
         )
 
+    @classmethod
+    def from_polyhedra(cls, polyhedra: list[ConvexPolyhedron]) -> ShapeLibrary:
+        """One polyhedron shape per :class:`~grainlab.geometry.polyhedron.ConvexPolyhedron`
+        (its body frame, merged planar faces and edges of the solid are kept)."""
+        if len(polyhedra) == 0:
+            raise InputError("polyhedra", polyhedra, "a non-empty list of ConvexPolyhedron")
+        for k, shape in enumerate(polyhedra):
+            if not isinstance(shape, ConvexPolyhedron):
+                raise InputError(f"polyhedra[{k}]", type(shape).__name__,
+                                 "a ConvexPolyhedron")
+        n = len(polyhedra)
+        vertex_count = np.array([p.n_vertices for p in polyhedra], dtype=np.int64)
+        face_count = np.array([p.n_polygons for p in polyhedra], dtype=np.int64)
+        edges = [p.polygon_edges for p in polyhedra]
+        edge_count = np.array([e.shape[0] for e in edges], dtype=np.int64)
+        csr = [p.polygon_csr for p in polyhedra]
+        face_sizes = np.concatenate([np.diff(start) for start, _ in csr])
+        face_vertex_start = np.zeros(face_sizes.shape[0] + 1, dtype=np.int64)
+        np.cumsum(face_sizes, out=face_vertex_start[1:])
+        neighbour_start, neighbours = _vertex_neighbours(edges, vertex_count)
+        return cls(
+            kind=np.full(n, SHAPE_POLYHEDRON), sphere_start=np.zeros(n, dtype=np.int64),
+            sphere_count=np.zeros(n, dtype=np.int64), sphere_offsets=np.zeros((0, 3)),
+            sphere_radii=np.zeros(0), volume=np.array([p.volume for p in polyhedra]),
+            principal_inertia=np.array([p.principal_moments for p in polyhedra]),
+            bounding_radius=np.array([p.circumscribed_radius for p in polyhedra]),
+            vertex_start=_starts(vertex_count), vertex_count=vertex_count,
+            vertices=np.concatenate([p.vertices for p in polyhedra]),
+            face_start=_starts(face_count), face_count=face_count,
+            face_normals=np.concatenate([p.polygon_normals for p in polyhedra]),
+            face_offsets=np.concatenate([p.polygon_offsets for p in polyhedra]),
+            face_vertex_start=face_vertex_start,
+            face_vertices=np.concatenate([ids for _, ids in csr]),
+            edge_start=_starts(edge_count), edge_count=edge_count,
+            edges=np.concatenate(edges),
+            edge_faces=np.concatenate([_edge_faces(e, start, ids)
+                                       for e, (start, ids) in zip(edges, csr, strict=True)]),
+            vertex_neighbour_start=neighbour_start, vertex_neighbours=neighbours,
+        )
+
     def concatenate(self, other: ShapeLibrary) -> ShapeLibrary:
         """The shapes of ``self`` then those of ``other`` (ids of ``other`` shift by S)."""
         n_members = self.sphere_radii.shape[0]
+        n_vertices = self.vertices.shape[0]
+        n_faces = self.face_normals.shape[0]
         return ShapeLibrary(
             kind=np.concatenate([self.kind, other.kind]),
             sphere_start=np.concatenate([self.sphere_start, other.sphere_start + n_members]),
@@ -167,7 +356,69 @@ class ShapeLibrary:
             volume=np.concatenate([self.volume, other.volume]),
             principal_inertia=np.concatenate([self.principal_inertia, other.principal_inertia]),
             bounding_radius=np.concatenate([self.bounding_radius, other.bounding_radius]),
+            vertex_start=np.concatenate([self.vertex_start, other.vertex_start + n_vertices]),
+            vertex_count=np.concatenate([self.vertex_count, other.vertex_count]),
+            vertices=np.concatenate([self.vertices, other.vertices]),
+            face_start=np.concatenate([self.face_start, other.face_start + n_faces]),
+            face_count=np.concatenate([self.face_count, other.face_count]),
+            face_normals=np.concatenate([self.face_normals, other.face_normals]),
+            face_offsets=np.concatenate([self.face_offsets, other.face_offsets]),
+            face_vertex_start=np.concatenate([
+                self.face_vertex_start[:-1],
+                other.face_vertex_start + self.face_vertex_start[-1]]),
+            face_vertices=np.concatenate([self.face_vertices, other.face_vertices]),
+            edge_start=np.concatenate([self.edge_start,
+                                       other.edge_start + self.edges.shape[0]]),
+            edge_count=np.concatenate([self.edge_count, other.edge_count]),
+            edges=np.concatenate([self.edges, other.edges]),
+            edge_faces=np.concatenate([self.edge_faces, other.edge_faces]),
+            vertex_neighbour_start=np.concatenate([
+                self.vertex_neighbour_start[:-1],
+                other.vertex_neighbour_start + self.vertex_neighbour_start[-1]]),
+            vertex_neighbours=np.concatenate([self.vertex_neighbours,
+                                              other.vertex_neighbours]),
         )
+
+    @property
+    def max_features(self) -> int:
+        """Largest number of vertices + edges + faces of one polyhedron shape (0 without
+        polyhedra): the range of the feature ids of polyhedron contacts."""
+        if not np.any(self.kind == SHAPE_POLYHEDRON):
+            return 0
+        return int(np.max(self.vertex_count + self.edge_count + self.face_count))
+
+
+def _starts(counts: np.ndarray) -> np.ndarray:
+    starts = np.zeros(counts.shape[0], dtype=np.int64)
+    np.cumsum(counts[:-1], out=starts[1:])
+    return starts
+
+
+def _edge_faces(edges: np.ndarray, start: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """(E, 2) local ids of the two polygon faces sharing each edge (u, v), u < v."""
+    owner = {}
+    for f in range(start.shape[0] - 1):
+        loop = ids[start[f]:start[f + 1]]
+        for k in range(loop.shape[0]):
+            u, v = int(loop[k]), int(loop[(k + 1) % loop.shape[0]])
+            owner.setdefault((min(u, v), max(u, v)), []).append(f)
+    out = np.array([owner[(int(u), int(v))] for u, v in edges], dtype=np.int64)
+    return out.reshape(-1, 2)
+
+
+def _vertex_neighbours(edges: list[np.ndarray], vertex_count: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """CSR (V + 1,), (2E,) of the local ids of each vertex's edge neighbours, shape by shape."""
+    starts, lists = [np.zeros(1, dtype=np.int64)], []
+    total = 0
+    for edge, count in zip(edges, vertex_count, strict=True):
+        ends = np.concatenate([edge, edge[:, ::-1]])
+        ends = ends[np.lexsort((ends[:, 1], ends[:, 0]))]
+        degree = np.bincount(ends[:, 0], minlength=int(count))
+        starts.append(total + np.cumsum(degree))
+        lists.append(ends[:, 1])
+        total += ends.shape[0]
+    return np.concatenate(starts), np.concatenate(lists).astype(np.int64)
 
 
 def _first_bad_row(bad: np.ndarray) -> int | None:

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
@@ -169,6 +170,52 @@ class ConvexPolyhedron:
     def _face_cross(self) -> np.ndarray:
         a, b, c = (self.vertices[self.faces[:, k]] for k in range(3))
         return np.cross(b - a, c - a)
+
+    # ------------------------------------------------------------------ planar polygon faces
+    @cached_property
+    def _polygons(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return _merge_coplanar(self.vertices, self.faces, self.edge_faces, self.edge_angles)
+
+    @property
+    def polygon_csr(self) -> tuple[np.ndarray, np.ndarray]:
+        """Planar polygon faces as CSR arrays: ``start`` (P + 1,) int64 into ``vertices``
+        (K,) int64, vertex ids counter-clockwise seen from outside. Coplanar triangles of the
+        hull (exterior angle below :data:`COPLANAR_ANGLE`) are merged: a cube has 6 squares."""
+        start, ids, _ = self._polygons
+        return start, ids
+
+    @property
+    def polygon_faces(self) -> list[np.ndarray]:
+        """The P planar faces, each an int64 array of vertex ids, counter-clockwise seen from
+        outside (:attr:`polygon_csr` as a list; for drawing the true faceted shape)."""
+        start, ids = self.polygon_csr
+        return [ids[start[k]:start[k + 1]] for k in range(start.shape[0] - 1)]
+
+    @property
+    def n_polygons(self) -> int:
+        """Number of planar polygon faces P (6 for a cube, F for a hull in general position)."""
+        return int(self._polygons[0].shape[0] - 1)
+
+    @property
+    def polygon_normals(self) -> np.ndarray:
+        """(P, 3) outward unit normals of the polygon faces (area-weighted mean of their
+        triangles' normals)."""
+        return self._polygons[2]
+
+    @property
+    def polygon_offsets(self) -> np.ndarray:
+        """(P,) plane offsets n . v [m] of the polygon faces (mean over their vertices)."""
+        start, ids, normals = self._polygons
+        owner = np.repeat(np.arange(start.shape[0] - 1), np.diff(start))
+        dots = np.einsum("ij,ij->i", self.vertices[ids], normals[owner])
+        return np.bincount(owner, dots) / np.diff(start)
+
+    @property
+    def polygon_edges(self) -> np.ndarray:
+        """(E', 2) int64 edges of the solid (i < j): the edges between two different polygon
+        faces (12 for a cube); edges inside a merged planar face are left out."""
+        keep = self.edge_angles >= COPLANAR_ANGLE
+        return self.edges[keep]
 
     # ------------------------------------------------------------------ shape descriptors
     @property
@@ -385,3 +432,42 @@ def _edges(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if len(keys) % 2 or not np.array_equal(keys[0::2], keys[1::2]):
         raise InputError("faces", faces.tolist(), "a closed surface (each edge in two faces)")
     return keys[0::2], np.stack([owner[0::2], owner[1::2]], axis=1)
+
+
+def _merge_coplanar(vertices, faces, edge_faces, edge_angles):
+    """Merge adjacent triangles whose exterior angle is below :data:`COPLANAR_ANGLE` into
+    planar polygons; returns (start (P + 1,), vertex ids (K,) counter-clockwise from outside,
+    unit normals (P, 3))."""
+    n_tri = faces.shape[0]
+    parent = np.arange(n_tri)
+
+    def root(k: int) -> int:
+        while parent[k] != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    for e in np.flatnonzero(edge_angles < COPLANAR_ANGLE):
+        a, b = root(int(edge_faces[e, 0])), root(int(edge_faces[e, 1]))
+        if a != b:
+            parent[max(a, b)] = min(a, b)
+    roots = np.array([root(k) for k in range(n_tri)])
+    a, b, c = (vertices[faces[:, k]] for k in range(3))
+    cross = np.cross(b - a, c - a)  # 2 x area x unit normal
+    starts, ids, normals = [0], [], []
+    for group in np.unique(roots):
+        members = np.flatnonzero(roots == group)
+        half = {(int(f[i]), int(f[(i + 1) % 3])) for f in faces[members] for i in range(3)}
+        boundary = {u: v for (u, v) in half if (v, u) not in half}
+        first = min(boundary)
+        loop = [first]
+        while boundary[loop[-1]] != first:
+            loop.append(boundary[loop[-1]])
+            if len(loop) > len(boundary):
+                raise InputError("faces", faces.tolist(), "a closed convex surface")
+        ids.extend(loop)
+        starts.append(len(ids))
+        normal = cross[members].sum(axis=0)
+        normals.append(normal / np.linalg.norm(normal))
+    return (np.array(starts, dtype=np.int64), np.array(ids, dtype=np.int64),
+            np.array(normals, dtype=float).reshape(-1, 3))

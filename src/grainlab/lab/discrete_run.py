@@ -21,6 +21,7 @@ the diagnosis.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import os
@@ -35,6 +36,7 @@ import numpy as np
 import pandas as pd
 
 from grainlab.analysis.snapshot_files import append_snapshot
+from grainlab.engine.sample_measures import PAIR_TYPE_NAMES
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
@@ -55,8 +57,8 @@ CHECKPOINT_VERSION = 1
 
 _STATE_FIELDS = ("positions", "orientations", "velocities", "angular_velocities", "masses",
                  "inertias", "shape_ids")
-_LIBRARY_FIELDS = ("kind", "sphere_start", "sphere_count", "sphere_offsets", "sphere_radii",
-                   "volume", "principal_inertia", "bounding_radius")
+_LIBRARY_FIELDS = tuple(f.name for f in dataclasses.fields(ShapeLibrary))
+"""Every array of the shape library (member spheres and polyhedron vertices, faces, edges)."""
 
 
 class RunInterrupted(GrainlabError, KeyboardInterrupt):
@@ -78,7 +80,8 @@ def build_sample(config: RunConfig) -> DiscreteSample:
     """The loose random sample of ``config.sample``."""
     s = config.sample
     return loose_sample(shape=s.shape, n_particles=s.n_particles, d_min=s.d_min,
-                        size_ratio=s.size_ratio, eta=s.eta, density=s.density,
+                        size_ratio=s.size_ratio, eta=s.eta, n_faces=s.n_faces,
+                        templates=s.templates, density=s.density,
                         packing_fraction=s.packing_fraction, wall_friction=s.wall_friction,
                         seed=s.seed)
 
@@ -310,7 +313,8 @@ _UNITS = {
     "z_no_rattlers": "-", "z_c_no_rattlers": "-", "rattler_fraction": "-", "n_contacts": "-",
     "solver_iterations": "-", "solver_converged": "-", "solver_change": "-",
     "solver_residual": "-", "max_overlap_over_d": "-", "kinetic_energy": "J",
-    "unbalanced_force_ratio": "-", "kinetic_energy_ratio": "-",
+    "unbalanced_force_ratio": "-", "kinetic_energy_ratio": "-", "z_c_points": "-",
+    "fraction_fv": "-", "fraction_ee": "-", "fraction_fe": "-", "fraction_ff": "-",
 }
 
 
@@ -360,7 +364,8 @@ def read_checkpoint(path: Path) -> dict[str, Any]:
         if handle.attrs.get("format") != CHECKPOINT_FORMAT:
             raise InputError("checkpoint", str(path), f"a {CHECKPOINT_FORMAT} file")
         saved: dict[str, Any] = {
-            "library": ShapeLibrary(**{n: handle["library"][n][()] for n in _LIBRARY_FIELDS}),
+            "library": ShapeLibrary(**{n: handle["library"][n][()] for n in _LIBRARY_FIELDS
+                                       if n in handle["library"]}),
             "state": BodyState(**{n: handle["state"][n][()] for n in _STATE_FIELDS},
                                density=float(handle["state"].attrs["density"])),
             "box": WallBox.from_arrays({k: v[()] for k, v in handle["box"].items()}),
@@ -433,9 +438,12 @@ def export_checkpoint_vtk(folder: str | Path, out: str | Path | None = None) -> 
         net = read_snapshot(snapshots, -1)
         first = net.pair_particles[net.point_pairs, 0]
         start = net.positions[first]
+        polyhedra = net.pair_types is not None and net.type_names == PAIR_TYPE_NAMES
         contacts = ContactLines(start=start, end=start + net.pair_branches[net.point_pairs],
                                 force=net.point_forces, normal=net.point_normals,
-                                sliding=net.point_sliding)
+                                sliding=net.point_sliding,
+                                contact_type=net.pair_types[net.point_pairs] if polyhedra
+                                else None)
     out = Path(out) if out is not None else folder / "vtk-checkpoint"
     files = write_vtk_frame(out, 0, float(saved["progress"]["time"]), positions=state.positions,
                             orientations=state.orientations, shape_ids=state.shape_ids,

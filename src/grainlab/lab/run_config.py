@@ -3,8 +3,9 @@
 A run's ``config.toml`` has four tables; every key has a default, an unknown key is an error
 that names it::
 
-    [sample]   shape ("sphere" | "aggregate"), n_particles, d_min [m], size_ratio, eta,
-               density [kg/m^3], packing_fraction (loose start), wall_friction, seed
+    [sample]   shape ("sphere" | "aggregate" | "polyhedron"), n_particles, d_min [m],
+               size_ratio, eta (aggregates), n_faces and templates (polyhedra), density
+               [kg/m^3], packing_fraction (loose start), wall_friction, seed
     [test]     kind ("compaction" | "triaxial" | "oedometer"), sigma0 [Pa], eps_q_max
                (triaxial), axial_strain and unload_strain (oedometer)
     [solver]   friction, compaction_friction, inertia_number, compaction_inertia_number, dt
@@ -29,7 +30,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import tomli_w
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from grainlab.errors import InputError
 from grainlab.lab.discrete_test import DiscreteTestSettings
@@ -44,17 +45,32 @@ class _Section(BaseModel):
 
 
 class SampleConfig(_Section):
-    """Particles of a loose random sample (:func:`grainlab.prep.loose_sample.loose_sample`)."""
+    """Particles of a loose random sample (:func:`grainlab.prep.loose_sample.loose_sample`).
 
-    shape: Literal["sphere", "aggregate"] = "sphere"
+    ``n_faces`` (even, >= 8; seed 002 Table I: 8, 20, 30, 46, 96, 176, 596) and ``templates``
+    (0: every polyhedron its own, as seed 002; K > 0: K shapes reused in random orientations)
+    apply to polyhedra only, ``eta`` to aggregates only.
+    """
+
+    shape: Literal["sphere", "aggregate", "polyhedron"] = "sphere"
     n_particles: int = Field(1000, ge=1)
     d_min: float = Field(1e-3, gt=0)
     size_ratio: float = Field(2.0, ge=1)
     eta: float = Field(0.4, ge=0, le=0.828)
+    n_faces: int = Field(30, ge=8)
+    templates: int = Field(0, ge=0)
     density: float = Field(2600.0, gt=0)
     packing_fraction: float = Field(0.3, gt=0, le=0.35)
     wall_friction: float = Field(0.0, ge=0)
     seed: int = 0
+
+    @field_validator("n_faces")
+    @classmethod
+    def _even_faces(cls, value: int) -> int:
+        if value % 2:
+            raise ValueError("an even number of faces >= 8 (n_f = 2 n_v - 4; seed 002 "
+                             "Table I: 8, 20, 30, 46, 96, 176, 596)")
+        return value
 
 
 class TestConfig(_Section):

@@ -12,8 +12,16 @@ its distribution function is
 Placement: random sequential addition of the particles' bounding spheres, largest first, in a
 cube sized so that the bounding spheres fill ``packing_fraction`` of it (a loose gas, 0.2 by
 default; random sequential addition jams near 0.38), with a cell grid so that each trial
-costs O(1). Aggregates get uniformly random orientations (unit quaternions from normalised
-4-D Gaussians).
+costs O(1). Aggregates and polyhedra get uniformly random orientations (unit quaternions
+from normalised 4-D Gaussians).
+
+Polyhedra (seed 002 §II.A): every particle its own random convex polyhedron of ``n_faces``
+faces (:func:`grainlab.geometry.polyhedron.random_polyhedron`, as the paper), or, with
+``templates = K > 0``, K random polyhedra drawn once and reused (each particle picks one at
+random; the random orientation makes them distinct in the box) -- much faster to build for
+few faces (n_f = 8 keeps about one hull in 900, ~0.25 s per shape). Each shape is scaled so
+that its circumscribed sphere about the centre of mass has the drawn diameter d: vertices
+v d / (2 R_c), volume V (d / 2 R_c)^3, inertia ~ (d / 2 R_c)^5 (recomputed exactly).
 
 >>> sample = loose_sample(n_particles=20, seed=3)
 >>> sample.state.n_bodies, bool(sample.box.volume > 0)
@@ -32,9 +40,10 @@ from grainlab._validate import at_least
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
 from grainlab.errors import InputError
+from grainlab.geometry.polyhedron import ConvexPolyhedron, from_vertices, random_polyhedron
 from grainlab.geometry.sphere_aggregate import tetrahedral_aggregate
 
-SHAPES = ("sphere", "aggregate")
+SHAPES = ("sphere", "aggregate", "polyhedron")
 """Particle shapes a loose sample can be made of."""
 
 
@@ -144,9 +153,46 @@ def aggregate_library(bounding_radii: np.ndarray, eta: float) -> ShapeLibrary:
     )
 
 
+def check_n_faces(n_faces, field: str = "n_faces") -> int:
+    """``n_faces`` as the face count of a seed 002 random polyhedron: an even integer >= 8
+    (Table I: 8, 20, 30, 46, 96, 176, 596; n_f = 2 n_v - 4), else InputError naming
+    ``field``."""
+    if isinstance(n_faces, bool) or not isinstance(n_faces, int | np.integer) \
+            or n_faces < 8 or n_faces % 2:
+        raise InputError(field, n_faces, "an even number of faces >= 8 (n_f = 2 n_v - 4; "
+                                         "seed 002 Table I: 8, 20, 30, 46, 96, 176, 596)")
+    return int(n_faces)
+
+
+def scaled_polyhedron(shape: ConvexPolyhedron, diameter: float) -> ConvexPolyhedron:
+    """``shape`` scaled so that its circumscribed sphere about the centre of mass has the
+    ``diameter`` [m] (mass properties recomputed exactly from the scaled vertices)."""
+    factor = 0.5 * diameter / shape.circumscribed_radius
+    return from_vertices(shape.vertices * factor, name=shape.name)
+
+
+def random_polyhedra(diameters: np.ndarray, n_faces: int, rng: np.random.Generator,
+                     templates: int = 0) -> list[ConvexPolyhedron]:
+    """One seed 002 random polyhedron of ``n_faces`` faces per circumscribed diameter (n,)
+    [m]: each its own (``templates`` = 0) or one of ``templates`` shapes drawn once and
+    picked at random for each particle (module docstring)."""
+    n_faces = check_n_faces(n_faces)
+    if isinstance(templates, bool) or not isinstance(templates, int | np.integer) \
+            or templates < 0:
+        raise InputError("templates", templates,
+                         "an integer >= 0 (0: every particle its own polyhedron)")
+    d = np.asarray(diameters, dtype=np.float64)
+    if templates:
+        unit = [random_polyhedron(n_faces, rng) for _ in range(int(templates))]
+        pick = rng.integers(0, int(templates), d.shape[0])
+        return [scaled_polyhedron(unit[k], float(dk)) for k, dk in zip(pick, d, strict=True)]
+    return [scaled_polyhedron(random_polyhedron(n_faces, rng), float(dk)) for dk in d]
+
+
 def loose_sample(
     *, shape: str = "sphere", n_particles: int = 1000, d_min: float = 1e-3,
-    size_ratio: float = 2.0, eta: float = 0.4, density: float = 2600.0,
+    size_ratio: float = 2.0, eta: float = 0.4, n_faces: int = 30, templates: int = 0,
+    density: float = 2600.0,
     packing_fraction: float = 0.2, aspect: tuple[float, float, float] = (1.0, 1.0, 1.0),
     wall_friction: float = 0.0, seed: int = 0,
 ) -> DiscreteSample:
@@ -155,14 +201,20 @@ def loose_sample(
     Parameters
     ----------
     shape:
-        ``"sphere"`` or ``"aggregate"`` (seed 003's tetrahedral aggregates of 4 spheres).
+        ``"sphere"``, ``"aggregate"`` (seed 003's tetrahedral aggregates of 4 spheres) or
+        ``"polyhedron"`` (seed 002's random convex polyhedra).
     n_particles:
         Number of particles (>= 1).
     d_min, size_ratio:
-        Smallest diameter [m] of the particles' bounding spheres and d_max / d_min (>= 1);
+        Smallest diameter [m] of the particles' bounding (circumscribed) spheres and
+        d_max / d_min (>= 1);
         sizes uniform by volume (seed 002: 2; seed 003: 3).
     eta:
-        Non-convexity (R - R')/R of the aggregates, in [0, 0.828] (ignored for spheres).
+        Non-convexity (R - R')/R of the aggregates, in [0, 0.828] (aggregates only).
+    n_faces:
+        Faces of the polyhedra, even, >= 8 (seed 002 Table I; polyhedra only).
+    templates:
+        0: every polyhedron its own; K > 0: K shapes reused in random orientations.
     density:
         Particle density [kg/m^3].
     packing_fraction:
@@ -197,18 +249,24 @@ def loose_sample(
     if shape == "sphere":
         library = ShapeLibrary.from_spheres(radii)
         description = {"shape": "sphere"}
-    else:
+    elif shape == "aggregate":
         eta_value = at_least("eta", eta, strict=False)
         if eta_value > 2.0 * math.sqrt(2.0) - 2.0:
             raise InputError("eta", eta, "a non-convexity in [0, 0.828]")
         library = aggregate_library(radii, eta_value)
         description = {"shape": "aggregate", "eta": eta_value}
+    else:
+        shapes = random_polyhedra(2.0 * radii, n_faces, rng, templates)
+        library = ShapeLibrary.from_polyhedra(shapes)
+        description = {"shape": "polyhedron", "n_faces": int(n_faces),
+                       "templates": int(templates),
+                       "mean_angularity": float(np.mean([p.angularity for p in shapes]))}
     bounding = library.bounding_radius
     volume = float(np.sum(4.0 / 3.0 * np.pi * bounding**3)) / phi
     side = shape_ratio * (volume / float(np.prod(shape_ratio))) ** (1.0 / 3.0)
     side = np.maximum(side, 2.0 * bounding.max() * 1.01)
     positions = random_sequential_placement(bounding, side, rng)
-    orientations = random_orientations(int(n_particles), rng) if shape == "aggregate" else None
+    orientations = random_orientations(int(n_particles), rng) if shape != "sphere" else None
     state = BodyState.from_library(library, np.arange(int(n_particles)), positions, density,
                                    orientations)
     box = WallBox(np.zeros(3), side, friction=at_least("wall_friction", wall_friction,

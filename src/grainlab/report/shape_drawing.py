@@ -7,8 +7,10 @@ A :class:`ShapeKindDrawer` turns the shapes of one kind of a
 v_world = x + R(q) v_body. :data:`SHAPE_KIND_DRAWERS` maps each shape kind code to its drawer:
 spheres and aggregates share :data:`MEMBER_SPHERES`, one icosphere per member sphere (centre
 c_body, radius r: vertices c_body + r u for the unit icosphere vertices u), or one point per
-member sphere. A convex polyhedron kind plugs in by adding its drawer (local vertices and
-triangulated faces; one point with its bounding radius).
+member sphere. Convex polyhedra have their own drawer, :data:`POLYHEDRA`: their hull
+vertices and their planar polygon faces as they are (a cube has 6 quads, not 12 triangles),
+from the library's ``vertices`` and face CSR (``face_vertex_start``, ``face_vertices``); or one
+point at the centre of mass carrying the circumscribed radius.
 
 The icosphere of level s splits each face of an icosahedron into four s times and projects
 the new vertices on the unit sphere: 10 4^s + 2 vertices, 20 4^s triangles (s = 1: 42, 80).
@@ -33,7 +35,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from grainlab.engine.state import SHAPE_AGGREGATE, SHAPE_SPHERE, ShapeLibrary
+from grainlab.engine.state import SHAPE_AGGREGATE, SHAPE_POLYHEDRON, SHAPE_SPHERE, ShapeLibrary
 from grainlab.errors import InputError
 
 MAX_SUBDIVISIONS = 4
@@ -119,6 +121,12 @@ class ShapeMeshes:
     triangles:
         (T, 3) int64 vertex rows counted from the shape's first vertex (0 .. its count - 1),
         counter-clockwise seen from outside; (0, 3) for a point drawing.
+    polygon_start:
+        (K + 1,) int64: shape k owns polygon rows ``polygon_start[k] .. [k+1] - 1`` (planar
+        faces of any number of vertices, besides its triangles); zeros when None.
+    polygon_vertex_start, polygon_vertices:
+        (P + 1,) CSR offsets into (Q,) int64 vertex rows counted from the shape's first
+        vertex, counter-clockwise seen from outside; ``[0]`` and empty when None.
     """
 
     vertex_start: np.ndarray
@@ -127,11 +135,22 @@ class ShapeMeshes:
     radius: np.ndarray
     triangle_start: np.ndarray
     triangles: np.ndarray
+    polygon_start: np.ndarray | None = None
+    polygon_vertex_start: np.ndarray | None = None
+    polygon_vertices: np.ndarray | None = None
 
     def __post_init__(self) -> None:
+        defaults = {"polygon_start": np.zeros(np.shape(self.vertex_start), dtype=np.int64),
+                    "polygon_vertex_start": np.zeros(1, dtype=np.int64),
+                    "polygon_vertices": np.zeros(0, dtype=np.int64)}
+        for name, value in defaults.items():
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, value)
         for name, dtype in (("vertex_start", np.int64), ("vertices", np.float64),
                             ("member", np.int64), ("radius", np.float64),
-                            ("triangle_start", np.int64), ("triangles", np.int64)):
+                            ("triangle_start", np.int64), ("triangles", np.int64),
+                            ("polygon_start", np.int64), ("polygon_vertex_start", np.int64),
+                            ("polygon_vertices", np.int64)):
             object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=dtype))
         n_vertices = self.vertices.shape[0]
         if self.vertices.shape != (n_vertices, 3) or self.member.shape != (n_vertices,) \
@@ -147,6 +166,15 @@ class ShapeMeshes:
             raise InputError("ShapeMeshes.vertex_start/triangle_start",
                              (self.vertex_start.tolist(), self.triangle_start.tolist()),
                              "(K + 1,) offsets ending at the number of vertices / triangles")
+        n_polygons = self.polygon_vertex_start.shape[0] - 1
+        if self.polygon_start.shape != self.vertex_start.shape \
+                or self.polygon_start[-1] != n_polygons \
+                or self.polygon_vertex_start[-1] != self.polygon_vertices.shape[0] \
+                or np.any(np.diff(self.polygon_vertex_start) < 3):
+            raise InputError("ShapeMeshes.polygon_start/polygon_vertex_start",
+                             (self.polygon_start.tolist(), self.polygon_vertex_start.tolist()),
+                             "(K + 1,) offsets ending at the number of polygons, and CSR "
+                             "offsets of polygons of >= 3 vertices")
 
 
 def concatenated_ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
@@ -203,6 +231,42 @@ def member_sphere_points(library: ShapeLibrary, shapes: np.ndarray) -> ShapeMesh
     )
 
 
+def polyhedron_surfaces(library: ShapeLibrary, shapes: np.ndarray,
+                        subdivisions: int = 0) -> ShapeMeshes:
+    """Convex polyhedra as they are: their hull vertices (body frame [m]) and planar polygon
+    faces (``subdivisions`` unused); every vertex carries the circumscribed radius."""
+    vertex_counts = library.vertex_count[shapes]
+    vertices = library.vertices[concatenated_ranges(library.vertex_start[shapes],
+                                                    vertex_counts)]
+    face_counts = library.face_count[shapes]
+    faces = concatenated_ranges(library.face_start[shapes], face_counts)
+    starts = library.face_vertex_start
+    sizes = starts[faces + 1] - starts[faces]
+    ids = library.face_vertices[concatenated_ranges(starts[faces], sizes)]
+    k = shapes.shape[0]
+    return ShapeMeshes(
+        vertex_start=offsets_from_counts(vertex_counts), vertices=vertices,
+        member=np.zeros(vertices.shape[0], dtype=np.int64),
+        radius=np.repeat(library.bounding_radius[shapes], vertex_counts),
+        triangle_start=np.zeros(k + 1, dtype=np.int64),
+        triangles=np.zeros((0, 3), dtype=np.int64),
+        polygon_start=offsets_from_counts(face_counts),
+        polygon_vertex_start=offsets_from_counts(sizes), polygon_vertices=ids,
+    )
+
+
+def polyhedron_points(library: ShapeLibrary, shapes: np.ndarray) -> ShapeMeshes:
+    """Polyhedra drawn as points: one vertex at the centre of mass carrying the circumscribed
+    radius [m]."""
+    k = shapes.shape[0]
+    return ShapeMeshes(
+        vertex_start=np.arange(k + 1, dtype=np.int64), vertices=np.zeros((k, 3)),
+        member=np.zeros(k, dtype=np.int64), radius=library.bounding_radius[shapes],
+        triangle_start=np.zeros(k + 1, dtype=np.int64),
+        triangles=np.zeros((0, 3), dtype=np.int64),
+    )
+
+
 @dataclass(frozen=True)
 class ShapeKindDrawer:
     """How the shapes of one kind are drawn, in their body frame.
@@ -220,12 +284,16 @@ class ShapeKindDrawer:
 MEMBER_SPHERES = ShapeKindDrawer(surface=member_sphere_surfaces, points=member_sphere_points)
 """Drawer of sphere-based shapes (spheres and aggregates)."""
 
+POLYHEDRA = ShapeKindDrawer(surface=polyhedron_surfaces, points=polyhedron_points)
+"""Drawer of convex polyhedra (true faceted shapes)."""
+
 SHAPE_KIND_DRAWERS: dict[int, ShapeKindDrawer] = {
     SHAPE_SPHERE: MEMBER_SPHERES,
     SHAPE_AGGREGATE: MEMBER_SPHERES,
+    SHAPE_POLYHEDRON: POLYHEDRA,
 }
-"""Drawer of each shape kind code (:mod:`grainlab.engine.state`); add an entry for a new kind
-(e.g. ``SHAPE_KIND_DRAWERS[SHAPE_POLYHEDRON] = ShapeKindDrawer(...)``)."""
+"""Drawer of each shape kind code (:mod:`grainlab.engine.state`); add an entry for a new
+kind."""
 
 
 def library_meshes(library: ShapeLibrary, subdivisions: int = 1,
@@ -260,10 +328,27 @@ def library_meshes(library: ShapeLibrary, subdivisions: int = 1,
     member = np.empty(vertex_start[-1], dtype=np.int64)
     radius = np.empty(vertex_start[-1])
     triangles = np.empty((triangle_start[-1], 3), dtype=np.int64)
+    polygon_counts = np.zeros(n_shapes, dtype=np.int64)
     for shapes, block in blocks:
         rows = concatenated_ranges(vertex_start[shapes], vertex_counts[shapes])
         vertices[rows], member[rows], radius[rows] = block.vertices, block.member, block.radius
         rows = concatenated_ranges(triangle_start[shapes], triangle_counts[shapes])
         triangles[rows] = block.triangles
+        polygon_counts[shapes] = np.diff(block.polygon_start)
+    # polygons: gather each shape's rows (and their vertex lists) in shape-id order
+    polygon_start = offsets_from_counts(polygon_counts)
+    sizes = np.zeros(polygon_start[-1], dtype=np.int64)
+    lists: list[tuple[np.ndarray, np.ndarray]] = []
+    for shapes, block in blocks:
+        rows = concatenated_ranges(polygon_start[shapes], polygon_counts[shapes])
+        sizes[rows] = np.diff(block.polygon_vertex_start)
+        lists.append((rows, block))
+    polygon_vertex_start = offsets_from_counts(sizes)
+    polygon_vertices = np.empty(polygon_vertex_start[-1], dtype=np.int64)
+    for rows, block in lists:
+        target = concatenated_ranges(polygon_vertex_start[rows], sizes[rows])
+        polygon_vertices[target] = block.polygon_vertices
     return ShapeMeshes(vertex_start=vertex_start, vertices=vertices, member=member,
-                       radius=radius, triangle_start=triangle_start, triangles=triangles)
+                       radius=radius, triangle_start=triangle_start, triangles=triangles,
+                       polygon_start=polygon_start, polygon_vertex_start=polygon_vertex_start,
+                       polygon_vertices=polygon_vertices)

@@ -32,9 +32,11 @@ Frames without any contact are written uncompressed (ParaView reads them; meshio
 read empty cell blocks back), all others zlib-compressed binary.
 
 Shapes are drawn by kind (:data:`grainlab.report.shape_drawing.SHAPE_KIND_DRAWERS`): each
-kind's drawer gives body-frame vertices and triangles, which this writer only rotates and
-translates. Spheres and aggregates share the member-sphere drawer; a polyhedron kind plugs in
-there by adding its drawer (its local vertices and triangular faces).
+kind's drawer gives body-frame vertices and faces, which this writer only rotates and
+translates. Spheres and aggregates share the member-sphere drawer (triangles); convex
+polyhedra are drawn as their true faceted shapes: hull vertices v_world = x + R(q) v_body and
+one polygon cell per planar face (VTK_TRIANGLE, VTK_QUAD or VTK_POLYGON by its vertex
+count), with ``member`` 0 and ``radius`` the circumscribed radius.
 
 >>> import tempfile
 >>> import meshio
@@ -99,6 +101,7 @@ CONTACT_TYPE_WALL = 1
 PARTICLE_ARRAYS = ("particle_id", "shape_id", "member", "radius", "velocity",
                    "angular_velocity")
 """Names of the particle point-data arrays the writer owns (extra arrays may not reuse them)."""
+WALL_SHIFT = 6  # wall w (body id -1 - w, 6 walls) -> 5 - w >= 0 when grouping by pair
 _UNIT_TOLERANCE = 1e-6  # |1 - |q|| and |1 - |n|| accepted for unit quaternions and normals
 _CHUNK = 1 << 17  # vertices rotated at a time (bounds the (chunk, 3, 3) temporary)
 
@@ -258,6 +261,9 @@ def particle_mesh(
         triangle_rows = concatenated_ranges(meshes.triangle_start[ids], triangle_counts)
         shift = np.repeat(first_vertex, triangle_counts)
         cells = [meshio.CellBlock("triangle", meshes.triangles[triangle_rows] + shift[:, None])]
+        polygons = _polygon_cells(meshes, ids, first_vertex)
+        if polygons:
+            cells = [block for block in cells if len(block)] + polygons
     point_data = {
         "particle_id": owner, "shape_id": ids[owner], "member": meshes.member[rows],
         "radius": meshes.radius[rows],
@@ -265,6 +271,26 @@ def particle_mesh(
     for name, value in per_particle.items():
         point_data[name] = value[owner]
     return meshio.Mesh(points, cells, point_data=point_data)
+
+
+def _polygon_cells(meshes, ids: np.ndarray, first_vertex: np.ndarray) -> list:
+    """Polygon faces of the bodies of shapes ``ids`` (N,) whose vertices start at rows
+    ``first_vertex`` (N,): one cell block per vertex count ("triangle", "quad", "polygon")."""
+    counts = np.diff(meshes.polygon_start)[ids]
+    if not counts.sum():
+        return []
+    rows = concatenated_ranges(meshes.polygon_start[ids], counts)
+    starts = meshes.polygon_vertex_start
+    sizes = starts[rows + 1] - starts[rows]
+    flat = meshes.polygon_vertices[concatenated_ranges(starts[rows], sizes)]
+    flat = flat + np.repeat(np.repeat(first_vertex, counts), sizes)
+    offsets = offsets_from_counts(sizes)[:-1]
+    blocks = []
+    for size in np.unique(sizes):
+        which = offsets[sizes == size]
+        name = {3: "triangle", 4: "quad"}.get(int(size), "polygon")
+        blocks.append(meshio.CellBlock(name, flat[which[:, None] + np.arange(size)]))
+    return blocks
 
 
 @dataclass(frozen=True, eq=False)
@@ -285,6 +311,10 @@ class ContactLines:
         :data:`CONTACT_TYPE_WALL`).
     sliding:
         Optional (C,) booleans written as ``sliding`` (0/1).
+    contact_type:
+        Optional (C,) polyhedron contact types written as ``contact_type`` (0 for
+        sphere-based contacts, 1 fv, 2 ee, 3 fe, 4 ff:
+        ``grainlab.engine.narrow_phase.POLYHEDRON_CONTACT_TYPE_NAMES``).
     normal_force, tangential_force:
         Derived (C,) f_n = f . n and |f - f_n n| [N].
     """
@@ -295,6 +325,7 @@ class ContactLines:
     normal: np.ndarray
     type: np.ndarray | None = None
     sliding: np.ndarray | None = None
+    contact_type: np.ndarray | None = None
     normal_force: np.ndarray = field(init=False, repr=False)
     tangential_force: np.ndarray = field(init=False, repr=False)
 
@@ -310,6 +341,8 @@ class ContactLines:
             arrays["type"] = _int_rows("contacts.type", self.type, n)
         if self.sliding is not None:
             arrays["sliding"] = _flag_rows("contacts.sliding", self.sliding, n) == 1
+        if self.contact_type is not None:
+            arrays["contact_type"] = _int_rows("contacts.contact_type", self.contact_type, n)
         for name, value in arrays.items():
             value.setflags(write=False)
             object.__setattr__(self, name, value)
@@ -352,6 +385,8 @@ class ContactLines:
         start = np.empty((contacts.n_contacts, 3))
         start[on_wall] = contacts.point[on_wall]
         start[~on_wall] = x[contacts.body_i[~on_wall]]
+        from grainlab.engine.sample_measures import contact_types
+
         force = np.einsum("cji,cj->ci", report.frames, report.impulses) / step
         sliding = None
         if friction is not None:
@@ -365,10 +400,52 @@ class ContactLines:
             p_n = report.impulses[:, 0]
             p_t = np.hypot(report.impulses[:, 1], report.impulses[:, 2])
             sliding = (p_n > 0.0) & (p_t >= (1.0 - 1e-6) * mu * p_n)
-        return cls(
+        lines = cls(
             start=start, end=x[contacts.body_j], force=force, normal=contacts.normal,
             type=np.where(on_wall, CONTACT_TYPE_WALL, CONTACT_TYPE_PARTICLE), sliding=sliding,
+            contact_type=contact_types(contacts),
         )
+        return lines.polyhedron_pairs_merged(contacts.body_i, contacts.body_j, contacts.point,
+                                             mu=None if friction is None else mu)
+
+    def polyhedron_pairs_merged(self, body_i, body_j, points, mu=None) -> ContactLines:
+        """One line per body (or wall-body) pair of a polyhedron instead of one per contact
+        point: the resultant force, the mean normal and, for a wall, the line from the
+        force-weighted centre of the points (seed 002; :func:`grainlab.engine.
+        sample_measures.pair_resultants`); sliding when |F_t| >= (1 - 1e-6) mu F_n > 0.
+        Lines without ``contact_type`` > 0 are kept as they are."""
+        from grainlab.engine.sample_measures import pair_resultants
+
+        if self.contact_type is None or not np.any(self.contact_type > 0):
+            return self
+        poly = self.contact_type > 0
+        keep = ~poly
+        shift = np.asarray(body_i)[poly] + WALL_SHIFT  # walls -1 - w -> >= 0
+        n = int(max(np.max(shift), np.max(np.asarray(body_j)[poly]))) + 1
+        pairs, first, _, force, centre, normal = pair_resultants(
+            shift, np.asarray(body_j)[poly], np.asarray(points)[poly], self.normal[poly],
+            self.force[poly], n)
+        wall = pairs[:, 0] < WALL_SHIFT
+        rows = np.flatnonzero(poly)[first]
+        start = self.start[rows].copy()
+        start[wall] = centre[wall]
+        sliding = None
+        if self.sliding is not None:
+            f_n = np.einsum("ci,ci->c", force, normal)
+            f_t = np.linalg.norm(force - f_n[:, None] * normal, axis=1)
+            limit = np.zeros_like(f_n) if mu is None else np.asarray(mu)[rows]
+            sliding = np.concatenate([self.sliding[keep],
+                                      (f_n > 0.0) & (f_t >= (1.0 - 1e-6) * limit * f_n)])
+        merged = {
+            "start": np.concatenate([self.start[keep], start]),
+            "end": np.concatenate([self.end[keep], self.end[rows]]),
+            "force": np.concatenate([self.force[keep], force]),
+            "normal": np.concatenate([self.normal[keep], normal]),
+            "type": None if self.type is None else np.concatenate([self.type[keep],
+                                                                   self.type[rows]]),
+            "contact_type": np.concatenate([self.contact_type[keep], self.contact_type[rows]]),
+        }
+        return ContactLines(sliding=sliding, **merged)
 
 
 def contact_mesh(contacts: ContactLines) -> meshio.Mesh:
@@ -386,6 +463,8 @@ def contact_mesh(contacts: ContactLines) -> meshio.Mesh:
         cell_data["type"] = contacts.type
     if contacts.sliding is not None:
         cell_data["sliding"] = contacts.sliding.astype(np.uint8)
+    if contacts.contact_type is not None:
+        cell_data["contact_type"] = contacts.contact_type
     return meshio.Mesh(points, [meshio.CellBlock("line", lines)],
                        cell_data={name: [np.asarray(v)] for name, v in cell_data.items()})
 
