@@ -338,7 +338,7 @@ def nlgs_kernel(
     shift = np.empty(n_contacts)
     free_norm2 = 0.0
     for k in range(n_contacts):
-        shift[k] = max(0.0, gap[k]) / dt
+        shift[k] = gap[k] / dt
         un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
                                         free_velocities, free_spins, wall_normals,
                                         wall_free_speeds)
@@ -471,13 +471,16 @@ class ContactDynamicsStep:
     sweep:
         NLGS visiting order: ``"coloured"`` (parallel over graph-coloured contacts) or
         ``"serial"`` (one seeded random permutation per step); module docstring.
+    overlap_recovery:
+        beta in [0, 1]: an existing overlap (g < 0) must open by beta |g| within the step
+        (U_n >= beta |g| / h; module docstring); 0 (default): the pure law, overlaps kept.
     """
 
     def __init__(
         self, dt: float, theta: float = 0.5, tolerance: float = 1e-5,
         max_iterations: int = 1000, gravity=(0.0, 0.0, 0.0), friction: float = 0.4,
         alert: float | None = None, gyroscopic: bool = False, strict: bool = False,
-        seed: int = 0, sweep: str = "coloured",
+        seed: int = 0, sweep: str = "coloured", overlap_recovery: float = 0.0,
     ) -> None:
         self.dt = at_least("dt", dt)
         theta_value = at_least("theta", theta)
@@ -501,6 +504,10 @@ class ContactDynamicsStep:
         if sweep not in _SWEEPS:
             raise InputError("sweep", sweep, "one of " + ", ".join(map(repr, _SWEEPS)))
         self.sweep = sweep
+        recovery = at_least("overlap_recovery", overlap_recovery, strict=False)
+        if recovery > 1.0:
+            raise InputError("overlap_recovery", overlap_recovery, "a number in [0, 1]")
+        self.overlap_recovery = recovery
         self._warm_keys = np.zeros(0, dtype=np.int64)
         self._warm_forces = np.zeros((0, 3))
         self.alert_growths = 0
@@ -615,6 +622,9 @@ class ContactDynamicsStep:
         wall_speeds = np.empty(wall_free.shape[0])
         delassus = np.empty((n_contacts, 3, 3))
         residuals = np.zeros(2)
+        # gap term g* [m] of the law U_n + g*/h >= 0: max(0, g) + beta min(0, g)
+        gap_term = np.maximum(contacts.gap, 0.0) + self.overlap_recovery * \
+            np.minimum(contacts.gap, 0.0)
         kernel_inv_mass = np.ascontiguousarray(wall_inv_mass, dtype=np.float64)
         if self.sweep == "serial":
             order = self._rng.permutation(n_contacts).astype(np.int64)
@@ -622,7 +632,7 @@ class ContactDynamicsStep:
                 contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
                 inv_mass, inv_inertia, free_v, free_w, kernel_normals,
                 kernel_inv_mass, np.ascontiguousarray(wall_free), wall_max, mu,
-                contacts.gap, h, order, self.tolerance, self.max_iterations,
+                gap_term, h, order, self.tolerance, self.max_iterations,
                 impulses, velocities, spins, wall_speeds, delassus, residuals,
             )
         else:
@@ -637,7 +647,7 @@ class ContactDynamicsStep:
                 contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
                 inv_mass, inv_inertia, free_v, free_w, kernel_normals,
                 kernel_inv_mass, np.ascontiguousarray(wall_free), wall_max, mu,
-                contacts.gap, h, colouring.order, colouring.offsets, n_parallel,
+                gap_term, h, colouring.order, colouring.offsets, n_parallel,
                 self.tolerance, self.max_iterations,
                 impulses, velocities, spins, wall_speeds, delassus, residuals,
             )

@@ -89,7 +89,7 @@ def _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_sp
     hi = min(lo + _BLOCK, n_contacts)
     free2 = 0.0
     for k in range(lo, hi):
-        shift[k] = max(0.0, gap[k]) / dt
+        shift[k] = gap[k] / dt
         un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
                                         free_velocities, free_spins, wall_normals,
                                         wall_free_speeds)

@@ -83,6 +83,12 @@ class DiscreteTestSettings:
         End criteria of stages without a strain-controlled axis.
     seed:
         Seed of the solver's visiting order.
+    overlap_recovery:
+        beta in [0, 1] of :class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`
+        (0: overlaps are never pushed back).
+    compaction_max_iterations:
+        NLGS sweep cap in stages without a strain-controlled axis (compaction: no friction,
+        only its end state matters; ``max_iterations`` applies in the others).
     """
 
     friction: float = 0.4
@@ -102,6 +108,8 @@ class DiscreteTestSettings:
     wall_mass_factor: float = 1.0
     quasi_static: QuasiStaticCriteria = field(default_factory=QuasiStaticCriteria)
     seed: int = 0
+    overlap_recovery: float = 0.0
+    compaction_max_iterations: int = 200
 
     def __post_init__(self) -> None:
         for name in ("friction", "compaction_friction"):
@@ -112,8 +120,10 @@ class DiscreteTestSettings:
             at_least(name, getattr(self, name))
         if self.dt is not None:
             at_least("dt", self.dt)
+        if not 0.0 <= self.overlap_recovery <= 1.0:
+            raise InputError("overlap_recovery", self.overlap_recovery, "a number in [0, 1]")
         for name, low in (("record_every", 1), ("snapshot_every", 0), ("max_stage_steps", 1),
-                          ("max_iterations", 1)):
+                          ("max_iterations", 1), ("compaction_max_iterations", 1)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | np.integer) \
                     or value < low:
@@ -166,7 +176,7 @@ class DiscreteTest:
         self.solver = ContactDynamicsStep(
             dt=s.dt or 1.0, theta=s.theta, tolerance=s.tolerance,
             max_iterations=s.max_iterations, friction=s.compaction_friction,
-            sweep=s.sweep, seed=s.seed)
+            sweep=s.sweep, seed=s.seed, overlap_recovery=s.overlap_recovery)
         self.simulation = Simulation(sample, self.solver)
         self.simulation.add(_StageControl(self))
         self.simulation.add(_Recorder(self, Periodic(s.record_every)))
@@ -201,6 +211,8 @@ class DiscreteTest:
         d_mean = sample.mean_diameter
         self.strain_rate = inertia * math.sqrt(p_ref / sample.state.density) / d_mean
         self.solver.friction = s.friction if moving else s.compaction_friction
+        self.solver.max_iterations = s.max_iterations if moving else \
+            s.compaction_max_iterations
         for a in range(3):
             mode, target = stage.modes[a], stage.targets[a]
             lower, upper = WALL_NAMES[2 * a], WALL_NAMES[2 * a + 1]
@@ -348,7 +360,8 @@ class DiscreteTest:
             "strain_rate": self.strain_rate, "n_snapshots": self.n_snapshots,
             "finished": self.finished, "dt": self.solver.dt, "alert": self.solver.alert,
             "alert_growths": self.solver.alert_growths,
-            "friction": self.solver.friction, "step_index": self.simulation.step_index,
+            "friction": self.solver.friction, "max_iterations": self.solver.max_iterations,
+            "step_index": self.simulation.step_index,
             "time": self.simulation.time,
             "unconverged_steps": self.simulation.unconverged_steps,
             "unconverged_in_row": self.simulation.unconverged_in_row,
@@ -368,6 +381,8 @@ class DiscreteTest:
         self.solver.alert = None if data["alert"] is None else float(data["alert"])
         self.solver.alert_growths = int(data["alert_growths"])
         self.solver.friction = float(data["friction"])
+        if "max_iterations" in data:
+            self.solver.max_iterations = int(data["max_iterations"])
         self.simulation.step_index = int(data["step_index"])
         self.simulation.time = float(data["time"])
         self.simulation.unconverged_steps = int(data["unconverged_steps"])
