@@ -29,7 +29,11 @@ the step, in the local frame (U_n > 0: separating). With the gap g at q_m::
 
 An open gap lets the bodies approach by at most g within the step; an existing overlap
 (g < 0) is NOT pushed apart (no max(0, g) < 0 term): overlaps are never corrected violently,
-and are reported as ``max_overlap`` (pitfall 4).
+and are reported as ``max_overlap`` (pitfall 4). Optionally (``overlap_recovery`` = beta in
+(0, 1], default 0) the gap term is g* = max(0, g) + beta min(0, g): an overlap must open by
+beta |g| within the step (U_n >= beta |g| / h), so overlaps left by unconverged steps decay
+geometrically instead of accumulating (a Baumgarte-type stabilisation; the separation speed
+is energy put in, beta |g| / h per contact).
 
 NLGS (6.3). Body accumulators: body velocities are kept up to date with every impulse
 update, so the local right-hand side of contact a is its current relative velocity minus
@@ -52,6 +56,11 @@ the contacts of a colour in parallel (``numba.prange``), the contacts of mobile
 (stress-controlled) walls last in a serial loop, as they all share their wall. The same local
 solver and convergence measures, in a fixed order: the solution agrees with the serial sweep
 within the tolerance and does not depend on the number of threads.
+
+Skipping open contacts (LMGC90's iskip idea): a contact found open (P = 0) at
+:data:`SKIP_OPEN` visits in a row is left out of the sweeps, except the first sweep, every
+:data:`SKIP_REVISIT`-th and the one after a failed check, which visit every contact; the
+check pass always covers every contact, so a skipped contact that closes fails the residual.
 
 Convergence (both must be <= ``tolerance`` after a sweep; the change is measured in every
 sweep, the residual, which costs a pass over the contacts, only after sweeps whose change is
@@ -98,6 +107,12 @@ _DET_TINY = 1e-12  # det W below 1e-12 W_nn^3: singular block, use projections
 _LOCAL_ITERATIONS = 100
 _LOCAL_TOLERANCE = 1e-12
 _SWEEPS = ("coloured", "serial")
+SKIP_OPEN = 2
+"""A contact found open (P = 0) at this many visits in a row is skipped by the sweeps
+(LMGC90's iskip idea, research/cd_engines.md 1.3) ..."""
+SKIP_REVISIT = 10
+"""... except in every SKIP_REVISIT-th sweep, the first, and the one after a failed
+convergence check, which visit every contact; the check pass always covers every contact."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -261,6 +276,24 @@ def update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia
     return d0 * d0 + d1 * d1 + d2 * d2
 
 
+@njit(inline="always")
+def skipped_update(k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+                   wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
+                   wall_speeds, delassus, open_sweeps):
+    """:func:`update_contact` unless contact k has been open (P = 0) at its last ``skip``
+    visits (then it is left alone and 0 returned); ``open_sweeps[k]`` counts those visits."""
+    if open_sweeps[k] >= skip:
+        return 0.0
+    change = update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+                            wall_normals, wall_inv_mass, mu, shift, impulses, velocities,
+                            spins, wall_speeds, delassus)
+    if impulses[k, 0] == 0.0:
+        open_sweeps[k] += 1
+    else:
+        open_sweeps[k] = 0
+    return change
+
+
 # --------------------------------------------------------------------------------------------
 # Array kernels (outputs last)
 # --------------------------------------------------------------------------------------------
@@ -348,17 +381,22 @@ def nlgs_kernel(
                arm_i, arm_j, inv_mass, inv_inertia, velocities, spins, wall_normals,
                wall_inv_mass, wall_speeds)
     iterations = 0
+    open_sweeps = np.zeros(n_contacts, dtype=np.int64)
+    full = True  # visit every contact (SKIP_OPEN, SKIP_REVISIT)
     while iterations < max_iterations:
         iterations += 1
         change2 = 0.0
         sweep_p2 = 0.0
+        skip = SKIP_OPEN if not full else max_iterations + 1
         for m in range(n_contacts):
             k = order[m]
-            change2 += update_contact(
-                k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, wall_normals,
-                wall_inv_mass, mu, shift, impulses, velocities, spins, wall_speeds, delassus)
+            change2 += skipped_update(
+                k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+                wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
+                wall_speeds, delassus, open_sweeps)
             sweep_p2 += impulses[k, 0] ** 2 + impulses[k, 1] ** 2 + impulses[k, 2] ** 2
         brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
+        full = iterations % SKIP_REVISIT == 0
         change = 0.0 if change2 == 0.0 else math.sqrt(change2 / max(sweep_p2, _TINY))
         residuals[0] = change
         if change > tolerance and iterations < max_iterations:
@@ -383,6 +421,7 @@ def nlgs_kernel(
         residuals[1] = residual
         if change <= tolerance and residual <= tolerance:
             break
+        full = True
     return iterations
 
 

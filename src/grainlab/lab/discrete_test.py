@@ -84,8 +84,9 @@ class DiscreteTestSettings:
     seed:
         Seed of the solver's visiting order.
     overlap_recovery:
-        beta in [0, 1] of :class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`
-        (0: overlaps are never pushed back).
+        beta in [0, 1] of :class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep` in
+        stages with a strain-controlled axis (0: overlaps are never pushed back; compaction
+        always uses 0, since the recovery keeps a settling packing moving).
     compaction_max_iterations:
         NLGS sweep cap in stages without a strain-controlled axis (compaction: no friction,
         only its end state matters; ``max_iterations`` applies in the others).
@@ -213,6 +214,7 @@ class DiscreteTest:
         self.solver.friction = s.friction if moving else s.compaction_friction
         self.solver.max_iterations = s.max_iterations if moving else \
             s.compaction_max_iterations
+        self.solver.overlap_recovery = s.overlap_recovery if moving else 0.0
         for a in range(3):
             mode, target = stage.modes[a], stage.targets[a]
             lower, upper = WALL_NAMES[2 * a], WALL_NAMES[2 * a + 1]
@@ -361,6 +363,7 @@ class DiscreteTest:
             "finished": self.finished, "dt": self.solver.dt, "alert": self.solver.alert,
             "alert_growths": self.solver.alert_growths,
             "friction": self.solver.friction, "max_iterations": self.solver.max_iterations,
+            "overlap_recovery": self.solver.overlap_recovery,
             "step_index": self.simulation.step_index,
             "time": self.simulation.time,
             "unconverged_steps": self.simulation.unconverged_steps,
@@ -383,6 +386,7 @@ class DiscreteTest:
         self.solver.friction = float(data["friction"])
         if "max_iterations" in data:
             self.solver.max_iterations = int(data["max_iterations"])
+            self.solver.overlap_recovery = float(data["overlap_recovery"])
         self.simulation.step_index = int(data["step_index"])
         self.simulation.time = float(data["time"])
         self.simulation.unconverged_steps = int(data["unconverged_steps"])
