@@ -100,8 +100,8 @@ class DiscreteTestSettings:
     time_step_factor: float = 0.003
     compaction_time_step_factor: float = 0.01
     theta: float = 0.5
-    tolerance: float = 1e-4
-    max_iterations: int = 1000
+    tolerance: float = 1.666e-4
+    max_iterations: int = 400
     sweep: str = "coloured"
     record_every: int = 10
     snapshot_every: int = 0
@@ -109,7 +109,7 @@ class DiscreteTestSettings:
     wall_mass_factor: float = 1.0
     quasi_static: QuasiStaticCriteria = field(default_factory=QuasiStaticCriteria)
     seed: int = 0
-    overlap_recovery: float = 0.0
+    overlap_recovery: float = 0.05
     compaction_max_iterations: int = 200
 
     def __post_init__(self) -> None:
@@ -426,3 +426,4 @@ class _Recorder:
         done, reason = test.stage_done(row)
         if done:
             test.end_stage(reason)
+
