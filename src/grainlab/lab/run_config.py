@@ -90,6 +90,7 @@ class SolverConfig(_Section):
     seed: int = 0
     overlap_recovery: float = Field(0.05, ge=0, le=1)
     compaction_max_iterations: int = Field(200, ge=1)
+    compaction_tolerance: float = Field(1e-4, gt=0, lt=1)
 
 
 class OutputConfig(_Section):
@@ -183,7 +184,8 @@ class RunConfig(_Section):
             record_every=self.output.record_every, snapshot_every=self.output.snapshot_every,
             max_stage_steps=s.max_stage_steps, wall_mass_factor=s.wall_mass_factor,
             seed=s.seed, overlap_recovery=s.overlap_recovery,
-            compaction_max_iterations=s.compaction_max_iterations)
+            compaction_max_iterations=s.compaction_max_iterations,
+            compaction_tolerance=s.compaction_tolerance)
 
 
 def _renamed(stages, name: str):
