@@ -37,24 +37,47 @@ def grainlab_run(n: int, eps_q: float, folder: Path) -> dict:
         "sample": {"n_particles": n}, "test": {"kind": "triaxial", "eps_q_max": eps_q},
         "output": {"checkpoint_every": 0}})
     run = start_run(folder, config, overwrite=True)
+    stage_ends = []
+    stage_ended = run.test.on_stage_end
+
+    def timed_stage_end(test):
+        stage_ends.append(time.perf_counter())
+        stage_ended(test)
+
+    run.test.on_stage_end = timed_stage_end
     start = time.perf_counter()
     result = run.run()
     total = time.perf_counter() - start
+    compaction_time = stage_ends[0] - start if stage_ends else float("nan")
     table = result.table
     compaction = table[table["stage"] == "compaction"]
     shear = table[table["stage"] != "compaction"]
     stages = result.metadata["outcome"]["stages"]
     late = shear[shear["eps_q"] >= 0.6 * shear["eps_q"].max()]
+    figures = {}
+    for name, part, seconds, steps in (
+            ("compaction", compaction, compaction_time, stages[0]["steps"]),
+            ("shear", shear, total - compaction_time, stages[1]["steps"])):
+        # rows every record_every steps: per-step means from the recorded steps
+        sweeps = part["solver_iterations"].mean()
+        updates = (part["solver_iterations"] * part["n_contacts"]).mean() * steps
+        figures[f"{name}: wall time [s], steps, sweeps/step, contacts, updates/s"] = (
+            f"{seconds:.1f}, {steps}, {sweeps:.0f}, {part['n_contacts'].mean():.0f}, "
+            f"{updates / seconds:.3g}")
     return {
         "wall time [s]": total,
-        "steps (compaction, shear)": (stages[0]["steps"], stages[1]["steps"]),
+        **figures,
         "packing fraction after compaction": compaction["packing_fraction"].iloc[-1],
-        "z after compaction (no rattlers)": compaction["z_no_rattlers"].iloc[-1],
-        "z_m after compaction (walls counted)": compaction["z_mechanical"].iloc[-1],
+        "z after compaction (with rattlers, particle contacts)": compaction["z"].iloc[-1],
+        "z after compaction (no rattlers, particle contacts)":
+            compaction["z_no_rattlers"].iloc[-1],
+        "z_m after compaction (no rattlers, wall contacts counted)":
+            compaction["z_mechanical"].iloc[-1],
         "peak q/p": shear["q_over_p"].max(),
         "residual q/p (last 40 % of eps_q)": late["q_over_p"].mean(),
         "residual packing fraction": late["packing_fraction"].mean(),
-        "residual z": late["z"].mean(),
+        "residual z (with rattlers; no rattlers)":
+            f"{late['z'].mean():.3f}; {late['z_no_rattlers'].mean():.3f}",
         "max inertia number in shear": shear["inertia_number"].max(),
         "max overlap / <d>": table["max_overlap_over_d"].max(),
         "non-converged steps": result.metadata["outcome"]["unconverged_steps"],

@@ -15,7 +15,7 @@ import pytest
 
 from grainlab.engine.contact_dynamics import ContactDynamicsStep, StepReport, nlgs_kernel
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.errors import ConvergenceError
+from grainlab.errors import ConvergenceError, InputError
 from grainlab.geometry.sphere_aggregate import tetrahedral_aggregate
 
 G = 9.81
@@ -245,3 +245,19 @@ def test_tumbling_aggregate_conserves_angular_momentum():
             assert state.kinetic_energy() <= e0 * (1 + 1e-9)
     assert drift[True] < 0.01
     assert drift[False] > 10 * drift[True]
+
+
+@pytest.mark.parametrize("beta", [0.0, 0.05, 1.0])
+def test_overlap_recovery_opens_an_overlap_by_beta_of_it_within_one_step(beta):
+    """Two spheres at rest overlapping by delta: with U_n + beta g / h >= 0 they separate at
+    exactly beta delta / h (momentum conserved); beta = 0 keeps them at rest (pure law)."""
+    delta = 1e-3
+    library, state = spheres([[0.0, 0.0, 0.0], [1.0 - delta, 0.0, 0.0]])
+    step = ContactDynamicsStep(dt=DT, friction=0.4, tolerance=1e-10, overlap_recovery=beta)
+    report = step.step(state, library)
+    assert report.converged and report.contacts.gap[0] == pytest.approx(-delta)
+    u_n = state.velocities[1, 0] - state.velocities[0, 0]
+    assert u_n == pytest.approx(beta * delta / DT, rel=1e-9, abs=1e-15)
+    np.testing.assert_allclose(state.momentum(), 0.0, atol=1e-15)
+    with pytest.raises(InputError, match="overlap_recovery"):
+        ContactDynamicsStep(dt=DT, overlap_recovery=1.5)

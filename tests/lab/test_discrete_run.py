@@ -30,7 +30,11 @@ from grainlab.lab.wall_stages import wall_stages
 SMALL = {
     "sample": {"n_particles": 40, "seed": 4},
     "test": {"kind": "triaxial", "eps_q_max": 0.02},
-    "solver": {"compaction_inertia_number": 0.05, "inertia_number": 0.01, "sweep": "serial"},
+    # no overlap recovery and a compaction solved as tightly as the shear: on 40 particles the
+    # recovery's push makes the lateral walls' reactions fluctuate by ~10 % from record to
+    # record (1 % without), which the wall-stress checks below would confuse with control
+    "solver": {"compaction_inertia_number": 0.05, "inertia_number": 0.01, "sweep": "serial",
+               "overlap_recovery": 0.0, "compaction_max_iterations": 400},
     "output": {"record_every": 20, "checkpoint_every": 100, "snapshot_every": 100},
 }
 

@@ -143,10 +143,10 @@ _SIGMA0 = typer.Option(None, "--sigma0", help="Confining stress [Pa] [1e4].")
 _INERTIA = typer.Option(None, "--inertia", help="Bound on the inertia number [1e-3].")
 _SEED = typer.Option(None, "--seed", help="Seed of the sample [0].")
 _DT = typer.Option(None, "--dt", help="Time step [s] (0: automatic).")
-_TOL = typer.Option(None, "--tolerance", help="NLGS tolerance [1e-4].")
+_TOL = typer.Option(None, "--tolerance", help="NLGS tolerance [1.666e-4].")
 _SWEEP = typer.Option(None, "--sweep", help="coloured (parallel) | serial NLGS.")
 _ITER = typer.Option(None, "--max-iterations",
-                     help="NLGS sweep cap per step [1000]; lower is faster, with larger "
+                     help="NLGS sweep cap per shearing step [400]; lower is faster, with larger "
                           "overlaps (docs/discrete_engine.md).")
 _RECORD = typer.Option(None, "--record-every", help="Steps between results rows [10].")
 _SNAP = typer.Option(None, "--snapshot-every", help="Steps between contact snapshots [0].")

@@ -29,7 +29,11 @@ the step, in the local frame (U_n > 0: separating). With the gap g at q_m::
 
 An open gap lets the bodies approach by at most g within the step; an existing overlap
 (g < 0) is NOT pushed apart (no max(0, g) < 0 term): overlaps are never corrected violently,
-and are reported as ``max_overlap`` (pitfall 4).
+and are reported as ``max_overlap`` (pitfall 4). Optionally (``overlap_recovery`` = beta in
+(0, 1], default 0) the gap term is g* = max(0, g) + beta min(0, g): an overlap must open by
+beta |g| within the step (U_n >= beta |g| / h), so overlaps left by unconverged steps decay
+geometrically instead of accumulating (a Baumgarte-type stabilisation; the separation speed
+is energy put in, beta |g| / h per contact).
 
 NLGS (6.3). Body accumulators: body velocities are kept up to date with every impulse
 update, so the local right-hand side of contact a is its current relative velocity minus
@@ -52,6 +56,11 @@ the contacts of a colour in parallel (``numba.prange``), the contacts of mobile
 (stress-controlled) walls last in a serial loop, as they all share their wall. The same local
 solver and convergence measures, in a fixed order: the solution agrees with the serial sweep
 within the tolerance and does not depend on the number of threads.
+
+Skipping open contacts (LMGC90's iskip idea): a contact found open (P = 0) at
+:data:`SKIP_OPEN` visits in a row is left out of the sweeps, except the first sweep, every
+:data:`SKIP_REVISIT`-th and the one after a failed check, which visit every contact; the
+check pass always covers every contact, so a skipped contact that closes fails the residual.
 
 Convergence (both must be <= ``tolerance`` after a sweep; the change is measured in every
 sweep, the residual, which costs a pass over the contacts, only after sweeps whose change is
@@ -98,6 +107,12 @@ _DET_TINY = 1e-12  # det W below 1e-12 W_nn^3: singular block, use projections
 _LOCAL_ITERATIONS = 100
 _LOCAL_TOLERANCE = 1e-12
 _SWEEPS = ("coloured", "serial")
+SKIP_OPEN = 2
+"""A contact found open (P = 0) at this many visits in a row is skipped by the sweeps
+(LMGC90's iskip idea, research/cd_engines.md 1.3) ..."""
+SKIP_REVISIT = 10
+"""... except in every SKIP_REVISIT-th sweep, the first, and the one after a failed
+convergence check, which visit every contact; the check pass always covers every contact."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -261,6 +276,24 @@ def update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia
     return d0 * d0 + d1 * d1 + d2 * d2
 
 
+@njit(inline="always")
+def skipped_update(k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+                   wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
+                   wall_speeds, delassus, open_sweeps):
+    """:func:`update_contact` unless contact k has been open (P = 0) at its last ``skip``
+    visits (then it is left alone and 0 returned); ``open_sweeps[k]`` counts those visits."""
+    if open_sweeps[k] >= skip:
+        return 0.0
+    change = update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+                            wall_normals, wall_inv_mass, mu, shift, impulses, velocities,
+                            spins, wall_speeds, delassus)
+    if impulses[k, 0] == 0.0:
+        open_sweeps[k] += 1
+    else:
+        open_sweeps[k] = 0
+    return change
+
+
 # --------------------------------------------------------------------------------------------
 # Array kernels (outputs last)
 # --------------------------------------------------------------------------------------------
@@ -338,7 +371,7 @@ def nlgs_kernel(
     shift = np.empty(n_contacts)
     free_norm2 = 0.0
     for k in range(n_contacts):
-        shift[k] = max(0.0, gap[k]) / dt
+        shift[k] = gap[k] / dt
         un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
                                         free_velocities, free_spins, wall_normals,
                                         wall_free_speeds)
@@ -348,17 +381,22 @@ def nlgs_kernel(
                arm_i, arm_j, inv_mass, inv_inertia, velocities, spins, wall_normals,
                wall_inv_mass, wall_speeds)
     iterations = 0
+    open_sweeps = np.zeros(n_contacts, dtype=np.int64)
+    full = True  # visit every contact (SKIP_OPEN, SKIP_REVISIT)
     while iterations < max_iterations:
         iterations += 1
         change2 = 0.0
         sweep_p2 = 0.0
+        skip = SKIP_OPEN if not full else max_iterations + 1
         for m in range(n_contacts):
             k = order[m]
-            change2 += update_contact(
-                k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, wall_normals,
-                wall_inv_mass, mu, shift, impulses, velocities, spins, wall_speeds, delassus)
+            change2 += skipped_update(
+                k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+                wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
+                wall_speeds, delassus, open_sweeps)
             sweep_p2 += impulses[k, 0] ** 2 + impulses[k, 1] ** 2 + impulses[k, 2] ** 2
         brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
+        full = iterations % SKIP_REVISIT == 0
         change = 0.0 if change2 == 0.0 else math.sqrt(change2 / max(sweep_p2, _TINY))
         residuals[0] = change
         if change > tolerance and iterations < max_iterations:
@@ -383,6 +421,7 @@ def nlgs_kernel(
         residuals[1] = residual
         if change <= tolerance and residual <= tolerance:
             break
+        full = True
     return iterations
 
 
@@ -471,13 +510,16 @@ class ContactDynamicsStep:
     sweep:
         NLGS visiting order: ``"coloured"`` (parallel over graph-coloured contacts) or
         ``"serial"`` (one seeded random permutation per step); module docstring.
+    overlap_recovery:
+        beta in [0, 1]: an existing overlap (g < 0) must open by beta |g| within the step
+        (U_n >= beta |g| / h; module docstring); 0 (default): the pure law, overlaps kept.
     """
 
     def __init__(
         self, dt: float, theta: float = 0.5, tolerance: float = 1e-5,
         max_iterations: int = 1000, gravity=(0.0, 0.0, 0.0), friction: float = 0.4,
         alert: float | None = None, gyroscopic: bool = False, strict: bool = False,
-        seed: int = 0, sweep: str = "coloured",
+        seed: int = 0, sweep: str = "coloured", overlap_recovery: float = 0.0,
     ) -> None:
         self.dt = at_least("dt", dt)
         theta_value = at_least("theta", theta)
@@ -501,6 +543,10 @@ class ContactDynamicsStep:
         if sweep not in _SWEEPS:
             raise InputError("sweep", sweep, "one of " + ", ".join(map(repr, _SWEEPS)))
         self.sweep = sweep
+        recovery = at_least("overlap_recovery", overlap_recovery, strict=False)
+        if recovery > 1.0:
+            raise InputError("overlap_recovery", overlap_recovery, "a number in [0, 1]")
+        self.overlap_recovery = recovery
         self._warm_keys = np.zeros(0, dtype=np.int64)
         self._warm_forces = np.zeros((0, 3))
         self.alert_growths = 0
@@ -615,6 +661,9 @@ class ContactDynamicsStep:
         wall_speeds = np.empty(wall_free.shape[0])
         delassus = np.empty((n_contacts, 3, 3))
         residuals = np.zeros(2)
+        # gap term g* [m] of the law U_n + g*/h >= 0: max(0, g) + beta min(0, g)
+        gap_term = np.maximum(contacts.gap, 0.0) + self.overlap_recovery * \
+            np.minimum(contacts.gap, 0.0)
         kernel_inv_mass = np.ascontiguousarray(wall_inv_mass, dtype=np.float64)
         if self.sweep == "serial":
             order = self._rng.permutation(n_contacts).astype(np.int64)
@@ -622,7 +671,7 @@ class ContactDynamicsStep:
                 contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
                 inv_mass, inv_inertia, free_v, free_w, kernel_normals,
                 kernel_inv_mass, np.ascontiguousarray(wall_free), wall_max, mu,
-                contacts.gap, h, order, self.tolerance, self.max_iterations,
+                gap_term, h, order, self.tolerance, self.max_iterations,
                 impulses, velocities, spins, wall_speeds, delassus, residuals,
             )
         else:
@@ -637,7 +686,7 @@ class ContactDynamicsStep:
                 contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
                 inv_mass, inv_inertia, free_v, free_w, kernel_normals,
                 kernel_inv_mass, np.ascontiguousarray(wall_free), wall_max, mu,
-                contacts.gap, h, colouring.order, colouring.offsets, n_parallel,
+                gap_term, h, colouring.order, colouring.offsets, n_parallel,
                 self.tolerance, self.max_iterations,
                 impulses, velocities, spins, wall_speeds, delassus, residuals,
             )

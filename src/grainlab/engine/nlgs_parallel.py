@@ -58,12 +58,14 @@ import numpy as np
 from numba import njit, prange
 
 from grainlab.engine.contact_dynamics import (
+    SKIP_OPEN,
+    SKIP_REVISIT,
     _apply,
     _relative_velocity,
     brake_walls,
     delassus_kernel,
     project_cone,
-    update_contact,
+    skipped_update,
 )
 
 _TINY = 1e-300  # as in contact_dynamics
@@ -89,7 +91,7 @@ def _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_sp
     hi = min(lo + _BLOCK, n_contacts)
     free2 = 0.0
     for k in range(lo, hi):
-        shift[k] = max(0.0, gap[k]) / dt
+        shift[k] = gap[k] / dt
         un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
                                         free_velocities, free_spins, wall_normals,
                                         wall_free_speeds)
@@ -147,7 +149,7 @@ def _coloured_sweeps(
     wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
     mu, gap, dt, colour_offsets, n_parallel, tolerance, max_iterations,
     impulses, velocities, spins, wall_speeds, delassus, residuals, shift, delta2, partial,
-    brakes,
+    brakes, open_sweeps,
 ):
     """Warm start, sweeps and checks of :func:`nlgs_coloured_kernel` on contacts already in
     group order (group g = contacts ``colour_offsets[g] .. colour_offsets[g + 1] - 1``, the
@@ -188,22 +190,25 @@ def _coloured_sweeps(
                        frame, arm_i, arm_j, inv_mass, inv_inertia, velocities, spins,
                        wall_normals, wall_inv_mass, wall_speeds)
     iterations = 0
+    full = True  # the first sweep, every SKIP_REVISIT-th and the one after a failed check
     while iterations < max_iterations:
         iterations += 1
+        skip = SKIP_OPEN if not full else max_iterations + 1
         for c in range(n_groups):
             lo, hi = colour_offsets[c], colour_offsets[c + 1]
             if c < n_parallel:
                 for k in prange(lo, hi):
-                    delta2[k] = update_contact(
-                        k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+                    delta2[k] = skipped_update(
+                        k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                         wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
-                        wall_speeds, delassus)
+                        wall_speeds, delassus, open_sweeps)
             else:
                 for k in range(lo, hi):
-                    delta2[k] = update_contact(
-                        k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+                    delta2[k] = skipped_update(
+                        k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                         wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
-                        wall_speeds, delassus)
+                        wall_speeds, delassus, open_sweeps)
+        full = iterations % SKIP_REVISIT == 0
         brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
         # relative change of the sweep: sums per block of _BLOCK contacts, then in block order
         if parallel:
@@ -239,6 +244,7 @@ def _coloured_sweeps(
         residuals[1] = residual
         if change <= tolerance and residual <= tolerance:
             break
+        full = True  # a skipped contact may be the one that fails
     return iterations
 
 
@@ -311,7 +317,8 @@ def nlgs_coloured_kernel(
         free_spins, wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
         c_mu, c_gap, dt, colour_offsets, n_parallel_colours, tolerance, max_iterations,
         c_impulses, velocities, spins, wall_speeds, c_delassus, residuals,
-        np.empty(n_contacts), np.zeros(n_contacts), np.zeros((n_blocks, 3)), brakes)
+        np.empty(n_contacts), np.zeros(n_contacts), np.zeros((n_blocks, 3)), brakes,
+        np.zeros(n_contacts, dtype=np.int64))
     for m in prange(n_contacts):  # scatter back (a permutation: each row written once)
         k = colour_order[m]
         for a in range(3):

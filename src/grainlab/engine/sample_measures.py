@@ -16,10 +16,14 @@ Invariants (seed 002 eqs. 5, 10, 11): sigma_1 >= sigma_2 >= sigma_3 principal st
 p = (sigma_1 + sigma_2 + sigma_3)/3, q = (sigma_1 - sigma_3)/3, sin phi = 3 (q/p)/(2 + q/p);
 logarithmic strains eps_a = ln(L0_a / L_a) (compression positive, eq. 8), eps_p = sum eps_a
 (eq. 9), eps_q = eps_1 - eps_3 (eq. 10) with eps_1 >= eps_3 the largest and smallest of the
-three. Mechanical coordination z_m = (2 C_pp + C_pw) / N_m: force-carrying contacts between
-particles (C_pp) and with walls (C_pw) per particle, over the N_m particles left after
-removing rattlers (fewer than 4 such contacts for frictionless particles, d + 1 = 4; fewer
-than 2 with friction), repeatedly; a frictionless packing is isostatic at z_m = 6 (spheres).
+three. Mechanical coordination z_m = 2 (C_pp + C_pw) / N_m: force-carrying contacts between
+particles (C_pp) and with walls (C_pw), over the N_m particles left after removing rattlers
+(fewer than 4 such contacts for frictionless particles, d + 1 = 4; fewer than 2 with
+friction), repeatedly. A wall contact is one constraint on its particle like a particle
+contact, so it counts twice, as the wall were a particle: the isostatic count of rigid
+frictionless spheres (3 translations each) is C_pp + C_pw = 3 N_m (+ one per stress-controlled
+wall), i.e. z_m = 6. Counting the wall contacts once, (2 C_pp + C_pw) / N_m, gives
+6 - C_pw / N_m, ~5.3-5.5 in a box of 10 diameters.
 Inertia number I = max_a |d eps_a/dt| <d> sqrt(rho / p) with the walls' strain rates.
 
 The contact network (analysis layer) keeps the particle-particle contacts that carry a force
@@ -247,7 +251,7 @@ def polyhedron_connectivity(network: ContactNetwork, connectivity: Connectivity,
 
 
 def mechanical_coordination(report: StepReport, n_bodies: int, min_contacts: int) -> float:
-    """z_m of the module docstring: (2 C_pp + C_pw) / N_m after removing, repeatedly, the
+    """z_m of the module docstring: 2 (C_pp + C_pw) / N_m after removing, repeatedly, the
     particles with fewer than ``min_contacts`` force-carrying contacts (walls included)."""
     contacts = report.contacts
     loaded = report.impulses[:, 0] > 0.0 if contacts.n_contacts else np.zeros(0, bool)
@@ -263,7 +267,8 @@ def mechanical_coordination(report: StepReport, n_bodies: int, min_contacts: int
             break
         alive &= ~weak
     n_alive = int(alive.sum())
-    return float(counts[alive].sum() / n_alive) if n_alive else float("nan")
+    n_wall = int(np.count_nonzero(keep & (bi < 0)))  # each counted once in ``counts``
+    return float((counts[alive].sum() + n_wall) / n_alive) if n_alive else float("nan")
 
 
 def sample_measures(report: StepReport, state: BodyState, library: ShapeLibrary,

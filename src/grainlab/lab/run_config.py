@@ -98,12 +98,15 @@ class SolverConfig(_Section):
     time_step_factor: float = Field(0.003, gt=0, le=0.5)
     compaction_time_step_factor: float = Field(0.01, gt=0, le=0.5)
     theta: float = Field(0.5, ge=0.5, le=1.0)
-    tolerance: float = Field(1e-4, gt=0, lt=1)
-    max_iterations: int = Field(1000, ge=1)
+    tolerance: float = Field(1.666e-4, gt=0, lt=1)
+    max_iterations: int = Field(400, ge=1)
     sweep: Literal["coloured", "serial"] = "coloured"
     max_stage_steps: int = Field(200_000, ge=1)
     wall_mass_factor: float = Field(1.0, gt=0)
     seed: int = 0
+    overlap_recovery: float = Field(0.05, ge=0, le=1)
+    compaction_max_iterations: int = Field(200, ge=1)
+    compaction_tolerance: float = Field(1e-4, gt=0, lt=1)
 
 
 class OutputConfig(_Section):
@@ -196,7 +199,9 @@ class RunConfig(_Section):
             max_iterations=s.max_iterations, sweep=s.sweep,
             record_every=self.output.record_every, snapshot_every=self.output.snapshot_every,
             max_stage_steps=s.max_stage_steps, wall_mass_factor=s.wall_mass_factor,
-            seed=s.seed)
+            seed=s.seed, overlap_recovery=s.overlap_recovery,
+            compaction_max_iterations=s.compaction_max_iterations,
+            compaction_tolerance=s.compaction_tolerance)
 
 
 def _renamed(stages, name: str):
