@@ -1,15 +1,45 @@
-"""Compiled kernels of the micro-element model (Numba; STYLE.md 2: array kernels, outputs last).
+"""Compiled kernels of the micro-element model (Numba; STYLE.md 2: per-micro-element law
+``@njit(inline="always")`` -> array kernel ``@njit(cache=True)``, outputs last -> thin launcher).
 
-:func:`local_stiffness_kernel` builds, for every micro-element, the stretch maps P (eq. 2.15,
-with the non-affine T of eq. 2.14) and the full-tensor local stiffness C^n (eq. 2.18), looping
-over micro-elements and contacts with small fixed-size matrices; the slow, obviously right twin
-is the NumPy version in the tests.
+Per micro-element n (E micro-elements, up to M contacts, d dimensions, k Voigt and w skew
+components; seed 001 ch. 2, Table 2.1):
+
+* :func:`_condense_element` — contact stiffness K = k_n n n + k_r (I - n n) (eq. 2.5), the
+  non-affine move T = -[sum K]^+ [sum K L] (eq. 2.14), the stretch map
+  P_p(kl) = delta_pk L_l + T_p(kl) (eq. 2.15), the local stiffness
+  C_ij,kl = 1/(2 V^n) sum_m K_ip P_p(kl) L_j (eq. 2.18) on full tensors, condensed to the blocks
+  [S'; W'] C [S W] (symmetric Voigt / skew, :mod:`tensor_basis`) and, with a free particle spin,
+  C^n = C_ss + C_sw spin, spin = -C_ww^+ C_ws;
+* :func:`_relative_element`, :func:`_series_element`, :func:`_distribute_element` — the
+  Maxwellian distribution: v^n = C_bar^-1 (C^n - C_bar), Exp(-v^n) by the series of eq. 2.35
+  with scaling and squaring, G^n = (V^n/V) A Exp(-v^n) and C^n G^n (eqs. 2.31–2.35);
+* :func:`_stretch_element` — the local strain eps^n = (V/V^n) G^n eps (eq. 2.27), the spin, and
+  each spring's approach d_delta = P eps^n (eqs. 2.13–2.15) and translation of its branch;
+* :func:`_move_element` — branches shortened by the translation, volumes by the volumetric
+  strain, after the increment.
+
+Array kernels come in pairs: a serial one and a parallel one (``prange`` over micro-elements;
+every iteration writes only its own micro-element's rows: a gather, never a scatter). The
+launchers take the parallel one from :data:`MIN_PARALLEL_ELEMENTS` micro-elements on: waking
+the threads costs ~0.1 ms, more than a whole increment of a 30-micro-element unit. Sums over
+all contacts (stress, descriptors) are serial loops. The slow, obviously right twins are the
+NumPy versions in ``tests/micromech/test_micro_element_kernels.py``.
 """
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from numba import njit, prange
+
+from grainlab.micromech.micro_element.tensor_basis import bases
+
+MIN_PARALLEL_ELEMENTS = 2048
+"""Micro-elements from which the launchers use the parallel kernels."""
+
+SPIN_MODES = {"none": 0, "micro-element": 1, "uniform": 2}
+"""Particle-spin options of :class:`MicroElementModel` as kernel codes (2: set by the caller)."""
 
 
 @njit(inline="always")
@@ -17,6 +47,11 @@ def _inverse_or_pinv(a):
     """Inverse of a small symmetric positive semi-definite matrix; the pseudo-inverse when it
     is (nearly) singular."""
     d = a.shape[0]
+    if d == 1:
+        inv = np.zeros((1, 1))
+        if a[0, 0] != 0.0:
+            inv[0, 0] = 1.0 / a[0, 0]
+        return inv
     if d == 2:
         det = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
         scale = abs(a[0, 0]) + abs(a[1, 1]) + 1e-300
@@ -45,65 +80,630 @@ def _inverse_or_pinv(a):
             inv[1, 2] = (a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]) / det
             inv[2, 2] = (a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]) / det
             return inv
-    return np.linalg.pinv(a, 1e-12)
+    return np.linalg.pinv(np.ascontiguousarray(a), 1e-12)
+
+
+@njit(inline="always")
+def _pinv_above(a, cutoff):
+    """Pseudo-inverse of a small square matrix that treats singular values <= ``cutoff``
+    (absolute, in the units of a) as zero: 0 when every |entry| <= cutoff, the closed-form
+    inverse when a is well conditioned, an SVD otherwise."""
+    n = a.shape[0]
+    scale = 0.0
+    for i in range(n):
+        for j in range(n):
+            scale = max(scale, abs(a[i, j]))
+    if scale <= cutoff:
+        return np.zeros((n, n))
+    if n <= 3:
+        inv = _inverse_or_pinv(a)
+        if n == 1 or abs(_determinant(a)) > 1e-10 * scale**n:
+            return inv
+    u, sv, vt = np.linalg.svd(np.ascontiguousarray(a))
+    inv = np.zeros((n, n))
+    keep = max(cutoff, 1e-12 * sv[0])
+    for x in range(sv.shape[0]):
+        if sv[x] > keep:
+            for i in range(n):
+                for j in range(n):
+                    inv[i, j] += vt[x, i] * u[j, x] / sv[x]
+    return inv
+
+
+@njit(inline="always")
+def _determinant(a):
+    """Determinant of a 2 x 2 or 3 x 3 matrix."""
+    if a.shape[0] == 2:
+        return a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+    return (a[0, 0] * (a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1])
+            + a[0, 1] * (a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2])
+            + a[0, 2] * (a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]))
+
+
+@njit(inline="always")
+def _product(a, b, out):
+    """out = a @ b for small 2D arrays (out must not alias a or b)."""
+    for i in range(a.shape[0]):
+        for j in range(b.shape[1]):
+            s = 0.0
+            for x in range(a.shape[1]):
+                s += a[i, x] * b[x, j]
+            out[i, j] = s
+
+
+# -- local stiffness (eqs. 2.5, 2.14, 2.15, 2.18) ----------------------------------------------
+@njit(inline="always")
+def _condense_element(e, branches, mask, kn, kr, volumes, non_affine, spin_mode, right_index,
+                      right_weight, left_index, left_weight, t_out, blocks_out, spin_out,
+                      c_local_out):
+    """Micro-element e: T (d, d^2) into t_out[e], the condensed blocks L' C R into
+    blocks_out[e] and, with ``spin_mode`` 1, the spin map (w, k) into spin_out[e] and
+    C_ss + C_sw spin (k, k) into c_local_out[e].
+
+    R (d^2, b) and L' (b, d^2) are [S] and [S'] (b = k) or [S W] and [S'; W'] (b = k + w),
+    given sparse: column c of R is sum_r right_weight[c, r] e_(right_index[c, r]), row c of L'
+    likewise (at most two entries each). With K = k_r I + (k_n - k_r) n n and
+    P R = delta L R + T R, contact m adds (1/(2V)) (K P R)_ic L_j to row (i, j) of C R."""
+    n_contacts, d = branches.shape[1], branches.shape[2]
+    dd = d * d
+    n_b = right_index.shape[0]
+    n_v = c_local_out.shape[1]
+    n_w = n_b - n_v
+    normals = np.empty((n_contacts, d))
+    a = np.zeros((d, d))
+    b = np.zeros((d, dd))
+    count = 0
+    for m in range(n_contacts):
+        if not mask[e, m]:
+            continue
+        count += 1
+        length = 0.0
+        for i in range(d):
+            length += branches[e, m, i] ** 2
+        length = np.sqrt(length)
+        for i in range(d):
+            normals[m, i] = branches[e, m, i] / length
+        for i in range(d):
+            for j in range(d):
+                nn = normals[m, i] * normals[m, j]
+                k_ij = kn[e, m] * nn + kr[e, m] * ((1.0 if i == j else 0.0) - nn)
+                a[i, j] += k_ij
+                for col in range(d):
+                    b[i, j * d + col] += k_ij * branches[e, m, col]
+    t = t_out[e]
+    t[:, :] = 0.0
+    if non_affine and count >= 2:
+        inv = _inverse_or_pinv(a)
+        for p in range(d):
+            for x in range(dd):
+                s = 0.0
+                for q in range(d):
+                    s += inv[p, q] * b[q, x]
+                t[p, x] = -s
+    t_right = np.empty((d, n_b))  # T R
+    for p in range(d):
+        for c in range(n_b):
+            t_right[p, c] = (t[p, right_index[c, 0]] * right_weight[c, 0]
+                             + t[p, right_index[c, 1]] * right_weight[c, 1])
+    c_right = np.zeros((dd, n_b))  # C R
+    p_right = np.empty((d, n_b))
+    scale = 1.0 / (2.0 * volumes[e])
+    for m in range(n_contacts):
+        if not mask[e, m]:
+            continue
+        p_right[:, :] = t_right
+        for c in range(n_b):
+            for r in range(2):
+                q = right_index[c, r]
+                k = q // d
+                p_right[k, c] += branches[e, m, q - k * d] * right_weight[c, r]
+        k_r = kr[e, m]
+        k_nr = kn[e, m] - k_r
+        for c in range(n_b):
+            along = 0.0
+            for p in range(d):
+                along += normals[m, p] * p_right[p, c]
+            for i in range(d):
+                kp = scale * (k_r * p_right[i, c] + k_nr * normals[m, i] * along)
+                for j in range(d):
+                    c_right[i * d + j, c] += kp * branches[e, m, j]
+    blocks = blocks_out[e]
+    for row in range(n_b):
+        for c in range(n_b):
+            blocks[row, c] = (left_weight[row, 0] * c_right[left_index[row, 0], c]
+                              + left_weight[row, 1] * c_right[left_index[row, 1], c])
+    if spin_mode == 1:
+        spin = spin_out[e]
+        c_local = c_local_out[e]
+        # C_ww is zero up to round-off when no contact resists a relative spin (k_r = 0):
+        # singular values below 1e-10 of the micro-element's stiffness count as zero.
+        largest = 0.0
+        for row in range(n_b):
+            for c in range(n_b):
+                largest = max(largest, abs(blocks[row, c]))
+        inv_ww = _pinv_above(np.ascontiguousarray(blocks[n_v:, n_v:]), 1e-10 * largest)
+        for x in range(n_w):
+            for j in range(n_v):
+                s = 0.0
+                for y in range(n_w):
+                    s += inv_ww[x, y] * blocks[n_v + y, j]
+                spin[x, j] = -s
+        for i in range(n_v):
+            for j in range(n_v):
+                s = blocks[i, j]
+                for x in range(n_w):
+                    s += blocks[i, n_v + x] * spin[x, j]
+                c_local[i, j] = s
+
+
+@njit(cache=True)
+def condense_serial(branches, mask, kn, kr, volumes, non_affine, spin_mode, right_index,
+                    right_weight, left_index, left_weight, t_out, blocks_out, spin_out,
+                    c_local_out):
+    """:func:`_condense_element` for every micro-element, in one thread."""
+    for e in range(branches.shape[0]):
+        _condense_element(e, branches, mask, kn, kr, volumes, non_affine, spin_mode,
+                          right_index, right_weight, left_index, left_weight, t_out,
+                          blocks_out, spin_out, c_local_out)
 
 
 @njit(cache=True, parallel=True)
-def local_stiffness_kernel(branches, mask, kn, kr, volumes, non_affine, p_out, c_out):
-    """Fill p_out (E, M, d, d*d) with P[e, m, p, k*d + l] = delta_pk L_l + T[e, p, k*d + l] and
-    c_out (E, d*d, d*d) with C[e, i*d + j, k*d + l] = 1/(2 V^e) sum_m K_ip P_p(kl) L_j.
+def condense_parallel(branches, mask, kn, kr, volumes, non_affine, spin_mode, right_index,
+                      right_weight, left_index, left_weight, t_out, blocks_out, spin_out,
+                      c_local_out):
+    """:func:`_condense_element` for every micro-element, in parallel (gather)."""
+    for e in prange(branches.shape[0]):
+        _condense_element(e, branches, mask, kn, kr, volumes, non_affine, spin_mode,
+                          right_index, right_weight, left_index, left_weight, t_out,
+                          blocks_out, spin_out, c_local_out)
 
-    K = k_n n n + k_r (I - n n); T = -[sum_m K]^+ [sum_m K_qk L_l] when ``non_affine`` and the
-    micro-element has at least two contacts (pseudo-inverse: a free direction of the centre
-    particle takes no move), else 0.
+
+def _sparse_columns(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(index, weight), both (columns, 2): the at most two non-zero entries of each column
+    (a missing second entry has weight 0)."""
+    n_columns = matrix.shape[1]
+    index = np.zeros((n_columns, 2), dtype=np.int64)
+    weight = np.zeros((n_columns, 2))
+    for c in range(n_columns):
+        rows = np.flatnonzero(matrix[:, c])
+        if not 1 <= rows.size <= 2:
+            raise ValueError("a tensor basis column has more than two entries")
+        index[c, :] = rows[0]
+        index[c, : rows.size] = rows
+        weight[c, : rows.size] = matrix[rows, c]
+    return index, weight
+
+
+@lru_cache(maxsize=4)
+def condensation_bases(dimension: int, with_skew: bool
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Sparse R = [S] or [S W] (d^2, b) and L' = [S'] or [S'; W'] (b, d^2) of
+    :mod:`tensor_basis`, as (right_index, right_weight, left_index, left_weight) for
+    :func:`_condense_element`."""
+    s, w, s_dual, w_dual = bases(dimension)
+    right = np.hstack([s, w]) if with_skew else s
+    left = np.vstack([s_dual, w_dual]) if with_skew else s_dual
+    return (*_sparse_columns(right), *_sparse_columns(left.T))
+
+
+def condense_local_stiffness(branches: np.ndarray, mask: np.ndarray, kn: np.ndarray,
+                             kr: np.ndarray, volumes: np.ndarray, non_affine: bool, spin: str
+                             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Launcher of :func:`_condense_element`.
+
+    Parameters: branches (E, M, d) [m], mask (E, M), contact stiffnesses kn, kr (E, M) [N/m]
+    (read only where mask is True), volumes (E,) [m^3], ``non_affine`` (eq. 2.14), ``spin``
+    (a key of :data:`SPIN_MODES`).
+
+    Returns T (E, d, d^2) [m]; the blocks [S' ; W'] C [S W] (E, k + w, k + w) [Pa] (with
+    ``spin="none"`` only S' C S, (E, k, k)); the spin map (E, w, k) [-] (zero unless
+    ``spin="micro-element"``); and C^n (E, k, k) [Pa] (C_ss + C_sw spin; C_ss, the first
+    block, unless ``spin="micro-element"``).
     """
-    n_elements, n_contacts, d = branches.shape
+    n_elements, _, d = branches.shape
+    with_skew = spin != "none"
+    basis = condensation_bases(d, with_skew)
+    n_v = 6 if d == 3 else 3
+    n_w = 3 if d == 3 else 1
+    n_b = n_v + n_w if with_skew else n_v
+    t = np.empty((n_elements, d, d * d))
+    blocks = np.empty((n_elements, n_b, n_b))
+    spin_map = np.zeros((n_elements, n_w, n_v))
+    c_local = np.empty((n_elements, n_v, n_v)) if spin == "micro-element" else np.empty(
+        (0, n_v, n_v))
+    kernel = condense_parallel if n_elements >= MIN_PARALLEL_ELEMENTS else condense_serial
+    kernel(np.ascontiguousarray(branches), np.ascontiguousarray(mask),
+           np.ascontiguousarray(kn, dtype=float), np.ascontiguousarray(kr, dtype=float),
+           np.ascontiguousarray(volumes), bool(non_affine), SPIN_MODES[spin], *basis, t,
+           blocks, spin_map, c_local)
+    if spin != "micro-element":
+        c_local = np.ascontiguousarray(blocks[:, :n_v, :n_v])
+    return t, blocks, spin_map, c_local
+
+
+# -- Maxwellian distribution (eqs. 2.32–2.35) --------------------------------------------------
+@njit(inline="always")
+def _relative_element(e, c_local, c_bar_inverse, c_bar, v_out, norm_out):
+    """v^n = C_bar^-1 (C^n - C_bar) into v_out[e]; its largest absolute row sum into
+    norm_out[e]."""
+    k = c_bar.shape[0]
+    v = v_out[e]
+    largest = 0.0
+    for i in range(k):
+        row = 0.0
+        for j in range(k):
+            s = 0.0
+            for x in range(k):
+                s += c_bar_inverse[i, x] * (c_local[e, x, j] - c_bar[x, j])
+            v[i, j] = s
+            row += abs(s)
+        largest = max(largest, row)
+    norm_out[e] = largest
+
+
+@njit(cache=True)
+def relative_serial(c_local, c_bar_inverse, c_bar, v_out, norm_out):
+    """:func:`_relative_element` for every micro-element, in one thread."""
+    for e in range(c_local.shape[0]):
+        _relative_element(e, c_local, c_bar_inverse, c_bar, v_out, norm_out)
+
+
+@njit(cache=True, parallel=True)
+def relative_parallel(c_local, c_bar_inverse, c_bar, v_out, norm_out):
+    """:func:`_relative_element` for every micro-element, in parallel (gather)."""
+    for e in prange(c_local.shape[0]):
+        _relative_element(e, c_local, c_bar_inverse, c_bar, v_out, norm_out)
+
+
+def relative_stiffness(c_local: np.ndarray, c_bar: np.ndarray, c_bar_inverse: np.ndarray
+                       ) -> tuple[np.ndarray, float]:
+    """v^n = C_bar^-1 (C^n - C_bar) (E, k, k) [-] of eq. 2.33, for C^n (E, k, k) and C_bar
+    (k, k) [Pa] with its (pseudo-)inverse [1/Pa]; and max_n ||v^n||_inf, the largest absolute
+    row sum (it sets the scaling of :func:`exponential_series_batch`)."""
+    n_elements, k, _ = c_local.shape
+    v = np.empty((n_elements, k, k))
+    norms = np.empty(n_elements)
+    kernel = relative_parallel if n_elements >= MIN_PARALLEL_ELEMENTS else relative_serial
+    kernel(np.ascontiguousarray(c_local), np.ascontiguousarray(c_bar_inverse),
+           np.ascontiguousarray(c_bar), v, norms)
+    return v, float(norms.max(initial=0.0))
+
+
+@njit(inline="always")
+def _series_element(e, v, order, scale, squarings, exp_out, term_out, total_out):
+    """Exp(-v[e]) = sum_n (-v s)^n / n! to ``order``, squared back ``squarings`` times, into
+    exp_out[e]; the largest |entry| of the last term and of the sum (before squaring) into
+    term_out[e] and total_out[e]."""
+    k = v.shape[1]
+    scaled = np.empty((k, k))
+    term = np.zeros((k, k))
+    work = np.empty((k, k))
+    total = exp_out[e]
+    for i in range(k):
+        for j in range(k):
+            scaled[i, j] = v[e, i, j] * scale
+            total[i, j] = 0.0
+        term[i, i] = 1.0
+        total[i, i] = 1.0
+    for n in range(1, order + 1):
+        for i in range(k):
+            for j in range(k):
+                s = 0.0
+                for x in range(k):
+                    s += -term[i, x] * scaled[x, j]
+                work[i, j] = s / n
+        term, work = work, term
+        for i in range(k):
+            for j in range(k):
+                total[i, j] += term[i, j]
+    largest_term = 0.0
+    largest_total = 0.0
+    for i in range(k):
+        for j in range(k):
+            largest_term = max(largest_term, abs(term[i, j]))
+            largest_total = max(largest_total, abs(total[i, j]))
+    term_out[e] = largest_term
+    total_out[e] = largest_total
+    for _ in range(squarings):
+        _product(total, total, work)
+        total[:, :] = work
+
+
+@njit(cache=True)
+def series_serial(v, order, scale, squarings, exp_out, term_out, total_out):
+    """:func:`_series_element` for every matrix, in one thread."""
+    for e in range(v.shape[0]):
+        _series_element(e, v, order, scale, squarings, exp_out, term_out, total_out)
+
+
+@njit(cache=True, parallel=True)
+def series_parallel(v, order, scale, squarings, exp_out, term_out, total_out):
+    """:func:`_series_element` for every matrix, in parallel (gather)."""
+    for e in prange(v.shape[0]):
+        _series_element(e, v, order, scale, squarings, exp_out, term_out, total_out)
+
+
+def exponential_series_batch(v: np.ndarray, order: int, squarings: int
+                             ) -> tuple[np.ndarray, float, float]:
+    """Launcher of :func:`_series_element` for v (B, k, k) scaled by 2^-squarings: returns
+    Exp(-v) (B, k, k) and the largest |entry| of the last series term and of the sum over the
+    batch."""
+    n_batch, k, _ = v.shape
+    out = np.empty((n_batch, k, k))
+    term = np.zeros(n_batch)
+    total = np.zeros(n_batch)
+    kernel = series_parallel if n_batch >= MIN_PARALLEL_ELEMENTS else series_serial
+    kernel(np.ascontiguousarray(v, dtype=float), int(order), 2.0 ** -int(squarings),
+           int(squarings), out, term, total)
+    return out, float(term.max(initial=0.0)), float(total.max(initial=0.0))
+
+
+@njit(inline="always")
+def _distribute_element(e, a, exp_v, weights, c_local, g_out, cg_out):
+    """G^n = (V^n/V) A Exp(-v^n) into g_out[e] and C^n G^n into cg_out[e]."""
+    k = a.shape[0]
+    g = g_out[e]
+    for i in range(k):
+        for j in range(k):
+            s = 0.0
+            for x in range(k):
+                s += a[i, x] * exp_v[e, x, j]
+            g[i, j] = s * weights[e]
+    for i in range(k):
+        for j in range(k):
+            s = 0.0
+            for x in range(k):
+                s += c_local[e, i, x] * g[x, j]
+            cg_out[e, i, j] = s
+
+
+@njit(cache=True)
+def distribute_serial(a, exp_v, weights, c_local, g_out, cg_out):
+    """:func:`_distribute_element` for every micro-element, in one thread."""
+    for e in range(exp_v.shape[0]):
+        _distribute_element(e, a, exp_v, weights, c_local, g_out, cg_out)
+
+
+@njit(cache=True, parallel=True)
+def distribute_parallel(a, exp_v, weights, c_local, g_out, cg_out):
+    """:func:`_distribute_element` for every micro-element, in parallel (gather)."""
+    for e in prange(exp_v.shape[0]):
+        _distribute_element(e, a, exp_v, weights, c_local, g_out, cg_out)
+
+
+def maxwellian_tensors(a: np.ndarray, exp_v: np.ndarray, weights: np.ndarray,
+                       c_local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """G^n = (V^n/V) A Exp(-v^n) (E, k, k) [-] (eq. 2.34) and the overall tangent
+    sum_n C^n G^n (k, k) [Pa] (eq. 2.31), for A (k, k), Exp(-v^n) (E, k, k), the volume
+    fractions (E,) and C^n (E, k, k) [Pa]."""
+    n_elements, k, _ = exp_v.shape
+    g = np.empty((n_elements, k, k))
+    cg = np.empty((n_elements, k, k))
+    kernel = distribute_parallel if n_elements >= MIN_PARALLEL_ELEMENTS else distribute_serial
+    kernel(np.ascontiguousarray(a), np.ascontiguousarray(exp_v), np.ascontiguousarray(weights),
+           np.ascontiguousarray(c_local), g, cg)
+    return g, cg.sum(axis=0)
+
+
+# -- the increment: stretch map (eqs. 2.13–2.15, 2.27) and structure update --------------------
+@njit(inline="always")
+def _stretch_element(e, g, d_eps, weights, spin_map, s_basis, w_basis, branches, mask, t,
+                     with_spin, approach_out, translation_out, volumetric_out):
+    """Micro-element e: eps^n = G^n eps / (V^n/V), the spin w = spin_map eps^n, the full
+    strain S eps^n + W w; each contact's approach P (S eps^n + W w) into approach_out[e] and
+    its branch translation (approach minus the spin's rotation of L) into translation_out[e];
+    the volumetric strain trace(S eps^n) into volumetric_out[e]."""
+    n_contacts, d = branches.shape[1], branches.shape[2]
     dd = d * d
-    for e in prange(n_elements):
-        a = np.zeros((d, d))
-        b = np.zeros((d, dd))
-        stiff = np.zeros((n_contacts, d, d))
-        count = 0
+    k = d_eps.shape[0]
+    n_w = w_basis.shape[1]
+    local = np.empty(k)
+    for i in range(k):
+        s = 0.0
+        for j in range(k):
+            s += g[e, i, j] * d_eps[j]
+        local[i] = s / weights[e]
+    spin = np.zeros(n_w)
+    if with_spin:
+        for x in range(n_w):
+            s = 0.0
+            for j in range(k):
+                s += spin_map[e, x, j] * local[j]
+            spin[x] = s
+    full = np.empty(dd)
+    rotation = np.zeros(dd)
+    for q in range(dd):
+        s = 0.0
+        for j in range(k):
+            s += local[j] * s_basis[q, j]
+        r = 0.0
+        for x in range(n_w):
+            r += spin[x] * w_basis[q, x]
+        full[q] = s + r
+        rotation[q] = r
+    volumetric = 0.0
+    for i in range(d):
+        s = 0.0
+        for j in range(k):
+            s += local[j] * s_basis[i * d + i, j]
+        volumetric += s
+    volumetric_out[e] = volumetric
+    moved = np.empty(d)  # T (S eps^n + W w): the centre particle's move (eq. 2.14)
+    for p in range(d):
+        s = 0.0
+        for q in range(dd):
+            s += t[e, p, q] * full[q]
+        moved[p] = s
+    for m in range(n_contacts):
+        for p in range(d):
+            if not mask[e, m]:
+                approach_out[e, m, p] = 0.0
+                translation_out[e, m, p] = 0.0
+                continue
+            s = 0.0
+            turn = 0.0
+            for j in range(d):
+                s += full[p * d + j] * branches[e, m, j]
+                turn += rotation[p * d + j] * branches[e, m, j]
+            s += moved[p]
+            approach_out[e, m, p] = s
+            translation_out[e, m, p] = s - turn if with_spin else s
+
+
+@njit(cache=True)
+def stretch_serial(g, d_eps, weights, spin_map, s_basis, w_basis, branches, mask, t,
+                   with_spin, approach_out, translation_out, volumetric_out):
+    """:func:`_stretch_element` for every micro-element, in one thread."""
+    for e in range(branches.shape[0]):
+        _stretch_element(e, g, d_eps, weights, spin_map, s_basis, w_basis, branches, mask, t,
+                         with_spin, approach_out, translation_out, volumetric_out)
+
+
+@njit(cache=True, parallel=True)
+def stretch_parallel(g, d_eps, weights, spin_map, s_basis, w_basis, branches, mask, t,
+                     with_spin, approach_out, translation_out, volumetric_out):
+    """:func:`_stretch_element` for every micro-element, in parallel (gather)."""
+    for e in prange(branches.shape[0]):
+        _stretch_element(e, g, d_eps, weights, spin_map, s_basis, w_basis, branches, mask, t,
+                         with_spin, approach_out, translation_out, volumetric_out)
+
+
+def stretch(g: np.ndarray, d_eps: np.ndarray, weights: np.ndarray, spin_map: np.ndarray,
+            s_basis: np.ndarray, w_basis: np.ndarray, branches: np.ndarray, mask: np.ndarray,
+            t: np.ndarray, with_spin: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Launcher of :func:`_stretch_element`: for G^n (E, k, k), the overall Voigt strain
+    increment (k,), the volume fractions (E,), the spin maps (E, w, k), the bases S (d^2, k)
+    and W (d^2, w), the branches (E, M, d) [m], the mask (E, M) and T (E, d, d^2) [m]
+    (``with_spin=False``: no spin), returns the approaches (E, M, d) [m], the branch
+    translations (E, M, d) [m] and the local volumetric strains (E,) [-]."""
+    n_elements, n_contacts, d = branches.shape
+    approach = np.empty((n_elements, n_contacts, d))
+    translation = np.empty((n_elements, n_contacts, d))
+    volumetric = np.empty(n_elements)
+    kernel = stretch_parallel if n_elements >= MIN_PARALLEL_ELEMENTS else stretch_serial
+    kernel(np.ascontiguousarray(g), np.ascontiguousarray(d_eps, dtype=float),
+           np.ascontiguousarray(weights), np.ascontiguousarray(spin_map),
+           np.ascontiguousarray(s_basis), np.ascontiguousarray(w_basis),
+           np.ascontiguousarray(branches), np.ascontiguousarray(mask), np.ascontiguousarray(t),
+           bool(with_spin), approach, translation, volumetric)
+    return approach, translation, volumetric
+
+
+@njit(cache=True)
+def move_kernel(branches, mask, translation, volumes, volumetric, branches_out, volumes_out):
+    """Branches L - translation where mask (0 elsewhere) [m] and volumes V^n (1 - eps_v^n)
+    [m^3] (compression positive), for E micro-elements (memory-bound: one thread)."""
+    n_elements, n_contacts, d = branches.shape
+    for e in range(n_elements):
+        volumes_out[e] = volumes[e] * (1.0 - volumetric[e])
+        for m in range(n_contacts):
+            for i in range(d):
+                branches_out[e, m, i] = (branches[e, m, i] - translation[e, m, i]
+                                         if mask[e, m] else 0.0)
+
+
+def move_structure(branches: np.ndarray, mask: np.ndarray, translation: np.ndarray,
+                   volumes: np.ndarray, volumetric: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """New branches (E, M, d) [m] and volumes (E,) [m^3] after an increment (new arrays)."""
+    branches_out = np.empty_like(branches, dtype=float)
+    volumes_out = np.empty_like(volumes, dtype=float)
+    move_kernel(np.ascontiguousarray(branches), np.ascontiguousarray(mask),
+                np.ascontiguousarray(translation), np.ascontiguousarray(volumes),
+                np.ascontiguousarray(volumetric), branches_out, volumes_out)
+    return branches_out, volumes_out
+
+
+# -- per-contact helpers and sums over contacts --------------------------------------------------
+@njit(cache=True)
+def unit_vectors_kernel(vectors, normals_out, lengths_out):
+    """Unit vectors v/|v| (0 where |v| = 0) and lengths |v| of N vectors (N, d)."""
+    n, d = vectors.shape
+    for c in range(n):
+        s = 0.0
+        for i in range(d):
+            s += vectors[c, i] * vectors[c, i]
+        length = np.sqrt(s)
+        lengths_out[c] = length
+        for i in range(d):
+            normals_out[c, i] = vectors[c, i] / length if length > 0.0 else 0.0
+
+
+def unit_vectors(vectors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(unit vectors, lengths) of vectors (..., d): shapes (..., d) and (...)."""
+    vectors = np.ascontiguousarray(vectors, dtype=float)
+    d = vectors.shape[-1]
+    flat = vectors.reshape(-1, d)
+    normals = np.empty_like(flat)
+    lengths = np.empty(flat.shape[0])
+    unit_vectors_kernel(flat, normals, lengths)
+    return normals.reshape(vectors.shape), lengths.reshape(vectors.shape[:-1])
+
+
+@njit(cache=True)
+def dyad_sum_kernel(normal_force, normals, vectors, branches, mask, out):
+    """out (d, d) = sum over contacts with mask of (f_n n + v) (x) L [N m] (E, M arrays)."""
+    n_elements, n_contacts, d = branches.shape
+    for i in range(d):
+        for j in range(d):
+            out[i, j] = 0.0
+    f = np.empty(d)
+    for e in range(n_elements):
         for m in range(n_contacts):
             if not mask[e, m]:
                 continue
-            count += 1
-            length = 0.0
             for i in range(d):
-                length += branches[e, m, i] ** 2
-            length = np.sqrt(length)
+                f[i] = normal_force[e, m] * normals[e, m, i] + vectors[e, m, i]
             for i in range(d):
                 for j in range(d):
-                    nn = branches[e, m, i] * branches[e, m, j] / (length * length)
-                    k_ij = kn[e, m] * nn + kr[e, m] * ((1.0 if i == j else 0.0) - nn)
-                    stiff[m, i, j] = k_ij
-                    a[i, j] += k_ij
-            for q in range(d):
-                for k in range(d):
-                    for col in range(d):
-                        b[q, k * d + col] += stiff[m, q, k] * branches[e, m, col]
-        t = np.zeros((d, dd))
-        if non_affine and count >= 2:
-            t = -(np.ascontiguousarray(_inverse_or_pinv(a)) @ b)
-        for i in range(dd):
-            for j in range(dd):
-                c_out[e, i, j] = 0.0
-        scale = 1.0 / (2.0 * volumes[e])
+                    out[i, j] += f[i] * branches[e, m, j]
+
+
+def dyad_sum(normal_force: np.ndarray | None, normals: np.ndarray | None,
+             vectors: np.ndarray, branches: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """sum_(e, m) (f_n n + v) (x) L (d, d) over the contacts where ``mask`` (E, M) is True:
+    with f_n (E, M) [N] and normals (E, M, d) the contact forces, without (None) the vectors
+    (E, M, d) [N] alone; L the branches (E, M, d) [m]."""
+    d = branches.shape[-1]
+    if normal_force is None:
+        normal_force = np.zeros(mask.shape)
+        normals = np.zeros(branches.shape)
+    out = np.empty((d, d))
+    dyad_sum_kernel(np.ascontiguousarray(normal_force, dtype=float),
+                    np.ascontiguousarray(normals, dtype=float),
+                    np.ascontiguousarray(vectors, dtype=float), np.ascontiguousarray(branches),
+                    np.ascontiguousarray(mask), out)
+    return out
+
+
+@njit(cache=True)
+def contact_census(mask, normal_force, shear_force, sliding, bonded, mu):
+    """Counts over the contacts with mask (E, M): (contacts, sliding, open (f_n <= 0, not
+    bonded), bonded, closed (not open)) and the sum over closed contacts of the mobilisation
+    |f_r| / (mu f_n) (0 where f_n <= 0)."""
+    n_elements, n_contacts = mask.shape
+    d = shear_force.shape[2]
+    total = 0
+    n_sliding = 0
+    n_open = 0
+    n_bonded = 0
+    mobilised = 0.0
+    for e in range(n_elements):
         for m in range(n_contacts):
-            for p in range(d):
-                for q in range(dd):
-                    p_out[e, m, p, q] = 0.0
             if not mask[e, m]:
                 continue
-            for p in range(d):
-                for k in range(d):
-                    for col in range(d):
-                        p_out[e, m, p, k * d + col] = (
-                            (branches[e, m, col] if p == k else 0.0) + t[p, k * d + col])
-            for i in range(d):
-                for q in range(dd):
-                    kp = 0.0
-                    for p in range(d):
-                        kp += stiff[m, i, p] * p_out[e, m, p, q]
-                    for j in range(d):
-                        c_out[e, i * d + j, q] += scale * kp * branches[e, m, j]
+            total += 1
+            if sliding[e, m]:
+                n_sliding += 1
+            if bonded[e, m]:
+                n_bonded += 1
+            fn = normal_force[e, m]
+            if fn <= 0.0 and not bonded[e, m]:
+                n_open += 1
+                continue
+            limit = mu * max(fn, 0.0)
+            if limit > 0.0:
+                s = 0.0
+                for i in range(d):
+                    s += shear_force[e, m, i] ** 2
+                mobilised += np.sqrt(s) / limit
+    return total, n_sliding, n_open, n_bonded, total - n_open, mobilised
