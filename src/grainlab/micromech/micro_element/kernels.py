@@ -6,24 +6,22 @@ components; seed 001 ch. 2, Table 2.1):
 
 * :func:`_condense_element` — contact stiffness K = k_n n n + k_r (I - n n) (eq. 2.5), the
   non-affine move T = -[sum K]^+ [sum K L] (eq. 2.14), the stretch map
-  P_p(kl) = delta_pk L_l + T_p(kl) (eq. 2.15), the local stiffness
-  C_ij,kl = 1/(2 V^n) sum_m K_ip P_p(kl) L_j (eq. 2.18) on full tensors, condensed to the blocks
+  P_p(kl) = delta_pk L_l + T_p(kl) (eq. 2.15) and the local stiffness
+  C_ij,kl = 1/(2 V^n) sum_m K_ip P_p(kl) L_j (eq. 2.18), condensed to the blocks
   [S'; W'] C [S W] (symmetric Voigt / skew, :mod:`tensor_basis`) and, with a free particle spin,
   C^n = C_ss + C_sw spin, spin = -C_ww^+ C_ws;
-* :func:`_relative_element`, :func:`_series_element`, :func:`_distribute_element` — the
-  Maxwellian distribution: v^n = C_bar^-1 (C^n - C_bar), Exp(-v^n) by the series of eq. 2.35
-  with scaling and squaring, G^n = (V^n/V) A Exp(-v^n) and C^n G^n (eqs. 2.31–2.35);
-* :func:`_stretch_element` — the local strain eps^n = (V/V^n) G^n eps (eq. 2.27), the spin, and
-  each spring's approach d_delta = P eps^n (eqs. 2.13–2.15) and translation of its branch;
-* :func:`_move_element` — branches shortened by the translation, volumes by the volumetric
-  strain, after the increment.
+* :func:`_stretch_element` — the local strain eps^n = (V/V^n) G^n eps (eq. 2.27), the spin, each
+  spring's approach d_delta = P eps^n (eqs. 2.13–2.15) and the translation of its branch;
+* :func:`move_kernel` — branches shortened by the translation, volumes by the volumetric strain;
+* the Maxwellian distribution (eqs. 2.32–2.35) is in :mod:`distribution_kernels`.
 
-Array kernels come in pairs: a serial one and a parallel one (``prange`` over micro-elements;
-every iteration writes only its own micro-element's rows: a gather, never a scatter). The
-launchers take the parallel one from :data:`MIN_PARALLEL_ELEMENTS` micro-elements on: waking
-the threads costs ~0.1 ms, more than a whole increment of a 30-micro-element unit. Sums over
-all contacts (stress, descriptors) are serial loops. The slow, obviously right twins are the
-NumPy versions in ``tests/micromech/test_micro_element_kernels.py``.
+Array kernels come in pairs: a serial one and a parallel one (``prange`` over chunks of
+:data:`CHUNK` micro-elements, whose scratch arrays are allocated once per chunk; every iteration
+writes only its own micro-elements' rows: a gather, never a scatter). The launchers take the
+parallel one from :data:`MIN_PARALLEL_ELEMENTS` micro-elements on: waking the threads costs
+~0.1 ms, more than a whole increment of a 30-micro-element unit. Sums over all contacts
+(stress, descriptors) are serial loops. The slow, obviously right twins are the NumPy versions
+in ``tests/micromech/test_micro_element_kernels.py``.
 """
 
 from __future__ import annotations
@@ -38,78 +36,14 @@ from grainlab.micromech.micro_element.tensor_basis import bases
 MIN_PARALLEL_ELEMENTS = 2048
 """Micro-elements from which the launchers use the parallel kernels."""
 
+CHUNK = 64
+"""Micro-elements per parallel work item (its scratch arrays are allocated once)."""
+
 SPIN_MODES = {"none": 0, "micro-element": 1, "uniform": 2}
 """Particle-spin options of :class:`MicroElementModel` as kernel codes (2: set by the caller)."""
 
 
-@njit(inline="always")
-def _inverse_or_pinv(a):
-    """Inverse of a small symmetric positive semi-definite matrix; the pseudo-inverse when it
-    is (nearly) singular."""
-    d = a.shape[0]
-    if d == 1:
-        inv = np.zeros((1, 1))
-        if a[0, 0] != 0.0:
-            inv[0, 0] = 1.0 / a[0, 0]
-        return inv
-    if d == 2:
-        det = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
-        scale = abs(a[0, 0]) + abs(a[1, 1]) + 1e-300
-        if abs(det) > 1e-10 * scale * scale:
-            inv = np.empty((2, 2))
-            inv[0, 0] = a[1, 1] / det
-            inv[1, 1] = a[0, 0] / det
-            inv[0, 1] = -a[0, 1] / det
-            inv[1, 0] = -a[1, 0] / det
-            return inv
-    elif d == 3:
-        c00 = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
-        c01 = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
-        c02 = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
-        det = a[0, 0] * c00 + a[0, 1] * c01 + a[0, 2] * c02
-        scale = abs(a[0, 0]) + abs(a[1, 1]) + abs(a[2, 2]) + 1e-300
-        if abs(det) > 1e-10 * scale * scale * scale:
-            inv = np.empty((3, 3))
-            inv[0, 0] = c00 / det
-            inv[1, 0] = c01 / det
-            inv[2, 0] = c02 / det
-            inv[0, 1] = (a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]) / det
-            inv[1, 1] = (a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]) / det
-            inv[2, 1] = (a[0, 1] * a[2, 0] - a[0, 0] * a[2, 1]) / det
-            inv[0, 2] = (a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]) / det
-            inv[1, 2] = (a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]) / det
-            inv[2, 2] = (a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]) / det
-            return inv
-    return np.linalg.pinv(np.ascontiguousarray(a), 1e-12)
-
-
-@njit(inline="always")
-def _pinv_above(a, cutoff):
-    """Pseudo-inverse of a small square matrix that treats singular values <= ``cutoff``
-    (absolute, in the units of a) as zero: 0 when every |entry| <= cutoff, the closed-form
-    inverse when a is well conditioned, an SVD otherwise."""
-    n = a.shape[0]
-    scale = 0.0
-    for i in range(n):
-        for j in range(n):
-            scale = max(scale, abs(a[i, j]))
-    if scale <= cutoff:
-        return np.zeros((n, n))
-    if n <= 3:
-        inv = _inverse_or_pinv(a)
-        if n == 1 or abs(_determinant(a)) > 1e-10 * scale**n:
-            return inv
-    u, sv, vt = np.linalg.svd(np.ascontiguousarray(a))
-    inv = np.zeros((n, n))
-    keep = max(cutoff, 1e-12 * sv[0])
-    for x in range(sv.shape[0]):
-        if sv[x] > keep:
-            for i in range(n):
-                for j in range(n):
-                    inv[i, j] += vt[x, i] * u[j, x] / sv[x]
-    return inv
-
-
+# -- small dense algebra ------------------------------------------------------------------------
 @njit(inline="always")
 def _determinant(a):
     """Determinant of a 2 x 2 or 3 x 3 matrix."""
@@ -121,24 +55,70 @@ def _determinant(a):
 
 
 @njit(inline="always")
-def _product(a, b, out):
-    """out = a @ b for small 2D arrays (out must not alias a or b)."""
-    for i in range(a.shape[0]):
-        for j in range(b.shape[1]):
-            s = 0.0
-            for x in range(a.shape[1]):
-                s += a[i, x] * b[x, j]
-            out[i, j] = s
+def _invert_into(a, inv):
+    """inv = a^-1 for a small (1 x 1 to 3 x 3) symmetric positive semi-definite matrix; the
+    pseudo-inverse (relative cut-off 1e-12) when it is (nearly) singular."""
+    d = a.shape[0]
+    if d == 1:
+        inv[0, 0] = 1.0 / a[0, 0] if a[0, 0] != 0.0 else 0.0
+        return
+    scale = 1e-300
+    for i in range(d):
+        scale += abs(a[i, i])
+    det = _determinant(a) if d <= 3 else 0.0
+    if d == 2 and abs(det) > 1e-10 * scale * scale:
+        inv[0, 0] = a[1, 1] / det
+        inv[1, 1] = a[0, 0] / det
+        inv[0, 1] = -a[0, 1] / det
+        inv[1, 0] = -a[1, 0] / det
+        return
+    if d == 3 and abs(det) > 1e-10 * scale * scale * scale:
+        inv[0, 0] = (a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]) / det
+        inv[1, 0] = (a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]) / det
+        inv[2, 0] = (a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]) / det
+        inv[0, 1] = (a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]) / det
+        inv[1, 1] = (a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]) / det
+        inv[2, 1] = (a[0, 1] * a[2, 0] - a[0, 0] * a[2, 1]) / det
+        inv[0, 2] = (a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]) / det
+        inv[1, 2] = (a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]) / det
+        inv[2, 2] = (a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]) / det
+        return
+    inv[:, :] = np.linalg.pinv(np.ascontiguousarray(a), 1e-12)
+
+
+@njit(inline="always")
+def _pinv_above(a, cutoff, inv):
+    """inv = the pseudo-inverse of a small square matrix with singular values <= ``cutoff``
+    (absolute, in the units of a) taken as zero: 0 when every |entry| <= cutoff, the closed-form
+    inverse when a is well conditioned, an SVD otherwise."""
+    n = a.shape[0]
+    scale = 0.0
+    for i in range(n):
+        for j in range(n):
+            scale = max(scale, abs(a[i, j]))
+    inv[:, :] = 0.0
+    if scale <= cutoff:
+        return
+    if n == 1 or (n <= 3 and abs(_determinant(a)) > 1e-10 * scale**n):
+        _invert_into(a, inv)
+        return
+    u, sv, vt = np.linalg.svd(np.ascontiguousarray(a))
+    keep = max(cutoff, 1e-12 * sv[0])
+    for x in range(sv.shape[0]):
+        if sv[x] > keep:
+            for i in range(n):
+                for j in range(n):
+                    inv[i, j] += vt[x, i] * u[j, x] / sv[x]
 
 
 # -- local stiffness (eqs. 2.5, 2.14, 2.15, 2.18) ----------------------------------------------
 @njit(inline="always")
 def _condense_element(e, branches, mask, kn, kr, volumes, non_affine, spin_mode, right_index,
                       right_weight, left_index, left_weight, t_out, blocks_out, spin_out,
-                      c_local_out):
+                      c_local_out, normals, a, b, inv, t_right, p_right, c_right):
     """Micro-element e: T (d, d^2) into t_out[e], the condensed blocks L' C R into
     blocks_out[e] and, with ``spin_mode`` 1, the spin map (w, k) into spin_out[e] and
-    C_ss + C_sw spin (k, k) into c_local_out[e].
+    C_ss + C_sw spin (k, k) into c_local_out[e]. The arguments after c_local_out are scratch.
 
     R (d^2, b) and L' (b, d^2) are [S] and [S'] (b = k) or [S W] and [S'; W'] (b = k + w),
     given sparse: column c of R is sum_r right_weight[c, r] e_(right_index[c, r]), row c of L'
@@ -149,9 +129,8 @@ def _condense_element(e, branches, mask, kn, kr, volumes, non_affine, spin_mode,
     n_b = right_index.shape[0]
     n_v = c_local_out.shape[1]
     n_w = n_b - n_v
-    normals = np.empty((n_contacts, d))
-    a = np.zeros((d, d))
-    b = np.zeros((d, dd))
+    a[:, :] = 0.0
+    b[:, :] = 0.0
     count = 0
     for m in range(n_contacts):
         if not mask[e, m]:
@@ -173,20 +152,18 @@ def _condense_element(e, branches, mask, kn, kr, volumes, non_affine, spin_mode,
     t = t_out[e]
     t[:, :] = 0.0
     if non_affine and count >= 2:
-        inv = _inverse_or_pinv(a)
+        _invert_into(a, inv)
         for p in range(d):
             for x in range(dd):
                 s = 0.0
                 for q in range(d):
                     s += inv[p, q] * b[q, x]
                 t[p, x] = -s
-    t_right = np.empty((d, n_b))  # T R
-    for p in range(d):
+    for p in range(d):  # T R
         for c in range(n_b):
             t_right[p, c] = (t[p, right_index[c, 0]] * right_weight[c, 0]
                              + t[p, right_index[c, 1]] * right_weight[c, 1])
-    c_right = np.zeros((dd, n_b))  # C R
-    p_right = np.empty((d, n_b))
+    c_right[:, :] = 0.0  # C R
     scale = 1.0 / (2.0 * volumes[e])
     for m in range(n_contacts):
         if not mask[e, m]:
@@ -221,7 +198,8 @@ def _condense_element(e, branches, mask, kn, kr, volumes, non_affine, spin_mode,
         for row in range(n_b):
             for c in range(n_b):
                 largest = max(largest, abs(blocks[row, c]))
-        inv_ww = _pinv_above(np.ascontiguousarray(blocks[n_v:, n_v:]), 1e-10 * largest)
+        inv_ww = np.empty((n_w, n_w))
+        _pinv_above(np.ascontiguousarray(blocks[n_v:, n_v:]), 1e-10 * largest, inv_ww)
         for x in range(n_w):
             for j in range(n_v):
                 s = 0.0
@@ -236,26 +214,47 @@ def _condense_element(e, branches, mask, kn, kr, volumes, non_affine, spin_mode,
                 c_local[i, j] = s
 
 
+@njit(inline="always")
+def _condense_range(lo, hi, branches, mask, kn, kr, volumes, non_affine, spin_mode,
+                    right_index, right_weight, left_index, left_weight, t_out, blocks_out,
+                    spin_out, c_local_out):
+    """:func:`_condense_element` for micro-elements lo..hi-1 with one set of scratch arrays."""
+    n_contacts, d = branches.shape[1], branches.shape[2]
+    n_b = right_index.shape[0]
+    normals = np.empty((n_contacts, d))
+    a = np.empty((d, d))
+    b = np.empty((d, d * d))
+    inv = np.empty((d, d))
+    t_right = np.empty((d, n_b))
+    p_right = np.empty((d, n_b))
+    c_right = np.empty((d * d, n_b))
+    for e in range(lo, hi):
+        _condense_element(e, branches, mask, kn, kr, volumes, non_affine, spin_mode,
+                          right_index, right_weight, left_index, left_weight, t_out,
+                          blocks_out, spin_out, c_local_out, normals, a, b, inv, t_right,
+                          p_right, c_right)
+
+
 @njit(cache=True)
 def condense_serial(branches, mask, kn, kr, volumes, non_affine, spin_mode, right_index,
                     right_weight, left_index, left_weight, t_out, blocks_out, spin_out,
                     c_local_out):
     """:func:`_condense_element` for every micro-element, in one thread."""
-    for e in range(branches.shape[0]):
-        _condense_element(e, branches, mask, kn, kr, volumes, non_affine, spin_mode,
-                          right_index, right_weight, left_index, left_weight, t_out,
-                          blocks_out, spin_out, c_local_out)
+    _condense_range(0, branches.shape[0], branches, mask, kn, kr, volumes, non_affine,
+                    spin_mode, right_index, right_weight, left_index, left_weight, t_out,
+                    blocks_out, spin_out, c_local_out)
 
 
 @njit(cache=True, parallel=True)
 def condense_parallel(branches, mask, kn, kr, volumes, non_affine, spin_mode, right_index,
                       right_weight, left_index, left_weight, t_out, blocks_out, spin_out,
                       c_local_out):
-    """:func:`_condense_element` for every micro-element, in parallel (gather)."""
-    for e in prange(branches.shape[0]):
-        _condense_element(e, branches, mask, kn, kr, volumes, non_affine, spin_mode,
-                          right_index, right_weight, left_index, left_weight, t_out,
-                          blocks_out, spin_out, c_local_out)
+    """:func:`_condense_element` for every micro-element, in parallel chunks (gather)."""
+    n = branches.shape[0]
+    for chunk in prange((n + CHUNK - 1) // CHUNK):
+        _condense_range(chunk * CHUNK, min(n, (chunk + 1) * CHUNK), branches, mask, kn, kr,
+                        volumes, non_affine, spin_mode, right_index, right_weight, left_index,
+                        left_weight, t_out, blocks_out, spin_out, c_local_out)
 
 
 def _sparse_columns(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -309,8 +308,7 @@ def condense_local_stiffness(branches: np.ndarray, mask: np.ndarray, kn: np.ndar
     t = np.empty((n_elements, d, d * d))
     blocks = np.empty((n_elements, n_b, n_b))
     spin_map = np.zeros((n_elements, n_w, n_v))
-    c_local = np.empty((n_elements, n_v, n_v)) if spin == "micro-element" else np.empty(
-        (0, n_v, n_v))
+    c_local = np.empty((n_elements if spin == "micro-element" else 0, n_v, n_v))
     kernel = condense_parallel if n_elements >= MIN_PARALLEL_ELEMENTS else condense_serial
     kernel(np.ascontiguousarray(branches), np.ascontiguousarray(mask),
            np.ascontiguousarray(kn, dtype=float), np.ascontiguousarray(kr, dtype=float),
@@ -321,197 +319,31 @@ def condense_local_stiffness(branches: np.ndarray, mask: np.ndarray, kn: np.ndar
     return t, blocks, spin_map, c_local
 
 
-# -- Maxwellian distribution (eqs. 2.32–2.35) --------------------------------------------------
-@njit(inline="always")
-def _relative_element(e, c_local, c_bar_inverse, c_bar, v_out, norm_out):
-    """v^n = C_bar^-1 (C^n - C_bar) into v_out[e]; its largest absolute row sum into
-    norm_out[e]."""
-    k = c_bar.shape[0]
-    v = v_out[e]
-    largest = 0.0
-    for i in range(k):
-        row = 0.0
-        for j in range(k):
-            s = 0.0
-            for x in range(k):
-                s += c_bar_inverse[i, x] * (c_local[e, x, j] - c_bar[x, j])
-            v[i, j] = s
-            row += abs(s)
-        largest = max(largest, row)
-    norm_out[e] = largest
-
-
-@njit(cache=True)
-def relative_serial(c_local, c_bar_inverse, c_bar, v_out, norm_out):
-    """:func:`_relative_element` for every micro-element, in one thread."""
-    for e in range(c_local.shape[0]):
-        _relative_element(e, c_local, c_bar_inverse, c_bar, v_out, norm_out)
-
-
-@njit(cache=True, parallel=True)
-def relative_parallel(c_local, c_bar_inverse, c_bar, v_out, norm_out):
-    """:func:`_relative_element` for every micro-element, in parallel (gather)."""
-    for e in prange(c_local.shape[0]):
-        _relative_element(e, c_local, c_bar_inverse, c_bar, v_out, norm_out)
-
-
-def relative_stiffness(c_local: np.ndarray, c_bar: np.ndarray, c_bar_inverse: np.ndarray
-                       ) -> tuple[np.ndarray, float]:
-    """v^n = C_bar^-1 (C^n - C_bar) (E, k, k) [-] of eq. 2.33, for C^n (E, k, k) and C_bar
-    (k, k) [Pa] with its (pseudo-)inverse [1/Pa]; and max_n ||v^n||_inf, the largest absolute
-    row sum (it sets the scaling of :func:`exponential_series_batch`)."""
-    n_elements, k, _ = c_local.shape
-    v = np.empty((n_elements, k, k))
-    norms = np.empty(n_elements)
-    kernel = relative_parallel if n_elements >= MIN_PARALLEL_ELEMENTS else relative_serial
-    kernel(np.ascontiguousarray(c_local), np.ascontiguousarray(c_bar_inverse),
-           np.ascontiguousarray(c_bar), v, norms)
-    return v, float(norms.max(initial=0.0))
-
-
-@njit(inline="always")
-def _series_element(e, v, order, scale, squarings, exp_out, term_out, total_out):
-    """Exp(-v[e]) = sum_n (-v s)^n / n! to ``order``, squared back ``squarings`` times, into
-    exp_out[e]; the largest |entry| of the last term and of the sum (before squaring) into
-    term_out[e] and total_out[e]."""
-    k = v.shape[1]
-    scaled = np.empty((k, k))
-    term = np.zeros((k, k))
-    work = np.empty((k, k))
-    total = exp_out[e]
-    for i in range(k):
-        for j in range(k):
-            scaled[i, j] = v[e, i, j] * scale
-            total[i, j] = 0.0
-        term[i, i] = 1.0
-        total[i, i] = 1.0
-    for n in range(1, order + 1):
-        for i in range(k):
-            for j in range(k):
-                s = 0.0
-                for x in range(k):
-                    s += -term[i, x] * scaled[x, j]
-                work[i, j] = s / n
-        term, work = work, term
-        for i in range(k):
-            for j in range(k):
-                total[i, j] += term[i, j]
-    largest_term = 0.0
-    largest_total = 0.0
-    for i in range(k):
-        for j in range(k):
-            largest_term = max(largest_term, abs(term[i, j]))
-            largest_total = max(largest_total, abs(total[i, j]))
-    term_out[e] = largest_term
-    total_out[e] = largest_total
-    for _ in range(squarings):
-        _product(total, total, work)
-        total[:, :] = work
-
-
-@njit(cache=True)
-def series_serial(v, order, scale, squarings, exp_out, term_out, total_out):
-    """:func:`_series_element` for every matrix, in one thread."""
-    for e in range(v.shape[0]):
-        _series_element(e, v, order, scale, squarings, exp_out, term_out, total_out)
-
-
-@njit(cache=True, parallel=True)
-def series_parallel(v, order, scale, squarings, exp_out, term_out, total_out):
-    """:func:`_series_element` for every matrix, in parallel (gather)."""
-    for e in prange(v.shape[0]):
-        _series_element(e, v, order, scale, squarings, exp_out, term_out, total_out)
-
-
-def exponential_series_batch(v: np.ndarray, order: int, squarings: int
-                             ) -> tuple[np.ndarray, float, float]:
-    """Launcher of :func:`_series_element` for v (B, k, k) scaled by 2^-squarings: returns
-    Exp(-v) (B, k, k) and the largest |entry| of the last series term and of the sum over the
-    batch."""
-    n_batch, k, _ = v.shape
-    out = np.empty((n_batch, k, k))
-    term = np.zeros(n_batch)
-    total = np.zeros(n_batch)
-    kernel = series_parallel if n_batch >= MIN_PARALLEL_ELEMENTS else series_serial
-    kernel(np.ascontiguousarray(v, dtype=float), int(order), 2.0 ** -int(squarings),
-           int(squarings), out, term, total)
-    return out, float(term.max(initial=0.0)), float(total.max(initial=0.0))
-
-
-@njit(inline="always")
-def _distribute_element(e, a, exp_v, weights, c_local, g_out, cg_out):
-    """G^n = (V^n/V) A Exp(-v^n) into g_out[e] and C^n G^n into cg_out[e]."""
-    k = a.shape[0]
-    g = g_out[e]
-    for i in range(k):
-        for j in range(k):
-            s = 0.0
-            for x in range(k):
-                s += a[i, x] * exp_v[e, x, j]
-            g[i, j] = s * weights[e]
-    for i in range(k):
-        for j in range(k):
-            s = 0.0
-            for x in range(k):
-                s += c_local[e, i, x] * g[x, j]
-            cg_out[e, i, j] = s
-
-
-@njit(cache=True)
-def distribute_serial(a, exp_v, weights, c_local, g_out, cg_out):
-    """:func:`_distribute_element` for every micro-element, in one thread."""
-    for e in range(exp_v.shape[0]):
-        _distribute_element(e, a, exp_v, weights, c_local, g_out, cg_out)
-
-
-@njit(cache=True, parallel=True)
-def distribute_parallel(a, exp_v, weights, c_local, g_out, cg_out):
-    """:func:`_distribute_element` for every micro-element, in parallel (gather)."""
-    for e in prange(exp_v.shape[0]):
-        _distribute_element(e, a, exp_v, weights, c_local, g_out, cg_out)
-
-
-def maxwellian_tensors(a: np.ndarray, exp_v: np.ndarray, weights: np.ndarray,
-                       c_local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """G^n = (V^n/V) A Exp(-v^n) (E, k, k) [-] (eq. 2.34) and the overall tangent
-    sum_n C^n G^n (k, k) [Pa] (eq. 2.31), for A (k, k), Exp(-v^n) (E, k, k), the volume
-    fractions (E,) and C^n (E, k, k) [Pa]."""
-    n_elements, k, _ = exp_v.shape
-    g = np.empty((n_elements, k, k))
-    cg = np.empty((n_elements, k, k))
-    kernel = distribute_parallel if n_elements >= MIN_PARALLEL_ELEMENTS else distribute_serial
-    kernel(np.ascontiguousarray(a), np.ascontiguousarray(exp_v), np.ascontiguousarray(weights),
-           np.ascontiguousarray(c_local), g, cg)
-    return g, cg.sum(axis=0)
-
-
 # -- the increment: stretch map (eqs. 2.13–2.15, 2.27) and structure update --------------------
 @njit(inline="always")
 def _stretch_element(e, g, d_eps, weights, spin_map, s_basis, w_basis, branches, mask, t,
-                     with_spin, approach_out, translation_out, volumetric_out):
+                     with_spin, approach_out, translation_out, volumetric_out, local, spin,
+                     full, rotation, moved):
     """Micro-element e: eps^n = G^n eps / (V^n/V), the spin w = spin_map eps^n, the full
-    strain S eps^n + W w; each contact's approach P (S eps^n + W w) into approach_out[e] and
-    its branch translation (approach minus the spin's rotation of L) into translation_out[e];
-    the volumetric strain trace(S eps^n) into volumetric_out[e]."""
+    strain S eps^n + W w; each contact's approach P (S eps^n + W w) = (S eps^n + W w) L +
+    T (S eps^n + W w) into approach_out[e] and its branch translation (approach minus the
+    spin's rotation W w L) into translation_out[e]; the volumetric strain trace(S eps^n) into
+    volumetric_out[e]. The arguments after volumetric_out are scratch."""
     n_contacts, d = branches.shape[1], branches.shape[2]
     dd = d * d
     k = d_eps.shape[0]
     n_w = w_basis.shape[1]
-    local = np.empty(k)
     for i in range(k):
         s = 0.0
         for j in range(k):
             s += g[e, i, j] * d_eps[j]
         local[i] = s / weights[e]
-    spin = np.zeros(n_w)
-    if with_spin:
-        for x in range(n_w):
-            s = 0.0
+    for x in range(n_w):
+        s = 0.0
+        if with_spin:
             for j in range(k):
                 s += spin_map[e, x, j] * local[j]
-            spin[x] = s
-    full = np.empty(dd)
-    rotation = np.zeros(dd)
+        spin[x] = s
     for q in range(dd):
         s = 0.0
         for j in range(k):
@@ -528,8 +360,7 @@ def _stretch_element(e, g, d_eps, weights, spin_map, s_basis, w_basis, branches,
             s += local[j] * s_basis[i * d + i, j]
         volumetric += s
     volumetric_out[e] = volumetric
-    moved = np.empty(d)  # T (S eps^n + W w): the centre particle's move (eq. 2.14)
-    for p in range(d):
+    for p in range(d):  # T (S eps^n + W w): the centre particle's move (eq. 2.14)
         s = 0.0
         for q in range(dd):
             s += t[e, p, q] * full[q]
@@ -550,22 +381,39 @@ def _stretch_element(e, g, d_eps, weights, spin_map, s_basis, w_basis, branches,
             translation_out[e, m, p] = s - turn if with_spin else s
 
 
+@njit(inline="always")
+def _stretch_range(lo, hi, g, d_eps, weights, spin_map, s_basis, w_basis, branches, mask, t,
+                   with_spin, approach_out, translation_out, volumetric_out):
+    """:func:`_stretch_element` for micro-elements lo..hi-1 with one set of scratch arrays."""
+    dd = branches.shape[2] ** 2
+    local = np.empty(d_eps.shape[0])
+    spin = np.empty(w_basis.shape[1])
+    full = np.empty(dd)
+    rotation = np.empty(dd)
+    moved = np.empty(branches.shape[2])
+    for e in range(lo, hi):
+        _stretch_element(e, g, d_eps, weights, spin_map, s_basis, w_basis, branches, mask, t,
+                         with_spin, approach_out, translation_out, volumetric_out, local, spin,
+                         full, rotation, moved)
+
+
 @njit(cache=True)
 def stretch_serial(g, d_eps, weights, spin_map, s_basis, w_basis, branches, mask, t,
                    with_spin, approach_out, translation_out, volumetric_out):
     """:func:`_stretch_element` for every micro-element, in one thread."""
-    for e in range(branches.shape[0]):
-        _stretch_element(e, g, d_eps, weights, spin_map, s_basis, w_basis, branches, mask, t,
-                         with_spin, approach_out, translation_out, volumetric_out)
+    _stretch_range(0, branches.shape[0], g, d_eps, weights, spin_map, s_basis, w_basis,
+                   branches, mask, t, with_spin, approach_out, translation_out, volumetric_out)
 
 
 @njit(cache=True, parallel=True)
 def stretch_parallel(g, d_eps, weights, spin_map, s_basis, w_basis, branches, mask, t,
                      with_spin, approach_out, translation_out, volumetric_out):
-    """:func:`_stretch_element` for every micro-element, in parallel (gather)."""
-    for e in prange(branches.shape[0]):
-        _stretch_element(e, g, d_eps, weights, spin_map, s_basis, w_basis, branches, mask, t,
-                         with_spin, approach_out, translation_out, volumetric_out)
+    """:func:`_stretch_element` for every micro-element, in parallel chunks (gather)."""
+    n = branches.shape[0]
+    for chunk in prange((n + CHUNK - 1) // CHUNK):
+        _stretch_range(chunk * CHUNK, min(n, (chunk + 1) * CHUNK), g, d_eps, weights,
+                       spin_map, s_basis, w_basis, branches, mask, t, with_spin, approach_out,
+                       translation_out, volumetric_out)
 
 
 def stretch(g: np.ndarray, d_eps: np.ndarray, weights: np.ndarray, spin_map: np.ndarray,
@@ -605,8 +453,8 @@ def move_kernel(branches, mask, translation, volumes, volumetric, branches_out, 
 def move_structure(branches: np.ndarray, mask: np.ndarray, translation: np.ndarray,
                    volumes: np.ndarray, volumetric: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """New branches (E, M, d) [m] and volumes (E,) [m^3] after an increment (new arrays)."""
-    branches_out = np.empty_like(branches, dtype=float)
-    volumes_out = np.empty_like(volumes, dtype=float)
+    branches_out = np.empty(branches.shape)
+    volumes_out = np.empty(volumes.shape)
     move_kernel(np.ascontiguousarray(branches), np.ascontiguousarray(mask),
                 np.ascontiguousarray(translation), np.ascontiguousarray(volumes),
                 np.ascontiguousarray(volumetric), branches_out, volumes_out)
@@ -641,11 +489,9 @@ def unit_vectors(vectors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 @njit(cache=True)
 def dyad_sum_kernel(normal_force, normals, vectors, branches, mask, out):
-    """out (d, d) = sum over contacts with mask of (f_n n + v) (x) L [N m] (E, M arrays)."""
+    """out (d, d) = sum over the contacts with mask of (f_n n + v) (x) L [N m] (E, M arrays)."""
     n_elements, n_contacts, d = branches.shape
-    for i in range(d):
-        for j in range(d):
-            out[i, j] = 0.0
+    out[:, :] = 0.0
     f = np.empty(d)
     for e in range(n_elements):
         for m in range(n_contacts):

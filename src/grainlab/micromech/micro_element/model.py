@@ -45,14 +45,16 @@ import numpy as np
 
 from grainlab.contact.spring_contact import SpringContactLaw, SpringState, force_vectors
 from grainlab.errors import ConvergenceError, InputError
+from grainlab.micromech.micro_element.distribution_kernels import (
+    exponential_series_batch,
+    maxwellian_tensors,
+    relative_stiffness,
+)
 from grainlab.micromech.micro_element.kernels import (
     condense_local_stiffness,
     contact_census,
     dyad_sum,
-    exponential_series_batch,
-    maxwellian_tensors,
     move_structure,
-    relative_stiffness,
     stretch,
     unit_vectors,
 )
@@ -70,7 +72,8 @@ def exponential_series(v: np.ndarray, order: int, norm: float | None = None
     cancellation); returns the result and the relative size of the last series term (largest
     |entry| of the last term over the largest |entry| of the sum, over the batch: the
     convergence check). ``norm``: the largest absolute row sum of the batch, when known.
-    Compiled: :func:`~grainlab.micromech.micro_element.kernels.exponential_series_batch`."""
+    Compiled:
+    :func:`~grainlab.micromech.micro_element.distribution_kernels.exponential_series_batch`."""
     v = np.asarray(v, dtype=float)
     k = v.shape[-1]
     if norm is None:
