@@ -23,11 +23,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from grainlab.micromech.micro_element.kernels import CHUNK, MIN_PARALLEL_ELEMENTS
-
-BATCH = 32
-"""Matrices whose series are evaluated together, stored batch-innermost so that each matrix
-product is vectorised across them (small matrices alone do not fill the vector units)."""
+from grainlab.micromech.micro_element.kernels import BATCH, CHUNK, MIN_PARALLEL_ELEMENTS
 
 
 @njit(inline="always")

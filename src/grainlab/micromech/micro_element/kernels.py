@@ -4,7 +4,7 @@
 Per micro-element n (E micro-elements, up to M contacts, d dimensions, k Voigt and w skew
 components; seed 001 ch. 2, Table 2.1):
 
-* :func:`_condense_element` — contact stiffness K = k_n n n + k_r (I - n n) (eq. 2.5), the
+* :func:`_condense_batch` — contact stiffness K = k_n n n + k_r (I - n n) (eq. 2.5), the
   non-affine move T = -[sum K]^+ [sum K L] (eq. 2.14), the stretch map
   P_p(kl) = delta_pk L_l + T_p(kl) (eq. 2.15) and the local stiffness
   C_ij,kl = 1/(2 V^n) sum_m K_ip P_p(kl) L_j (eq. 2.18), condensed to the blocks
@@ -38,6 +38,11 @@ MIN_PARALLEL_ELEMENTS = 2048
 
 CHUNK = 64
 """Micro-elements per parallel work item (its scratch arrays are allocated once)."""
+
+BATCH = 32
+"""Micro-elements computed together, stored batch-innermost so that their small-matrix
+arithmetic is vectorised across them (one micro-element's 3 x 3 and 6 x 6 matrices alone do
+not fill the vector units)."""
 
 SPIN_MODES = {"none": 0, "micro-element": 1, "uniform": 2}
 """Particle-spin options of :class:`MicroElementModel` as kernel codes (2: set by the caller)."""
@@ -113,133 +118,187 @@ def _pinv_above(a, cutoff, inv):
 
 # -- local stiffness (eqs. 2.5, 2.14, 2.15, 2.18) ----------------------------------------------
 @njit(inline="always")
-def _condense_element(e, branches, mask, kn, kr, volumes, non_affine, spin_mode, right_index,
-                      right_weight, left_index, left_weight, t_out, blocks_out, spin_out,
-                      c_local_out, normals, a, b, inv, t_right, p_right, c_right):
-    """Micro-element e: T (d, d^2) into t_out[e], the condensed blocks L' C R into
-    blocks_out[e] and, with ``spin_mode`` 1, the spin map (w, k) into spin_out[e] and
-    C_ss + C_sw spin (k, k) into c_local_out[e]. The arguments after c_local_out are scratch.
+def _condense_batch(lo, hi, branches, mask, kn, kr, volumes, non_affine, right_index,
+                    right_weight, left_index, left_weight, t_out, blocks_out, normals, lb, knb,
+                    krb, a, b, inv, t, t_right, p_right, c_right, blocks, a_one, inv_one):
+    """Micro-elements e = lo..hi-1 (at most the batch size of the scratch): T (d, d^2) into
+    t_out[e] and the condensed blocks L' C R into blocks_out[e].
 
     R (d^2, b) and L' (b, d^2) are [S] and [S'] (b = k) or [S W] and [S'; W'] (b = k + w),
     given sparse: column c of R is sum_r right_weight[c, r] e_(right_index[c, r]), row c of L'
     likewise (at most two entries each). With K = k_r I + (k_n - k_r) n n and
-    P R = delta L R + T R, contact m adds (1/(2V)) (K P R)_ic L_j to row (i, j) of C R."""
+    P R = delta L R + T R, contact m adds (1/(2V)) (K P R)_ic L_j to row (i, j) of C R.
+
+    The micro-elements of the batch are processed together, the batch index innermost in the
+    scratch arrays (normals, lb (M, d, batch); knb, krb (M, batch); a, inv (d, d, batch);
+    b, t (d, d^2, batch); t_right, p_right (d, b, batch); c_right (d^2, b, batch); blocks
+    (b, b, batch); a_one, inv_one (d, d)) so that the arithmetic is vectorised across them. A
+    padded contact enters with k_n = k_r = 0 and L = 0: it adds exact zeros."""
     n_contacts, d = branches.shape[1], branches.shape[2]
     dd = d * d
     n_b = right_index.shape[0]
-    n_v = c_local_out.shape[1]
-    n_w = n_b - n_v
-    a[:, :] = 0.0
-    b[:, :] = 0.0
-    count = 0
+    n = hi - lo
+    for c in range(n):
+        e = lo + c
+        for m in range(n_contacts):
+            active = mask[e, m]
+            knb[m, c] = kn[e, m] if active else 0.0
+            krb[m, c] = kr[e, m] if active else 0.0
+            length = 0.0
+            for i in range(d):
+                lb[m, i, c] = branches[e, m, i] if active else 0.0
+                length += lb[m, i, c] ** 2
+            length = np.sqrt(length) if active else 1.0
+            for i in range(d):
+                normals[m, i, c] = lb[m, i, c] / length
+    a[:, :, :n] = 0.0
+    b[:, :, :n] = 0.0
     for m in range(n_contacts):
-        if not mask[e, m]:
-            continue
-        count += 1
-        length = 0.0
-        for i in range(d):
-            length += branches[e, m, i] ** 2
-        length = np.sqrt(length)
-        for i in range(d):
-            normals[m, i] = branches[e, m, i] / length
         for i in range(d):
             for j in range(d):
-                nn = normals[m, i] * normals[m, j]
-                k_ij = kn[e, m] * nn + kr[e, m] * ((1.0 if i == j else 0.0) - nn)
-                a[i, j] += k_ij
-                for col in range(d):
-                    b[i, j * d + col] += k_ij * branches[e, m, col]
-    t = t_out[e]
-    t[:, :] = 0.0
-    if non_affine and count >= 2:
-        _invert_into(a, inv)
+                delta = 1.0 if i == j else 0.0
+                for c in range(n):
+                    nn = normals[m, i, c] * normals[m, j, c]
+                    k_ij = knb[m, c] * nn + krb[m, c] * (delta - nn)
+                    a[i, j, c] += k_ij
+                    for col in range(d):
+                        b[i, j * d + col, c] += k_ij * lb[m, col, c]
+    for c in range(n):  # the centre's compliance [sum K]^+ (zero: no non-affine move)
+        e = lo + c
+        count = 0
+        for m in range(n_contacts):
+            if mask[e, m]:
+                count += 1
+        if non_affine and count >= 2:
+            for i in range(d):
+                for j in range(d):
+                    a_one[i, j] = a[i, j, c]
+            _invert_into(a_one, inv_one)
+            for i in range(d):
+                for j in range(d):
+                    inv[i, j, c] = inv_one[i, j]
+        else:
+            inv[:, :, c] = 0.0
+    for p in range(d):  # T = -[sum K]^+ [sum K L]
+        for x in range(dd):
+            for c in range(n):
+                t[p, x, c] = 0.0
+            for q in range(d):
+                for c in range(n):
+                    t[p, x, c] -= inv[p, q, c] * b[q, x, c]
+    for p in range(d):  # T R
+        for col in range(n_b):
+            i0, i1 = right_index[col, 0], right_index[col, 1]
+            w0, w1 = right_weight[col, 0], right_weight[col, 1]
+            for c in range(n):
+                t_right[p, col, c] = t[p, i0, c] * w0 + t[p, i1, c] * w1
+    c_right[:, :, :n] = 0.0  # C R
+    for m in range(n_contacts):
+        p_right[:, :, :n] = t_right[:, :, :n]
+        for col in range(n_b):
+            for r in range(2):
+                q = right_index[col, r]
+                k = q // d
+                weight = right_weight[col, r]
+                for c in range(n):
+                    p_right[k, col, c] += lb[m, q - k * d, c] * weight
+        for col in range(n_b):
+            for c in range(n):
+                scale = 1.0 / (2.0 * volumes[lo + c])
+                k_r = krb[m, c]
+                k_nr = knb[m, c] - k_r
+                along = 0.0
+                for p in range(d):
+                    along += normals[m, p, c] * p_right[p, col, c]
+                for i in range(d):
+                    kp = scale * (k_r * p_right[i, col, c] + k_nr * normals[m, i, c] * along)
+                    for j in range(d):
+                        c_right[i * d + j, col, c] += kp * lb[m, j, c]
+    for row in range(n_b):
+        i0, i1 = left_index[row, 0], left_index[row, 1]
+        w0, w1 = left_weight[row, 0], left_weight[row, 1]
+        for col in range(n_b):
+            for c in range(n):
+                blocks[row, col, c] = w0 * c_right[i0, col, c] + w1 * c_right[i1, col, c]
+    for c in range(n):
+        e = lo + c
         for p in range(d):
             for x in range(dd):
-                s = 0.0
-                for q in range(d):
-                    s += inv[p, q] * b[q, x]
-                t[p, x] = -s
-    for p in range(d):  # T R
-        for c in range(n_b):
-            t_right[p, c] = (t[p, right_index[c, 0]] * right_weight[c, 0]
-                             + t[p, right_index[c, 1]] * right_weight[c, 1])
-    c_right[:, :] = 0.0  # C R
-    scale = 1.0 / (2.0 * volumes[e])
-    for m in range(n_contacts):
-        if not mask[e, m]:
-            continue
-        p_right[:, :] = t_right
-        for c in range(n_b):
-            for r in range(2):
-                q = right_index[c, r]
-                k = q // d
-                p_right[k, c] += branches[e, m, q - k * d] * right_weight[c, r]
-        k_r = kr[e, m]
-        k_nr = kn[e, m] - k_r
-        for c in range(n_b):
-            along = 0.0
-            for p in range(d):
-                along += normals[m, p] * p_right[p, c]
-            for i in range(d):
-                kp = scale * (k_r * p_right[i, c] + k_nr * normals[m, i] * along)
-                for j in range(d):
-                    c_right[i * d + j, c] += kp * branches[e, m, j]
+                t_out[e, p, x] = t[p, x, c]
+        for row in range(n_b):
+            for col in range(n_b):
+                blocks_out[e, row, col] = blocks[row, col, c]
+
+
+@njit(inline="always")
+def _spin_element(e, blocks_out, spin_out, c_local_out):
+    """Free particle spin of micro-element e (``spin="micro-element"``): the spin map
+    -C_ww^+ C_ws (w, k) into spin_out[e] and C_ss + C_sw spin (k, k) into c_local_out[e]."""
+    n_v = c_local_out.shape[1]
+    n_b = blocks_out.shape[1]
+    n_w = n_b - n_v
     blocks = blocks_out[e]
+    spin = spin_out[e]
+    c_local = c_local_out[e]
+    # C_ww is zero up to round-off when no contact resists a relative spin (k_r = 0):
+    # singular values below 1e-10 of the micro-element's stiffness count as zero.
+    largest = 0.0
     for row in range(n_b):
         for c in range(n_b):
-            blocks[row, c] = (left_weight[row, 0] * c_right[left_index[row, 0], c]
-                              + left_weight[row, 1] * c_right[left_index[row, 1], c])
-    if spin_mode == 1:
-        spin = spin_out[e]
-        c_local = c_local_out[e]
-        # C_ww is zero up to round-off when no contact resists a relative spin (k_r = 0):
-        # singular values below 1e-10 of the micro-element's stiffness count as zero.
-        largest = 0.0
-        for row in range(n_b):
-            for c in range(n_b):
-                largest = max(largest, abs(blocks[row, c]))
-        inv_ww = np.empty((n_w, n_w))
-        _pinv_above(np.ascontiguousarray(blocks[n_v:, n_v:]), 1e-10 * largest, inv_ww)
-        for x in range(n_w):
-            for j in range(n_v):
-                s = 0.0
-                for y in range(n_w):
-                    s += inv_ww[x, y] * blocks[n_v + y, j]
-                spin[x, j] = -s
-        for i in range(n_v):
-            for j in range(n_v):
-                s = blocks[i, j]
-                for x in range(n_w):
-                    s += blocks[i, n_v + x] * spin[x, j]
-                c_local[i, j] = s
+            largest = max(largest, abs(blocks[row, c]))
+    inv_ww = np.empty((n_w, n_w))
+    _pinv_above(np.ascontiguousarray(blocks[n_v:, n_v:]), 1e-10 * largest, inv_ww)
+    for x in range(n_w):
+        for j in range(n_v):
+            s = 0.0
+            for y in range(n_w):
+                s += inv_ww[x, y] * blocks[n_v + y, j]
+            spin[x, j] = -s
+    for i in range(n_v):
+        for j in range(n_v):
+            s = blocks[i, j]
+            for x in range(n_w):
+                s += blocks[i, n_v + x] * spin[x, j]
+            c_local[i, j] = s
 
 
 @njit(inline="always")
 def _condense_range(lo, hi, branches, mask, kn, kr, volumes, non_affine, spin_mode,
                     right_index, right_weight, left_index, left_weight, t_out, blocks_out,
                     spin_out, c_local_out):
-    """:func:`_condense_element` for micro-elements lo..hi-1 with one set of scratch arrays."""
+    """:func:`_condense_batch` over micro-elements lo..hi-1 in batches of :data:`BATCH` with one
+    set of scratch arrays, then :func:`_spin_element` with ``spin_mode`` 1."""
     n_contacts, d = branches.shape[1], branches.shape[2]
     n_b = right_index.shape[0]
-    normals = np.empty((n_contacts, d))
-    a = np.empty((d, d))
-    b = np.empty((d, d * d))
-    inv = np.empty((d, d))
-    t_right = np.empty((d, n_b))
-    p_right = np.empty((d, n_b))
-    c_right = np.empty((d * d, n_b))
-    for e in range(lo, hi):
-        _condense_element(e, branches, mask, kn, kr, volumes, non_affine, spin_mode,
-                          right_index, right_weight, left_index, left_weight, t_out,
-                          blocks_out, spin_out, c_local_out, normals, a, b, inv, t_right,
-                          p_right, c_right)
+    normals = np.empty((n_contacts, d, BATCH))
+    lb = np.empty((n_contacts, d, BATCH))
+    knb = np.empty((n_contacts, BATCH))
+    krb = np.empty((n_contacts, BATCH))
+    a = np.empty((d, d, BATCH))
+    b = np.empty((d, d * d, BATCH))
+    inv = np.empty((d, d, BATCH))
+    t = np.empty((d, d * d, BATCH))
+    t_right = np.empty((d, n_b, BATCH))
+    p_right = np.empty((d, n_b, BATCH))
+    c_right = np.empty((d * d, n_b, BATCH))
+    blocks = np.empty((n_b, n_b, BATCH))
+    a_one = np.empty((d, d))
+    inv_one = np.empty((d, d))
+    for start in range(lo, hi, BATCH):
+        _condense_batch(start, min(hi, start + BATCH), branches, mask, kn, kr, volumes,
+                        non_affine, right_index, right_weight, left_index, left_weight, t_out,
+                        blocks_out, normals, lb, knb, krb, a, b, inv, t, t_right, p_right,
+                        c_right, blocks, a_one, inv_one)
+    if spin_mode == 1:
+        for e in range(lo, hi):
+            _spin_element(e, blocks_out, spin_out, c_local_out)
 
 
 @njit(cache=True)
 def condense_serial(branches, mask, kn, kr, volumes, non_affine, spin_mode, right_index,
                     right_weight, left_index, left_weight, t_out, blocks_out, spin_out,
                     c_local_out):
-    """:func:`_condense_element` for every micro-element, in one thread."""
+    """:func:`_condense_range` over every micro-element, in one thread."""
     _condense_range(0, branches.shape[0], branches, mask, kn, kr, volumes, non_affine,
                     spin_mode, right_index, right_weight, left_index, left_weight, t_out,
                     blocks_out, spin_out, c_local_out)
@@ -249,7 +308,8 @@ def condense_serial(branches, mask, kn, kr, volumes, non_affine, spin_mode, righ
 def condense_parallel(branches, mask, kn, kr, volumes, non_affine, spin_mode, right_index,
                       right_weight, left_index, left_weight, t_out, blocks_out, spin_out,
                       c_local_out):
-    """:func:`_condense_element` for every micro-element, in parallel chunks (gather)."""
+    """:func:`_condense_range` over chunks of :data:`CHUNK` micro-elements, in parallel
+    (gather)."""
     n = branches.shape[0]
     for chunk in prange((n + CHUNK - 1) // CHUNK):
         _condense_range(chunk * CHUNK, min(n, (chunk + 1) * CHUNK), branches, mask, kn, kr,
@@ -278,7 +338,7 @@ def condensation_bases(dimension: int, with_skew: bool
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Sparse R = [S] or [S W] (d^2, b) and L' = [S'] or [S'; W'] (b, d^2) of
     :mod:`tensor_basis`, as (right_index, right_weight, left_index, left_weight) for
-    :func:`_condense_element`."""
+    :func:`_condense_range`."""
     s, w, s_dual, w_dual = bases(dimension)
     right = np.hstack([s, w]) if with_skew else s
     left = np.vstack([s_dual, w_dual]) if with_skew else s_dual
@@ -288,7 +348,7 @@ def condensation_bases(dimension: int, with_skew: bool
 def condense_local_stiffness(branches: np.ndarray, mask: np.ndarray, kn: np.ndarray,
                              kr: np.ndarray, volumes: np.ndarray, non_affine: bool, spin: str
                              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Launcher of :func:`_condense_element`.
+    """Launcher of :func:`_condense_range`.
 
     Parameters: branches (E, M, d) [m], mask (E, M), contact stiffnesses kn, kr (E, M) [N/m]
     (read only where mask is True), volumes (E,) [m^3], ``non_affine`` (eq. 2.14), ``spin``
