@@ -106,7 +106,10 @@ def test_run_isotropic_compression_on_a_snapshot_file(tmp_path):
     ok("run", "--structure", snapshots, "--path", "isotropic_compression", "--steps", "8",
        "--out", tmp_path / "out")
     table = read_test_result(tmp_path / "out" / "result.h5").table
-    assert table["p"].iloc[-1] == pytest.approx(2e5, rel=1e-5)  # p_final = 2 sigma0
+    # p_final = 2 sigma0, to the driver's default stress tolerance (1e-4 of |sigma|): this
+    # network has micro-elements of 2-3 contacts whose non-affine move cancels the approach,
+    # so round-off decides whether they touch, and the last correction lands anywhere within it
+    assert table["p"].iloc[-1] == pytest.approx(2e5, rel=1e-4)
 
 
 def test_run_cyclic_path_on_binary_units(tmp_path):

@@ -307,6 +307,9 @@ def spring_update_kernel(approach0, normal0, shear0, bonded0, increment, normals
     """Integrate seed 001's contact law for N contacts (rows), outputs last (see
     SpringContactLaw.update for the rules)."""
     n_rows, d = increment.shape
+    dt = np.empty(d)  # per-row scratch, allocated once
+    old = np.empty(d)
+    trial = np.empty(d)
     for c in range(n_rows):
         for i in range(d):
             shear[c, i] = 0.0
@@ -322,8 +325,6 @@ def spring_update_kernel(approach0, normal0, shear0, bonded0, increment, normals
         for i in range(d):
             dn += increment[c, i] * normals[c, i]
             old_n += shear0[c, i] * normals[c, i]
-        dt = np.empty(d)
-        old = np.empty(d)
         old_mag = 0.0
         reverse = 0.0
         for i in range(d):
@@ -355,7 +356,6 @@ def spring_update_kernel(approach0, normal0, shear0, bonded0, increment, normals
             k_shear = (c2 if hertzian else ks_const / kn_const) * k0
         else:
             k_shear = kr
-        trial = np.empty(d)
         magnitude = 0.0
         for i in range(d):
             trial[i] = old[i] + k_shear * dt[i]

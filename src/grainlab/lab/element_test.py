@@ -127,6 +127,18 @@ def control_matrix(stage: LoadStage, step: float) -> np.ndarray:
     return stage.basis @ stress_rotation(stage.rotation(step))
 
 
+class _Frame:
+    """The control matrices of one stage: computed once when the frame does not rotate."""
+
+    def __init__(self, stage: LoadStage) -> None:
+        self.stage = stage
+        self.fixed = control_matrix(stage, 0.0) if stage.rotation_per_step == 0.0 else None
+
+    def matrix(self, step: float) -> np.ndarray:
+        """B of :func:`control_matrix` at the end of (fractional) ``step``."""
+        return self.fixed if self.fixed is not None else control_matrix(self.stage, step)
+
+
 # -- outcome ------------------------------------------------------------------------------------
 class _Failure(Exception):
     """Internal: the step cannot be completed; ``applied`` says whether the specimen moved."""
@@ -213,11 +225,11 @@ def _solve_mixed(d_star: np.ndarray, stress: np.ndarray, de_known: np.ndarray,
 
 
 def _advance(specimen: ElementSpecimen, stage: LoadStage, k: int, targets: np.ndarray,
-             de_step: np.ndarray, ctl: _Controller) -> _StepReport:
+             de_step: np.ndarray, ctl: _Controller, frame: _Frame) -> _StepReport:
     """Run step k of ``stage``; raise _Failure (carrying the partial report) on failure."""
     report = _StepReport()
     try:
-        return _advance_step(specimen, stage, k, targets, de_step, ctl, report)
+        return _advance_step(specimen, stage, k, targets, de_step, ctl, report, frame)
     except _Failure as failure:
         report.converged = False
         failure.report = report
@@ -230,7 +242,8 @@ def _relative(error: float, sigma: np.ndarray, target: np.ndarray) -> float:
 
 
 def _advance_step(specimen: ElementSpecimen, stage: LoadStage, k: int, targets: np.ndarray,
-                  de_step: np.ndarray, ctl: _Controller, report: _StepReport) -> _StepReport:
+                  de_step: np.ndarray, ctl: _Controller, report: _StepReport,
+                  frame: _Frame) -> _StepReport:
     stress = stage.stress_controlled
     done = 0.0
     reference = specimen.stress()  # lab stress along the tangent's prediction
@@ -239,7 +252,7 @@ def _advance_step(specimen: ElementSpecimen, stage: LoadStage, k: int, targets: 
         ctl.adapt_piece(tangent)
         h = min(ctl.piece, 1.0 - done) if stress.any() else 1.0 - done
         end = done + h
-        b = control_matrix(stage, k - 1 + end)
+        b = frame.matrix(k - 1 + end)
         target = targets[k - 1] + end * (targets[k] - targets[k - 1])
         d_star = b @ tangent @ b.T
         try:
@@ -254,7 +267,7 @@ def _advance_step(specimen: ElementSpecimen, stage: LoadStage, k: int, targets: 
         report.sub_steps += 1
         done = end
 
-    b = control_matrix(stage, k)
+    b = frame.matrix(k)
     target = targets[k]
     residual = np.where(stress, target - b @ specimen.stress(), 0.0)
     error = float(np.linalg.norm(residual))
@@ -443,13 +456,14 @@ def run_element_test(
     total = path.n_steps
     ended = False
     for stage in path.stages:
-        start = control_matrix(stage, 0.0) @ specimen.stress()
+        frame = _Frame(stage)
+        start = frame.matrix(0.0) @ specimen.stress()
         targets = stage.stress_targets(start)
         de_step = stage.strain_increment()
         for k in range(1, stage.n_steps + 1):
             increment += 1
             try:
-                report = _advance(specimen, stage, k, targets, de_step, ctl)
+                report = _advance(specimen, stage, k, targets, de_step, ctl, frame)
             except _Failure as failure:
                 if failure.applied:
                     report = failure.report or _StepReport(converged=False, error=math.nan)

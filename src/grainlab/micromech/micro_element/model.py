@@ -37,6 +37,7 @@ branch vectors (L shortens by the symmetric strain and the centre's move) and vo
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -44,7 +45,19 @@ import numpy as np
 
 from grainlab.contact.spring_contact import SpringContactLaw, SpringState, force_vectors
 from grainlab.errors import ConvergenceError, InputError
-from grainlab.micromech.micro_element.kernels import local_stiffness_kernel
+from grainlab.micromech.micro_element.distribution_kernels import (
+    exponential_series_batch,
+    maxwellian_tensors,
+    relative_stiffness,
+)
+from grainlab.micromech.micro_element.kernels import (
+    condense_local_stiffness,
+    contact_census,
+    dyad_sum,
+    move_structure,
+    stretch,
+    unit_vectors,
+)
 from grainlab.micromech.micro_element.structure import MicroElementStructure
 from grainlab.micromech.micro_element.tensor_basis import bases
 
@@ -54,37 +67,25 @@ MAXWELLIAN_REFERENCES = ("overall", "average")
 (as printed; self-consistent, iterated) or the volume average C_bar of eq. 2.24."""
 
 
-def _pinv_batch(matrices: np.ndarray, rcond: float = 1e-12) -> np.ndarray:
-    """Batched inverse, falling back to the pseudo-inverse where singular."""
-    try:
-        inverse = np.linalg.inv(matrices)
-        if np.all(np.isfinite(inverse)):
-            return inverse
-    except np.linalg.LinAlgError:
-        pass
-    return np.linalg.pinv(matrices, rcond=rcond)
-
-
-def exponential_series(v: np.ndarray, order: int) -> tuple[np.ndarray, float]:
+def exponential_series(v: np.ndarray, order: int, norm: float | None = None
+                       ) -> tuple[np.ndarray, float]:
     """Exp(-v) = I - v + v^2/2! - ... (seed 001 eq. 2.35) for a batch of square matrices
     (..., k, k), summed to ``order`` on v / 2^s and squared back s times (scaling and squaring,
     s chosen so that |v| / 2^s <= 1/2, which keeps the alternating series free of
-    cancellation); returns the result and the relative size of the last series term (the
-    convergence check)."""
+    cancellation); returns the result and the relative size of the last series term (largest
+    |entry| of the last term over the largest |entry| of the sum, over the batch: the
+    convergence check). ``norm``: the largest absolute row sum of the batch, when known.
+    Compiled:
+    :func:`~grainlab.micromech.micro_element.distribution_kernels.exponential_series_batch`."""
+    v = np.asarray(v, dtype=float)
     k = v.shape[-1]
-    norm = float(np.max(np.abs(v).sum(axis=-1))) if v.size else 0.0
+    if norm is None:
+        norm = float(np.max(np.abs(v).sum(axis=-1))) if v.size else 0.0
     squarings = max(0, int(np.ceil(np.log2(norm))) + 1) if norm > 0.5 else 0
-    scaled = v / 2.0**squarings
-    total = np.broadcast_to(np.eye(k), v.shape).copy()
-    term = total.copy()
-    last = 0.0
-    for n in range(1, order + 1):
-        term = -term @ scaled / n
-        total = total + term
-        last = float(np.max(np.abs(term))) / max(float(np.max(np.abs(total))), 1e-300)
-    for _ in range(squarings):
-        total = total @ total
-    return total, last
+    total, term_max, total_max = exponential_series_batch(v.reshape(-1, k, k), order,
+                                                          squarings)
+    last = term_max / max(total_max, 1e-300) if order >= 1 else 0.0
+    return total.reshape(v.shape), last
 
 
 @dataclass
@@ -197,10 +198,7 @@ class MicroElementModel:
     def normals(self) -> np.ndarray:
         """(E, M, d) current unit contact normals (zero on padding)."""
         if "normals" not in self._derived:
-            b = self.state.branches
-            length = np.linalg.norm(b, axis=2, keepdims=True)
-            self._derived["normals"] = np.divide(b, length, out=np.zeros_like(b),
-                                                 where=length > 0)
+            self._derived["normals"] = unit_vectors(self.state.branches)[0]
         return self._derived["normals"]
 
     @property
@@ -210,46 +208,31 @@ class MicroElementModel:
 
     # -- the constitutive chain ---------------------------------------------------------------
     def _local(self) -> dict[str, Any]:
-        """Contact stiffness, non-affine T, stretch maps P, local stiffness and condensation."""
+        """Contact stiffness, non-affine T (the stretch maps P = delta L + T), local stiffness
+        and condensation."""
         if self._cache is not None:
             return self._cache
         d = self.dimension
         st = self.state
         c = st.contacts
-        shear_mag = np.linalg.norm(c.shear_force, axis=2)
+        shear_mag = unit_vectors(c.shear_force)[1]
         kn, kr = self.law.stiffness(c.normal_force, shear_mag, self.contact_radius,
                                     self.force_floor, touching=c.normal_approach >= 0.0)
-        kn = np.where(st.mask, kn, 0.0)
-        kr = np.where(st.mask, kr, 0.0)
-        e_count, m_count = st.mask.shape
-        p = np.empty((e_count, m_count, d, d * d))
-        c_full = np.empty((e_count, d * d, d * d))
-        local_stiffness_kernel(np.ascontiguousarray(st.branches), np.ascontiguousarray(st.mask),
-                               np.ascontiguousarray(kn), np.ascontiguousarray(kr),
-                               np.ascontiguousarray(st.volumes), self.non_affine, p, c_full)
-        s, w, s_dual, w_dual = bases(d)
-        # One BLAS product for the four blocks: [S' ; W'] C [S W] on the (E, d^2, d^2) batch.
-        left = np.vstack([s_dual, w_dual])
-        right = np.hstack([s, w])
-        n_s = s.shape[1]
-        e_n, k = c_full.shape[0], c_full.shape[1]
-        half = (c_full.reshape(e_n * k, k) @ right).reshape(e_n, k, -1)  # C [S W]
-        blocks = (half.transpose(0, 2, 1).reshape(-1, k) @ left.T).reshape(
-            e_n, -1, left.shape[0]).transpose(0, 2, 1)  # [S' ; W'] C [S W], two GEMMs
-        c_ss, c_sw = blocks[:, :n_s, :n_s], blocks[:, :n_s, n_s:]
-        c_ws, c_ww = blocks[:, n_s:, :n_s], blocks[:, n_s:, n_s:]
-        if self.spin == "none":
-            spin = np.zeros_like(c_ws)
-        elif self.spin == "micro-element":
-            spin = -_pinv_batch(c_ww) @ c_ws  # skew strain per unit symmetric strain
-        else:  # one spin for all, from the volume-averaged (homogeneous) stiffness
+        # Compiled per micro-element (kernels.py): T, C^n on full tensors, the blocks
+        # [S' ; W'] C [S W] and, with spin="micro-element", spin = -C_ww^+ C_ws and
+        # C^n = C_ss + C_sw spin (otherwise C^n = C_ss and spin = 0).
+        t, blocks, spin, c_local = condense_local_stiffness(
+            st.branches, st.mask, kn, kr, st.volumes, self.non_affine, self.spin)
+        n_s = bases(d)[0].shape[1]
+        if self.spin == "uniform":  # one spin for all, from the volume-averaged stiffness
+            c_sw, c_ws = blocks[:, :n_s, n_s:], blocks[:, n_s:, :n_s]
+            c_ww = blocks[:, n_s:, n_s:]
             weights = st.volumes / st.volumes.sum()
             spin_all = -np.linalg.pinv(np.einsum("e,eab->ab", weights, c_ww), rcond=1e-12) @ (
                 np.einsum("e,eab->ab", weights, c_ws))
             spin = np.broadcast_to(spin_all, c_ws.shape).copy()
-        c_local = c_ss + c_sw @ spin
-        self._cache = {"kn": kn, "kr": kr, "p": p, "spin": spin, "c_local": c_local,
-                       "c_ww": c_ww}
+            c_local = blocks[:, :n_s, :n_s] + c_sw @ spin
+        self._cache = {"t": t, "spin": spin, "c_local": c_local}
         return self._cache
 
     def _distribution(self) -> dict[str, Any]:
@@ -281,10 +264,11 @@ class MicroElementModel:
         ``shift`` subtracts the smallest real eigenvalue s over all v^n before the series:
         Exp(-(v - s I)) = e^s Exp(-v), a common scalar that A cancels exactly, so that strongly
         heterogeneous units (a reference much softer than C_bar) cannot overflow."""
-        v = np.linalg.pinv(reference, rcond=1e-12) @ (c_local - c_bar)
+        v, norm = relative_stiffness(c_local, c_bar, np.linalg.pinv(reference, rcond=1e-12))
         if shift:
             v = v - float(np.min(np.linalg.eigvals(v).real)) * np.eye(v.shape[-1])
-        exp_v, last = exponential_series(v, self.series_order)
+            norm = float(np.abs(v).sum(axis=-1).max(initial=0.0))
+        exp_v, last = exponential_series(v, self.series_order, norm=norm)
         if last > self.series_tolerance:
             raise ConvergenceError(
                 f"The Maxwellian distribution series (eq. 2.35) has not converged at order "
@@ -292,7 +276,8 @@ class MicroElementModel:
                 f"{self.series_tolerance:g}). Raise series_order or use the homogeneous law."
             )
         a = np.linalg.pinv(np.tensordot(weights, exp_v, axes=1), rcond=1e-12)
-        return (a @ exp_v) * weights[:, None, None], last
+        g, _ = maxwellian_tensors(a, exp_v, weights, c_local)  # eqs. 2.34, 2.31
+        return g, last
 
     def _self_consistent(self, c_local: np.ndarray, c_bar: np.ndarray, weights: np.ndarray,
                          ) -> tuple[np.ndarray, float, int, bool]:
@@ -341,11 +326,10 @@ class MicroElementModel:
     def stress_tensor(self) -> np.ndarray:
         """Overall (d, d) stress tensor including any skew part [Pa]."""
         if "stress" not in self._derived:
-            f = force_vectors(self.state.contacts, self.normals)
-            f = np.where(self.state.mask[..., None], f, 0.0)
-            d = self.dimension
-            self._derived["stress"] = (f.reshape(-1, d).T @ self.state.branches.reshape(-1, d)
-                                       / (2.0 * self.volume))
+            st = self.state
+            self._derived["stress"] = dyad_sum(
+                st.contacts.normal_force, self.normals, st.contacts.shear_force, st.branches,
+                st.mask) / (2.0 * self.volume)
         return self._derived["stress"].copy()
 
     def micro_element_stresses(self) -> np.ndarray:
@@ -370,25 +354,23 @@ class MicroElementModel:
         info = self._distribution()
         st = self.state
         weights = st.volumes / self.volume
-        local_strain = (info["g"] @ d_eps) / weights[:, None]
-        spin = (info["spin"] @ local_strain[:, :, None])[..., 0]
         s, w, _, _ = bases(self.dimension)
-        full = local_strain @ s.T + spin @ w.T  # (E, d^2)
-        approach = np.einsum("empq,eq->emp", info["p"], full)
+        # Compiled per micro-element (kernels.py): eps^n = G^n eps / (V^n/V), the spin, the
+        # approaches P (S eps^n + W spin) and the branch translations (approach minus the
+        # spin part), and the volumetric strain trace(S eps^n).
+        approach, translation, volumetric = stretch(
+            info["g"], d_eps, weights, info["spin"], s, w, st.branches, st.mask, info["t"],
+            self.spin != "none")
         new_contacts, residual = self.law.update(
             st.contacts, approach, self.normals, self.contact_radius, st.mask, self.force_floor)
-        d = self.dimension
-        sym = (local_strain @ s.T).reshape(-1, d, d)
         # Geometry: branches shorten by the symmetric strain and the centre's move (approach
         # minus the spin part); volumes shrink by the volumetric strain (compression +).
-        translation = approach if self.spin == "none" else approach - np.einsum(
-            "eij,emj->emi", (spin @ w.T).reshape(-1, d, d), st.branches)
         if self.update_geometry:
-            st.branches = np.where(st.mask[..., None], st.branches - translation, 0.0)
-            st.volumes = st.volumes * (1.0 - np.trace(sym, axis1=1, axis2=2))
+            st.branches, st.volumes = move_structure(st.branches, st.mask, translation,
+                                                     st.volumes, volumetric)
         st.contacts = new_contacts
         st.strain = st.strain + d_eps
-        st.residual_stress = self._voigt(np.einsum("emi,emj->ij", residual, st.branches)
+        st.residual_stress = self._voigt(dyad_sum(None, None, residual, st.branches, st.mask)
                                          / (2.0 * self.volume))
         self._invalidate()
 
@@ -396,22 +378,19 @@ class MicroElementModel:
         """Counts of sliding, open and bonded contacts, coordination, mobilisation, D."""
         st = self.state
         c = st.contacts
-        active = st.mask
-        n_contacts = int(active.sum())
-        mu = self.law.friction_coefficient
-        shear = np.linalg.norm(c.shear_force, axis=2)
-        limit = mu * np.maximum(c.normal_force, 0.0)
-        mobilised = np.divide(shear, limit, out=np.zeros_like(shear), where=limit > 0)
-        open_ = active & (c.normal_force <= 0) & ~c.bonded
+        n_contacts, n_sliding, n_open, n_bonded, n_closed, mobilisation = contact_census(
+            st.mask, c.normal_force, c.shear_force, c.sliding, c.bonded,
+            self.law.friction_coefficient)
         info = self._distribution()
         eig = np.linalg.eigvalsh(info["tangent"])
         return {
-            "n_sliding": int((c.sliding & active).sum()),
-            "n_open": int(open_.sum()),
-            "n_bonded": int((c.bonded & active).sum()),
-            "sliding_fraction": float((c.sliding & active).sum() / max(n_contacts, 1)),
-            "mean_mobilisation": float(mobilised[active & ~open_].mean()) if n_contacts else 0.0,
-            "coordination_number": float((active & ~open_).sum() / st.volumes.size),
+            "n_sliding": int(n_sliding),
+            "n_open": int(n_open),
+            "n_bonded": int(n_bonded),
+            "sliding_fraction": float(n_sliding / max(n_contacts, 1)),
+            "mean_mobilisation": (float(mobilisation / n_closed) if n_closed else math.nan)
+            if n_contacts else 0.0,
+            "coordination_number": float(n_closed / st.volumes.size),
             "void_ratio": self.volume / self.structure.solid_volume() - 1.0,
             "min_eigenvalue_tangent": float(eig[0]),
             "series_last_term": float(info["series_last_term"]),
