@@ -246,20 +246,21 @@ class MicroElementModel:
         k = c_bar.shape[0]
         if self.distribution == "homogeneous":
             g = weights[:, None, None] * np.eye(k)[None]
-            last = 0.0
+            tangent, last = c_bar, 0.0
         elif self.maxwellian_reference == "average":
-            g, last = self._maxwellian(c_local, c_bar, c_bar, weights, shift=False)
+            g, tangent, last = self._maxwellian(c_local, c_bar, c_bar, weights, shift=False)
         else:
-            g, last, iterations, converged = self._self_consistent(c_local, c_bar, weights)
+            g, tangent, last, iterations, converged = self._self_consistent(
+                c_local, c_bar, weights)
             local.update(reference_iterations=iterations, reference_converged=converged)
-        tangent = c_bar if self.distribution == "homogeneous" else (c_local @ g).sum(axis=0)
         local.update(g=g, tangent=0.5 * (tangent + tangent.T), c_bar=c_bar,
                      series_last_term=last, tangent_raw=tangent)
         return local
 
     def _maxwellian(self, c_local: np.ndarray, c_bar: np.ndarray, reference: np.ndarray,
-                    weights: np.ndarray, shift: bool) -> tuple[np.ndarray, float]:
-        """G^n = A Exp(-v^n) V^n/V with v^n = reference^-1 (C^n - C_bar) (eqs. 2.32–2.35).
+                    weights: np.ndarray, shift: bool) -> tuple[np.ndarray, np.ndarray, float]:
+        """G^n = A Exp(-v^n) V^n/V with v^n = reference^-1 (C^n - C_bar) (eqs. 2.32–2.35),
+        the overall tangent sum_n C^n G^n (eq. 2.31) [Pa] and the last series term.
 
         ``shift`` subtracts the smallest real eigenvalue s over all v^n before the series:
         Exp(-(v - s I)) = e^s Exp(-v), a common scalar that A cancels exactly, so that strongly
@@ -276,11 +277,11 @@ class MicroElementModel:
                 f"{self.series_tolerance:g}). Raise series_order or use the homogeneous law."
             )
         a = np.linalg.pinv(np.tensordot(weights, exp_v, axes=1), rcond=1e-12)
-        g, _ = maxwellian_tensors(a, exp_v, weights, c_local)  # eqs. 2.34, 2.31
-        return g, last
+        g, tangent = maxwellian_tensors(a, exp_v, weights, c_local)  # eqs. 2.34, 2.31
+        return g, tangent, last
 
     def _self_consistent(self, c_local: np.ndarray, c_bar: np.ndarray, weights: np.ndarray,
-                         ) -> tuple[np.ndarray, float, int, bool]:
+                         ) -> tuple[np.ndarray, np.ndarray, float, int, bool]:
         """Eqs. 2.31–2.35 with the overall C in v^n (eq. 2.32 as printed): the fixed point
         C = sum_n C^n G^n(C), iterated from C_bar with under-relaxation (factor
         ``SELF_CONSISTENT_RELAXATION``) until the change is below ``SELF_CONSISTENT_TOLERANCE``
@@ -288,22 +289,22 @@ class MicroElementModel:
         softens C further: when enough micro-elements have lost their stiffness the iterate
         stops being positive definite — the unit has no stiffness left in some direction
         (failure, the peak of a strain-controlled test) and the iteration stops there.
-        Returns G, the last series term, the iterations and whether the fixed point was
-        reached (False also at a collapse)."""
+        Returns G, the overall tangent, the last series term, the iterations and whether the
+        fixed point was reached (False also at a collapse)."""
         reference = c_bar
         scale = float(np.linalg.norm(c_bar))
-        g, last = self._maxwellian(c_local, c_bar, reference, weights, shift=True)
+        g, tangent, last = self._maxwellian(c_local, c_bar, reference, weights, shift=True)
         for iteration in range(1, SELF_CONSISTENT_MAX_ITERATIONS + 1):
-            overall = (c_local @ g).sum(axis=0)
-            overall = 0.5 * (overall + overall.T)
+            overall = 0.5 * (tangent + tangent.T)
             change = float(np.linalg.norm(overall - reference))
             if change <= SELF_CONSISTENT_TOLERANCE * scale:
-                return g, last, iteration, True
+                return g, tangent, last, iteration, True
             if np.linalg.eigvalsh(overall)[0] <= SELF_CONSISTENT_COLLAPSE * scale:
-                return g, last, iteration, False
+                return g, tangent, last, iteration, False
             reference = reference + SELF_CONSISTENT_RELAXATION * (overall - reference)
-            g, last = self._maxwellian(c_local, c_bar, reference, weights, shift=True)
-        return g, last, SELF_CONSISTENT_MAX_ITERATIONS, False
+            g, tangent, last = self._maxwellian(c_local, c_bar, reference, weights,
+                                                shift=True)
+        return g, tangent, last, SELF_CONSISTENT_MAX_ITERATIONS, False
 
     def distribution_tensors(self) -> np.ndarray:
         """(E, k, k) distribution tensors G^n of eq. 2.27 (they sum to the identity, eq. 2.28)."""
