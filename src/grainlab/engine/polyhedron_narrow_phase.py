@@ -96,6 +96,23 @@ def _sphere_row(row, poly, other, a, poly_first, wv, wn, wo, fs, fv, ed, centre,
     return row + 1
 
 
+@njit(inline="always")
+def _body_features(b, s, body_vertex_start, world_vertices, body_face_start, world_normals,
+                   world_offsets, face_start, face_count, face_vertex_start, edge_start,
+                   edge_count, edges, edge_faces, vertex_start, vertex_count,
+                   vertex_neighbour_start):
+    """Views of body b (shape s): world vertices, face normals and offsets, face CSR offsets,
+    edges, edge faces and vertex-neighbour CSR offsets."""
+    v = world_vertices[body_vertex_start[b]:body_vertex_start[b + 1]]
+    n = world_normals[body_face_start[b]:body_face_start[b + 1]]
+    o = world_offsets[body_face_start[b]:body_face_start[b + 1]]
+    fs = face_vertex_start[face_start[s]:face_start[s] + face_count[s] + 1]
+    e = edges[edge_start[s]:edge_start[s] + edge_count[s]]
+    ef = edge_faces[edge_start[s]:edge_start[s] + edge_count[s]]
+    ns = vertex_neighbour_start[vertex_start[s]:vertex_start[s] + vertex_count[s] + 1]
+    return v, n, o, fs, e, ef, ns
+
+
 @njit(cache=True)
 def polyhedron_pairs_kernel(
     pairs, is_poly, shape_ids, positions, body_vertex_start, world_vertices, body_face_start,
@@ -119,22 +136,16 @@ def polyhedron_pairs_kernel(
             continue
         si, sj = shape_ids[i], shape_ids[j]
         if is_poly[i] and is_poly[j]:
-            va = world_vertices[body_vertex_start[i]:body_vertex_start[i + 1]]
-            na = world_normals[body_face_start[i]:body_face_start[i + 1]]
-            oa = world_offsets[body_face_start[i]:body_face_start[i + 1]]
-            fsa = face_vertex_start[face_start[si]:face_start[si] + face_count[si] + 1]
-            ea = edges[edge_start[si]:edge_start[si] + edge_count[si]]
-            efa = edge_faces[edge_start[si]:edge_start[si] + edge_count[si]]
-            nsa = vertex_neighbour_start[vertex_start[si]:vertex_start[si] + vertex_count[si]
-                                         + 1]
-            vb = world_vertices[body_vertex_start[j]:body_vertex_start[j + 1]]
-            nb = world_normals[body_face_start[j]:body_face_start[j + 1]]
-            ob = world_offsets[body_face_start[j]:body_face_start[j + 1]]
-            fsb = face_vertex_start[face_start[sj]:face_start[sj] + face_count[sj] + 1]
-            eb = edges[edge_start[sj]:edge_start[sj] + edge_count[sj]]
-            efb = edge_faces[edge_start[sj]:edge_start[sj] + edge_count[sj]]
-            nsb = vertex_neighbour_start[vertex_start[sj]:vertex_start[sj] + vertex_count[sj]
-                                         + 1]
+            va, na, oa, fsa, ea, efa, nsa = _body_features(
+                i, si, body_vertex_start, world_vertices, body_face_start, world_normals,
+                world_offsets, face_start, face_count, face_vertex_start, edge_start,
+                edge_count, edges, edge_faces, vertex_start, vertex_count,
+                vertex_neighbour_start)
+            vb, nb, ob, fsb, eb, efb, nsb = _body_features(
+                j, sj, body_vertex_start, world_vertices, body_face_start, world_normals,
+                world_offsets, face_start, face_count, face_vertex_start, edge_start,
+                edge_count, edges, edge_faces, vertex_start, vertex_count,
+                vertex_neighbour_start)
             g, found = signed_distance(
                 va, na, oa, fsa, face_vertices, ea, efa, nsa, vertex_neighbours, positions[i],
                 vb, nb, ob, fsb, face_vertices, eb, efb, nsb, vertex_neighbours, positions[j],
@@ -152,11 +163,11 @@ def polyhedron_pairs_kernel(
         else:
             poly, other = (i, j) if is_poly[i] else (j, i)
             sp = shape_ids[poly]
-            wv = world_vertices[body_vertex_start[poly]:body_vertex_start[poly + 1]]
-            wn = world_normals[body_face_start[poly]:body_face_start[poly + 1]]
-            wo = world_offsets[body_face_start[poly]:body_face_start[poly + 1]]
-            fs = face_vertex_start[face_start[sp]:face_start[sp] + face_count[sp] + 1]
-            ed = edges[edge_start[sp]:edge_start[sp] + edge_count[sp]]
+            wv, wn, wo, fs, ed, _, _ = _body_features(
+                poly, sp, body_vertex_start, world_vertices, body_face_start, world_normals,
+                world_offsets, face_start, face_count, face_vertex_start, edge_start,
+                edge_count, edges, edge_faces, vertex_start, vertex_count,
+                vertex_neighbour_start)
             for a in range(sphere_body_start[other], sphere_body_start[other + 1]):
                 row = _sphere_row(row, poly, other, a - sphere_body_start[other], poly == i,
                                   wv, wn, wo, fs, face_vertices, ed, world_centres[a],
