@@ -56,6 +56,10 @@ def test_friction_angle_and_peak():
     phi, row = derived.peak_friction_angle(table)
     assert row == 2 and math.isclose(phi, math.pi / 6)
     assert np.isnan(derived.mobilised_friction_angle(table["sigma_1"], table["sigma_3"])[-1])
+    # a row left off its stress targets (the failing step) is not a reached state
+    table["converged"] = [True, True, False, True, True]
+    phi, row = derived.peak_friction_angle(table)
+    assert row == 3 and math.isclose(phi, math.asin(1.5 / 3.5))
 
 
 def test_lode_angle_matches_b():

@@ -103,11 +103,18 @@ def mobilised_friction_angle(sigma_1: np.ndarray, sigma_3: np.ndarray) -> np.nda
 
 
 def peak_friction_angle(result: TestResult | pd.DataFrame) -> tuple[float, int]:
-    """Peak mobilised friction angle [rad] of a test and the table row where it occurs."""
+    """Peak mobilised friction angle [rad] of a test and the table row where it occurs.
+
+    Rows whose stress-controlled components missed their targets (``converged`` False: the
+    step at which a strain-driven test fails is recorded with the error it was left with,
+    :mod:`grainlab.lab.element_test`) are not candidates: their sigma_3 is not the controlled
+    one, so their angle is not a state the test reached."""
     table = _table(result)
     phi = mobilised_friction_angle(_column(table, "sigma_1"), _column(table, "sigma_3"))
+    if "converged" in table.columns:
+        phi = np.where(table["converged"].to_numpy(dtype=bool), phi, np.nan)
     if not np.any(np.isfinite(phi)):
-        raise InputError("result", "no row with sigma_1 + sigma_3 > 0",
+        raise InputError("result", "no converged row with sigma_1 + sigma_3 > 0",
                          "a test with a compressive state")
     row = int(np.nanargmax(phi))
     return float(phi[row]), row
