@@ -43,6 +43,13 @@ class ConvergenceError(GrainlabError, RuntimeError):
     """An iterative solve did not converge; the message gives the residual reached."""
 
 
+class StrengthReached(GrainlabError, RuntimeError):
+    """A specimen has no stiffness state left to carry further load: its strength is reached
+    (e.g. the self-consistent overall stiffness of seed 001 eqs. 2.31–2.32 has ceased to
+    exist). The element-test driver ends the test with ``status = "failure"``; the message
+    says what was lost."""
+
+
 class GrainlabWarning(UserWarning):
     """Base class of grainlab's warnings."""
 

@@ -7,7 +7,7 @@ import pytest
 from scipy.linalg import expm
 
 from grainlab.contact.spring_contact import SpringContactLaw, force_vectors, mindlin_c2
-from grainlab.errors import InputError
+from grainlab.errors import InputError, StrengthReached
 from grainlab.micromech.micro_element import MicroElementModel, exponential_series
 from grainlab.micromech.micro_element.small_strain import (
     poisson_ratio_eq41,
@@ -203,14 +203,20 @@ def test_closed_strain_cycle_dissipates_non_negative_energy(idealized):
     assert model.descriptors()["n_sliding"] >= 0
 
 
-def test_coulomb_and_no_tension_after_every_increment(idealized):
+@pytest.mark.parametrize("reference", ["overall", "average"])
+def test_coulomb_and_no_tension_after_every_increment(idealized, reference):
     rng = np.random.default_rng(1)
     law = linear_law(phi_deg=20)
-    model = MicroElementModel(idealized, law, distribution="maxwellian")
+    model = MicroElementModel(idealized, law, distribution="maxwellian",
+                              maxwellian_reference=reference)
     model.consolidate_isotropically(P0)
     mu = law.friction_coefficient
-    for _ in range(60):
-        model.apply_strain(rng.normal(scale=2e-5, size=6))
+    for increment in range(60):
+        try:
+            model.apply_strain(rng.normal(scale=2e-5, size=6))
+        except StrengthReached:  # the self-consistent unit fails on this random walk
+            assert reference == "overall" and increment >= 10
+            break
         c = model.state.contacts
         assert np.all(c.normal_force >= -1e-9)
         shear = np.linalg.norm(c.shear_force, axis=2)

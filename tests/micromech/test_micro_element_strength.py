@@ -9,7 +9,8 @@ import pytest
 from scipy.linalg import expm
 
 from grainlab.contact.spring_contact import SpringContactLaw
-from grainlab.errors import InputError
+from grainlab.errors import InputError, StrengthReached
+from grainlab.lab.derived import peak_friction_angle
 from grainlab.lab.element_test import run_element_test
 from grainlab.lab.presets import preset
 from grainlab.micromech.micro_element import MicroElementModel
@@ -151,3 +152,44 @@ def test_unknown_maxwellian_reference_is_named():
     with pytest.raises(InputError, match="maxwellian_reference"):
         MicroElementModel(x_micro_element(), linear_law(25.0), distribution="maxwellian",
                           maxwellian_reference="overal")
+
+
+def self_consistent_triaxial(seed: int, n_steps: int) -> tuple[MicroElementModel, object]:
+    model = MicroElementModel(idealized_material(seed=seed), linear_law(25.0),
+                              distribution="maxwellian")
+    model.consolidate_isotropically(P0)
+    eps_ref = P0 / np.mean(np.diag(model.tangent())[:3])
+    path = preset("triaxial_compression", confining=P0, axial_strain=8 * eps_ref,
+                  n_steps=n_steps, consolidation_steps=0)
+    return model, run_element_test(model, path)
+
+
+def test_self_consistent_failure_converges_with_the_step_size():
+    """Solved tightly (Anderson-accelerated, continued from the previous increment), the
+    self-consistent unit fails where its fixed point ceases to exist; that point, and the
+    peak angle, no longer depend on the step once the steps are small."""
+    peaks = []
+    for n_steps in (1600, 3200):
+        _, result = self_consistent_triaxial(2, n_steps)
+        assert result.outcome["status"] == "failure"
+        assert "self-consistent" in result.outcome["reason"]
+        phi, row = peak_friction_angle(result.table)
+        peaks.append(np.degrees(phi))
+        assert bool(result.table["converged"].iloc[row])
+    assert abs(peaks[0] - peaks[1]) < 0.1
+
+
+def test_self_consistent_failure_is_where_no_fixed_point_exists():
+    """At the failed state a plain under-relaxed iteration of eqs. 2.31-2.35 (scipy expm,
+    no acceleration, from C_bar) finds no positive-definite fixed point either, while one
+    step before it the fixed point the model used is that of the plain iteration."""
+    model, result = self_consistent_triaxial(2, 400)
+    assert result.outcome["status"] == "failure"
+    weights = model.state.volumes / model.volume
+    with pytest.raises(StrengthReached):
+        model.tangent()
+    try:
+        twin = self_consistent_twin(model.local_stiffness(), weights)
+    except (AssertionError, np.linalg.LinAlgError):
+        twin = None
+    assert twin is None or np.linalg.eigvalsh(twin)[0] <= 0.0

@@ -29,9 +29,11 @@ where the tangent is steady. When a correction makes the error grow (a tangent t
 overestimates the compliance), the corrections are halved (damped) from then on, doubling back
 after corrections that cut the error fourfold; after ``max_halvings`` halvings the test fails.
 
-Failure. The test ends with ``outcome["status"] = "failure"`` when the stress-controlled block
-D*_SS is singular or not positive definite (min eigenvalue of its symmetric part <=
-``singular_tolerance`` x the largest |diagonal entry| of D*: the strength is reached, halving
+Failure. The test ends with ``outcome["status"] = "failure"`` when the specimen raises
+:class:`~grainlab.errors.StrengthReached` (it has no stiffness state left), when the
+stress-controlled block D*_SS is singular or not positive definite (min eigenvalue of its
+symmetric part <= ``singular_tolerance`` x the largest |diagonal entry| of D*: the strength
+is reached, halving
 cannot help because the tangent is that of the current state), when the error keeps growing
 after ``max_halvings`` halvings, or when ``max_iterations`` corrections did not reduce it.
 Otherwise ``"completed"``. A step that changed the specimen before the failure is recorded.
@@ -57,7 +59,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from grainlab.errors import GrainlabWarning, InputError
+from grainlab.errors import GrainlabWarning, InputError, StrengthReached
 from grainlab.lab.load_path import LoadPath, LoadStage
 from grainlab.lab.specimen import ElementSpecimen, voigt_labels, voigt_to_tensor
 from grainlab.lab.test_result import TestResult
@@ -229,7 +231,11 @@ def _advance(specimen: ElementSpecimen, stage: LoadStage, k: int, targets: np.nd
     """Run step k of ``stage``; raise _Failure (carrying the partial report) on failure."""
     report = _StepReport()
     try:
-        return _advance_step(specimen, stage, k, targets, de_step, ctl, report, frame)
+        try:
+            return _advance_step(specimen, stage, k, targets, de_step, ctl, report, frame)
+        except StrengthReached as lost:  # the specimen itself has no state left to go to
+            raise _Failure(f"strength reached: {lost}",
+                           applied=report.sub_steps > 0 or report.iterations > 0) from None
     except _Failure as failure:
         report.converged = False
         failure.report = report

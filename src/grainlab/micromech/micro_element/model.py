@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from grainlab.contact.spring_contact import SpringContactLaw, SpringState, force_vectors
-from grainlab.errors import ConvergenceError, InputError
+from grainlab.errors import ConvergenceError, InputError, StrengthReached
 from grainlab.micromech.micro_element.distribution_kernels import (
     exponential_series_batch,
     maxwellian_tensors,
@@ -98,16 +98,19 @@ class MicroElementState:
     mask: np.ndarray
     strain: np.ndarray  # cumulative overall Voigt strain since the model was built
     residual_stress: np.ndarray  # Voigt stress of the last increment's residual forces
+    overall_stiffness: np.ndarray | None = None  # last self-consistent C (warm start) [Pa]
 
 
 SELF_CONSISTENT_RELAXATION = 0.5
-"""Under-relaxation of the fixed-point iteration on the overall C of eq. 2.32 [-]."""
+"""Mixing factor beta of the Anderson-accelerated fixed point on the overall C [-]."""
+SELF_CONSISTENT_HISTORY = 6
+"""Number of past iterates the Anderson mixing combines [-]."""
 SELF_CONSISTENT_TOLERANCE = 1e-9
-"""Change of C, relative to |C_bar|, that ends the fixed-point iteration [-]."""
-SELF_CONSISTENT_MAX_ITERATIONS = 200
+"""|C(G(C)) - C|, relative to |C_bar|, that ends the fixed-point iteration [-]."""
+SELF_CONSISTENT_MAX_ITERATIONS = 300
 SELF_CONSISTENT_COLLAPSE = 1e-6
 """Smallest eigenvalue of an iterate, relative to |C_bar|, below which the unit has lost its
-stiffness in some direction and the iteration stops [-]."""
+stiffness in some direction [-]."""
 
 
 class MicroElementModel:
@@ -250,9 +253,14 @@ class MicroElementModel:
         elif self.maxwellian_reference == "average":
             g, tangent, last = self._maxwellian(c_local, c_bar, c_bar, weights, shift=False)
         else:
-            g, tangent, last, iterations, converged = self._self_consistent(
-                c_local, c_bar, weights)
-            local.update(reference_iterations=iterations, reference_converged=converged)
+            if "failure" in local:
+                raise StrengthReached(local["failure"])
+            try:
+                g, tangent, last, iterations = self._self_consistent(c_local, c_bar, weights)
+            except StrengthReached as lost:
+                local["failure"] = str(lost)
+                raise
+            local.update(reference_iterations=iterations)
         local.update(g=g, tangent=0.5 * (tangent + tangent.T), c_bar=c_bar,
                      series_last_term=last, tangent_raw=tangent)
         return local
@@ -281,30 +289,81 @@ class MicroElementModel:
         return g, tangent, last
 
     def _self_consistent(self, c_local: np.ndarray, c_bar: np.ndarray, weights: np.ndarray,
-                         ) -> tuple[np.ndarray, np.ndarray, float, int, bool]:
+                         ) -> tuple[np.ndarray, np.ndarray, float, int]:
         """Eqs. 2.31–2.35 with the overall C in v^n (eq. 2.32 as printed): the fixed point
-        C = sum_n C^n G^n(C), iterated from C_bar with under-relaxation (factor
-        ``SELF_CONSISTENT_RELAXATION``) until the change is below ``SELF_CONSISTENT_TOLERANCE``
-        of |C_bar|. A softer C concentrates the strain more on soft micro-elements, which
-        softens C further: when enough micro-elements have lost their stiffness the iterate
-        stops being positive definite — the unit has no stiffness left in some direction
-        (failure, the peak of a strain-controlled test) and the iteration stops there.
-        Returns G, the overall tangent, the last series term, the iterations and whether the
-        fixed point was reached (False also at a collapse)."""
-        reference = c_bar
+        C = sum_n C^n G^n(C). Returns G, the overall tangent, the last series term and the
+        iterations; raises :class:`StrengthReached` when the unit has no self-consistent C.
+
+        The iteration starts from the C of the previous increment (continuation along the
+        load path; C_bar the first time, and again if the warm start fails) and is
+        Anderson-accelerated (mixing ``SELF_CONSISTENT_RELAXATION`` over the last
+        ``SELF_CONSISTENT_HISTORY`` iterates; a mixed iterate that is not positive definite
+        is replaced by the plain damped step) until |C(G(C)) - C| <=
+        ``SELF_CONSISTENT_TOLERANCE`` |C_bar|. A softer C concentrates the strain more on
+        soft micro-elements, which softens C further: as micro-elements lose their stiffness
+        the branch of solutions followed from the isotropic state ends (the fixed point
+        disappears, the iteration drifts towards C = 0). That is the unit's failure: it is
+        reported when the iteration ends on a C that is not positive definite or does not
+        converge in ``SELF_CONSISTENT_MAX_ITERATIONS``. Solving the fixed point only
+        approximately (the previous version returned the last iterate) made the failure
+        point depend on the step size; solved tightly it converges with the step."""
+        starts = [c_bar]
+        if self.state.overall_stiffness is not None:
+            starts.insert(0, self.state.overall_stiffness)
+        reason = ""
+        for start in starts:
+            solution, reason = self._fixed_point(c_local, c_bar, weights, start)
+            if solution is not None:
+                g, tangent, last, iterations = solution
+                self.state.overall_stiffness = 0.5 * (tangent + tangent.T)
+                return g, tangent, last, iterations
+        raise StrengthReached(
+            "the self-consistent overall stiffness of eqs. 2.31-2.32 (Maxwellian law with the "
+            f"overall C) has no solution: {reason} (the unit has failed)")
+
+    def _fixed_point(self, c_local: np.ndarray, c_bar: np.ndarray, weights: np.ndarray,
+                     start: np.ndarray) -> tuple[tuple | None, str]:
+        """Anderson-accelerated C = sum C^n G^n(C) from ``start`` (see
+        :meth:`_self_consistent`); ((G, tangent, last term, iterations), "") or (None, why)."""
+        k = c_bar.shape[0]
+        upper = np.triu_indices(k)
         scale = float(np.linalg.norm(c_bar))
-        g, tangent, last = self._maxwellian(c_local, c_bar, reference, weights, shift=True)
+        beta = SELF_CONSISTENT_RELAXATION
+
+        def matrix(x: np.ndarray) -> np.ndarray:
+            m = np.zeros((k, k))
+            m[upper] = x
+            return m + np.triu(m, 1).T
+
+        x = np.array(start)[upper]
+        past_x: list[np.ndarray] = []
+        past_r: list[np.ndarray] = []
         for iteration in range(1, SELF_CONSISTENT_MAX_ITERATIONS + 1):
-            overall = 0.5 * (tangent + tangent.T)
-            change = float(np.linalg.norm(overall - reference))
-            if change <= SELF_CONSISTENT_TOLERANCE * scale:
-                return g, tangent, last, iteration, True
-            if np.linalg.eigvalsh(overall)[0] <= SELF_CONSISTENT_COLLAPSE * scale:
-                return g, tangent, last, iteration, False
-            reference = reference + SELF_CONSISTENT_RELAXATION * (overall - reference)
-            g, tangent, last = self._maxwellian(c_local, c_bar, reference, weights,
+            g, tangent, last = self._maxwellian(c_local, c_bar, matrix(x), weights,
                                                 shift=True)
-        return g, tangent, last, SELF_CONSISTENT_MAX_ITERATIONS, False
+            image = 0.5 * (tangent + tangent.T)
+            lowest = float(np.linalg.eigvalsh(image)[0])
+            if lowest <= SELF_CONSISTENT_COLLAPSE * scale:
+                return None, (f"the iterate lost its positive definiteness (smallest eigenvalue "
+                              f"{lowest:.3g} Pa, |C_bar| {scale:.3g} Pa)")
+            residual = image[upper] - x
+            if np.linalg.norm(residual) <= SELF_CONSISTENT_TOLERANCE * scale:
+                return (g, tangent, last, iteration), ""
+            past_x = (past_x + [x])[-SELF_CONSISTENT_HISTORY:]
+            past_r = (past_r + [residual])[-SELF_CONSISTENT_HISTORY:]
+            step = x + beta * residual
+            if len(past_r) > 1:
+                d_r = np.diff(np.array(past_r), axis=0).T
+                d_x = np.diff(np.array(past_x), axis=0).T
+                gamma = np.linalg.lstsq(d_r, residual, rcond=None)[0]
+                mixed = step - (d_x + beta * d_r) @ gamma
+                if np.linalg.eigvalsh(matrix(mixed))[0] > SELF_CONSISTENT_COLLAPSE * scale:
+                    step = mixed
+                else:
+                    past_x, past_r = [], []
+            x = step
+        return None, (f"no fixed point within {SELF_CONSISTENT_MAX_ITERATIONS} iterations "
+                      f"(last change {np.linalg.norm(residual) / scale:.3g} of |C_bar|)")
 
     def distribution_tensors(self) -> np.ndarray:
         """(E, k, k) distribution tensors G^n of eq. 2.27 (they sum to the identity, eq. 2.28)."""
@@ -382,8 +441,11 @@ class MicroElementModel:
         n_contacts, n_sliding, n_open, n_bonded, n_closed, mobilisation = contact_census(
             st.mask, c.normal_force, c.shear_force, c.sliding, c.bonded,
             self.law.friction_coefficient)
-        info = self._distribution()
-        eig = np.linalg.eigvalsh(info["tangent"])
+        try:
+            info = self._distribution()
+            lowest = float(np.linalg.eigvalsh(info["tangent"])[0])
+        except StrengthReached:  # the failed state of a test: no tangent to describe
+            info, lowest = {"series_last_term": math.nan}, math.nan
         return {
             "n_sliding": int(n_sliding),
             "n_open": int(n_open),
@@ -393,7 +455,7 @@ class MicroElementModel:
             if n_contacts else 0.0,
             "coordination_number": float(n_closed / st.volumes.size),
             "void_ratio": self.volume / self.structure.solid_volume() - 1.0,
-            "min_eigenvalue_tangent": float(eig[0]),
+            "min_eigenvalue_tangent": lowest,
             "series_last_term": float(info["series_last_term"]),
             "self_consistent_iterations": int(info.get("reference_iterations", 0)),
             "stress_asymmetry": self._asymmetry(),
@@ -431,7 +493,9 @@ class MicroElementModel:
     ) -> None:
         """Load from zero force to the isotropic stress ``pressure`` [Pa]: every stress
         component controlled, equilibrium iterated at each of ``steps`` equal increments;
-        then the cumulative strain is reset to zero (strains of a test count from here).
+        then the cumulative strain is reset to zero (strains of a test count from here). With
+        the self-consistent Maxwellian law the first increment, from zero force, is distributed
+        homogeneously (no self-consistent stiffness exists while every contact is open).
 
         Raises
         ------
@@ -447,12 +511,22 @@ class MicroElementModel:
         area = mean_radius**2 if self.dimension == 3 else mean_radius
         self.force_floor = 1e-3 * pressure * area if self.law.hertzian else 0.0
         self._invalidate()
+        distribution = self.distribution
+        if self.distribution == "maxwellian" and self.maxwellian_reference == "overall" and \
+                self.state.overall_stiffness is None:
+            # At zero contact force every contact is open: the micro-element stiffnesses are
+            # singular and no self-consistent C exists (measured: none on the idealized
+            # material, seeds 1-12). The first increment is distributed homogeneously.
+            self.distribution = "homogeneous"
         try:
             for step in range(1, steps + 1):
                 self.solve_stress(unit * pressure * step / steps, tolerance, max_iterations)
                 self.force_floor = 0.0 if step >= 1 and not self.law.hertzian else (
                     self.force_floor)
+                self.distribution = distribution
+                self._invalidate()
         finally:
+            self.distribution = distribution
             self.force_floor = 0.0
             self._invalidate()
         self.state.strain = np.zeros(k)
