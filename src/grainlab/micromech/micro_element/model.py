@@ -349,8 +349,8 @@ class MicroElementModel:
             residual = image[upper] - x
             if np.linalg.norm(residual) <= SELF_CONSISTENT_TOLERANCE * scale:
                 return (g, tangent, last, iteration), ""
-            past_x = (past_x + [x])[-SELF_CONSISTENT_HISTORY:]
-            past_r = (past_r + [residual])[-SELF_CONSISTENT_HISTORY:]
+            past_x = [*past_x, x][-SELF_CONSISTENT_HISTORY:]
+            past_r = [*past_r, residual][-SELF_CONSISTENT_HISTORY:]
             step = x + beta * residual
             if len(past_r) > 1:
                 d_r = np.diff(np.array(past_r), axis=0).T
