@@ -35,9 +35,10 @@ chang2d        linear, k_n = 200 kN/m = 2e5 N/m, k_s/k_n = 1 (§3)       25°   
 =============  =======================================================  =====  ==========
 
 Distribution law: homogeneous (eq. 2.30) for every structure unless told otherwise. Under it
-the unit never fails (contacts near the major principal axis stay elastic): for the report's
-strengths use ``distribution="maxwellian"``, whose default reference is the overall C of eq.
-2.32 (self-consistent); see docs/micro_element.md for what it gives and where it is fragile.
+the unit never fails (contacts near the major principal axis stay elastic). With
+``distribution="maxwellian"`` and its default reference, the overall C of eq. 2.32
+(self-consistent), the unit fails, at angles below the report's (a lower bound; it needs steps
+of <= 0.005 eps_ref to converge); see docs/micro_element.md for the three laws side by side.
 
 A snapshot file takes the ``idealized`` defaults in 3D and the ``chang2d`` ones in 2D; a
 packing file those of ``chang2d``.
