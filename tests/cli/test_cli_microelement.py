@@ -177,6 +177,8 @@ def test_bad_inputs_are_named(tmp_path):
     refused("--structure", "run", "--structure", tmp_path / "missing.toml", "--out", tmp_path)
     refused("--structure", "run", "--structure", "gravel", "--out", tmp_path)
     refused("--spin", "run", "--structure", "binary", "--spin", "none", "--out", tmp_path)
+    refused("--distribution", "run", "--structure", "binary", "--distribution", "maxwellian",
+            "--out", tmp_path)
     refused("--kn", "run", "--law", "hertz", "--kn", "1e5", "--out", tmp_path)
     refused("--friction-angle", "run", "--friction-angle", "95", "--out", tmp_path)
     refused("--b", "sweep-b", "--b", "0,2", "--out", tmp_path)

@@ -501,6 +501,9 @@ class MicroElementModel:
         ------
         ConvergenceError
             The structure cannot carry the isotropic stress (e.g. too few contacts).
+        StrengthReached
+            The distribution law has no stiffness for the structure on the way (the
+            self-consistent law on some structures).
         """
         if not pressure > 0:
             raise InputError("pressure", pressure, "a positive isotropic stress in Pa")
@@ -520,7 +523,12 @@ class MicroElementModel:
             self.distribution = "homogeneous"
         try:
             for step in range(1, steps + 1):
-                self.solve_stress(unit * pressure * step / steps, tolerance, max_iterations)
+                try:
+                    self.solve_stress(unit * pressure * step / steps, tolerance, max_iterations)
+                except StrengthReached as lost:
+                    raise StrengthReached(
+                        f"in the isotropic consolidation, at {pressure * step / steps:.6g} Pa "
+                        f"(step {step} of {steps}): {lost}") from None
                 self.force_floor = 0.0 if step >= 1 and not self.law.hertzian else (
                     self.force_floor)
                 self.distribution = distribution

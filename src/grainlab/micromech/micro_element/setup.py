@@ -382,6 +382,9 @@ def build_model(
                          "free spin loses its shear stiffness)")
     if distribution not in DISTRIBUTIONS:
         raise InputError("--distribution", distribution, " or ".join(DISTRIBUTIONS))
+    if structure_kind(structure) == "binary" and distribution != "homogeneous":
+        raise InputError("--distribution", distribution, "'homogeneous' for binary units (they "
+                         "need the uniform spin, which needs the homogeneous distribution)")
     if spin == "uniform" and distribution != "homogeneous":
         raise InputError("--spin", spin, "'none' or 'micro-element' with the Maxwellian "
                          "distribution (a uniform spin needs the homogeneous one)")
