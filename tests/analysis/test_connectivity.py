@@ -148,6 +148,44 @@ def test_connectivity_ratio_matches_seed002_eq13():
     assert c.descriptors()["k_ff"] == pytest.approx(3 / 19)
 
 
+def test_resultant_pairs_count_their_nominal_points(tmp_path):
+    """A polyhedra network stores each pair as ONE resultant point; with ``type_points``
+    (fv 1, ee 1, fe 2, ff 3) the connectivity number is still eq. 14 and equals that of the
+    same network stored point by point; it survives a file round trip and a relabelling."""
+    import h5py
+
+    names, m = ("fv", "ee", "fe", "ff"), (1, 1, 2, 3)
+    layout = [1] * 5 + [0] * 7 + [2] * 4 + [3] * 3 + [3]
+    n = len(layout) + 1
+    pairs = [(k, k + 1) for k in range(len(layout))]
+    inactive = {len(layout) - 1}
+    points_each = chain_network(pairs, n, inactive=inactive, points=[m[t] for t in layout],
+                                types=layout, type_names=names)
+    resultant = chain_network(pairs, n, inactive=inactive, types=layout, type_names=names)
+    assert Connectivity().compute(resultant).connectivity_number == pytest.approx(
+        2 * 19 / n)  # without type_points a resultant counts once
+    resultant = ContactNetwork(**{**{f: getattr(resultant, f) for f in
+                                     resultant.__dataclass_fields__}, "type_points": m})
+    reference = Connectivity().compute(points_each)
+    c = Connectivity().compute(resultant)
+    assert c.connectivity_number == pytest.approx(2 * (5 + 7 + 8 + 9) / n)
+    assert c.connectivity_number == pytest.approx(reference.connectivity_number)
+    assert c.connectivity_number_no_rattlers == pytest.approx(  # a chain: all rattlers
+        reference.connectivity_number_no_rattlers, nan_ok=True)
+    assert c.points_per_pair_by_type == pytest.approx(dict(zip(names, m, strict=True)))
+    with h5py.File(tmp_path / "net.h5", "w") as f:
+        resultant.to_hdf5(f.create_group("net"))
+    with h5py.File(tmp_path / "net.h5", "r") as f:
+        back = ContactNetwork.from_hdf5(f["net"])
+    assert back.type_points == m
+    order = np.random.default_rng(0).permutation(n)
+    assert Connectivity().compute(back.relabelled(order)).connectivity_number == \
+        pytest.approx(c.connectivity_number)
+    with pytest.raises(InputError, match="type_points"):
+        ContactNetwork(**{**{f: getattr(resultant, f) for f in
+                             resultant.__dataclass_fields__}, "type_points": (1, 1, 2)})
+
+
 def test_partly_active_pairs_and_aggregate_types():
     # aggregates (seed 003 eq. 13): one "t" pair has a tensile third point, so m_t = 2.5
     names = ("s", "ds", "d", "t", "q")

@@ -110,6 +110,9 @@ def test_network_has_one_interaction_per_polyhedron_pair(tmp_path):
     descriptors = SnapshotAnalysis().compute(back).descriptors
     assert {k: descriptors[k] for k in ("k_fv", "k_ee", "k_fe", "k_ff")} == pytest.approx(
         {"k_fv": 0.25, "k_ee": 0.25, "k_fe": 0.25, "k_ff": 0.25})
+    # eq. 14 in the analysis too: each resultant stands for its type's nominal points
+    assert c.connectivity_number == pytest.approx(2.0 * (3 + 1 + 2 + 1) / 4)
+    assert descriptors["connectivity_number"] == pytest.approx(c.connectivity_number)
 
 
 def test_row_counts_pairs_and_nominal_points():

@@ -7,6 +7,8 @@ eq. 13):
 * packing fraction rho = sum_i v_i / V;
 * coordination number z = 2 P_a / N (mean number of loaded neighbours per particle);
 * connectivity number z_c = 2 C_a / N (mean number of loaded contact points per particle);
+  where the network stores each pair as one resultant standing for ``type_points[type]``
+  points (polyhedra), C_a sums those over the active pairs — seed 002 eq. 14;
 * proportions k_gamma = P_a,gamma / P_a of the contact types gamma of the network's
   ``type_names`` (fv, ee, fe, ff for polyhedra; s, ds, d, t, q for aggregates) and the mean
   number m_gamma of active points per active pair of type gamma, so that
@@ -145,11 +147,16 @@ class Connectivity(Compute):
         n = network.n_particles
         active_points = network.active_points()
         active_pairs = network.active_pairs()
-        points_per_pair = np.bincount(network.point_pairs, active_points.astype(np.int64),
-                                      minlength=network.n_pairs)
+        if network.type_points:  # one resultant per pair, standing for m_type points
+            points_per_pair = np.where(active_pairs, np.asarray(network.type_points,
+                                                                dtype=np.int64)[
+                network.pair_types], 0)
+        else:
+            points_per_pair = np.bincount(network.point_pairs, active_points.astype(np.int64),
+                                          minlength=network.n_pairs)
         pairs = network.pair_particles[active_pairs]
         n_active_pairs = int(active_pairs.sum())
-        n_active_points = int(active_points.sum())
+        n_active_points = int(points_per_pair[active_pairs].sum())
         rattlers = find_rattlers(n, pairs, self.min_contacts)
         kept = ~rattlers[network.pair_particles[:, 0]] & ~rattlers[network.pair_particles[:, 1]]
         kept &= active_pairs

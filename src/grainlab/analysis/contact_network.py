@@ -75,6 +75,11 @@ class ContactNetwork:
         (P,) integer contact-type codes indexing ``type_names``, or None.
     type_names:
         Names of the contact types (e.g. ``("fv", "ee", "fe", "ff")``).
+    type_points:
+        For networks that store each pair as its one resultant point (polyhedra, seed 002:
+        "the net resultant ... is attributed to the contact"): the number of contact points
+        a pair of each type stands for, e.g. fv 1, ee 1, fe 2, ff 3 (eq. 14); connectivity
+        numbers count these. Empty (default) when every stored point is a real contact.
     friction_coefficient:
         Interparticle friction coefficient mu [-], needed for friction descriptors.
     point_sliding:
@@ -101,6 +106,7 @@ class ContactNetwork:
     point_forces: np.ndarray
     pair_types: np.ndarray | None = None
     type_names: tuple[str, ...] = ()
+    type_points: tuple[int, ...] = ()
     friction_coefficient: float | None = None
     point_sliding: np.ndarray | None = None
     state: dict[str, Any] = field(default_factory=dict)
@@ -162,6 +168,13 @@ class ContactNetwork:
                                  f"codes indexing type_names {tuple(self.type_names)}")
             set_(self, "pair_types", types)
         set_(self, "type_names", tuple(str(t) for t in self.type_names))
+        points = tuple(self.type_points)
+        if points and (self.pair_types is None or len(points) != len(self.type_names) or not all(
+                isinstance(m, (int, np.integer)) and not isinstance(m, bool) and m >= 1
+                for m in points)):
+            raise InputError("type_points", points, "one integer >= 1 per name of type_names "
+                             f"{tuple(self.type_names)}, with pair_types given")
+        set_(self, "type_points", tuple(int(m) for m in points))
         if self.friction_coefficient is not None and not (
             np.isfinite(self.friction_coefficient) and self.friction_coefficient >= 0
         ):
@@ -287,6 +300,7 @@ class ContactNetwork:
         group.attrs["format_version"] = NETWORK_FORMAT_VERSION
         group.attrs["volume"] = self.volume
         group.attrs["type_names"] = json.dumps(list(self.type_names))
+        group.attrs["type_points"] = json.dumps(list(self.type_points))
         group.attrs["friction_coefficient"] = (
             np.nan if self.friction_coefficient is None else self.friction_coefficient
         )
@@ -308,6 +322,7 @@ class ContactNetwork:
         return cls(
             volume=float(group.attrs["volume"]),
             type_names=tuple(json.loads(group.attrs["type_names"])),
+            type_points=tuple(json.loads(group.attrs.get("type_points", "[]"))),
             friction_coefficient=None if np.isnan(mu) else mu,
             state=json.loads(group.attrs["state"]),
             **arrays,

@@ -205,11 +205,11 @@ def _contact_network(report: StepReport, state: BodyState, library: ShapeLibrary
     ft = np.linalg.norm(forces - fn[:, None] * normals, axis=1)
     sliding = (ft >= friction * fn * (1.0 - _SLIDING)) & (fn > 0.0) if friction > 0.0 \
         else fn > 0.0
-    pair_types, type_names = None, ()
+    pair_types, type_names, type_points = None, (), ()
     if np.any(library.kind[state.shape_ids] == SHAPE_POLYHEDRON):
         pair_types = np.zeros(pair_keys.shape[0], dtype=np.int64)
         pair_types[point_pairs.reshape(-1)] = codes
-        type_names = PAIR_TYPE_NAMES
+        type_names, type_points = PAIR_TYPE_NAMES, tuple(NOMINAL_POINTS.tolist())
     elif np.any(library.kind[state.shape_ids] == SHAPE_AGGREGATE) and pairs.size:
         classified, codes, _ = classify_aggregate_pairs(bi, bj, contacts.member_i[inner],
                                                         contacts.member_j[inner])
@@ -221,7 +221,8 @@ def _contact_network(report: StepReport, state: BodyState, library: ShapeLibrary
         volume=volume, pair_particles=pairs, pair_branches=branches,
         point_pairs=point_pairs.reshape(-1), point_positions=points,
         point_normals=normals, point_forces=forces, pair_types=pair_types,
-        type_names=type_names, friction_coefficient=friction, point_sliding=sliding,
+        type_names=type_names, type_points=type_points, friction_coefficient=friction,
+        point_sliding=sliding,
         state=dict(extra_state or {}),
     )
     return network, int(inner.shape[0])
@@ -233,16 +234,9 @@ def polyhedron_connectivity(network: ContactNetwork, connectivity: Connectivity,
     k_fv ... k_ff of loaded pairs as ``fraction_<type>`` and ``z_c_points``, for a network
     of :func:`contact_network` with polyhedron pair types."""
     n = network.n_particles
-    active = network.active_pairs()
-    nominal = NOMINAL_POINTS[network.pair_types]
-    rattlers = connectivity.rattlers
-    kept = active & ~rattlers[network.pair_particles[:, 0]] \
-        & ~rattlers[network.pair_particles[:, 1]]
-    n_kept = n - int(rattlers.sum())
-    row = {
-        "z_c": float(2.0 * nominal[active].sum() / n) if n else float("nan"),
-        "z_c_no_rattlers": float(2.0 * nominal[kept].sum() / n_kept) if n_kept
-        else float("nan"),
+    row = {  # the network's type_points make Connectivity's z_c that of eq. 14
+        "z_c": float(connectivity.connectivity_number),
+        "z_c_no_rattlers": float(connectivity.connectivity_number_no_rattlers),
         "z_c_points": float(2.0 * solver_points / n) if n else float("nan"),
     }
     for name in POLYHEDRON_TYPES:
