@@ -209,3 +209,22 @@ def test_input_errors_name_the_column():
         derived.k0_series({"sigma_xx": [1.0]})
     with pytest.raises(InputError):
         derived.cyclic_loops(np.zeros(3), np.zeros(4), np.zeros(3, int))
+
+
+def test_increment_direction_turning_through_the_vertical_stays_continuous():
+    # a stress-increment direction turning steadily from 60 to 120 deg: the canonical angle
+    # jumps from +90 to -90, the continuous branch follows the rotation and is congruent to
+    # it modulo pi
+    turned = np.radians(np.linspace(60.0, 120.0, 31))
+    d_h, d_v, d_tau = (np.sin(turned) ** 2, np.cos(turned) ** 2,
+                       np.sin(turned) * np.cos(turned))
+    table = pd.DataFrame({
+        "sigma_xx": np.cumsum(np.r_[1e5, d_h[1:]]), "sigma_zz": np.cumsum(np.r_[1e5, d_v[1:]]),
+        "sigma_xz": np.cumsum(np.r_[0.0, d_tau[1:]]), "sigma_yy": np.full(31, 1e5),
+        "eps_xx": np.zeros(31), "eps_zz": np.zeros(31), "gamma_xz": np.zeros(31)})
+    chi = derived.principal_angles(table)["chi"].to_numpy()
+    assert np.nanmax(np.abs(np.diff(chi[1:]))) > np.radians(170.0)  # the canonical jump
+    branch = derived.continuous_inclination(chi)
+    np.testing.assert_allclose(branch[1:], turned[1:], atol=1e-9)
+    np.testing.assert_allclose(np.sin(2 * (branch[1:] - chi[1:])), 0.0, atol=1e-12)
+    assert np.isnan(branch[0])

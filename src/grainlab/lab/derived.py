@@ -200,6 +200,21 @@ def _major_direction(horizontal: np.ndarray, vertical: np.ndarray,
     return np.where(zero, np.nan, angle)
 
 
+def continuous_inclination(angles: np.ndarray) -> np.ndarray:
+    """The branch of inclinations [rad] (defined modulo pi, as returned in (-pi/2, pi/2] by
+    :func:`principal_angles`) that is continuous along the rows: each finite value is moved
+    by a multiple of pi to lie within pi/2 of the previous finite one (NaNs stay NaN). A
+    direction turning through the vertical then reads 85, 92, 95 deg instead of 85, -88, -85.
+
+    >>> np.degrees(continuous_inclination(np.radians([80.0, 89.0, -88.0, np.nan, -80.0])))
+    array([ 80.,  89.,  92.,  nan, 100.])
+    """
+    values = np.array(angles, dtype=float)
+    finite = np.isfinite(values)
+    values[finite] = 0.5 * np.unwrap(2.0 * values[finite])
+    return values
+
+
 def principal_angles(result: TestResult | pd.DataFrame) -> pd.DataFrame:
     """Inclinations [rad] from the horizontal plane in a simple-shear test (seed 001 §4.2.4,
     Fig. 4.16b), in the vertical plane of shear: horizontal x, vertical z with shear xz (3D)

@@ -42,6 +42,7 @@ from scipy.optimize import brentq
 
 from grainlab.errors import InputError
 from grainlab.lab.derived import (
+    continuous_inclination,
     cyclic_shear_response,
     fit_kappa,
     k0_series,
@@ -401,8 +402,9 @@ def simple_shear_figure(result: TestResult) -> Figure:
     """Direct simple shear (seed 001 Figs. 4.15–4.16), rows of the ``shear`` stage: (a)
     tau/sigma_v against gamma; (b) sigma_2 against (sigma_1 + sigma_3)/2 with the line of
     equality (Hill's proposition; 3D only); (c) tau/sigma_v against tan psi with the fitted
-    kappa of eq. 4.8; (d) the angles psi, beta, omega, chi, xi against gamma
-    (:func:`grainlab.lab.derived.principal_angles`). Four axes."""
+    kappa of eq. 4.8; (d) the angles psi, beta, omega, chi, xi against gamma, each on its branch
+    continuous modulo 180 deg (:func:`grainlab.lab.derived.principal_angles`,
+    :func:`~grainlab.lab.derived.continuous_inclination`). Four axes."""
     if not isinstance(result, TestResult):
         raise InputError("result", type(result).__name__, "a TestResult")
     table = result.table
@@ -446,8 +448,9 @@ def simple_shear_figure(result: TestResult) -> Figure:
     ax_k.set_xlabel("tan psi")
     ax_k.set_ylabel("tau / sigma_v")
     ax_k.set_title("(c) Oda & Konishi: kappa (eq. 4.8)", fontsize="medium")
-    for name in ("psi", "beta", "omega", "chi", "xi"):
-        ax_a.plot(gamma, np.degrees(angles[name].to_numpy(dtype=float)), label=name)
+    for name in ("psi", "beta", "omega", "chi", "xi"):  # planes: continuous modulo 180 deg
+        ax_a.plot(gamma, np.degrees(continuous_inclination(angles[name].to_numpy(dtype=float))),
+                  label=name)
     ax_a.axhline(0.0, color="k", lw=0.5)
     ax_a.set_xlabel(f"gamma_{shear} [%]")
     ax_a.set_ylabel("inclination from the horizontal [deg]")
