@@ -214,12 +214,77 @@ def supporting_feature(vertices, normals, nstart, nbrs, edges, dx, dy, dz, cos_t
 # --------------------------------------------------------------------------------------------
 
 
+@njit(inline="always")
+def _inradius(normals, offsets, c):
+    """Distance [m] from c to the nearest face plane, min_f (O_f - n_f . c) (> 0 when c is
+    inside); every unit n then has min_x n . x <= n . c - r over the body."""
+    r = _HUGE
+    for f in range(normals.shape[0]):
+        r = min(r, offsets[f] - (normals[f, 0] * c[0] + normals[f, 1] * c[1]
+                                 + normals[f, 2] * c[2]))
+    return r
+
+
+@njit(inline="always")
+def _best_bound_face(normals, offsets, c, r):
+    """Face f of largest bound n_f . c - O_f - r on its axis value s (the face most likely
+    to give the largest s) and that bound."""
+    best_f, best_b = 0, -_HUGE
+    for f in range(normals.shape[0]):
+        b = normals[f, 0] * c[0] + normals[f, 1] * c[1] + normals[f, 2] * c[2] - offsets[f] - r
+        if b > best_b:
+            best_b, best_f = b, f
+    return best_f
+
+
+@njit(inline="always")
+def _faces_reaching(proj, fstart, fverts, level, above, out):
+    """Writes into ``out`` the faces with a vertex projection ``proj`` (n_v,) >= ``level``
+    (``above``) or <= ``level`` (not ``above``), in increasing order; returns their number."""
+    count = 0
+    for f in range(fstart.shape[0] - 1):
+        for k in range(fstart[f], fstart[f + 1]):
+            x = proj[fverts[k]]
+            if (x >= level) if above else (x <= level):
+                out[count] = f
+                count += 1
+                break
+    return count
+
+
+@njit(inline="always")
+def _project(vertices, dx, dy, dz):
+    """Projections (n_v,) of the vertices on (dx, dy, dz)."""
+    proj = np.empty(vertices.shape[0])
+    for v in range(vertices.shape[0]):
+        proj[v] = vertices[v, 0] * dx + vertices[v, 1] * dy + vertices[v, 2] * dz
+    return proj
+
+
 @njit(cache=True)
 def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
                     vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out):
     """Signed distance g [m] of polyhedra A and B (module docstring, steps 1-4) and the unit
     normal from A to B written in ``normal_out`` (3,); returns (g, found) with found False
     when g > alert (then g is only a lower bound and the normal is not set)."""
+    return _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
+                            vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out, True)
+
+
+@njit(cache=True)
+def signed_distance_exhaustive(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
+                               vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out):
+    """:func:`signed_distance` without the pruning (every face axis evaluated, every face in
+    the exact distance): the slow twin it must agree with (same g, normal, found)."""
+    return _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
+                            vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out, False)
+
+
+@njit(cache=True)
+def _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
+                     vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out, prune):
+    """:func:`signed_distance`; ``prune`` skips the face axes whose bound on s is below a
+    value already reached and, apart, the faces out of the slab (same result)."""
     ux, uy, uz = cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2]
     length = math.sqrt(ux * ux + uy * uy + uz * uz)
     if length > 0.0:
@@ -233,9 +298,31 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
     best = -_HUGE
     best_kind, best_f, best_g = -1, -1, -1  # 0 face of A, 1 face of B, 2 edge pair
     bx, by, bz = 0.0, 0.0, 1.0
+    # pruning of the face axes: s(f) <= n_f . c_B - O_f - r_B (face of A), n_g . c_A - O_g - r_A
+    # (face of B), r the inradius about the centre; a face whose bound is below a value s
+    # already reached can be neither the best axis nor the first one beyond the alert
+    # distance. The faces of largest bound give the first value (most often the best one).
+    r_a, r_b = _inradius(na, oa, ca), _inradius(nb, ob, cb)
+    if not prune or r_a <= 0.0 or r_b <= 0.0:
+        r_a = r_b = -_HUGE  # (a centre outside its body: no bound)
+    tol = 1e-9 * (max(r_a, 0.0) + max(r_b, 0.0) + length) + 1e-12 * (
+        abs(ca[0]) + abs(ca[1]) + abs(ca[2]) + abs(cb[0]) + abs(cb[1]) + abs(cb[2]))
+    floor = -_HUGE
+    if r_a > 0.0:
+        f = _best_bound_face(na, oa, cb, r_b)
+        _, neg = _support(vb, nsb, nbb, -na[f, 0], -na[f, 1], -na[f, 2], 0)
+        floor = -neg - oa[f]
+        f = _best_bound_face(nb, ob, ca, r_a)
+        _, neg = _support(va, nsa, nba, -nb[f, 0], -nb[f, 1], -nb[f, 2], 0)
+        floor = max(floor, -neg - ob[f])
+        if floor > alert:
+            return floor, False
     # face axes of A: s = min_b n.b - O_a
     start = 0
     for f in range(na.shape[0]):
+        if na[f, 0] * cb[0] + na[f, 1] * cb[1] + na[f, 2] * cb[2] - oa[f] - r_b + tol \
+                < max(floor, best):
+            continue
         start, neg = _support(vb, nsb, nbb, -na[f, 0], -na[f, 1], -na[f, 2], start)
         s = -neg - oa[f]
         if s > best:
@@ -246,6 +333,9 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
     # face axes of B: the axis from A to B is -n_b; s = min_a n_b.a - O_b
     start = 0
     for f in range(nb.shape[0]):
+        if nb[f, 0] * ca[0] + nb[f, 1] * ca[1] + nb[f, 2] * ca[2] - ob[f] - r_a + tol \
+                < max(floor, best):
+            continue
         start, neg = _support(va, nsa, nba, -nb[f, 0], -nb[f, 1], -nb[f, 2], start)
         s = -neg - ob[f]
         if s > best:
@@ -381,7 +471,8 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
 def _reduce(points, gaps, count, tol, max_points):
     """Indices (4,) of at most ``max_points`` (3 or 4) of ``count`` points: the deepest
     (lowest index within ``tol``), the farthest from it, the one giving the largest triangle,
-    then the one adding the largest area outside that triangle; returns (idx, n)."""
+    then the one adding the largest area outside that triangle; returns (idx, n) (scalar
+    code: no allocation per point)."""
     idx = np.empty(4, dtype=np.int64)
     first = 0
     for k in range(1, count):
@@ -390,10 +481,11 @@ def _reduce(points, gaps, count, tol, max_points):
     idx[0] = first
     if count == 1:
         return idx, 1
+    ox, oy, oz = points[first, 0], points[first, 1], points[first, 2]
     far, far_d = -1, -1.0
     for k in range(count):
-        d = points[k] - points[first]
-        dd = d @ d
+        dx, dy, dz = points[k, 0] - ox, points[k, 1] - oy, points[k, 2] - oz
+        dd = dx * dx + dy * dy + dz * dz
         if dd > far_d + tol * tol:
             far, far_d = k, dd
     if far_d <= tol * tol:
@@ -402,10 +494,10 @@ def _reduce(points, gaps, count, tol, max_points):
     if count == 2:
         return idx, 2
     third, area = -1, 0.0
-    base = points[far] - points[first]
+    bx, by, bz = points[far, 0] - ox, points[far, 1] - oy, points[far, 2] - oz
     for k in range(count):
-        c = np.cross(base, points[k] - points[first])
-        a = math.sqrt(c @ c)
+        cx, cy, cz = _cross(bx, by, bz, points[k, 0] - ox, points[k, 1] - oy, points[k, 2] - oz)
+        a = math.sqrt(cx * cx + cy * cy + cz * cz)
         if a > area + tol * math.sqrt(far_d):
             third, area = k, a
     if third < 0:
@@ -413,15 +505,20 @@ def _reduce(points, gaps, count, tol, max_points):
     idx[2] = third
     if count == 3 or max_points < 4:
         return idx, 3
-    axis = np.cross(base, points[third] - points[first])
-    axis = axis / math.sqrt(axis @ axis)
+    ax, ay, az = _cross(bx, by, bz, points[third, 0] - ox, points[third, 1] - oy,
+                        points[third, 2] - oz)
+    size = math.sqrt(ax * ax + ay * ay + az * az)
+    ax, ay, az = ax / size, ay / size, az / size
     fourth, gain = -1, tol * math.sqrt(far_d)
     for k in range(count):
         added = 0.0
         for e in range(3):
-            a0, a1 = points[idx[e]], points[idx[(e + 1) % 3]]
-            # outward side of edge (a0, a1) of the counter-clockwise triangle about axis
-            c = np.cross(a1 - a0, points[k] - a0) @ axis
+            i, j = idx[e], idx[(e + 1) % 3]
+            # outward side of edge (p_i, p_j) of the counter-clockwise triangle about the axis
+            cx, cy, cz = _cross(points[j, 0] - points[i, 0], points[j, 1] - points[i, 1],
+                                points[j, 2] - points[i, 2], points[k, 0] - points[i, 0],
+                                points[k, 1] - points[i, 1], points[k, 2] - points[i, 2])
+            c = cx * ax + cy * ay + cz * az
             if c < 0.0:
                 added += -c
         if added > gain:
@@ -433,11 +530,13 @@ def _reduce(points, gaps, count, tol, max_points):
 
 
 @njit(inline="always")
-def _line_entry(x, dx, dy, dz, normals, offsets):
+def _line_entry(x, dx, dy, dz, normals, offsets, faces, n_faces):
     """Entry parameter t >= -inf of the line x + t d into the polyhedron (half-spaces
-    n . y <= O) and the face it enters through; (t_in, face, hit)."""
+    n . y <= O of the faces ``faces[:n_faces]``) and the face it enters through;
+    (t_in, face, hit)."""
     t_in, t_out, face = -_HUGE, _HUGE, -1
-    for f in range(normals.shape[0]):
+    for i in range(n_faces):
+        f = faces[i]
         c = normals[f, 0] * dx + normals[f, 1] * dy + normals[f, 2] * dz
         r = offsets[f] - (normals[f, 0] * x[0] + normals[f, 1] * x[1] + normals[f, 2] * x[2])
         if c < -1e-15:
@@ -449,6 +548,45 @@ def _line_entry(x, dx, dy, dz, normals, offsets):
         elif r < 0.0:
             return 0.0, -1, False
     return t_in, face, face >= 0 and t_in <= t_out + 1e-12 * (abs(t_in) + 1.0)
+
+
+@njit(inline="always")
+def _edge_boxes(vertices, edges, kept, n_kept, proj, nx, ny, nz, upper, grow, boxes):
+    """Columns (min, max) along t1, (min, max) along t2 (t1, t2, n orthonormal), widened by
+    ``grow``, and the highest (``upper``) or lowest end along n of the edges
+    ``kept[:n_kept]``, written in the rows of ``boxes`` (5, n_kept)."""
+    if abs(nx) < 0.6:
+        t1x, t1y, t1z = _cross(nx, ny, nz, 1.0, 0.0, 0.0)
+    else:
+        t1x, t1y, t1z = _cross(nx, ny, nz, 0.0, 1.0, 0.0)
+    size = math.sqrt(t1x * t1x + t1y * t1y + t1z * t1z)
+    t1x, t1y, t1z = t1x / size, t1y / size, t1z / size
+    t2x, t2y, t2z = _cross(nx, ny, nz, t1x, t1y, t1z)
+    for i in range(n_kept):
+        p, q = edges[kept[i], 0], edges[kept[i], 1]
+        a1 = vertices[p, 0] * t1x + vertices[p, 1] * t1y + vertices[p, 2] * t1z
+        b1 = vertices[q, 0] * t1x + vertices[q, 1] * t1y + vertices[q, 2] * t1z
+        a2 = vertices[p, 0] * t2x + vertices[p, 1] * t2y + vertices[p, 2] * t2z
+        b2 = vertices[q, 0] * t2x + vertices[q, 1] * t2y + vertices[q, 2] * t2z
+        boxes[0, i], boxes[1, i] = min(a1, b1) - grow, max(a1, b1) + grow
+        boxes[2, i], boxes[3, i] = min(a2, b2) - grow, max(a2, b2) + grow
+        boxes[4, i] = max(proj[p], proj[q]) if upper else min(proj[p], proj[q])
+
+
+@njit(inline="always")
+def _near_edges(box_a, i, box_b, n_b, reach, out):
+    """Writes into ``out`` the edges j of B (increasing) whose box (``box_b``, widened)
+    overlaps that of edge i of A and whose lowest end is within ``reach`` above the highest
+    end of edge i along n (the others cannot give a kept crossing); returns their number
+    (branch-free loop)."""
+    lo1, hi1, lo2, hi2 = box_a[0, i], box_a[1, i], box_a[2, i], box_a[3, i]
+    top = box_a[4, i] + reach
+    m = 0
+    for j in range(n_b):
+        out[m] = j
+        m += (lo1 <= box_b[1, j]) & (box_b[0, j] <= hi1) & (lo2 <= box_b[3, j]) \
+            & (box_b[2, j] <= hi2) & (box_b[4, j] <= top)
+    return m
 
 
 @njit(inline="always")
@@ -465,6 +603,33 @@ def _upper_edge(normals, edge_faces, e, dx, dy, dz):
 def pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
                   vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
                   g, normal, alert, cos_tol, sin_tol, max_points, points, gaps, ids_a, ids_b):
+    """Contact manifold of polyhedra A and B at signed distance ``g`` [m] along ``normal``
+    (3,) from A to B (module docstring): writes ``points`` (4, 3) [m] (mid-points), ``gaps``
+    (4,) [m] and feature ids ``ids_a``, ``ids_b`` (4,); returns (count, type code)."""
+    return _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
+                          vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
+                          g, normal, alert, cos_tol, sin_tol, max_points, points, gaps, ids_a,
+                          ids_b, True)
+
+
+@njit(cache=True)
+def pair_manifold_exhaustive(va, na, oa, fsa, fva, ea, efa, nsa, nba,
+                             vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
+                             g, normal, alert, cos_tol, sin_tol, max_points, points, gaps, ids_a,
+                             ids_b):
+    """:func:`pair_manifold` with every face of the other body in the line entries: the slow
+    twin it must agree with (same points, gaps, ids and type)."""
+    return _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
+                          vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
+                          g, normal, alert, cos_tol, sin_tol, max_points, points, gaps, ids_a,
+                          ids_b, False)
+
+
+@njit(cache=True)
+def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
+                   vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
+                   g, normal, alert, cos_tol, sin_tol, max_points, points, gaps, ids_a, ids_b,
+                   prune):
     """Contact manifold of polyhedra A and B at signed distance ``g`` [m] along ``normal``
     (3,) from A to B (module docstring): writes ``points`` (4, 3) [m] (mid-points), ``gaps``
     (4,) [m] and feature ids ``ids_a``, ``ids_b`` (4,); returns (count, type code).
@@ -484,37 +649,62 @@ def pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     lo = -neg
     band = max(alert, g, 0.0)
     limit = band + 1e-12 * (abs(hi) + abs(lo))
+    proj_a = _project(va, nx, ny, nz)
+    proj_b = _project(vb, nx, ny, nz)
     cap_a = np.empty(nva, dtype=np.int64)
     n_ca = 0
     for v in range(nva):
-        if va[v, 0] * nx + va[v, 1] * ny + va[v, 2] * nz >= hi - band - limit:
+        if proj_a[v] >= hi - band - limit:
             cap_a[n_ca] = v
             n_ca += 1
     cap_b = np.empty(nvb, dtype=np.int64)
     n_cb = 0
     for v in range(nvb):
-        if vb[v, 0] * nx + vb[v, 1] * ny + vb[v, 2] * nz <= lo + band + limit:
+        if proj_b[v] <= lo + band + limit:
             cap_b[n_cb] = v
             n_cb += 1
     edge_a = np.empty(nea, dtype=np.int64)
     n_ea = 0
     for e in range(nea):
-        p, q = ea[e, 0], ea[e, 1]
-        if max(va[p, 0] * nx + va[p, 1] * ny + va[p, 2] * nz,
-               va[q, 0] * nx + va[q, 1] * ny + va[q, 2] * nz) >= hi - band - limit and \
+        if max(proj_a[ea[e, 0]], proj_a[ea[e, 1]]) >= hi - band - limit and \
                 _upper_edge(na, efa, e, nx, ny, nz):
             edge_a[n_ea] = e
             n_ea += 1
     edge_b = np.empty(neb, dtype=np.int64)
     n_eb = 0
     for e in range(neb):
-        p, q = eb[e, 0], eb[e, 1]
-        if min(vb[p, 0] * nx + vb[p, 1] * ny + vb[p, 2] * nz,
-               vb[q, 0] * nx + vb[q, 1] * ny + vb[q, 2] * nz) <= lo + band + limit and \
+        if min(proj_b[eb[e, 0]], proj_b[eb[e, 1]]) <= lo + band + limit and \
                 _upper_edge(nb, efb, e, -nx, -ny, -nz):
             edge_b[n_eb] = e
             n_eb += 1
-    size = n_ca + n_cb + n_ea * n_eb
+    # faces the line entries need: a kept entry point lies at n . x >= lo - limit on A (a line
+    # from B's cap going down at most limit), n . x <= hi + limit on B; A's part above
+    # lo - limit is cut out by the faces of A reaching that level alone (convexity), B's
+    # below hi + limit likewise; a pad of 1e-6 of the extent covers round-off
+    faces_a = np.empty(na.shape[0], dtype=np.int64)
+    faces_b = np.empty(nb.shape[0], dtype=np.int64)
+    pad = 1e-6 * (hi - proj_a.min() + proj_b.max() - lo)
+    if prune:
+        n_fa = _faces_reaching(proj_a, fsa, fva, lo - limit - pad, True, faces_a)
+        n_fb = _faces_reaching(proj_b, fsb, fvb, hi + limit + pad, False, faces_b)
+    else:
+        n_fa, n_fb = na.shape[0], nb.shape[0]
+        faces_a[:] = np.arange(n_fa)
+        faces_b[:] = np.arange(n_fb)
+    # the cap edges seen along n: boxes in a plane normal to n, and the reach along n (highest
+    # end on A, lowest on B); a pair of edges whose boxes are apart cannot cross, one whose
+    # ends are farther than limit along n gives no kept crossing (pad: round-off)
+    box_a = np.empty((5, n_ea))
+    box_b = np.empty((5, n_eb))
+    _edge_boxes(va, ea, edge_a, n_ea, proj_a, nx, ny, nz, True, 0.0, box_a)
+    _edge_boxes(vb, eb, edge_b, n_eb, proj_b, nx, ny, nz, False, pad, box_b)
+    near = np.arange(max(n_eb, 1))
+    n_near = n_ea * n_eb
+    if prune:
+        n_near = 0
+        for i in range(n_ea):
+            n_near += _near_edges(box_a, i, box_b, n_eb, limit + pad, near)
+    size = n_ca + n_cb + n_near
     cand = np.empty((size, 3))
     local = np.empty(size)
     cid_a = np.empty(size, dtype=np.int64)
@@ -522,7 +712,7 @@ def pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     count = 0
     for k in range(n_cb):  # vertices of B over A's upper surface (line going down)
         b = vb[cap_b[k]]
-        t, f, hit = _line_entry(b, -nx, -ny, -nz, na, oa)
+        t, f, hit = _line_entry(b, -nx, -ny, -nz, na, oa, faces_a, n_fa)
         if hit and t <= limit:
             cand[count] = b - 0.5 * t * normal
             local[count] = t
@@ -531,7 +721,7 @@ def pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
             count += 1
     for k in range(n_ca):  # vertices of A under B's lower surface (line going up)
         a = va[cap_a[k]]
-        t, f, hit = _line_entry(a, nx, ny, nz, nb, ob)
+        t, f, hit = _line_entry(a, nx, ny, nz, nb, ob, faces_b, n_fb)
         if hit and t <= limit:
             cand[count] = a + 0.5 * t * normal
             local[count] = t
@@ -544,8 +734,9 @@ def pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
         p0x, p0y, p0z = va[u0, 0], va[u0, 1], va[u0, 2]
         dax, day, daz = va[u1, 0] - p0x, va[u1, 1] - p0y, va[u1, 2] - p0z
         la = dax * dax + day * day + daz * daz
-        for j in range(n_eb):
-            k = edge_b[j]
+        m = _near_edges(box_a, i, box_b, n_eb, limit + pad, near) if prune else n_eb
+        for jj in range(m):
+            k = edge_b[near[jj]]
             w0, w1 = eb[k, 0], eb[k, 1]
             q0x, q0y, q0z = vb[w0, 0], vb[w0, 1], vb[w0, 2]
             dbx, dby, dbz = vb[w1, 0] - q0x, vb[w1, 1] - q0y, vb[w1, 2] - q0z
