@@ -365,7 +365,16 @@ def _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
                 <= hi + margin:
             keep_b[n_b] = e
             n_b += 1
-    # edge-edge axes on faces of the Minkowski difference (scalar code: no allocation)
+    # Gauss-map arcs of B's kept edges (the normals of their faces, negated), by component,
+    # for a branch-free first test of the arc crossings
+    arcs = np.empty((6, n_b))
+    for j in range(n_b):
+        g0, g1 = efb[keep_b[j], 0], efb[keep_b[j], 1]
+        for c in range(3):
+            arcs[c, j] = -nb[g0, c]
+            arcs[3 + c, j] = -nb[g1, c]
+    crossing = np.arange(n_b)
+    # edge-edge axes on faces of the Minkowski difference (scalar code)
     for i in range(n_a):
         e = keep_a[i]
         f0, f1 = efa[e, 0], efa[e, 1]
@@ -376,7 +385,15 @@ def _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
         tax, tay, taz = va[u1, 0] - a0x, va[u1, 1] - a0y, va[u1, 2] - a0z
         bxa_x, bxa_y, bxa_z = _cross(bx_, by_, bz_, ax_, ay_, az_)
         ta2 = tax * tax + tay * tay + taz * taz
-        for j in range(n_b):
+        m = n_b
+        if prune:  # the B arcs whose ends lie on both sides of the plane of A's arc
+            m = 0
+            for j in range(n_b):
+                crossing[m] = j
+                m += (arcs[0, j] * bxa_x + arcs[1, j] * bxa_y + arcs[2, j] * bxa_z) * (
+                    arcs[3, j] * bxa_x + arcs[4, j] * bxa_y + arcs[5, j] * bxa_z) < 0.0
+        for jj in range(m):
+            j = crossing[jj]
             k = keep_b[j]
             g0, g1 = efb[k, 0], efb[k, 1]
             cx_, cy_, cz_ = -nb[g0, 0], -nb[g0, 1], -nb[g0, 2]
@@ -698,13 +715,17 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     box_b = np.empty((5, n_eb))
     _edge_boxes(va, ea, edge_a, n_ea, proj_a, nx, ny, nz, True, 0.0, box_a)
     _edge_boxes(vb, eb, edge_b, n_eb, proj_b, nx, ny, nz, False, pad, box_b)
-    near = np.arange(max(n_eb, 1))
-    n_near = n_ea * n_eb
-    if prune:
-        n_near = 0
-        for i in range(n_ea):
-            n_near += _near_edges(box_a, i, box_b, n_eb, limit + pad, near)
-    size = n_ca + n_cb + n_near
+    near = np.empty(n_ea * n_eb, dtype=np.int64)  # edges of B near edge i of A, CSR
+    near_start = np.zeros(n_ea + 1, dtype=np.int64)
+    for i in range(n_ea):
+        out = near[near_start[i]:]
+        if prune:
+            near_start[i + 1] = near_start[i] + _near_edges(box_a, i, box_b, n_eb,
+                                                            limit + pad, out)
+        else:
+            out[:n_eb] = np.arange(n_eb)
+            near_start[i + 1] = near_start[i] + n_eb
+    size = n_ca + n_cb + near_start[n_ea]
     cand = np.empty((size, 3))
     local = np.empty(size)
     cid_a = np.empty(size, dtype=np.int64)
@@ -734,8 +755,7 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
         p0x, p0y, p0z = va[u0, 0], va[u0, 1], va[u0, 2]
         dax, day, daz = va[u1, 0] - p0x, va[u1, 1] - p0y, va[u1, 2] - p0z
         la = dax * dax + day * day + daz * daz
-        m = _near_edges(box_a, i, box_b, n_eb, limit + pad, near) if prune else n_eb
-        for jj in range(m):
+        for jj in range(near_start[i], near_start[i + 1]):
             k = edge_b[near[jj]]
             w0, w1 = eb[k, 0], eb[k, 1]
             q0x, q0y, q0z = vb[w0, 0], vb[w0, 1], vb[w0, 2]
