@@ -1,6 +1,7 @@
-"""Contact geometry of convex polyhedra (geometry/polyhedron_contact.py) through the narrow
-phase: gap and normal against python-fcl (apart) and a brute-force separating-axis twin
-(overlap), swap symmetry, rigid-motion invariance, canonical contact types, walls, spheres."""
+"""Contact geometry of convex polyhedra (geometry/polyhedron_contact.py, polyhedron_manifold.py)
+through the narrow phase: gap and normal against python-fcl (apart) and a brute-force
+separating-axis twin (overlap), swap symmetry, rigid-motion invariance, canonical contact types,
+walls, spheres, the pruned kernels against their exhaustive twins."""
 
 import numpy as np
 import pytest
@@ -13,11 +14,10 @@ from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.geometry.polyhedron import from_vertices, random_polyhedron
 from grainlab.geometry.polyhedron_contact import (
     MAX_POINTS,
-    pair_manifold,
-    pair_manifold_exhaustive,
     signed_distance,
     signed_distance_exhaustive,
 )
+from grainlab.geometry.polyhedron_manifold import pair_manifold, pair_manifold_exhaustive
 
 fcl = pytest.importorskip("fcl")
 
