@@ -193,8 +193,8 @@ def _inradius(normals, offsets, c):
 
 @njit(inline="always")
 def _best_bound_face(normals, offsets, c, r):
-    """Face f of largest bound n_f . c - O_f - r on its axis value s (the face most likely
-    to give the largest s) and that bound."""
+    """Face f of largest bound n_f . c - O_f - r on its axis value s (c, r: centre and
+    inradius of the other body): the face most likely to give the largest s."""
     best_f, best_b = 0, -_HUGE
     for f in range(normals.shape[0]):
         b = normals[f, 0] * c[0] + normals[f, 1] * c[1] + normals[f, 2] * c[2] - offsets[f] - r
@@ -240,8 +240,9 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
 @njit(cache=True)
 def signed_distance_exhaustive(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
                                vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out):
-    """:func:`signed_distance` without the pruning (every face axis evaluated, every face in
-    the exact distance): the slow twin it must agree with (same g, normal, found)."""
+    """:func:`signed_distance` without the pruning (every face axis evaluated, every edge
+    pair of the slab given the whole arc test): the slow twin it must agree with (same g,
+    normal, found)."""
     return _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
                             vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out, False)
 
@@ -250,7 +251,7 @@ def signed_distance_exhaustive(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
 def _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
                      vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out, prune):
     """:func:`signed_distance`; ``prune`` skips the face axes whose bound on s is below a
-    value already reached and, apart, the faces out of the slab (same result)."""
+    value already reached and pre-tests the Gauss-map arcs branch-free (same result)."""
     ux, uy, uz = cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2]
     length = math.sqrt(ux * ux + uy * uy + uz * uz)
     if length > 0.0:

@@ -234,8 +234,9 @@ def pair_manifold_exhaustive(va, na, oa, fsa, fva, ea, efa, nsa, nba,
                              vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
                              g, normal, alert, cos_tol, sin_tol, max_points, points, gaps, ids_a,
                              ids_b):
-    """:func:`pair_manifold` with every face of the other body in the line entries: the slow
-    twin it must agree with (same points, gaps, ids and type)."""
+    """:func:`pair_manifold` with every face of the other body in the line entries and every
+    pair of cap edges crossed: the slow twin it must agree with (same points, gaps, ids and
+    type)."""
     return _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
                           vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
                           g, normal, alert, cos_tol, sin_tol, max_points, points, gaps, ids_a,
@@ -254,7 +255,9 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     Candidates, each with its own gap along n: the vertices of B's cap (n . b within alert of
     B's lowest) over A's upper surface, the vertices of A's cap under B's lower surface, and
     the crossings, seen along n, of the cap edges of A and B that face each other; those with
-    gap <= max(alert, g) are reduced to ``max_points`` (3 or 4)."""
+    gap <= max(alert, g) are reduced to ``max_points`` (3 or 4). ``prune``: line entries
+    only through the faces reaching the other cap, crossings only of edges whose boxes seen
+    along n overlap (module docstring; same result)."""
     nx, ny, nz = normal[0], normal[1], normal[2]
     nva, nea = va.shape[0], ea.shape[0]
     nvb, neb = vb.shape[0], eb.shape[0]
