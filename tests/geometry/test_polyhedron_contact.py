@@ -1,6 +1,7 @@
-"""Contact geometry of convex polyhedra (geometry/polyhedron_contact.py) through the narrow
-phase: gap and normal against python-fcl (apart) and a brute-force separating-axis twin
-(overlap), swap symmetry, rigid-motion invariance, canonical contact types, walls, spheres."""
+"""Contact geometry of convex polyhedra (geometry/polyhedron_contact.py, polyhedron_manifold.py)
+through the narrow phase: gap and normal against python-fcl (apart) and a brute-force
+separating-axis twin (overlap), swap symmetry, rigid-motion invariance, canonical contact types,
+walls, spheres, the pruned kernels against their exhaustive twins."""
 
 import numpy as np
 import pytest
@@ -11,7 +12,12 @@ from grainlab.engine.polyhedron_narrow_phase import world_polyhedra
 from grainlab.engine.quaternion import quat_to_matrices
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.geometry.polyhedron import from_vertices, random_polyhedron
-from grainlab.geometry.polyhedron_contact import signed_distance
+from grainlab.geometry.polyhedron_contact import (
+    MAX_POINTS,
+    signed_distance,
+    signed_distance_exhaustive,
+)
+from grainlab.geometry.polyhedron_manifold import pair_manifold, pair_manifold_exhaustive
 
 fcl = pytest.importorskip("fcl")
 
@@ -30,10 +36,9 @@ def _random_quats(rng, n):
     return q / np.linalg.norm(q, axis=1)[:, None]
 
 
-def _signed_distance(lib, state, i, j, alert):
-    """The kernel's signed distance and normal of bodies i, j (all polyhedra)."""
+def _body_arrays(lib, state):
+    """Function n -> the kernels' world-frame arrays of polyhedron body n (and its centre)."""
     _, bvs, wv, bfs, wn, wo = world_polyhedra(state, lib)
-    out = np.zeros(3)
 
     def arrays(n):
         s = state.shape_ids[n]
@@ -45,6 +50,13 @@ def _signed_distance(lib, state, i, j, alert):
                 lib.edge_faces[e0:e0 + ec], lib.vertex_neighbour_start[v0:v0 + vc + 1],
                 lib.vertex_neighbours, state.positions[n])
 
+    return arrays
+
+
+def _signed_distance(lib, state, i, j, alert):
+    """The kernel's signed distance and normal of bodies i, j (all polyhedra)."""
+    arrays = _body_arrays(lib, state)
+    out = np.zeros(3)
     g, found = signed_distance(*arrays(i), *arrays(j), alert, out)
     return g, found, out
 
@@ -131,6 +143,48 @@ def test_gap_and_normal_against_fcl_and_brute_force(n_faces, n_poses, distances)
             np.testing.assert_allclose(normal, axis, atol=1e-8)
         np.testing.assert_allclose(np.linalg.norm(normal), 1.0, atol=1e-12)
     assert n_apart > n_poses / 5 and n_overlap > n_poses / 5
+
+
+@pytest.mark.parametrize("n_faces, n_poses, distances", [
+    (8, 400, (0.5, 1.0)), (30, 400, (0.7, 1.0)), (96, 300, (0.85, 1.0)),
+    (596, 100, (0.93, 1.0))])
+def test_pruned_kernels_agree_with_their_exhaustive_twins(n_faces, n_poses, distances):
+    """The pruned face axes, arc pre-test, line-entry faces and crossing boxes change nothing:
+    same g, normal and found, same manifold (points, gaps, ids, type) as with every face, edge
+    pair and crossing evaluated, over touching, overlapping and near poses and two alerts."""
+    rng = np.random.default_rng(1000 + n_faces)
+    cos_tol, sin_tol = np.cos(0.01), np.sin(0.01)
+    counts = np.zeros(5, dtype=int)
+    for pose in range(n_poses):
+        _, lib, state = _random_pair(rng, n_faces, distances)
+        arrays = _body_arrays(lib, state)
+        a, b = arrays(0), arrays(1)
+        alert = (0.02, 0.2)[pose % 2]
+        fast, slow = np.zeros(3), np.zeros(3)
+        g, found = signed_distance(*a, *b, alert, fast)
+        g_slow, found_slow = signed_distance_exhaustive(*a, *b, alert, slow)
+        assert found == found_slow
+        if not found:
+            continue
+        assert g == pytest.approx(g_slow, rel=1e-12, abs=1e-15)
+        np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-12)
+        max_points = 3 + pose // 2 % 2
+        results = []
+        for kernel in (pair_manifold, pair_manifold_exhaustive):
+            out = (np.zeros((MAX_POINTS, 3)), np.zeros(MAX_POINTS),
+                   np.zeros(MAX_POINTS, np.int64), np.zeros(MAX_POINTS, np.int64))
+            count, kind = kernel(*a[:-1], *b[:-1], g, fast, alert, cos_tol, sin_tol,
+                                 max_points, *out)
+            results.append((count, kind, *(x[:count] for x in out)))
+        (count, kind, points, gaps, ids_a, ids_b), slow_result = results
+        assert (count, kind) == slow_result[:2]
+        np.testing.assert_allclose(points, slow_result[2], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(gaps, slow_result[3], rtol=0, atol=1e-15)
+        np.testing.assert_array_equal(ids_a, slow_result[4])
+        np.testing.assert_array_equal(ids_b, slow_result[5])
+        counts[kind] += 1
+    # touching pairs of several types were compared
+    assert counts.sum() > n_poses / 3 and (counts[1:4] > 0).sum() >= 2
 
 
 def _detect(lib, state, alert=0.05, **kwargs):

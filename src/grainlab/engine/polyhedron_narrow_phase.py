@@ -1,6 +1,7 @@
 """Narrow phase of convex polyhedra against polyhedra, spheres (and aggregate members) and
 plane walls: array kernels over candidate pairs around the contact geometry of
-:mod:`grainlab.geometry.polyhedron_contact` (Numba; STYLE.md 2, 3, 8).
+:mod:`grainlab.geometry.polyhedron_contact` and
+:mod:`grainlab.geometry.polyhedron_manifold` (Numba; STYLE.md 2, 3, 8).
 
 The boundaries of the polyhedron bodies are first moved to the world frame (vertices
 x + R(q) v, normals R(q) n, offsets O + n' . x), body n owning rows ``body_vertex_start[n] ..``
@@ -22,13 +23,8 @@ import numpy as np
 from numba import njit, prange
 
 from grainlab.engine.quaternion import rotate
-from grainlab.geometry.polyhedron_contact import (
-    MAX_POINTS,
-    pair_manifold,
-    signed_distance,
-    sphere_contact,
-    wall_manifold,
-)
+from grainlab.geometry.polyhedron_contact import MAX_POINTS, signed_distance, sphere_contact
+from grainlab.geometry.polyhedron_manifold import pair_manifold, wall_manifold
 
 
 @njit(cache=True, parallel=True)

@@ -1,5 +1,5 @@
-"""Contact geometry of convex polyhedra (seed 002): gap, normal, contact type and manifold
-(Numba; no Python objects in the kernels).
+"""Contact geometry of convex polyhedra (seed 002): gap and normal, supporting features,
+sphere contacts (Numba; no Python objects in the kernels).
 
 Every routine works on WORLD-frame arrays of one polyhedron: vertices V (n_v, 3) [m], polygon
 face normals N (n_f, 3) (outward, unit) and offsets O (n_f,) [m] (n . x = O on the face), the
@@ -20,59 +20,25 @@ polyhedra", GDC 2013): the separating-axis test (SAT) over those axes is exact f
 1. Early out along the centre line u = (c_B - c_A)/|c_B - c_A|: s(u) > alert -> no contact.
 2. Face axes of A and of B: s = min over the other's vertices (support by hill climbing on the
    vertex-neighbour graph, O(sqrt n_v) per axis) minus the face offset; any s > alert -> no
-   contact.
+   contact. A face f of A is skipped when its bound s(f) <= n_f . c_B - O_f - r_B (r_B: the
+   distance from B's centre to its nearest face plane) is below a value of s already reached,
+   first that of the faces of largest bound of A and of B (faces of B likewise): such a face
+   can be neither the best axis nor the first beyond the alert distance.
 3. Edge axes, pruned to the slab of the best face axis n*: an edge of A enters only if one of
    its ends lies above min_B n* . b - alert, an edge of B only if one end lies below
    max_A n* . a + alert (the witness points of any axis better than n* lie there), and only
-   pairs forming a face of the Minkowski difference (Gauss-map arc test) are evaluated, each
-   in O(1): s = n . (b0 - a0).
+   pairs forming a face of the Minkowski difference (Gauss-map arc test, its first half
+   branch-free over all kept edges of B) are evaluated, each in O(1): s = n . (b0 - a0).
 4. If the best s is <= 0 it is the exact signed distance (overlap) with its axis as normal. If
    0 < s <= alert, the SAT value is a lower bound (vertex-vertex and vertex-edge closest
    pairs have no SAT axis), so the exact distance is taken as the smallest vertex-face
    (projection inside the face) or segment-segment distance over the features within the
    slab, and n = (p_B - p_A)/|p_B - p_A| unless the SAT axis already gives it.
 
-Contact type and manifold
--------------------------
-The supporting feature of A along n (of B along -n) is a FACE when a face normal lies within
-the angle :data:`ANGLE_TOLERANCE` of n (of -n), else an EDGE when an edge at the support vertex
-is perpendicular to n within that angle, else a VERTEX. The pair's type follows: face-face ff,
-face-edge (or two parallel edges) fe, edge-edge ee, any vertex fv (the rare vertex-edge and
-vertex-vertex counted with fv). Since only the direction of n enters, a pair whose normal does
-not turn keeps its type from step to step.
+Contact type, manifold and walls: :mod:`grainlab.geometry.polyhedron_manifold`.
 
-The manifold is the "shadow overlap" of the near-plane parts of both bodies
-(research/engine_tech.md 3.1-3.2): the candidates are
-
-- the vertices of B's cap (n . b within the alert distance of B's lowest point) whose line
-  along -n enters A, at the entry point of A's upper surface;
-- the vertices of A's cap whose line along +n enters B;
-- the crossings, seen along n, of A's and B's cap edges that face each other (an edge of A
-  bordering a face with n_f . n > 0, of B with n_f . n < 0),
-
-each with its own gap (distance along n between the two surfaces there), written at the
-mid-point, and kept if the gap is within the alert distance. They are reduced to the deepest,
-the one farthest from it, the one giving the largest triangle (seed 002: a flat contact is
-"replaced by three points", an edge-face contact by two; the engine's default) or, with
-``max_points`` = 4 (LMGC90 keeps up to 4), also the one adding the largest area outside that
-triangle. A vertex-face or edge-edge contact alone gives 1 point, an edge on a face 2, two
-faces 3; more points appear only when other features lie within the alert distance, so that
-the solver also holds them (one point per ee/fv pair let bodies rotate into each other about
-it). Measured trade-off: with 3 points a cube tipping onto the floor drove the corner left
-out 0.43 mm (0.9 % of its inradius) into it in one step; with 4 the four coplanar corners
-of a cube at rest on the floor (hyperstatic, mu 0.5) kept NLGS from converging to 1e-6 in
-1000 sweeps.
-
-Feature ids (stable warm-start keys): vertex k -> k, edge e -> n_v + e, face f -> n_v + n_e + f
-(local to the shape). A manifold point made by a vertex of B inside a face of A has ids (face
-of A, vertex of B); a crossing of two edges (edge, edge); a vertex of A inside a face of B
-(vertex, face).
-
-Walls and spheres
------------------
-A wall is a plane (p_w, n_w) with the bodies on the side of n_w: the vertices with gap
-n_w . (v - p_w) within the alert distance, reduced to three as above; the type is that of the
-polyhedron's feature supporting it along -n_w (vertex fv, edge fe, face ff).
+Spheres
+-------
 A sphere (centre, radius r) against a polyhedron: the closest point
 of the polyhedron to the centre (the face of largest signed distance if the centre projects
 inside it, else the nearest edge), one point, type 1 ("fv") for a face or a vertex, 2 ("ee")
@@ -214,12 +180,78 @@ def supporting_feature(vertices, normals, nstart, nbrs, edges, dx, dy, dz, cos_t
 # --------------------------------------------------------------------------------------------
 
 
+@njit(inline="always")
+def _inradius(normals, offsets, c):
+    """Distance [m] from c to the nearest face plane, min_f (O_f - n_f . c) (> 0 when c is
+    inside); every unit n then has min_x n . x <= n . c - r over the body."""
+    r = _HUGE
+    for f in range(normals.shape[0]):
+        r = min(r, offsets[f] - (normals[f, 0] * c[0] + normals[f, 1] * c[1]
+                                 + normals[f, 2] * c[2]))
+    return r
+
+
+@njit(inline="always")
+def _best_bound_face(normals, offsets, c, r):
+    """Face f of largest bound n_f . c - O_f - r on its axis value s (c, r: centre and
+    inradius of the other body): the face most likely to give the largest s."""
+    best_f, best_b = 0, -_HUGE
+    for f in range(normals.shape[0]):
+        b = normals[f, 0] * c[0] + normals[f, 1] * c[1] + normals[f, 2] * c[2] - offsets[f] - r
+        if b > best_b:
+            best_b, best_f = b, f
+    return best_f
+
+
+@njit(inline="always")
+def _faces_reaching(proj, fstart, fverts, level, above, out):
+    """Writes into ``out`` the faces with a vertex projection ``proj`` (n_v,) >= ``level``
+    (``above``) or <= ``level`` (not ``above``), in increasing order; returns their number."""
+    count = 0
+    for f in range(fstart.shape[0] - 1):
+        for k in range(fstart[f], fstart[f + 1]):
+            x = proj[fverts[k]]
+            if (x >= level) if above else (x <= level):
+                out[count] = f
+                count += 1
+                break
+    return count
+
+
+@njit(inline="always")
+def _project(vertices, dx, dy, dz):
+    """Projections (n_v,) of the vertices on (dx, dy, dz)."""
+    proj = np.empty(vertices.shape[0])
+    for v in range(vertices.shape[0]):
+        proj[v] = vertices[v, 0] * dx + vertices[v, 1] * dy + vertices[v, 2] * dz
+    return proj
+
+
 @njit(cache=True)
 def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
                     vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out):
     """Signed distance g [m] of polyhedra A and B (module docstring, steps 1-4) and the unit
     normal from A to B written in ``normal_out`` (3,); returns (g, found) with found False
     when g > alert (then g is only a lower bound and the normal is not set)."""
+    return _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
+                            vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out, True)
+
+
+@njit(cache=True)
+def signed_distance_exhaustive(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
+                               vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out):
+    """:func:`signed_distance` without the pruning (every face axis evaluated, every edge
+    pair of the slab given the whole arc test): the slow twin it must agree with (same g,
+    normal, found)."""
+    return _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
+                            vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out, False)
+
+
+@njit(cache=True)
+def _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
+                     vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out, prune):
+    """:func:`signed_distance`; ``prune`` skips the face axes whose bound on s is below a
+    value already reached and pre-tests the Gauss-map arcs branch-free (same result)."""
     ux, uy, uz = cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2]
     length = math.sqrt(ux * ux + uy * uy + uz * uz)
     if length > 0.0:
@@ -233,9 +265,31 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
     best = -_HUGE
     best_kind, best_f, best_g = -1, -1, -1  # 0 face of A, 1 face of B, 2 edge pair
     bx, by, bz = 0.0, 0.0, 1.0
+    # pruning of the face axes: s(f) <= n_f . c_B - O_f - r_B (face of A), n_g . c_A - O_g - r_A
+    # (face of B), r the inradius about the centre; a face whose bound is below a value s
+    # already reached can be neither the best axis nor the first one beyond the alert
+    # distance. The faces of largest bound give the first value (most often the best one).
+    r_a, r_b = _inradius(na, oa, ca), _inradius(nb, ob, cb)
+    if not prune or r_a <= 0.0 or r_b <= 0.0:
+        r_a = r_b = -_HUGE  # (a centre outside its body: no bound)
+    tol = 1e-9 * (max(r_a, 0.0) + max(r_b, 0.0) + length) + 1e-12 * (
+        abs(ca[0]) + abs(ca[1]) + abs(ca[2]) + abs(cb[0]) + abs(cb[1]) + abs(cb[2]))
+    floor = -_HUGE
+    if r_a > 0.0:
+        f = _best_bound_face(na, oa, cb, r_b)
+        _, neg = _support(vb, nsb, nbb, -na[f, 0], -na[f, 1], -na[f, 2], 0)
+        floor = -neg - oa[f]
+        f = _best_bound_face(nb, ob, ca, r_a)
+        _, neg = _support(va, nsa, nba, -nb[f, 0], -nb[f, 1], -nb[f, 2], 0)
+        floor = max(floor, -neg - ob[f])
+        if floor > alert:
+            return floor, False
     # face axes of A: s = min_b n.b - O_a
     start = 0
     for f in range(na.shape[0]):
+        if na[f, 0] * cb[0] + na[f, 1] * cb[1] + na[f, 2] * cb[2] - oa[f] - r_b + tol \
+                < max(floor, best):
+            continue
         start, neg = _support(vb, nsb, nbb, -na[f, 0], -na[f, 1], -na[f, 2], start)
         s = -neg - oa[f]
         if s > best:
@@ -246,6 +300,9 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
     # face axes of B: the axis from A to B is -n_b; s = min_a n_b.a - O_b
     start = 0
     for f in range(nb.shape[0]):
+        if nb[f, 0] * ca[0] + nb[f, 1] * ca[1] + nb[f, 2] * ca[2] - ob[f] - r_a + tol \
+                < max(floor, best):
+            continue
         start, neg = _support(va, nsa, nba, -nb[f, 0], -nb[f, 1], -nb[f, 2], start)
         s = -neg - ob[f]
         if s > best:
@@ -275,7 +332,16 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
                 <= hi + margin:
             keep_b[n_b] = e
             n_b += 1
-    # edge-edge axes on faces of the Minkowski difference (scalar code: no allocation)
+    # Gauss-map arcs of B's kept edges (the normals of their faces, negated), by component,
+    # for a branch-free first test of the arc crossings
+    arcs = np.empty((6, n_b))
+    for j in range(n_b):
+        g0, g1 = efb[keep_b[j], 0], efb[keep_b[j], 1]
+        for c in range(3):
+            arcs[c, j] = -nb[g0, c]
+            arcs[3 + c, j] = -nb[g1, c]
+    crossing = np.arange(n_b)
+    # edge-edge axes on faces of the Minkowski difference (scalar code)
     for i in range(n_a):
         e = keep_a[i]
         f0, f1 = efa[e, 0], efa[e, 1]
@@ -286,7 +352,15 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
         tax, tay, taz = va[u1, 0] - a0x, va[u1, 1] - a0y, va[u1, 2] - a0z
         bxa_x, bxa_y, bxa_z = _cross(bx_, by_, bz_, ax_, ay_, az_)
         ta2 = tax * tax + tay * tay + taz * taz
-        for j in range(n_b):
+        m = n_b
+        if prune:  # the B arcs whose ends lie on both sides of the plane of A's arc
+            m = 0
+            for j in range(n_b):
+                crossing[m] = j
+                m += (arcs[0, j] * bxa_x + arcs[1, j] * bxa_y + arcs[2, j] * bxa_z) * (
+                    arcs[3, j] * bxa_x + arcs[4, j] * bxa_y + arcs[5, j] * bxa_z) < 0.0
+        for jj in range(m):
+            j = crossing[jj]
             k = keep_b[j]
             g0, g1 = efb[k, 0], efb[k, 1]
             cx_, cy_, cz_ = -nb[g0, 0], -nb[g0, 1], -nb[g0, 2]
@@ -373,302 +447,8 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
 
 
 # --------------------------------------------------------------------------------------------
-# Manifold
+# Spheres
 # --------------------------------------------------------------------------------------------
-
-
-@njit(inline="always")
-def _reduce(points, gaps, count, tol, max_points):
-    """Indices (4,) of at most ``max_points`` (3 or 4) of ``count`` points: the deepest
-    (lowest index within ``tol``), the farthest from it, the one giving the largest triangle,
-    then the one adding the largest area outside that triangle; returns (idx, n)."""
-    idx = np.empty(4, dtype=np.int64)
-    first = 0
-    for k in range(1, count):
-        if gaps[k] < gaps[first] - tol:
-            first = k
-    idx[0] = first
-    if count == 1:
-        return idx, 1
-    far, far_d = -1, -1.0
-    for k in range(count):
-        d = points[k] - points[first]
-        dd = d @ d
-        if dd > far_d + tol * tol:
-            far, far_d = k, dd
-    if far_d <= tol * tol:
-        return idx, 1
-    idx[1] = far
-    if count == 2:
-        return idx, 2
-    third, area = -1, 0.0
-    base = points[far] - points[first]
-    for k in range(count):
-        c = np.cross(base, points[k] - points[first])
-        a = math.sqrt(c @ c)
-        if a > area + tol * math.sqrt(far_d):
-            third, area = k, a
-    if third < 0:
-        return idx, 2
-    idx[2] = third
-    if count == 3 or max_points < 4:
-        return idx, 3
-    axis = np.cross(base, points[third] - points[first])
-    axis = axis / math.sqrt(axis @ axis)
-    fourth, gain = -1, tol * math.sqrt(far_d)
-    for k in range(count):
-        added = 0.0
-        for e in range(3):
-            a0, a1 = points[idx[e]], points[idx[(e + 1) % 3]]
-            # outward side of edge (a0, a1) of the counter-clockwise triangle about axis
-            c = np.cross(a1 - a0, points[k] - a0) @ axis
-            if c < 0.0:
-                added += -c
-        if added > gain:
-            fourth, gain = k, added
-    if fourth < 0:
-        return idx, 3
-    idx[3] = fourth
-    return idx, 4
-
-
-@njit(inline="always")
-def _line_entry(x, dx, dy, dz, normals, offsets):
-    """Entry parameter t >= -inf of the line x + t d into the polyhedron (half-spaces
-    n . y <= O) and the face it enters through; (t_in, face, hit)."""
-    t_in, t_out, face = -_HUGE, _HUGE, -1
-    for f in range(normals.shape[0]):
-        c = normals[f, 0] * dx + normals[f, 1] * dy + normals[f, 2] * dz
-        r = offsets[f] - (normals[f, 0] * x[0] + normals[f, 1] * x[1] + normals[f, 2] * x[2])
-        if c < -1e-15:
-            t = r / c
-            if t > t_in:
-                t_in, face = t, f
-        elif c > 1e-15:
-            t_out = min(t_out, r / c)
-        elif r < 0.0:
-            return 0.0, -1, False
-    return t_in, face, face >= 0 and t_in <= t_out + 1e-12 * (abs(t_in) + 1.0)
-
-
-@njit(inline="always")
-def _upper_edge(normals, edge_faces, e, dx, dy, dz):
-    """Whether edge e borders a face whose normal has a positive component along d."""
-    for k in range(2):
-        f = edge_faces[e, k]
-        if normals[f, 0] * dx + normals[f, 1] * dy + normals[f, 2] * dz > 0.0:
-            return True
-    return False
-
-
-@njit(cache=True)
-def pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
-                  vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
-                  g, normal, alert, cos_tol, sin_tol, max_points, points, gaps, ids_a, ids_b):
-    """Contact manifold of polyhedra A and B at signed distance ``g`` [m] along ``normal``
-    (3,) from A to B (module docstring): writes ``points`` (4, 3) [m] (mid-points), ``gaps``
-    (4,) [m] and feature ids ``ids_a``, ``ids_b`` (4,); returns (count, type code).
-
-    Candidates, each with its own gap along n: the vertices of B's cap (n . b within alert of
-    B's lowest) over A's upper surface, the vertices of A's cap under B's lower surface, and
-    the crossings, seen along n, of the cap edges of A and B that face each other; those with
-    gap <= max(alert, g) are reduced to ``max_points`` (3 or 4)."""
-    nx, ny, nz = normal[0], normal[1], normal[2]
-    nva, nea = va.shape[0], ea.shape[0]
-    nvb, neb = vb.shape[0], eb.shape[0]
-    kind_a, fa, _ = supporting_feature(va, na, nsa, nba, ea, nx, ny, nz, cos_tol, sin_tol)
-    kind_b, fb, top_b = supporting_feature(vb, nb, nsb, nbb, eb, -nx, -ny, -nz, cos_tol,
-                                           sin_tol)
-    _, hi = _support(va, nsa, nba, nx, ny, nz, 0)
-    _, neg = _support(vb, nsb, nbb, -nx, -ny, -nz, top_b)
-    lo = -neg
-    band = max(alert, g, 0.0)
-    limit = band + 1e-12 * (abs(hi) + abs(lo))
-    cap_a = np.empty(nva, dtype=np.int64)
-    n_ca = 0
-    for v in range(nva):
-        if va[v, 0] * nx + va[v, 1] * ny + va[v, 2] * nz >= hi - band - limit:
-            cap_a[n_ca] = v
-            n_ca += 1
-    cap_b = np.empty(nvb, dtype=np.int64)
-    n_cb = 0
-    for v in range(nvb):
-        if vb[v, 0] * nx + vb[v, 1] * ny + vb[v, 2] * nz <= lo + band + limit:
-            cap_b[n_cb] = v
-            n_cb += 1
-    edge_a = np.empty(nea, dtype=np.int64)
-    n_ea = 0
-    for e in range(nea):
-        p, q = ea[e, 0], ea[e, 1]
-        if max(va[p, 0] * nx + va[p, 1] * ny + va[p, 2] * nz,
-               va[q, 0] * nx + va[q, 1] * ny + va[q, 2] * nz) >= hi - band - limit and \
-                _upper_edge(na, efa, e, nx, ny, nz):
-            edge_a[n_ea] = e
-            n_ea += 1
-    edge_b = np.empty(neb, dtype=np.int64)
-    n_eb = 0
-    for e in range(neb):
-        p, q = eb[e, 0], eb[e, 1]
-        if min(vb[p, 0] * nx + vb[p, 1] * ny + vb[p, 2] * nz,
-               vb[q, 0] * nx + vb[q, 1] * ny + vb[q, 2] * nz) <= lo + band + limit and \
-                _upper_edge(nb, efb, e, -nx, -ny, -nz):
-            edge_b[n_eb] = e
-            n_eb += 1
-    size = n_ca + n_cb + n_ea * n_eb
-    cand = np.empty((size, 3))
-    local = np.empty(size)
-    cid_a = np.empty(size, dtype=np.int64)
-    cid_b = np.empty(size, dtype=np.int64)
-    count = 0
-    for k in range(n_cb):  # vertices of B over A's upper surface (line going down)
-        b = vb[cap_b[k]]
-        t, f, hit = _line_entry(b, -nx, -ny, -nz, na, oa)
-        if hit and t <= limit:
-            cand[count] = b - 0.5 * t * normal
-            local[count] = t
-            cid_a[count] = nva + nea + f
-            cid_b[count] = cap_b[k]
-            count += 1
-    for k in range(n_ca):  # vertices of A under B's lower surface (line going up)
-        a = va[cap_a[k]]
-        t, f, hit = _line_entry(a, nx, ny, nz, nb, ob)
-        if hit and t <= limit:
-            cand[count] = a + 0.5 * t * normal
-            local[count] = t
-            cid_a[count] = cap_a[k]
-            cid_b[count] = nvb + neb + f
-            count += 1
-    for i in range(n_ea):  # crossings of facing cap edges seen along n (scalar code)
-        e = edge_a[i]
-        u0, u1 = ea[e, 0], ea[e, 1]
-        p0x, p0y, p0z = va[u0, 0], va[u0, 1], va[u0, 2]
-        dax, day, daz = va[u1, 0] - p0x, va[u1, 1] - p0y, va[u1, 2] - p0z
-        la = dax * dax + day * day + daz * daz
-        for j in range(n_eb):
-            k = edge_b[j]
-            w0, w1 = eb[k, 0], eb[k, 1]
-            q0x, q0y, q0z = vb[w0, 0], vb[w0, 1], vb[w0, 2]
-            dbx, dby, dbz = vb[w1, 0] - q0x, vb[w1, 1] - q0y, vb[w1, 2] - q0z
-            # (u x v) . n is the same for u, v and their parts normal to n
-            cx, cy, cz = _cross(dax, day, daz, dbx, dby, dbz)
-            cross = cx * nx + cy * ny + cz * nz
-            if abs(cross) <= 1e-12 * math.sqrt(la * (dbx * dbx + dby * dby + dbz * dbz)):
-                continue
-            wx, wy, wz = q0x - p0x, q0y - p0y, q0z - p0z
-            cx, cy, cz = _cross(wx, wy, wz, dbx, dby, dbz)
-            s = (cx * nx + cy * ny + cz * nz) / cross
-            if s < 0.0 or s > 1.0:
-                continue
-            cx, cy, cz = _cross(wx, wy, wz, dax, day, daz)
-            t = (cx * nx + cy * ny + cz * nz) / cross
-            if t < 0.0 or t > 1.0:
-                continue
-            pax, pay, paz = p0x + s * dax, p0y + s * day, p0z + s * daz
-            pbx, pby, pbz = q0x + t * dbx, q0y + t * dby, q0z + t * dbz
-            gap_k = (pbx - pax) * nx + (pby - pay) * ny + (pbz - paz) * nz
-            if gap_k <= limit:
-                cand[count, 0] = 0.5 * (pax + pbx)
-                cand[count, 1] = 0.5 * (pay + pby)
-                cand[count, 2] = 0.5 * (paz + pbz)
-                local[count] = gap_k
-                cid_a[count] = nva + e
-                cid_b[count] = nvb + k
-                count += 1
-    kind = _type_of(kind_a, kind_b, ea, eb, fa, fb, va, vb, sin_tol)
-    if count == 0:  # numerically empty: one point at the deepest vertex of B
-        gaps[0] = g
-        points[0] = vb[top_b] - 0.5 * g * normal
-        ids_a[0] = _code(kind_a, fa, nva, nea)
-        ids_b[0] = top_b
-        return 1, kind
-    extent = 0.0
-    for k in range(count):
-        extent = max(extent, abs(cand[k, 0] - cand[0, 0]) + abs(cand[k, 1] - cand[0, 1])
-                     + abs(cand[k, 2] - cand[0, 2]))
-    scale = 0.0
-    for v in range(nva):
-        scale = max(scale, abs(va[v, 0] - va[0, 0]) + abs(va[v, 1] - va[0, 1])
-                    + abs(va[v, 2] - va[0, 2]))
-    idx, kept = _reduce(cand, local, count, 1e-9 * scale, max_points)
-    for r in range(kept):
-        points[r] = cand[idx[r]]
-        gaps[r] = local[idx[r]]
-        ids_a[r] = cid_a[idx[r]]
-        ids_b[r] = cid_b[idx[r]]
-    return kept, kind
-
-
-@njit(inline="always")
-def _code(kind, index, n_vertices, n_edges):
-    if kind == _VERTEX:
-        return index
-    if kind == _EDGE:
-        return n_vertices + index
-    return n_vertices + n_edges + index
-
-
-@njit(inline="always")
-def _type_of(kind_a, kind_b, ea, eb, fa, fb, va, vb, sin_tol):
-    """Pair type from the supporting features: ff, fe (face-edge or parallel edges), ee, fv."""
-    if kind_a == _FACE and kind_b == _FACE:
-        return TYPE_FF
-    if (kind_a == _FACE and kind_b == _EDGE) or (kind_a == _EDGE and kind_b == _FACE):
-        return TYPE_FE
-    if kind_a == _EDGE and kind_b == _EDGE:
-        ta = va[ea[fa, 1]] - va[ea[fa, 0]]
-        tb = vb[eb[fb, 1]] - vb[eb[fb, 0]]
-        cross = np.cross(ta, tb)
-        if cross @ cross <= (sin_tol * sin_tol) * (ta @ ta) * (tb @ tb):
-            return TYPE_FE
-        return TYPE_EE
-    return TYPE_FV
-
-
-# --------------------------------------------------------------------------------------------
-# Walls and spheres
-# --------------------------------------------------------------------------------------------
-
-
-@njit(cache=True)
-def wall_manifold(vertices, normals, fstart, fverts, edges, nstart, nbrs, wall_point,
-                  wall_normal, alert, cos_tol, sin_tol, max_points, points, gaps, ids):
-    """Contact of a polyhedron with the plane wall (``wall_point`` (3,) [m], unit
-    ``wall_normal`` (3,) towards the polyhedron): the vertices with gap n_w . (v - p_w) <=
-    alert reduced to ``max_points`` (3 or 4) as :func:`pair_manifold`: points (4, 3) [m]
-    (mid-points), gaps (4,) [m], vertex ids (4,); the type is that of the feature supporting
-    the polyhedron along -n_w (vertex fv, edge fe, face ff). Returns (count, type), count 0
-    when no vertex is within ``alert``."""
-    mx, my, mz = wall_normal[0], wall_normal[1], wall_normal[2]
-    kind, _, top = supporting_feature(vertices, normals, nstart, nbrs, edges, -mx, -my,
-                                          -mz, cos_tol, sin_tol)
-    g_top = (vertices[top] - wall_point) @ wall_normal
-    if g_top > alert:
-        return 0, TYPE_NONE
-    n_v = vertices.shape[0]
-    cand = np.empty((n_v, 3))
-    local = np.empty(n_v)
-    which = np.empty(n_v, dtype=np.int64)
-    count = 0
-    scale = 0.0
-    for v in range(n_v):
-        scale = max(scale, abs(vertices[v, 0] - vertices[0, 0])
-                    + abs(vertices[v, 1] - vertices[0, 1]) + abs(vertices[v, 2] - vertices[0, 2]))
-        gap = (vertices[v] - wall_point) @ wall_normal
-        if gap <= alert:
-            cand[count] = vertices[v] - 0.5 * gap * wall_normal
-            local[count] = gap
-            which[count] = v
-            count += 1
-    idx, kept = _reduce(cand, local, count, 1e-9 * scale, max_points)
-    for r in range(kept):
-        gaps[r] = local[idx[r]]
-        points[r] = cand[idx[r]]
-        ids[r] = which[idx[r]]
-    if kind == _VERTEX:
-        return kept, TYPE_FV
-    if kind == _EDGE:
-        return kept, TYPE_FE
-    return kept, TYPE_FF
 
 
 @njit(cache=True)
