@@ -17,8 +17,8 @@ vector h w on the unit quaternion (world frame: q <- exp(h w / 2) q).
 Gyroscopic term. Spheres have isotropic inertia, so w x I w = 0 and nothing is neglected.
 For aggregates it is neglected by default, as LMGC90 does (6.1, pitfall 7). With
 ``gyroscopic=True`` it is added to w_free semi-implicitly (one linearised backward-Euler step
-in the body frame, w_b' = w_b - h J^-1 (w_b x I w_b) with J = I + h ([w_b] I - [I w_b]) ), which
-is stable where the explicit term is not.
+in the body frame, w_b' = w_b - h J^-1 (w_b x I w_b) with J = I + h ([w_b] I - [I w_b]), which
+is stable where the explicit term is not; compiled in :mod:`~grainlab.engine.gyroscopic`).
 
 Contact law (IQS_CLB, 6.2). The impulse P = P_n n + P_t t + P_s s acts on body j (and -P on
 body i); U is the relative velocity of j with respect to i at the contact point at the END of
@@ -95,6 +95,7 @@ from numba import get_num_threads, njit
 from grainlab._validate import at_least
 from grainlab.engine.broad_phase import CellListBroadPhase
 from grainlab.engine.contact_colouring import colour_contacts
+from grainlab.engine.gyroscopic import gyroscopic_spins
 from grainlab.engine.narrow_phase import Contacts, NarrowPhase
 from grainlab.engine.quaternion import quat_to_matrices
 from grainlab.engine.state import BodyState, ShapeLibrary
@@ -573,16 +574,7 @@ class ContactDynamicsStep:
         omega = np.array(state.angular_velocities, dtype=np.float64)
         if not self.gyroscopic:
             return omega
-        h = self.dt
-        for b in range(state.n_bodies):
-            inertia = np.diag(state.inertias[b])
-            wb = rotations[b].T @ omega[b]
-            iw = inertia @ wb
-            torque = np.cross(wb, iw)
-            jac = inertia + h * (_skew(wb) @ inertia - _skew(iw))
-            wb = wb - h * np.linalg.solve(jac, torque)
-            omega[b] = rotations[b] @ wb
-        return omega
+        return gyroscopic_spins(omega, rotations, state.inertias, self.dt)
 
     def step(self, state: BodyState, library: ShapeLibrary, walls=None) -> StepReport:
         """Advance ``state`` in place by one step.
@@ -763,10 +755,6 @@ def _smallest_radius(library: ShapeLibrary) -> float:
     if library.face_offsets.size:
         radii.append(np.abs(library.face_offsets))
     return float(np.concatenate(radii).min())
-
-
-def _skew(r: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
 
 
 def _relative_velocities(contacts, frames, arm_i, arm_j, velocities, spins) -> np.ndarray:
