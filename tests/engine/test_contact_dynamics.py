@@ -261,3 +261,20 @@ def test_overlap_recovery_opens_an_overlap_by_beta_of_it_within_one_step(beta):
     np.testing.assert_allclose(state.momentum(), 0.0, atol=1e-15)
     with pytest.raises(InputError, match="overlap_recovery"):
         ContactDynamicsStep(dt=DT, overlap_recovery=1.5)
+
+
+@pytest.mark.parametrize("cap_fraction", [0.25, 0.9, 2.0])
+def test_overlap_recovery_speed_is_capped(cap_fraction):
+    """With the cap v_r the spheres separate at min(beta delta / h, v_r): a short step can no
+    longer turn a small overlap into a large separation speed."""
+    delta, beta = 1e-3, 0.5
+    uncapped = beta * delta / DT
+    library, state = spheres([[0.0, 0.0, 0.0], [1.0 - delta, 0.0, 0.0]])
+    step = ContactDynamicsStep(dt=DT, friction=0.4, tolerance=1e-10, overlap_recovery=beta,
+                               overlap_recovery_speed=cap_fraction * uncapped)
+    assert step.step(state, library).converged
+    u_n = state.velocities[1, 0] - state.velocities[0, 0]
+    assert u_n == pytest.approx(min(cap_fraction, 1.0) * uncapped, rel=1e-9)
+    np.testing.assert_allclose(state.momentum(), 0.0, atol=1e-15)
+    with pytest.raises(InputError, match="overlap_recovery_speed"):
+        ContactDynamicsStep(dt=DT, overlap_recovery_speed=0.0)

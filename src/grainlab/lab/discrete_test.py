@@ -108,7 +108,9 @@ class DiscreteTestSettings:
     overlap_recovery:
         beta in [0, 1] of :class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep` in
         stages with a strain-controlled axis (0: overlaps are never pushed back; compaction
-        always uses 0, since the recovery keeps a settling packing moving).
+        always uses 0, since the recovery keeps a settling packing moving). The separation
+        speed it asks for is capped at the stage's wall speed (``overlap_recovery_speed`` of
+        the solver).
     compaction_max_iterations, compaction_tolerance:
         NLGS sweep cap and tolerance in stages without a strain-controlled axis (compaction:
         no friction, only its end state matters; ``max_iterations`` and ``tolerance`` apply
@@ -259,6 +261,9 @@ class DiscreteTest:
                 box.set_control(lower, "fixed")
                 box.set_control(upper, "stress", sigma)
         box.set_max_speeds(self.strain_rate * float(box.lengths.max()))
+        # overlap recovery no faster than the walls: beta |g| / h alone grows without bound as
+        # the step shortens (spinning polyhedra), and then blows the sample apart
+        self.solver.overlap_recovery_speed = self.strain_rate * float(box.lengths.max())
         if s.dt is None:
             d_min = time_step_length(sample.library)
             speed = self.strain_rate * float(box.lengths.max())
@@ -411,6 +416,7 @@ class DiscreteTest:
             "alert_growths": self.solver.alert_growths,
             "friction": self.solver.friction, "max_iterations": self.solver.max_iterations,
             "overlap_recovery": self.solver.overlap_recovery,
+            "overlap_recovery_speed": self.solver.overlap_recovery_speed,
             "tolerance": self.solver.tolerance,
             "step_index": self.simulation.step_index,
             "time": self.simulation.time,
@@ -437,6 +443,8 @@ class DiscreteTest:
             self.solver.max_iterations = int(data["max_iterations"])
             self.solver.overlap_recovery = float(data["overlap_recovery"])
             self.solver.tolerance = float(data["tolerance"])
+        if "overlap_recovery_speed" in data:
+            self.solver.overlap_recovery_speed = float(data["overlap_recovery_speed"])
         self.simulation.step_index = int(data["step_index"])
         self.simulation.time = float(data["time"])
         self.simulation.unconverged_steps = int(data["unconverged_steps"])
