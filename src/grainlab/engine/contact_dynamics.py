@@ -662,7 +662,7 @@ class ContactDynamicsStep:
         wall_speeds = np.empty(wall_free.shape[0])
         delassus = np.empty((n_contacts, 3, 3))
         residuals = np.zeros(2)
-        # gap term g* [m] of the law U_n + g*/h >= 0: max(0, g) + beta min(0, g)
+        # gap term g* [m] of the law U_n + g*/h >= 0: max(0, g) + max(beta min(0, g), -v_r h)
         gap_term = np.maximum(contacts.gap, 0.0) + np.maximum(
             self.overlap_recovery * np.minimum(contacts.gap, 0.0),
             -self.overlap_recovery_speed * h)

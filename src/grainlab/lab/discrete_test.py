@@ -268,21 +268,19 @@ class DiscreteTest:
                 sigma = target if math.isfinite(target) else self._held_stress(a)
                 box.set_control(lower, "fixed")
                 box.set_control(upper, "stress", sigma)
-        box.set_max_speeds(self.strain_rate * float(box.lengths.max()))
+        v_max = self.strain_rate * float(box.lengths.max())  # the stage's wall speed [m/s]
+        box.set_max_speeds(v_max)
         # overlap recovery slower than the walls: beta |g| / h alone grows without bound as
         # the step shortens (spinning polyhedra), and then blows the sample apart
-        self.solver.overlap_recovery_speed = RECOVERY_SPEED_FRACTION * self.strain_rate * \
-            float(box.lengths.max())
+        self.solver.overlap_recovery_speed = RECOVERY_SPEED_FRACTION * v_max
         if s.dt is None:
             d_min = time_step_length(sample.library)
-            speed = self.strain_rate * float(box.lengths.max())
             factor = s.time_step_factor if moving else s.compaction_time_step_factor
-            self.solver.dt = factor * d_min / speed
+            self.solver.dt = factor * d_min / v_max
         self.stage_dt = self.solver.dt
         # stress walls: heavy enough that one step of driving force cannot take them past the
         # speed limit (h F / m_w <= v_max): otherwise the solver spends its sweeps trading the
         # driving impulse between the brake and the contacts
-        v_max = self.strain_rate * float(box.lengths.max())
         force = box.driving_forces()
         masses = np.maximum(float(np.sum(sample.state.masses)) * s.wall_mass_factor,
                             self.solver.dt * force / v_max)
