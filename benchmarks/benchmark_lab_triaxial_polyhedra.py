@@ -60,6 +60,10 @@ def polyhedra_run(n: int, faces: int, eps_q: float, templates: int, max_iteratio
         "z0, z0 no rattlers": (_r(end["z"], 3), _r(end["z_no_rattlers"], 3)),
         "z_c0 (eq. 14), no rattlers, solver points": (
             _r(end["z_c"], 3), _r(end["z_c_no_rattlers"], 3), _r(end["z_c_points"], 3)),
+        "core (centres >= <d> from the walls) z0, z_c0": (_r(end["z_core"], 3),
+                                                          _r(end["z_c_core"], 3)),
+        "z_mechanical (solver points, walls included, no rattlers)": _r(end["z_mechanical"],
+                                                                        3),
         "contact types after compaction (fv, ee, fe, ff)": tuple(
             _r(end[f"fraction_{t}"], 3) for t in TYPES),
     }
@@ -70,6 +74,8 @@ def polyhedra_run(n: int, faces: int, eps_q: float, templates: int, max_iteratio
             "residual q/p (last 40 % of eps_q)": late["q_over_p"].mean(),
             "residual packing fraction": late["packing_fraction"].mean(),
             "residual z, z_c": (_r(late["z"].mean(), 3), _r(late["z_c"].mean(), 3)),
+            "residual core z, z_c": (_r(late["z_core"].mean(), 3),
+                                     _r(late["z_c_core"].mean(), 3)),
             "residual contact types (fv, ee, fe, ff)": tuple(
                 _r(late[f"fraction_{t}"].mean(), 3) for t in TYPES),
             "max inertia number in shear": shear["inertia_number"].max(),

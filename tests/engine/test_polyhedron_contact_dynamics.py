@@ -137,9 +137,10 @@ def test_cube_stacked_on_cube_rests_face_to_face():
         assert_contact_laws(report, 0.5)
     contacts = report.contacts
     pair = contacts.body_i == 0
-    assert pair.sum() == 3 and (contacts.contact_type[pair] == 4).all()
-    # square faces held by 3 of 4 corners: the upper cube may tilt by a few 1e-4 rad
-    np.testing.assert_allclose(contacts.normal[pair], [[0.0, 0.0, 1.0]] * 3, atol=1e-3)
+    # two squares turned by 0.4 rad overlap in an octagon: its 8 corners, on the plane z = 0.1
+    assert pair.sum() == 8 and (contacts.contact_type[pair] == 4).all()
+    np.testing.assert_allclose(contacts.point[pair, 2], 0.1, atol=1e-6)
+    np.testing.assert_allclose(contacts.normal[pair], [[0.0, 0.0, 1.0]] * 8, atol=1e-7)  # no tilt
     weight = state.masses[1] * G
     assert report.impulses[pair, 0].sum() / DT == pytest.approx(weight, rel=1e-4)
     on_floor = contacts.body_i < 0

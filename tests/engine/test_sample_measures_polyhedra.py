@@ -128,6 +128,28 @@ def test_row_counts_pairs_and_nominal_points():
         assert row[f"fraction_{name}"] == pytest.approx(0.25)
 
 
+def test_core_counts_the_contacts_of_particles_away_from_the_walls():
+    """z_core, z_c_core: each core particle counts its own pairs and their nominal points,
+    whatever its neighbour; particles near a wall are left out. Box 5 mm, <d> = 1.73 mm
+    (twice the cube's circumradius): particles 1 and 2 (x = 3 mm) are core, 0 and 3
+    (x = 1.5 mm) are not."""
+    library, state, report = four_cubes()
+    state.positions[:] = [[1.5e-3, 2e-3, 2.5e-3], [3e-3, 2e-3, 2.5e-3], [3e-3, 3e-3, 2.5e-3],
+                          [1.5e-3, 3e-3, 2.5e-3]]
+    box = WallBox(np.zeros(3), np.full(3, 5e-3))
+    row, _ = sample_measures(report, state, library, box, box.lengths.copy(), DT, 0.4)
+    # core 1: pairs (0,1) ff and (1,2) fe; core 2: (1,2) fe and (2,3) fv
+    assert row["z_core"] == pytest.approx(4 / 2)
+    assert row["z_c_core"] == pytest.approx((3 + 2 + 2 + 1) / 2)
+    wide = WallBox(np.full(3, -5e-3), np.full(3, 10e-3))  # everyone core: z, z_c again
+    row, _ = sample_measures(report, state, library, wide, wide.lengths.copy(), DT, 0.4)
+    assert row["z_core"] == pytest.approx(row["z"])
+    assert row["z_c_core"] == pytest.approx(row["z_c"])
+    tight = WallBox(np.full(3, 1.5e-3), np.full(3, 3.5e-3))  # nobody core
+    row, _ = sample_measures(report, state, library, tight, tight.lengths.copy(), DT, 0.4)
+    assert np.isnan(row["z_core"]) and np.isnan(row["z_c_core"])
+
+
 def test_spheres_keep_one_network_point_per_contact():
     library = ShapeLibrary.from_spheres([5e-4, 5e-4, 5e-4])
     positions = np.array([[1e-3, 1e-3, 1e-3], [2e-3, 1e-3, 1e-3], [1e-3, 2e-3, 1e-3]])

@@ -171,17 +171,18 @@ def test_pruned_kernels_agree_with_their_exhaustive_twins(n_faces, n_poses, dist
         max_points = 3 + pose // 2 % 2
         results = []
         for kernel in (pair_manifold, pair_manifold_exhaustive):
-            out = (np.zeros((MAX_POINTS, 3)), np.zeros(MAX_POINTS),
+            out = (np.zeros((MAX_POINTS, 3)), np.zeros(MAX_POINTS), np.zeros((MAX_POINTS, 3)),
                    np.zeros(MAX_POINTS, np.int64), np.zeros(MAX_POINTS, np.int64))
             count, kind = kernel(*a[:-1], *b[:-1], g, fast, alert, cos_tol, sin_tol,
                                  max_points, *out)
             results.append((count, kind, *(x[:count] for x in out)))
-        (count, kind, points, gaps, ids_a, ids_b), slow_result = results
+        (count, kind, points, gaps, normals, ids_a, ids_b), slow_result = results
         assert (count, kind) == slow_result[:2]
         np.testing.assert_allclose(points, slow_result[2], rtol=0, atol=1e-12)
         np.testing.assert_allclose(gaps, slow_result[3], rtol=0, atol=1e-15)
-        np.testing.assert_array_equal(ids_a, slow_result[4])
-        np.testing.assert_array_equal(ids_b, slow_result[5])
+        np.testing.assert_allclose(normals, slow_result[4], rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(ids_a, slow_result[5])
+        np.testing.assert_array_equal(ids_b, slow_result[6])
         counts[kind] += 1
     # touching pairs of several types were compared
     assert counts.sum() > n_poses / 3 and (counts[1:4] > 0).sum() >= 2
@@ -318,11 +319,11 @@ def test_a_tilt_beyond_the_angle_tolerance_changes_the_type():
         assert _names(c) == {name}
 
 
-def test_walls_give_one_two_or_three_points():
+def test_walls_give_one_two_or_four_points():
     lib = ShapeLibrary.from_polyhedra([CUBE])
     floor = (np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))
     cases = [
-        ([1, 0, 0, 0], 0.499, "ff", 3),
+        ([1, 0, 0, 0], 0.499, "ff", 4),
         (_quat([1, 0, 0], np.pi / 4), np.sqrt(0.5) - 0.001, "fe", 2),
     ]
     for quat, height, name, count in cases:
@@ -374,3 +375,73 @@ def test_sphere_against_polyhedron_matches_a_least_squares_oracle():
         np.testing.assert_allclose(c2.point, c.point, atol=1e-12)
         assert c2.member_j[0] == c.member_i[0] and c.contact_type[0] in (1, 2)
     assert checked > 100
+
+
+def _inside(vertices, normals, offsets):
+    """Mask of the ``vertices`` strictly inside the polyhedron of face planes (normals,
+    offsets)."""
+    return np.all(vertices @ normals.T - offsets < -1e-9, axis=1)
+
+
+def test_every_buried_vertex_is_a_manifold_point_however_deep():
+    """Overlaps deeper than the alert distance: every vertex of one body inside the other is a
+    point of the manifold (with room for all), with the gap and normal of the face plane it
+    lies under; a crossing's normal is normal to both edges. (The caps once reached only
+    twice the alert distance below the deepest point: deeper buried vertices were left out
+    and sank further.)"""
+    rng = np.random.default_rng(11)
+    cos_tol, sin_tol = np.cos(0.01), np.sin(0.01)
+    checked = 0
+    for _ in range(400):
+        _, lib, state = _random_pair(rng, 8, (0.45, 0.75))
+        arrays = _body_arrays(lib, state)
+        a, b = arrays(0), arrays(1)
+        alert = 0.01
+        normal = np.zeros(3)
+        g, found = signed_distance(*a, *b, alert, normal)
+        if not found or g > -4 * alert:
+            continue
+        out = (np.zeros((MAX_POINTS, 3)), np.zeros(MAX_POINTS), np.zeros((MAX_POINTS, 3)),
+               np.zeros(MAX_POINTS, np.int64), np.zeros(MAX_POINTS, np.int64))
+        count, _ = pair_manifold(*a[:-1], *b[:-1], g, normal, alert, cos_tol, sin_tol,
+                                 MAX_POINTS, *out)
+        points, gaps, normals, ids_a, ids_b = (x[:count] for x in out)
+        if count == MAX_POINTS:
+            continue  # truncated: no room for all
+        (va, na, oa, *_), (vb, nb, ob, *_) = a, b
+        n_va, n_ea = va.shape[0], a[5].shape[0]
+        n_vb, n_eb = vb.shape[0], b[5].shape[0]
+        pairs = set(zip(ids_a.tolist(), ids_b.tolist(), strict=True))
+        for v in np.flatnonzero(_inside(vb, na, oa)):
+            assert any(j == v and i >= n_va + n_ea for i, j in pairs)
+        for v in np.flatnonzero(_inside(va, nb, ob)):
+            assert any(i == v and j >= n_vb + n_eb for i, j in pairs)
+        np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-12)
+        assert np.all(normals @ normal > 0.0)
+        for k in range(count):
+            if ids_a[k] >= n_va + n_ea:  # vertex of B under face f of A
+                f = ids_a[k] - n_va - n_ea
+                np.testing.assert_allclose(normals[k], na[f], atol=1e-12)
+                assert gaps[k] == pytest.approx(na[f] @ vb[ids_b[k]] - oa[f], abs=1e-12)
+            elif ids_b[k] >= n_vb + n_eb:  # vertex of A under face f of B
+                f = ids_b[k] - n_vb - n_eb
+                np.testing.assert_allclose(normals[k], -nb[f], atol=1e-12)
+                assert gaps[k] == pytest.approx(nb[f] @ va[ids_a[k]] - ob[f], abs=1e-12)
+            else:  # crossing of edge ids_a - V_a of A and edge ids_b - V_b of B
+                ea = np.diff(va[a[5][ids_a[k] - n_va]], axis=0)[0]
+                eb = np.diff(vb[b[5][ids_b[k] - n_vb]], axis=0)[0]
+                cross = np.cross(ea, eb)
+                size = np.linalg.norm(cross)
+                if abs(normals[k] @ ea) > 1e-9 or abs(normals[k] @ eb) > 1e-9:
+                    # the pair's normal kept: nearly parallel edges, or a common normal far
+                    # from the pair's
+                    np.testing.assert_allclose(normals[k], normal, atol=1e-12)
+                    assert size <= 0.05 * np.linalg.norm(ea) * np.linalg.norm(eb) \
+                        or abs(cross @ normal) < 0.5 * size
+                else:
+                    # the mid-point is half the gap above edge a along the common normal
+                    start = va[a[5][ids_a[k] - n_va][0]]
+                    assert gaps[k] == pytest.approx(2.0 * (points[k] - start) @ normals[k],
+                                                    abs=1e-12)
+        checked += 1
+    assert checked > 50

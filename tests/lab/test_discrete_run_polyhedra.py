@@ -11,7 +11,7 @@ import pytest
 
 from grainlab.engine.state import ShapeLibrary
 from grainlab.errors import InputError
-from grainlab.geometry.polyhedron import from_vertices
+from grainlab.geometry.polyhedron import TABLE_I, from_vertices
 from grainlab.lab.discrete_run import read_checkpoint, start_run
 from grainlab.lab.discrete_test import time_step_length
 from grainlab.lab.run_config import RunConfig
@@ -156,3 +156,23 @@ def test_polyhedra_run_resumed_from_a_checkpoint_reproduces_the_rows(polyhedra_r
     np.testing.assert_allclose(table["packing_fraction"], expected["packing_fraction"],
                                rtol=1e-9)
     np.testing.assert_allclose(table["z_c"], expected["z_c"])
+
+
+@pytest.mark.parametrize("n_faces", sorted(TABLE_I))
+def test_every_table_i_polyhedron_runs_a_triaxial_test(n_faces, tmp_path):
+    """Seed 002's seven shapes (n_f = 8 ... 596) each run the triaxial test through the API:
+    frictionless compaction (at most 2000 steps here), then shear to the strain asked, with
+    the pair types counted and overlaps small."""
+    config = RunConfig.model_validate(TINY).with_updates(
+        {"sample": {"n_faces": n_faces, "templates": 2, "n_particles": 8, "seed": 3,
+                    "packing_fraction": 0.2},
+         # n_f = 596 settles in ~22 000 steps (73 s): the compaction is cut short here
+         "solver": {"max_stage_steps": 2000}})
+    result = start_run(tmp_path / "run", config).run()
+    assert result.metadata["outcome"]["finished"]
+    table = result.table
+    assert table["eps_q"].iloc[-1] >= 0.01
+    compacted = table[table["stage"] == "compaction"].iloc[-1]
+    assert compacted["z"] > 0.0 and compacted["p"] > 0.0
+    assert compacted["packing_fraction"] > 0.3
+    assert table["max_overlap_over_d"].max() < 0.05

@@ -27,9 +27,10 @@ Output, rows 0 .. C-1 of arrays allocated by the launcher (C, ...): ``body_i``, 
 ``member_i``, ``member_j`` (member index inside its shape, 0 .. count-1), ``point`` (C, 3) [m],
 ``normal`` (C, 3), ``gap`` (C,) [m]. Body-pair contacts come first, in the order of the
 candidate pairs and then of the members (a, b) lexicographically; then the rows of the pairs
-with a polyhedron (polyhedron-polyhedron: 1-4 points of the pair's manifold; polyhedron-member
-sphere: 1 point per member), in the order of the candidate pairs; wall contacts follow, by wall
-then body then member, then the polyhedron-wall rows by wall then body. ``contact_type`` (C,)
+with a polyhedron (polyhedron-polyhedron: 1 to ``max_points`` points of the pair's manifold,
+each with its own normal; polyhedron-member sphere: 1 point per member), in the order of the
+candidate pairs; wall contacts follow, by wall then body then member, then the
+polyhedron-wall rows by wall then body. ``contact_type`` (C,)
 int8 is 0 on sphere-based rows and the pair's type code (1 fv, 2 ee, 3 fe, 4 ff; names
 :data:`POLYHEDRON_CONTACT_TYPE_NAMES`) on every row of a pair with a polyhedron; member ids of a
 polyhedron are feature ids (vertex k -> k, edge e -> V + e, face f -> V + E + f), stable while
@@ -64,7 +65,7 @@ from grainlab.engine.polyhedron_narrow_phase import (
 from grainlab.engine.quaternion import rotate
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
-from grainlab.geometry.polyhedron_contact import ANGLE_TOLERANCE
+from grainlab.geometry.polyhedron_contact import ANGLE_TOLERANCE, DEFAULT_MAX_POINTS, MAX_POINTS
 
 _GROWTH = 1.25
 
@@ -273,13 +274,15 @@ class NarrowPhase:
         Angle [rad] classifying the supporting features of polyhedra (face parallel / edge
         perpendicular to the normal within it; :mod:`grainlab.geometry.polyhedron_contact`).
     max_points:
-        Points kept per polyhedron manifold: 3 (default, seed 002's flat contact) or 4 (the
-        corner a triangle leaves out is held too, at the cost of hyperstatic contacts:
-        :mod:`grainlab.geometry.polyhedron_contact`).
+        Most points kept per polyhedron manifold, 3 to :data:`MAX_POINTS`: the deepest, the
+        3-4 spanning the largest area, then the deepest of the rest
+        (:mod:`grainlab.geometry.polyhedron_manifold`; default
+        :data:`~grainlab.geometry.polyhedron_contact.DEFAULT_MAX_POINTS`).
     """
 
     def __init__(self, alert: float, capacity: int = 1024,
-                 angle_tolerance: float = ANGLE_TOLERANCE, max_points: int = 3) -> None:
+                 angle_tolerance: float = ANGLE_TOLERANCE,
+                 max_points: int = DEFAULT_MAX_POINTS) -> None:
         try:
             value = float(alert)
         except (TypeError, ValueError):
@@ -296,8 +299,8 @@ class NarrowPhase:
         if not (math.isfinite(angle) and 0.0 <= angle < 0.5 * math.pi):
             raise InputError("angle_tolerance", angle_tolerance, "an angle in [0, pi/2) in rad")
         self.angle_tolerance = angle
-        if max_points not in (3, 4) or isinstance(max_points, bool):
-            raise InputError("max_points", max_points, "3 or 4")
+        if max_points not in range(3, MAX_POINTS + 1) or isinstance(max_points, bool):
+            raise InputError("max_points", max_points, f"an integer from 3 to {MAX_POINTS}")
         self.max_points = int(max_points)
         self.alert = value
         self.n_regrowths = 0

@@ -6,9 +6,10 @@ plane walls: array kernels over candidate pairs around the contact geometry of
 The boundaries of the polyhedron bodies are first moved to the world frame (vertices
 x + R(q) v, normals R(q) n, offsets O + n' . x), body n owning rows ``body_vertex_start[n] ..``
 and ``body_face_start[n] ..``; edges, face CSR and vertex neighbours stay in local ids in the
-:class:`~grainlab.engine.state.ShapeLibrary`. A polyhedron pair gives 1 to 4 rows (the
-pair's manifold, up to ``max_points``), a polyhedron and a member sphere 1 row, a polyhedron
-and a wall 1 to 4 rows; every row carries the pair's type code (1 fv, 2 ee, 3 fe, 4 ff).
+:class:`~grainlab.engine.state.ShapeLibrary`. A polyhedron pair gives 1 to ``max_points``
+rows (the pair's manifold, each point with the normal of its own vertex-face or edge-edge
+constraint), a polyhedron and a member sphere 1 row, a polyhedron and a wall 1 to
+``max_points`` rows; every row carries the pair's type code (1 fv, 2 ee, 3 fe, 4 ff).
 member_i/member_j of a polyhedron are feature ids (vertex k -> k, edge e -> V + e,
 face f -> V + E + f), those of a sphere its member index, of a wall -1. Rows are written from
 ``start`` on while they fit; the kernels return ``start`` + the rows they needed (the
@@ -126,6 +127,7 @@ def polyhedron_pairs_kernel(
     gps = np.empty(MAX_POINTS)
     ida = np.empty(MAX_POINTS, dtype=np.int64)
     idb = np.empty(MAX_POINTS, dtype=np.int64)
+    nrm = np.empty((MAX_POINTS, 3))
     for p in range(pairs.shape[0]):
         i, j = pairs[p, 0], pairs[p, 1]
         if not (is_poly[i] or is_poly[j]):
@@ -151,9 +153,9 @@ def polyhedron_pairs_kernel(
             count, code = pair_manifold(
                 va, na, oa, fsa, face_vertices, ea, efa, nsa, vertex_neighbours,
                 vb, nb, ob, fsb, face_vertices, eb, efb, nsb, vertex_neighbours,
-                g, n_out, alert, cos_tol, sin_tol, max_points, pts, gps, ida, idb)
+                g, n_out, alert, cos_tol, sin_tol, max_points, pts, gps, nrm, ida, idb)
             for r in range(count):
-                _store(row, i, j, ida[r], idb[r], gps[r], n_out, pts[r], code,
+                _store(row, i, j, ida[r], idb[r], gps[r], nrm[r], pts[r], code,
                        body_i, body_j, member_i, member_j, point, normal, gap, contact_type)
                 row += 1
         else:

@@ -46,7 +46,8 @@ connectivity number is seed 002 eq. 14 (eq. 13 with k_fv + k_ee + k_fe + k_ff = 
     z_c = z (k_fv + k_ee + 2 k_fe + 3 k_ff) = z (1 + k_fe + 2 k_ff),
 
 i.e. 2 sum_pairs m_type / N with the nominal points m = 1, 1, 2, 3 of each type (the same
-over the pairs between non-rattlers for z_c_no_rattlers). The row also holds
+over the pairs between non-rattlers for z_c_no_rattlers; ``z_core``, ``z_c_core`` over the
+particles at least <d> from every wall, :func:`core_connectivity`). The row also holds
 ``fraction_fv`` ... ``fraction_ff`` (k_type among loaded pairs) and ``z_c_points`` =
 2 (loaded solver points between particles) / N, the constraints the solver actually used.
 Spheres and aggregates are unchanged (one network point per member contact).
@@ -244,6 +245,28 @@ def polyhedron_connectivity(network: ContactNetwork, connectivity: Connectivity,
     return row
 
 
+def core_connectivity(network: ContactNetwork, lower: np.ndarray, upper: np.ndarray,
+                      margin: float) -> dict[str, float]:
+    """z and z_c (seed 002 eq. 14) of the core: the particles whose centre lies at least
+    ``margin`` [m] inside every wall of the box (``lower``, ``upper`` (3,) [m]), each counting
+    its own loaded pairs (z_core) and their nominal points (z_c_core) whoever the neighbour
+    is. Walls take contacts that particles would otherwise share: in a box of 200 polyhedra
+    the wall contacts are ~30 % of the constraints, and z_c over all particles reads ~8.7
+    where the core reads ~10.5 (seed 002's 40 000 particles are almost all core). NaN when
+    the core is empty."""
+    x = network.positions
+    core = np.all((x >= lower + margin) & (x <= upper - margin), axis=1)
+    n_core = int(np.count_nonzero(core))
+    if n_core == 0:
+        return {"z_core": float("nan"), "z_c_core": float("nan")}
+    pairs = network.pair_particles
+    points = np.ones(pairs.shape[0])
+    if network.pair_types is not None and network.type_points:
+        points = np.asarray(network.type_points, dtype=float)[network.pair_types]
+    ends = core[pairs[:, 0]].astype(float) + core[pairs[:, 1]]
+    return {"z_core": float(ends.sum() / n_core), "z_c_core": float(ends @ points / n_core)}
+
+
 def mechanical_coordination(report: StepReport, n_bodies: int, min_contacts: int) -> float:
     """z_m of the module docstring: 2 (C_pp + C_pw) / N_m after removing, repeatedly, the
     particles with fewer than ``min_contacts`` force-carrying contacts (walls included)."""
@@ -300,6 +323,7 @@ def sample_measures(report: StepReport, state: BodyState, library: ShapeLibrary,
     row["rattler_fraction"] = float(connectivity.rattler_fraction)
     if network.pair_types is not None and network.type_names == PAIR_TYPE_NAMES:
         row.update(polyhedron_connectivity(network, connectivity, solver_points))
+        row.update(core_connectivity(network, box.lower, box.upper, mean_d))
     row["z_mechanical"] = mechanical_coordination(report, state.n_bodies,
                                                   4 if friction == 0.0 else 2)
     row["n_contacts"] = float(report.n_contacts)

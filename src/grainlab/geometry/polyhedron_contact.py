@@ -61,8 +61,12 @@ an edge as perpendicular to it (edge) when classifying the supporting features."
 TYPE_NONE, TYPE_FV, TYPE_EE, TYPE_FE, TYPE_FF = 0, 1, 2, 3, 4
 """Contact type codes: 0 none/sphere-based, 1 fv, 2 ee, 3 fe, 4 ff."""
 
-MAX_POINTS = 4
-"""Largest number of points of one manifold (the ``max_points`` argument: 3 or 4)."""
+MAX_POINTS = 16
+"""Largest number of points of one manifold (the ``max_points`` argument: 3 to 16)."""
+DEFAULT_MAX_POINTS = 8
+"""Points kept per manifold by default. Measured on a frictionless compaction of 60
+polyhedra (n_f = 30, docs/polyhedra.md): with 3 or 4 the largest overlap ran away to 10 % of
+<d>, with 6 it settled at 2 %, with 8 at 0.3 %, with 16 at 0.27 % (13 % more contacts)."""
 
 _VERTEX, _EDGE, _FACE = 0, 1, 2
 _HUGE = 1e300

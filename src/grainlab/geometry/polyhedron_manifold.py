@@ -16,30 +16,46 @@ not turn keeps its type from step to step.
 The manifold is the "shadow overlap" of the near-plane parts of both bodies
 (research/engine_tech.md 3.1-3.2): the candidates are
 
-- the vertices of B's cap (n . b within the alert distance of B's lowest point) whose line
-  along -n enters A, at the entry point of A's upper surface;
-- the vertices of A's cap whose line along +n enters B;
+- the vertices of B's cap (n . b within the alert distance of B's lowest point, and in any
+  case every vertex below A's highest point: the whole overlap) whose line along -n enters
+  A, at the entry point of A's upper surface;
+- the vertices of A's cap (likewise) whose line along +n enters B;
 - the crossings, seen along n, of A's and B's cap edges that face each other (an edge of A
   bordering a face with n_f . n > 0, of B with n_f . n < 0),
 
-each with its own gap (distance along n between the two surfaces there), written at the
-mid-point, and kept if the gap is within the alert distance. A line from B's cap is cut only
-by the faces of A reaching above lo - limit (the kept entry points lie there, and by convexity
-those faces alone bound A's part above that level), a line from A's cap by the faces of B
-reaching below hi + limit; two cap edges are crossed only if their boxes seen along n overlap
-and their ends are within the alert distance along n. :func:`signed_distance_exhaustive` and
-:func:`pair_manifold_exhaustive` evaluate everything (the slow twins of the tests).
-They are reduced to the deepest,
+kept if their distance along n between the two surfaces is within the alert distance. A line
+from B's cap is cut only by the faces of A reaching above lo - limit (the kept entry points
+lie there, and by convexity those faces alone bound A's part above that level), a line from
+A's cap by the faces of B reaching below hi + limit; two cap edges are crossed only if their
+boxes seen along n overlap and their ends are within the alert distance along n.
+:func:`signed_distance_exhaustive` and :func:`pair_manifold_exhaustive` evaluate everything
+(the slow twins of the tests).
+
+Each point carries the gap and normal of its own constraint, not the pair's: a vertex of B
+under face f of A has g = n_f . b - O_f and normal n_f (a vertex of A under face f of B:
+g = n_f . a - O_f, normal -n_f), a crossing of edges d_a, d_b the common normal
+m = d_a x d_b towards B and g = (gap along n) (m . n), unless the edges are nearly parallel
+(:data:`EDGE_NORMAL_SIN`) or m lies more than 60 degrees from n (:data:`EDGE_NORMAL_COS`),
+where the pair's n and the gap along n are kept. These are the gap functions whose first
+order is exact under any small rigid motion: the gap along the pair's n of a vertex over a
+face tilted from n changes with tangential sliding, so a frictionless point that the solver
+held at zero normal velocity still sank (measured: 1e-4 to 3e-4 <d> per step in a jammed
+packing). Points are written at the mid-point between the two surfaces along their normal.
+
+Reduction to ``max_points`` (3 to :data:`~grainlab.geometry.polyhedron_contact.MAX_POINTS`,
+default :data:`~grainlab.geometry.polyhedron_contact.DEFAULT_MAX_POINTS`): the deepest,
 the one farthest from it, the one giving the largest triangle (seed 002: a flat contact is
-"replaced by three points", an edge-face contact by two; the engine's default) or, with
-``max_points`` = 4 (LMGC90 keeps up to 4), also the one adding the largest area outside that
-triangle. A vertex-face or edge-edge contact alone gives 1 point, an edge on a face 2, two
-faces 3; more points appear only when other features lie within the alert distance, so that
-the solver also holds them (one point per ee/fv pair let bodies rotate into each other about
-it). Measured trade-off: with 3 points a cube tipping onto the floor drove the corner left
-out 0.43 mm (0.9 % of its inradius) into it in one step; with 4 the four coplanar corners
-of a cube at rest on the floor (hyperstatic, mu 0.5) kept NLGS from converging to 1e-6 in
-1000 sweeps.
+"replaced by three points"), with 4 or more the one adding the largest area outside that
+triangle, then the deepest of the rest (coincident points skipped). A vertex-face or
+edge-edge contact alone gives 1 point, an edge on a face 2, two triangles up to 6. Why more
+than seed 002's three: a point left out is not held, and when it lies outside the kept
+triangle (a triangle-triangle overlap is a hexagon, a twisted square-square one an octagon)
+the body turns into the other about the kept ones; in a frictionless compaction of 60
+polyhedra (n_f = 30) the left-out points sank in turn (the deepest point of a wall contact
+alternated between two vertices as it went from 4 % to 9 % of <d>) and the largest overlap
+ran away to 10 % of <d> with 3 or 4 points; with 6 it settled at 2 %, with 8 at 0.3 %
+(docs/polyhedra.md). Coplanar points are hyperstatic: NLGS still converges (the velocities
+are unique), the split of the normal force among them is one of many.
 
 Feature ids (stable warm-start keys): vertex k -> k, edge e -> n_v + e, face f -> n_v + n_e + f
 (local to the shape). A manifold point made by a vertex of B inside a face of A has ids (face
@@ -49,7 +65,7 @@ of A, vertex of B); a crossing of two edges (edge, edge); a vertex of A inside a
 Walls
 -----
 A wall is a plane (p_w, n_w) with the bodies on the side of n_w: the vertices with gap
-n_w . (v - p_w) within the alert distance, reduced to three as above; the type is that of the
+n_w . (v - p_w) within the alert distance (normal n_w), reduced as above; the type is that of the
 polyhedron's feature supporting it along -n_w (vertex fv, edge fe, face ff).
 
 Units: lengths in m, angles in rad.
@@ -67,6 +83,7 @@ from grainlab.geometry.polyhedron_contact import (
     _FACE,
     _HUGE,
     _VERTEX,
+    MAX_POINTS,
     TYPE_EE,
     TYPE_FE,
     TYPE_FF,
@@ -83,14 +100,20 @@ from grainlab.geometry.polyhedron_contact import (
 # Manifold
 # --------------------------------------------------------------------------------------------
 
+EDGE_NORMAL_SIN = 0.05
+"""A crossing of two edges takes their common normal d_a x d_b when the edges make an angle
+whose sine exceeds this ..."""
+EDGE_NORMAL_COS = 0.5
+"""... and that normal lies within 60 degrees of the pair's normal; else the pair's normal."""
+
 
 @njit(inline="always")
 def _reduce(points, gaps, count, tol, max_points):
-    """Indices (4,) of at most ``max_points`` (3 or 4) of ``count`` points: the deepest
-    (lowest index within ``tol``), the farthest from it, the one giving the largest triangle,
-    then the one adding the largest area outside that triangle; returns (idx, n) (scalar
-    code: no allocation per point)."""
-    idx = np.empty(4, dtype=np.int64)
+    """Indices (MAX_POINTS,) of at most ``max_points`` (3 to MAX_POINTS) of ``count``
+    points: the deepest (lowest index within ``tol``), the farthest from it, the one giving
+    the largest triangle, the one adding the largest area outside that triangle, then the
+    deepest of the rest not within ``tol`` of a kept one; returns (idx, n) (scalar code)."""
+    idx = np.empty(MAX_POINTS, dtype=np.int64)
     first = 0
     for k in range(1, count):
         if gaps[k] < gaps[first] - tol:
@@ -140,10 +163,29 @@ def _reduce(points, gaps, count, tol, max_points):
                 added += -c
         if added > gain:
             fourth, gain = k, added
-    if fourth < 0:
-        return idx, 3
-    idx[3] = fourth
-    return idx, 4
+    kept = 3
+    if fourth >= 0:
+        idx[3] = fourth
+        kept = 4
+    # the rest by depth, skipping points that coincide with a kept one
+    while kept < max_points:
+        best = -1
+        for k in range(count):
+            fresh = True
+            for r in range(kept):
+                j = idx[r]
+                dx, dy, dz = points[k, 0] - points[j, 0], points[k, 1] - points[j, 1], \
+                    points[k, 2] - points[j, 2]
+                if dx * dx + dy * dy + dz * dz <= tol * tol:
+                    fresh = False
+                    break
+            if fresh and (best < 0 or gaps[k] < gaps[best]):
+                best = k
+        if best < 0:
+            break
+        idx[kept] = best
+        kept += 1
+    return idx, kept
 
 
 @njit(inline="always")
@@ -219,43 +261,45 @@ def _upper_edge(normals, edge_faces, e, dx, dy, dz):
 @njit(cache=True)
 def pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
                   vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
-                  g, normal, alert, cos_tol, sin_tol, max_points, points, gaps, ids_a, ids_b):
+                  g, normal, alert, cos_tol, sin_tol, max_points, points, gaps, point_normals,
+                  ids_a, ids_b):
     """Contact manifold of polyhedra A and B at signed distance ``g`` [m] along ``normal``
-    (3,) from A to B (module docstring): writes ``points`` (4, 3) [m] (mid-points), ``gaps``
-    (4,) [m] and feature ids ``ids_a``, ``ids_b`` (4,); returns (count, type code)."""
+    (3,) from A to B (module docstring): writes ``points`` (MAX_POINTS, 3) [m] (mid-points),
+    ``gaps`` (MAX_POINTS,) [m], their unit ``point_normals`` (MAX_POINTS, 3) from A to B and
+    feature ids ``ids_a``, ``ids_b`` (MAX_POINTS,); returns (count, type code)."""
     return _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
                           vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
-                          g, normal, alert, cos_tol, sin_tol, max_points, points, gaps, ids_a,
-                          ids_b, True)
+                          g, normal, alert, cos_tol, sin_tol, max_points, points, gaps,
+                          point_normals, ids_a, ids_b, True)
 
 
 @njit(cache=True)
 def pair_manifold_exhaustive(va, na, oa, fsa, fva, ea, efa, nsa, nba,
                              vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
-                             g, normal, alert, cos_tol, sin_tol, max_points, points, gaps, ids_a,
-                             ids_b):
+                             g, normal, alert, cos_tol, sin_tol, max_points, points, gaps,
+                             point_normals, ids_a, ids_b):
     """:func:`pair_manifold` with every face of the other body in the line entries and every
     pair of cap edges crossed: the slow twin it must agree with (same points, gaps, ids and
     type)."""
     return _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
                           vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
-                          g, normal, alert, cos_tol, sin_tol, max_points, points, gaps, ids_a,
-                          ids_b, False)
+                          g, normal, alert, cos_tol, sin_tol, max_points, points, gaps,
+                          point_normals, ids_a, ids_b, False)
 
 
 @njit(cache=True)
 def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
                    vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
-                   g, normal, alert, cos_tol, sin_tol, max_points, points, gaps, ids_a, ids_b,
-                   prune):
+                   g, normal, alert, cos_tol, sin_tol, max_points, points, gaps, point_normals,
+                   ids_a, ids_b, prune):
     """Contact manifold of polyhedra A and B at signed distance ``g`` [m] along ``normal``
-    (3,) from A to B (module docstring): writes ``points`` (4, 3) [m] (mid-points), ``gaps``
-    (4,) [m] and feature ids ``ids_a``, ``ids_b`` (4,); returns (count, type code).
+    (3,) from A to B (module docstring): writes ``points``, ``gaps``, ``point_normals``,
+    ``ids_a``, ``ids_b`` as :func:`pair_manifold`; returns (count, type code).
 
     Candidates, each with its own gap along n: the vertices of B's cap (n . b within alert of
     B's lowest) over A's upper surface, the vertices of A's cap under B's lower surface, and
     the crossings, seen along n, of the cap edges of A and B that face each other; those with
-    gap <= max(alert, g) are reduced to ``max_points`` (3 or 4). ``prune``: line entries
+    gap <= max(alert, g) are reduced to ``max_points``. ``prune``: line entries
     only through the faces reaching the other cap, crossings only of edges whose boxes seen
     along n overlap (module docstring; same result)."""
     nx, ny, nz = normal[0], normal[1], normal[2]
@@ -269,31 +313,35 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     lo = -neg
     band = max(alert, g, 0.0)
     limit = band + 1e-12 * (abs(hi) + abs(lo))
+    # the caps reach at least through the whole overlap (an overlap deeper than the band
+    # must not leave features of the overlapping region out of the candidates)
+    floor_a = min(hi - band, lo) - limit
+    ceiling_b = max(lo + band, hi) + limit
     proj_a = _project(va, nx, ny, nz)
     proj_b = _project(vb, nx, ny, nz)
     cap_a = np.empty(nva, dtype=np.int64)
     n_ca = 0
     for v in range(nva):
-        if proj_a[v] >= hi - band - limit:
+        if proj_a[v] >= floor_a:
             cap_a[n_ca] = v
             n_ca += 1
     cap_b = np.empty(nvb, dtype=np.int64)
     n_cb = 0
     for v in range(nvb):
-        if proj_b[v] <= lo + band + limit:
+        if proj_b[v] <= ceiling_b:
             cap_b[n_cb] = v
             n_cb += 1
     edge_a = np.empty(nea, dtype=np.int64)
     n_ea = 0
     for e in range(nea):
-        if max(proj_a[ea[e, 0]], proj_a[ea[e, 1]]) >= hi - band - limit and \
+        if max(proj_a[ea[e, 0]], proj_a[ea[e, 1]]) >= floor_a and \
                 _upper_edge(na, efa, e, nx, ny, nz):
             edge_a[n_ea] = e
             n_ea += 1
     edge_b = np.empty(neb, dtype=np.int64)
     n_eb = 0
     for e in range(neb):
-        if min(proj_b[eb[e, 0]], proj_b[eb[e, 1]]) <= lo + band + limit and \
+        if min(proj_b[eb[e, 0]], proj_b[eb[e, 1]]) <= ceiling_b and \
                 _upper_edge(nb, efb, e, -nx, -ny, -nz):
             edge_b[n_eb] = e
             n_eb += 1
@@ -330,6 +378,7 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
             near_start[i + 1] = near_start[i] + n_eb
     size = n_ca + n_cb + near_start[n_ea]
     cand = np.empty((size, 3))
+    cnormal = np.empty((size, 3))
     local = np.empty(size)
     cid_a = np.empty(size, dtype=np.int64)
     cid_b = np.empty(size, dtype=np.int64)
@@ -338,8 +387,12 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
         b = vb[cap_b[k]]
         t, f, hit = _line_entry(b, -nx, -ny, -nz, na, oa, faces_a, n_fa)
         if hit and t <= limit:
-            cand[count] = b - 0.5 * t * normal
-            local[count] = t
+            # gap and normal of the vertex-face constraint: distance to the plane of f along
+            # its own normal (first-order exact under sliding, unlike the gap along n)
+            gap_f = na[f, 0] * b[0] + na[f, 1] * b[1] + na[f, 2] * b[2] - oa[f]
+            cnormal[count] = na[f]
+            cand[count] = b - 0.5 * gap_f * na[f]
+            local[count] = gap_f
             cid_a[count] = nva + nea + f
             cid_b[count] = cap_b[k]
             count += 1
@@ -347,8 +400,10 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
         a = va[cap_a[k]]
         t, f, hit = _line_entry(a, nx, ny, nz, nb, ob, faces_b, n_fb)
         if hit and t <= limit:
-            cand[count] = a + 0.5 * t * normal
-            local[count] = t
+            gap_f = nb[f, 0] * a[0] + nb[f, 1] * a[1] + nb[f, 2] * a[2] - ob[f]
+            cnormal[count] = -nb[f]
+            cand[count] = a - 0.5 * gap_f * nb[f]
+            local[count] = gap_f
             cid_a[count] = cap_a[k]
             cid_b[count] = nvb + neb + f
             count += 1
@@ -384,7 +439,22 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
                 cand[count, 0] = 0.5 * (pax + pbx)
                 cand[count, 1] = 0.5 * (pay + pby)
                 cand[count, 2] = 0.5 * (paz + pbz)
-                local[count] = gap_k
+                # edge-edge constraint: normal da x db towards B (pb - pa is along n, so
+                # its gap is gap_k m . n); nearly parallel edges keep n
+                cx, cy, cz = _cross(dax, day, daz, dbx, dby, dbz)
+                size_m = math.sqrt(cx * cx + cy * cy + cz * cz)
+                along = (cx * nx + cy * ny + cz * nz) / max(size_m, 1e-300)
+                if size_m > EDGE_NORMAL_SIN * math.sqrt(la * (dbx * dbx + dby * dby
+                                                              + dbz * dbz)) \
+                        and abs(along) >= EDGE_NORMAL_COS:
+                    sign = 1.0 if along > 0.0 else -1.0
+                    cnormal[count, 0] = sign * cx / size_m
+                    cnormal[count, 1] = sign * cy / size_m
+                    cnormal[count, 2] = sign * cz / size_m
+                    local[count] = gap_k * abs(along)
+                else:
+                    cnormal[count, 0], cnormal[count, 1], cnormal[count, 2] = nx, ny, nz
+                    local[count] = gap_k
                 cid_a[count] = nva + e
                 cid_b[count] = nvb + k
                 count += 1
@@ -392,6 +462,7 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     if count == 0:  # numerically empty: one point at the deepest vertex of B
         gaps[0] = g
         points[0] = vb[top_b] - 0.5 * g * normal
+        point_normals[0] = normal
         ids_a[0] = _code(kind_a, fa, nva, nea)
         ids_b[0] = top_b
         return 1, kind
@@ -407,6 +478,7 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     for r in range(kept):
         points[r] = cand[idx[r]]
         gaps[r] = local[idx[r]]
+        point_normals[r] = cnormal[idx[r]]
         ids_a[r] = cid_a[idx[r]]
         ids_b[r] = cid_b[idx[r]]
     return kept, kind
@@ -448,10 +520,10 @@ def wall_manifold(vertices, normals, fstart, fverts, edges, nstart, nbrs, wall_p
                   wall_normal, alert, cos_tol, sin_tol, max_points, points, gaps, ids):
     """Contact of a polyhedron with the plane wall (``wall_point`` (3,) [m], unit
     ``wall_normal`` (3,) towards the polyhedron): the vertices with gap n_w . (v - p_w) <=
-    alert reduced to ``max_points`` (3 or 4) as :func:`pair_manifold`: points (4, 3) [m]
-    (mid-points), gaps (4,) [m], vertex ids (4,); the type is that of the feature supporting
-    the polyhedron along -n_w (vertex fv, edge fe, face ff). Returns (count, type), count 0
-    when no vertex is within ``alert``."""
+    alert reduced to ``max_points`` as :func:`pair_manifold`: points (MAX_POINTS, 3) [m]
+    (mid-points), gaps (MAX_POINTS,) [m], vertex ids (MAX_POINTS,); the type is that of the
+    feature supporting the polyhedron along -n_w (vertex fv, edge fe, face ff). Returns
+    (count, type), count 0 when no vertex is within ``alert``."""
     mx, my, mz = wall_normal[0], wall_normal[1], wall_normal[2]
     kind, _, top = supporting_feature(vertices, normals, nstart, nbrs, edges, -mx, -my,
                                           -mz, cos_tol, sin_tol)
