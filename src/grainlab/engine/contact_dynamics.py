@@ -112,6 +112,8 @@ _SWEEPS = ("coloured", "serial")
 SKIP_OPEN = 2
 """A contact found open (P = 0) at this many visits in a row is skipped by the sweeps
 (LMGC90's iskip idea, research/cd_engines.md 1.3) ..."""
+OUTWARD_SPEED_FACTOR = 4.0
+"""A speed-limited wall moves out at most this many times its inward limit."""
 SKIP_REVISIT = 10
 """... except in every SKIP_REVISIT-th sweep, the first, and the one after a failed
 convergence check, which visit every contact; the check pass always covers every contact."""
@@ -245,14 +247,18 @@ def _apply(k, dn, dt_, ds, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_in
 
 @njit(inline="always")
 def brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds):
-    """Speed limit of the mobile walls as a unilateral constraint s_w <= s_max solved in the
-    Gauss-Seidel sweep: a brake impulse B_w >= 0 [N s] (outward) with
-    B_w (s_max - s_w) = 0, updated by projection B_w <- max(0, B_w + m_w (s_w - s_max))."""
+    """Speed limits of the mobile walls, -OUTWARD_SPEED_FACTOR s_max <= s_w <= s_max, solved
+    in the Gauss-Seidel sweep: a brake impulse B_w [N s] (positive outward), the exact local
+    solution B_w = m_w (s_free - clamp(s_free)) with s_free = s_w + B_w / m_w the speed
+    without it. Inwards the limit bounds the inertia number; outwards (a looser bound) it
+    keeps a wall shoved by a stress spike from jumping away from a rigid sample."""
     for w in range(wall_speeds.shape[0]):
         if wall_inv_mass[w] > 0.0 and wall_max_speeds[w] < np.inf:
-            new = max(0.0, brakes[w] + (wall_speeds[w] - wall_max_speeds[w]) / wall_inv_mass[w])
-            wall_speeds[w] -= wall_inv_mass[w] * (new - brakes[w])
-            brakes[w] = new
+            free = wall_speeds[w] + brakes[w] * wall_inv_mass[w]
+            held = min(max(free, -OUTWARD_SPEED_FACTOR * wall_max_speeds[w]),
+                       wall_max_speeds[w])
+            brakes[w] = (free - held) / wall_inv_mass[w]
+            wall_speeds[w] = held
 
 
 @njit(inline="always")

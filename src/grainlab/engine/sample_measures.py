@@ -247,13 +247,13 @@ def polyhedron_connectivity(network: ContactNetwork, connectivity: Connectivity,
 
 def core_connectivity(network: ContactNetwork, lower: np.ndarray, upper: np.ndarray,
                       margin: float) -> dict[str, float]:
-    """z and z_c (seed 002 eq. 14) of the core: the particles whose centre lies at least
+    """z and z_c (seed 002 eq. 14; for spheres and aggregates every pair counts 1, or its
+    type's points) of the core: the particles whose centre lies at least
     ``margin`` [m] inside every wall of the box (``lower``, ``upper`` (3,) [m]), each counting
     its own loaded pairs (z_core) and their nominal points (z_c_core) whoever the neighbour
-    is. Walls take contacts that particles would otherwise share: in a box of 200 polyhedra
-    the wall contacts are ~30 % of the constraints, and z_c over all particles reads ~8.7
-    where the core reads ~10.5 (seed 002's 40 000 particles are almost all core). NaN when
-    the core is empty."""
+    is. Walls take constraints that particles would otherwise share, so z and z_c over all
+    the particles of a small box read low (seed 002's 40 000 particles are almost all core;
+    docs/polyhedra.md gives both). NaN when the core is empty."""
     x = network.positions
     core = np.all((x >= lower + margin) & (x <= upper - margin), axis=1)
     n_core = int(np.count_nonzero(core))
@@ -323,7 +323,7 @@ def sample_measures(report: StepReport, state: BodyState, library: ShapeLibrary,
     row["rattler_fraction"] = float(connectivity.rattler_fraction)
     if network.pair_types is not None and network.type_names == PAIR_TYPE_NAMES:
         row.update(polyhedron_connectivity(network, connectivity, solver_points))
-        row.update(core_connectivity(network, box.lower, box.upper, mean_d))
+    row.update(core_connectivity(network, box.lower, box.upper, mean_d))
     row["z_mechanical"] = mechanical_coordination(report, state.n_bodies,
                                                   4 if friction == 0.0 else 2)
     row["n_contacts"] = float(report.n_contacts)

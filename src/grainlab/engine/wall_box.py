@@ -13,7 +13,12 @@ s_w n_w. Controls:
   with sigma = value [Pa] and A_w the current area of its face (the product of the box's two
   other lengths). Its free speed over a step h is s_w + h F_w / m_w; the contact impulses
   then act on it like on any body, so that in equilibrium the reaction of the particles equals
-  sigma A_w (LMGC90's driven-force walls).
+  sigma A_w (LMGC90's driven-force walls). With ``servo = True`` a stress-controlled wall
+  carries no speed from one step to the next: its free speed is h F_w / m_w alone, so that
+  with m_w = c_w h it moves at s_w = (F_w - R_w) / c_w, an overdamped servo of damping c_w
+  [N s/m] (PFC's servo walls; :meth:`servo_masses`). A wall with momentum that was pushed out by a stress spike kept
+  flying out after the particles stopped pushing, and a rigid sample behind it unloaded
+  completely (docs/polyhedra.md).
 
 The reaction R_w [N] of a wall is the normal force the particles exert on it over the last
 step (sum of the normal impulses of its contacts / h), compression positive; the wall stress
@@ -41,6 +46,10 @@ WALL_NAMES = ("x-", "x+", "y-", "y+", "z-", "z+")
 """Names of the six walls, in storage order."""
 WALL_CONTROLS = ("fixed", "velocity", "stress")
 """Control modes of a wall."""
+SERVO_GAIN = 20.0
+"""Outward speed of a servo wall, in units of its speed limit, per unit relative overpressure
+(R_w - F_w) / F_w: a lateral wall following a dilating sample at 0.4 s_max sits 2 % above
+its stress."""
 _AXIS = np.array([0, 0, 1, 1, 2, 2])
 _SIGN = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0])
 
@@ -101,6 +110,7 @@ class WallBox:
         self.friction = self._six("friction", friction, allow_zero=True)
         self.masses = self._six("wall_mass", wall_mass, allow_zero=False)
         self.max_speeds = np.full(6, np.inf)
+        self.servo = False
 
     @staticmethod
     def _six(name: str, value, allow_zero: bool) -> np.ndarray:
@@ -168,6 +178,19 @@ class WallBox:
         elif mode == "velocity":
             self.speeds[w] = control.value
 
+    def servo_masses(self, dt: float) -> np.ndarray:
+        """(6,) masses m_w = c_w h [kg] of servo walls over a step of ``dt`` [s], with the
+        damping c_w = F_w / (G s_max,w) [N s/m], G = :data:`SERVO_GAIN`: a wall moves out at
+        G s_max (R_w / F_w - 1) against the reaction R_w (an overpressure of 1/G per s_max
+        of outward speed), in at its limit s_max when nothing holds it (1 kg where the wall
+        is not stress-controlled or has no limit)."""
+        limited = self.stress_controlled & np.isfinite(self.max_speeds)
+        force = self.driving_forces()
+        masses = np.ones(6)
+        ok = limited & (force > 0.0)
+        masses[ok] = force[ok] / (SERVO_GAIN * self.max_speeds[ok]) * dt
+        return masses
+
     def set_masses(self, wall_mass: float | Sequence[float]) -> None:
         """Set the masses [kg] of the walls (used by stress-controlled ones)."""
         self.masses = self._six("wall_mass", wall_mass, allow_zero=False)
@@ -195,7 +218,7 @@ class WallBox:
             elif control.mode == "velocity":
                 speeds[w] = control.value
             else:
-                speeds[w] = self.speeds[w]
+                speeds[w] = 0.0 if self.servo else self.speeds[w]
         stress = self.stress_controlled
         speeds[stress] += dt * self.driving_forces()[stress] / self.masses[stress]
         return speeds
@@ -238,6 +261,7 @@ class WallBox:
             "masses": self.masses.copy(), "max_speeds": self.max_speeds.copy(),
             "control_modes": np.array([WALL_CONTROLS.index(c.mode) for c in self.controls]),
             "control_values": np.array([c.value for c in self.controls]),
+            "servo": np.array(int(self.servo)),
         }
 
     @classmethod
@@ -249,6 +273,7 @@ class WallBox:
         box.speeds[:] = arrays["speeds"]
         box.reactions[:] = arrays["reactions"]
         box.max_speeds[:] = arrays["max_speeds"]
+        box.servo = bool(int(arrays.get("servo", 0)))
         box.controls = [WallControl(WALL_CONTROLS[int(m)], float(v)) for m, v in
                         zip(arrays["control_modes"], arrays["control_values"], strict=True)]
         return box

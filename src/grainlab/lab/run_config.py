@@ -10,7 +10,8 @@ that names it::
                (triaxial), axial_strain and unload_strain (oedometer)
     [solver]   friction, compaction_friction, inertia_number, compaction_inertia_number, dt
                [s] (0: automatic), time_step_factor, compaction_time_step_factor, theta,
-               tolerance, max_iterations, sweep, max_stage_steps, wall_mass_factor, seed
+               tolerance, max_iterations, sweep, max_stage_steps, wall_mass_factor, wall_servo,
+               seed
     [output]   record_every, snapshot_every, checkpoint_every, vtk_every (steps; 0: never)
 
 >>> config = RunConfig.model_validate({"sample": {"n_particles": 50}})
@@ -103,6 +104,7 @@ class SolverConfig(_Section):
     sweep: Literal["coloured", "serial"] = "coloured"
     max_stage_steps: int = Field(200_000, ge=1)
     wall_mass_factor: float = Field(1.0, gt=0)
+    wall_servo: bool = True
     seed: int = 0
     overlap_recovery: float = Field(0.05, ge=0, le=1)
     compaction_max_iterations: int = Field(200, ge=1)
@@ -199,6 +201,7 @@ class RunConfig(_Section):
             max_iterations=s.max_iterations, sweep=s.sweep,
             record_every=self.output.record_every, snapshot_every=self.output.snapshot_every,
             max_stage_steps=s.max_stage_steps, wall_mass_factor=s.wall_mass_factor,
+            wall_servo=s.wall_servo,
             seed=s.seed, overlap_recovery=s.overlap_recovery,
             compaction_max_iterations=s.compaction_max_iterations,
             compaction_tolerance=s.compaction_tolerance)
