@@ -16,9 +16,9 @@ s_w n_w. Controls:
   sigma A_w (LMGC90's driven-force walls). With ``servo = True`` a stress-controlled wall
   carries no speed from one step to the next: its free speed is h F_w / m_w alone, so that
   with m_w = c_w h it moves at s_w = (F_w - R_w) / c_w, an overdamped servo of damping c_w
-  [N s/m] (PFC's servo walls; :meth:`servo_masses`). A wall with momentum that was pushed out by a stress spike kept
-  flying out after the particles stopped pushing, and a rigid sample behind it unloaded
-  completely (docs/polyhedra.md).
+  [N s/m] (PFC's servo walls; :meth:`servo_masses`). A wall with momentum that was pushed
+  out by a stress spike kept flying out after the particles stopped pushing, and a rigid
+  sample behind it unloaded completely (docs/polyhedra.md).
 
 The reaction R_w [N] of a wall is the normal force the particles exert on it over the last
 step (sum of the normal impulses of its contacts / h), compression positive; the wall stress
