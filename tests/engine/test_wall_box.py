@@ -152,3 +152,65 @@ def test_speed_limit_never_weakens_the_push_at_rest():
     free.box.set_max_speeds(1e-3)
     step.step(free.state, free.library, free.box)
     assert free.box.speeds[5] == pytest.approx(1e-3, rel=1e-12)
+
+
+def _servo_box(sample, sigma, limit, dt):
+    sample.box.set_control("z+", "stress", sigma)
+    sample.box.set_max_speeds(limit)
+    sample.box.servo = True
+    sample.box.set_masses(sample.box.servo_masses(dt))
+
+
+def test_servo_wall_rests_at_its_stress_and_keeps_no_momentum():
+    """An overdamped servo wall (no speed carried between steps, mass c h): free, it moves in
+    at its limit; on a sphere it comes to rest pushing with sigma A; a sphere thrown at it
+    pushes it out at G v_max (R / F - 1), at most OUTWARD_SPEED_FACTOR v_max, and as soon
+    as the sphere is gone it moves in again, with no outward speed left."""
+    from grainlab.engine.contact_dynamics import OUTWARD_SPEED_FACTOR
+    from grainlab.engine.wall_box import SERVO_GAIN
+
+    sigma, limit, dt = 1e3, 1e-3, 1e-5
+    step = ContactDynamicsStep(dt=dt, friction=0.0, tolerance=1e-10, max_iterations=100)
+    free = one_sphere_in_box(height=4.0 * R)
+    _servo_box(free, sigma, limit, dt)
+    assert free.box.free_speeds(dt)[5] == pytest.approx(SERVO_GAIN * limit, rel=1e-12)
+    step.step(free.state, free.library, free.box)
+    assert free.box.speeds[5] == pytest.approx(limit, rel=1e-12)  # braked at the limit
+    resting = one_sphere_in_box(height=2.0 * R)
+    _servo_box(resting, sigma, limit, dt)
+    for _ in range(50):
+        step.step(resting.state, resting.library, resting.box)
+    area = resting.box.face_areas[5]
+    assert resting.box.reactions[5] == pytest.approx(sigma * area, rel=1e-6)
+    assert abs(resting.box.speeds[5]) < 1e-9
+    thrown = one_sphere_in_box(height=2.0 * R)
+    _servo_box(thrown, sigma, limit, dt)
+    thrown.state.velocities[0, 2] = 1.0  # up, into the wall, at 1000 v_max
+    step.step(thrown.state, thrown.library, thrown.box)
+    assert thrown.box.speeds[5] == pytest.approx(-OUTWARD_SPEED_FACTOR * limit, rel=1e-9)
+    assert thrown.state.velocities[0, 2] == pytest.approx(OUTWARD_SPEED_FACTOR * limit,
+                                                           rel=1e-6)  # held by the wall
+    thrown.state.velocities[0] = [0.0, 0.0, -1.0]  # the sphere leaves
+    thrown.state.positions[0, 2] = R
+    step.step(thrown.state, thrown.library, thrown.box)
+    assert thrown.box.speeds[5] == pytest.approx(limit, rel=1e-12)  # in again at once
+    momentum = one_sphere_in_box(height=2.0 * R)  # a wall with mass keeps flying out
+    momentum.box.set_control("z+", "stress", sigma)
+    momentum.box.set_masses(float(momentum.state.masses[0]))
+    momentum.state.velocities[0, 2] = 1.0
+    step.step(momentum.state, momentum.library, momentum.box)
+    momentum.state.velocities[0] = [0.0, 0.0, -1.0]
+    momentum.state.positions[0, 2] = R
+    step.step(momentum.state, momentum.library, momentum.box)
+    assert momentum.box.speeds[5] < -0.1
+
+
+def test_servo_walls_go_through_a_checkpoint():
+    box = WallBox([0, 0, 0], [1, 1, 1])
+    box.set_control("y+", "stress", 5e3)
+    box.set_max_speeds(0.01)
+    box.servo = True
+    again = WallBox.from_arrays(box.to_arrays())
+    assert again.servo
+    np.testing.assert_allclose(again.servo_masses(1e-4), box.servo_masses(1e-4))
+    np.testing.assert_allclose(box.servo_masses(1e-4)[3], 5e3 / (20.0 * 0.01) * 1e-4)
