@@ -214,3 +214,33 @@ def test_servo_walls_go_through_a_checkpoint():
     assert again.servo
     np.testing.assert_allclose(again.servo_masses(1e-4), box.servo_masses(1e-4))
     np.testing.assert_allclose(box.servo_masses(1e-4)[3], 5e3 / (20.0 * 0.01) * 1e-4)
+
+
+def test_solver_divergence_is_judged_by_the_residual():
+    """Steps at the sweep cap count towards a divergence stop only when their natural-map
+    residual is far from the tolerance: impulses that keep moving along a freedom of
+    hyperstatic points (a large relative change) with a small residual do not stop a run."""
+    from dataclasses import replace
+
+    sample = one_sphere_in_box()
+    solver = ContactDynamicsStep(dt=1e-5, tolerance=1e-4)
+    sim = Simulation(sample, solver, max_unconverged=3)
+    report = solver.step(sample.state, sample.library, sample.box)
+
+    class Scripted:
+        """The real solver's settings, a scripted report."""
+
+        def __init__(self, residual, change):
+            self.dt, self.tolerance, self.max_iterations = 1e-5, 1e-4, 200
+            self.report = replace(report, converged=False, residual=residual, change=change)
+
+        def step(self, *_):
+            return self.report
+
+    sim.solver = Scripted(residual=1.5e-4, change=0.02)
+    sim.run(10)
+    assert sim.unconverged_steps == 10 and sim.unconverged_in_row == 0
+    sim.solver = Scripted(residual=0.05, change=1e-6)
+    sim.run(2)
+    with pytest.raises(SimulationBlowUp, match="solver divergence"):
+        sim.step()

@@ -13,9 +13,13 @@ Health check (a run that blows up stops with a diagnosis, :class:`SimulationBlow
 * runaway overlap: the largest overlap at detection above ``max_overlap`` x the mean
   particle diameter (default 0.1);
 * solver divergence: ``max_unconverged`` consecutive steps (default 200) whose NLGS hit its
-  iteration cap still far from the solution (residual or change above ``divergence_factor``
-  x the tolerance, default 100); steps that end near it are counted
-  (``unconverged_steps``) and reported, not fatal;
+  iteration cap still far from the solution (natural-map residual above
+  ``divergence_factor`` x the tolerance, default 100); steps that end near it are counted
+  (``unconverged_steps``) and reported, not fatal. The relative change of the impulses is
+  not a distance to the solution where the impulses are not unique: the coplanar points of
+  a polyhedron face contact share their normal force in many ways, and a loose frictionless
+  compaction of 1000 polyhedra was stopped with the residual at 1.5e-4 (tolerance 1e-4)
+  while the impulses still moved by 1.8 % per sweep along that freedom;
 * opposite walls crossing.
 
 >>> from grainlab.prep.loose_sample import loose_sample
@@ -156,8 +160,7 @@ class Simulation:
             self.unconverged_in_row = 0
         else:
             self.unconverged_steps += 1
-            far = max(report.residual, report.change) > self.divergence_factor * \
-                self.solver.tolerance
+            far = report.residual > self.divergence_factor * self.solver.tolerance
             self.unconverged_in_row = self.unconverged_in_row + 1 if far else 0
         self._check_health(report)
         for op in self.operations:
