@@ -111,6 +111,8 @@ import os
 import sys
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(sys.argv[0])))
+import contact_counts
 import numpy as np
 from yade import O, log, pack, polyhedra_utils, utils
 from yade.minieigenHP import Vector3
@@ -392,45 +394,9 @@ builtins.servo = servo       # PyRunner commands are evaluated in YADE's global 
 
 
 def contact_stats(min_contacts):
-    """(z, z_nr, rattler fraction, z_walls_nr) over force-carrying contacts (docstring above)."""
-    ncont = {i: 0 for i in GRAIN_IDS}
-    nwall = {i: 0 for i in GRAIN_IDS}
-    neigh = {i: [] for i in GRAIN_IDS}
-    n_pp = 0
-    for it in O.interactions:
-        if not it.isReal or it.phys.normalForce.squaredNorm() == 0.0:
-            continue
-        a, b = it.id1, it.id2
-        wa, wb = a in IS_WALL, b in IS_WALL
-        if wa and wb:
-            continue
-        if wa or wb:
-            ncont[b if wa else a] += 1
-            nwall[b if wa else a] += 1
-            continue
-        n_pp += 1
-        ncont[a] += 1
-        ncont[b] += 1
-        neigh[a].append(b)
-        neigh[b].append(a)
-    alive = set(GRAIN_IDS)
-    stack = [i for i in GRAIN_IDS if ncont[i] < min_contacts]
-    while stack:
-        i = stack.pop()
-        if i not in alive:
-            continue
-        alive.discard(i)
-        for j in neigh[i]:
-            if j in alive:
-                ncont[j] -= 1
-                if ncont[j] < min_contacts:
-                    stack.append(j)
-    n_pp_alive = sum(1 for i in alive for j in neigh[i] if j in alive) // 2
-    n_pw_alive = sum(nwall[i] for i in alive)
-    z = 2.0 * n_pp / N
-    z_nr = 2.0 * n_pp_alive / len(alive) if alive else 0.0
-    z_nr_w = 2.0 * (n_pp_alive + n_pw_alive) / len(alive) if alive else 0.0
-    return z, z_nr, 1.0 - len(alive) / N, z_nr_w
+    """(z, z_nr, rattler fraction, z_walls_nr) over force-carrying contacts
+    (:func:`contact_counts.contact_stats`)."""
+    return contact_counts.contact_stats(O.interactions, GRAIN_IDS, IS_WALL, min_contacts)
 
 
 def overlaps():
