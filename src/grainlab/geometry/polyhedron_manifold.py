@@ -36,7 +36,17 @@ under face f of A has g = n_f . b - O_f and normal n_f (a vertex of A under face
 g = n_f . a - O_f, normal -n_f), a crossing of edges d_a, d_b the common normal
 m = d_a x d_b towards B and g = (gap along n) (m . n), unless the edges are nearly parallel
 (:data:`EDGE_NORMAL_SIN`) or m lies more than 60 degrees from n (:data:`EDGE_NORMAL_COS`),
-where the pair's n and the gap along n are kept. These are the gap functions whose first
+where the pair's n and the gap along n are kept. A vertex whose line along n meets the other
+body on an edge (two face planes through the entry point, within a tie length of 1e-9 of the
+body's size) has the vertex-edge constraint: normal the part of n normal to the edge, gap t
+times its length (t: the distance along n), feature id the edge's; on a vertex (three or
+more planes), the vertex-vertex constraint along n, gap t. This is the common case of bodies
+apart whose closest features are a vertex and an edge: the line from the vertex along the
+link n meets the edge exactly, and choosing one of the two faces there (as round-off would)
+gives a gap smaller than the bodies' distance and a tilted normal, different on another
+processor or in another frame. A crossing at an end of either edge (within the tie length) is
+that end vertex over the other edge: the vertex candidate carries it (the two edges at the
+vertex would each bring their own gap and normal). These are the gap functions whose first
 order is exact under any small rigid motion: the gap along the pair's n of a vertex over a
 face tilted from n changes with tangential sliding, so a frictionless point that the solver
 held at zero normal velocity still sank (measured: 1e-4 to 3e-4 <d> per step in a jammed
@@ -46,10 +56,11 @@ Reduction to ``max_points`` (3 to :data:`~grainlab.geometry.polyhedron_contact.M
 default :data:`~grainlab.geometry.polyhedron_contact.DEFAULT_MAX_POINTS`): the deepest,
 the one farthest from it, the one giving the largest triangle (seed 002: a flat contact is
 "replaced by three points"), with 4 or more the one adding the largest area outside that
-triangle, then the deepest of the rest (coincident points skipped). A vertex-face or
-edge-edge contact alone gives 1 point, an edge on a face 2, two triangles up to 6. Why more
-than seed 002's three: a point left out is not held, and when it lies outside the kept
-triangle (a triangle-triangle overlap is a hexagon, a twisted square-square one an octagon)
+triangle, then the deepest of the rest (coincident points skipped); values within round-off
+tie and go to the lower feature-ordered index, so the choice is the same in every frame. A
+vertex-face or edge-edge contact alone gives 1 point, an edge on a face 2, two triangles up
+to 6. Why more than seed 002's three: a point left out is not held, and when it lies outside
+the kept triangle (a triangle-triangle overlap is a hexagon, a twisted square-square one an octagon)
 the body turns into the other about the kept ones; in a frictionless compaction of 60
 polyhedra (n_f = 30) the left-out points sank in turn (the deepest point of a wall contact
 alternated between two vertices as it went from 4 % to 9 % of <d>) and the largest overlap
@@ -110,9 +121,13 @@ EDGE_NORMAL_COS = 0.5
 @njit(inline="always")
 def _reduce(points, gaps, count, tol, max_points):
     """Indices (MAX_POINTS,) of at most ``max_points`` (3 to MAX_POINTS) of ``count``
-    points: the deepest (lowest index within ``tol``), the farthest from it, the one giving
-    the largest triangle, the one adding the largest area outside that triangle, then the
-    deepest of the rest not within ``tol`` of a kept one; returns (idx, n) (scalar code)."""
+    points: the deepest, the farthest from it, the one giving the largest triangle, the one
+    adding the largest area outside that triangle, then the deepest of the rest not within
+    ``tol`` [m] of a kept one; returns (idx, n) (scalar code). Every comparison asks for a
+    margin of ``tol`` (a length, or tol times a length for areas), so that values equal up to
+    round-off tie, and a tie goes to the lower index: the candidates come in the order of the
+    shapes' own feature ids, so the choice does not depend on the frame (a symmetric contact,
+    a square on a square, has exact ties that round-off would otherwise settle)."""
     idx = np.empty(MAX_POINTS, dtype=np.int64)
     first = 0
     for k in range(1, count):
@@ -122,14 +137,15 @@ def _reduce(points, gaps, count, tol, max_points):
     if count == 1:
         return idx, 1
     ox, oy, oz = points[first, 0], points[first, 1], points[first, 2]
-    far, far_d = -1, -1.0
+    far, far_r = first, 0.0
     for k in range(count):
         dx, dy, dz = points[k, 0] - ox, points[k, 1] - oy, points[k, 2] - oz
-        dd = dx * dx + dy * dy + dz * dz
-        if dd > far_d + tol * tol:
-            far, far_d = k, dd
-    if far_d <= tol * tol:
+        r = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if r > far_r + tol:  # distances, not their squares (tol^2 is below round-off)
+            far, far_r = k, r
+    if far_r <= tol:
         return idx, 1
+    far_d = far_r * far_r
     idx[1] = far
     if count == 2:
         return idx, 2
@@ -179,7 +195,7 @@ def _reduce(points, gaps, count, tol, max_points):
                 if dx * dx + dy * dy + dz * dz <= tol * tol:
                     fresh = False
                     break
-            if fresh and (best < 0 or gaps[k] < gaps[best]):
+            if fresh and (best < 0 or gaps[k] < gaps[best] - tol):
                 best = k
         if best < 0:
             break
@@ -207,6 +223,66 @@ def _line_entry(x, dx, dy, dz, normals, offsets, faces, n_faces):
         elif r < 0.0:
             return 0.0, -1, False
     return t_in, face, face >= 0 and t_in <= t_out + 1e-12 * (abs(t_in) + 1.0)
+
+
+@njit(inline="always")
+def _vertex_constraint(x, t, f, sign, nx, ny, nz, vertices, normals, offsets, edges,
+                       edge_faces, faces, n_faces, tie):
+    """Gap [m], unit normal (from A to B) and feature id (module docstring) of the other
+    body's feature in the constraint of vertex ``x`` whose line x + sign t n (sign -1: a
+    vertex of B going down into A, +1: a vertex of A going up into B) enters the other body
+    (``vertices``, ``normals``, ``offsets``, ``edges``, ``edge_faces``) at parameter ``t`` [m]
+    through face ``f`` (faces[:n_faces] are those the entry was searched among):
+    (gap, mx, my, mz, feature).
+
+    The entry point lies on the planes of the faces through it, within ``tie`` [m]: one face
+    gives the vertex-face constraint (distance to the plane of f along its normal); two, an
+    edge of the other body (e = n_f x n_g): the vertex-edge constraint, normal the part of n
+    normal to e, gap t |n - (n . e) e|; three or more, a vertex: the vertex-vertex constraint
+    along n, gap t. The line from the vertex nearest to an edge or a vertex of the other body
+    hits that feature exactly (its direction n is the link of the two features), so this is
+    the common case of separated bodies, not a rare one: choosing one of the faces there would
+    let round-off decide between two different gaps and normals."""
+    ex_x, ex_y, ex_z = x[0] + sign * t * nx, x[1] + sign * t * ny, x[2] + sign * t * nz
+    through, first, second = 0, -1, -1
+    for i in range(n_faces):
+        g = faces[i]
+        d = normals[g, 0] * ex_x + normals[g, 1] * ex_y + normals[g, 2] * ex_z - offsets[g]
+        if abs(d) <= tie:
+            through += 1
+            if first < 0:
+                first = g
+            elif second < 0:
+                second = g
+    n_v, n_e = vertices.shape[0], edges.shape[0]
+    if through >= 3:
+        near, near_d = 0, _HUGE
+        for v in range(n_v):
+            d = abs(vertices[v, 0] - ex_x) + abs(vertices[v, 1] - ex_y) \
+                + abs(vertices[v, 2] - ex_z)
+            if d < near_d:
+                near, near_d = v, d
+        return t, nx, ny, nz, near
+    if through == 2:
+        ex, ey, ez = _cross(normals[first, 0], normals[first, 1], normals[first, 2],
+                            normals[second, 0], normals[second, 1], normals[second, 2])
+        size = math.sqrt(ex * ex + ey * ey + ez * ez)
+        if size > 1e-9:
+            ex, ey, ez = ex / size, ey / size, ez / size
+            along = nx * ex + ny * ey + nz * ez
+            px, py, pz = nx - along * ex, ny - along * ey, nz - along * ez
+            size = math.sqrt(px * px + py * py + pz * pz)
+            if size > 1e-9:
+                edge = 0
+                for e in range(n_e):
+                    if (edge_faces[e, 0] == first and edge_faces[e, 1] == second) or \
+                            (edge_faces[e, 0] == second and edge_faces[e, 1] == first):
+                        edge = e
+                        break
+                return t * size, px / size, py / size, pz / size, n_v + edge
+    gap = normals[f, 0] * x[0] + normals[f, 1] * x[1] + normals[f, 2] * x[2] - offsets[f]
+    return gap, -sign * normals[f, 0], -sign * normals[f, 1], -sign * normals[f, 2], \
+        n_v + n_e + f
 
 
 @njit(inline="always")
@@ -313,6 +389,13 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     lo = -neg
     band = max(alert, g, 0.0)
     limit = band + 1e-12 * (abs(hi) + abs(lo))
+    scale = 0.0
+    for v in range(nva):
+        scale = max(scale, abs(va[v, 0] - va[0, 0]) + abs(va[v, 1] - va[0, 1])
+                    + abs(va[v, 2] - va[0, 2]))
+    # lengths within tie [m] are equal (round-off of the coordinates, far below any contact
+    # length): entry points on a face plane, crossings at an edge end
+    tie = 1e-9 * scale + 1e-12 * (abs(hi) + abs(lo))
     # the caps reach at least through the whole overlap (an overlap deeper than the band
     # must not leave features of the overlapping region out of the candidates)
     floor_a = min(hi - band, lo) - limit
@@ -388,24 +471,31 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
         t, f, hit = _line_entry(b, -nx, -ny, -nz, na, oa, faces_a, n_fa)
         if hit and t <= limit:
             # gap and normal of the vertex-face constraint: distance to the plane of f along
-            # its own normal (first-order exact under sliding, unlike the gap along n)
-            gap_f = na[f, 0] * b[0] + na[f, 1] * b[1] + na[f, 2] * b[2] - oa[f]
-            cnormal[count] = na[f]
-            cand[count] = b - 0.5 * gap_f * na[f]
+            # its own normal (first-order exact under sliding, unlike the gap along n); of
+            # the vertex-edge or vertex-vertex one where the line enters on an edge or vertex
+            gap_f, mx, my, mz, feature = _vertex_constraint(b, t, f, -1.0, nx, ny, nz, va, na,
+                                                            oa, ea, efa, faces_a, n_fa, tie)
+            cnormal[count, 0], cnormal[count, 1], cnormal[count, 2] = mx, my, mz
+            cand[count, 0] = b[0] - 0.5 * gap_f * mx
+            cand[count, 1] = b[1] - 0.5 * gap_f * my
+            cand[count, 2] = b[2] - 0.5 * gap_f * mz
             local[count] = gap_f
-            cid_a[count] = nva + nea + f
+            cid_a[count] = feature
             cid_b[count] = cap_b[k]
             count += 1
     for k in range(n_ca):  # vertices of A under B's lower surface (line going up)
         a = va[cap_a[k]]
         t, f, hit = _line_entry(a, nx, ny, nz, nb, ob, faces_b, n_fb)
         if hit and t <= limit:
-            gap_f = nb[f, 0] * a[0] + nb[f, 1] * a[1] + nb[f, 2] * a[2] - ob[f]
-            cnormal[count] = -nb[f]
-            cand[count] = a - 0.5 * gap_f * nb[f]
+            gap_f, mx, my, mz, feature = _vertex_constraint(a, t, f, 1.0, nx, ny, nz, vb, nb,
+                                                            ob, eb, efb, faces_b, n_fb, tie)
+            cnormal[count, 0], cnormal[count, 1], cnormal[count, 2] = mx, my, mz
+            cand[count, 0] = a[0] + 0.5 * gap_f * mx
+            cand[count, 1] = a[1] + 0.5 * gap_f * my
+            cand[count, 2] = a[2] + 0.5 * gap_f * mz
             local[count] = gap_f
             cid_a[count] = cap_a[k]
-            cid_b[count] = nvb + neb + f
+            cid_b[count] = feature
             count += 1
     for i in range(n_ea):  # crossings of facing cap edges seen along n (scalar code)
         e = edge_a[i]
@@ -413,6 +503,7 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
         p0x, p0y, p0z = va[u0, 0], va[u0, 1], va[u0, 2]
         dax, day, daz = va[u1, 0] - p0x, va[u1, 1] - p0y, va[u1, 2] - p0z
         la = dax * dax + day * day + daz * daz
+        sqrt_la = math.sqrt(la)
         for jj in range(near_start[i], near_start[i + 1]):
             k = edge_b[near[jj]]
             w0, w1 = eb[k, 0], eb[k, 1]
@@ -425,12 +516,16 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
                 continue
             wx, wy, wz = q0x - p0x, q0y - p0y, q0z - p0z
             cx, cy, cz = _cross(wx, wy, wz, dbx, dby, dbz)
+            # a crossing at an end of either edge (within tie) is that end vertex over an
+            # edge of the other body: the vertex candidate carries it, with the vertex-edge
+            # constraint (two edges at a vertex would each give their own gap and normal)
             s = (cx * nx + cy * ny + cz * nz) / cross
-            if s < 0.0 or s > 1.0:
+            if s * sqrt_la <= tie or (1.0 - s) * sqrt_la <= tie:
                 continue
             cx, cy, cz = _cross(wx, wy, wz, dax, day, daz)
             t = (cx * nx + cy * ny + cz * nz) / cross
-            if t < 0.0 or t > 1.0:
+            sqrt_lb = math.sqrt(dbx * dbx + dby * dby + dbz * dbz)
+            if t * sqrt_lb <= tie or (1.0 - t) * sqrt_lb <= tie:
                 continue
             pax, pay, paz = p0x + s * dax, p0y + s * day, p0z + s * daz
             pbx, pby, pbz = q0x + t * dbx, q0y + t * dby, q0z + t * dbz
@@ -466,14 +561,6 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
         ids_a[0] = _code(kind_a, fa, nva, nea)
         ids_b[0] = top_b
         return 1, kind
-    extent = 0.0
-    for k in range(count):
-        extent = max(extent, abs(cand[k, 0] - cand[0, 0]) + abs(cand[k, 1] - cand[0, 1])
-                     + abs(cand[k, 2] - cand[0, 2]))
-    scale = 0.0
-    for v in range(nva):
-        scale = max(scale, abs(va[v, 0] - va[0, 0]) + abs(va[v, 1] - va[0, 1])
-                    + abs(va[v, 2] - va[0, 2]))
     idx, kept = _reduce(cand, local, count, 1e-9 * scale, max_points)
     for r in range(kept):
         points[r] = cand[idx[r]]
