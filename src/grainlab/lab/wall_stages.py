@@ -8,7 +8,8 @@ A discrete sample in a wall box controls the three normal components of its cont
 * strain-controlled with increment e != 0 per step: a constant logarithmic strain rate
   d eps/dt = sign(e) eps_dot, the upper wall ("+" side) moving at eps_dot L(t) and the lower
   one fixed (seed 002: "top wall at constant velocity"); the stage ends when the axis has
-  strained by n_steps x e since the stage began. The rate follows from the bound on the
+  strained by n_steps x e since the stage began, its last step cut short to end on that
+  strain (:class:`~grainlab.lab.discrete_test.DiscreteTest`). The rate follows from the bound on the
   inertia number, eps_dot = I_max sqrt(p_ref / rho) / <d> (p_ref: the stage's confining
   stress);
 * strain-controlled with e = 0: both walls fixed;
