@@ -1,6 +1,6 @@
 """Stages of discrete tests end on their targets whatever the record interval: the strain of
 a strain-controlled axis exactly, a stop criterion on a strain within a step; the end state is
-a row; the cut last step goes through a checkpoint."""
+a row; the cut last step goes through a checkpoint; K0 of one-dimensional compression."""
 
 from __future__ import annotations
 
@@ -75,6 +75,15 @@ def test_oedometer_stages_end_on_their_strains_with_a_coarse_record(oedometer_ru
     assert top - bottom == pytest.approx(UNLOAD, abs=1e-10)
     # the lateral walls stay put
     assert np.max(np.abs(table.loc[table["stage"] != "compaction", "eps_xx"])) < 1e-12
+
+
+def test_oedometer_reports_k0(oedometer_run):
+    _, result, _ = oedometer_run
+    table = result.table
+    expected = (table["sigma_xx"] + table["sigma_yy"]) / (2.0 * table["sigma_zz"])
+    np.testing.assert_allclose(table["K0"], expected, rtol=1e-14)
+    assert result.units["K0"] == "-"
+    assert np.isfinite(_stage(table, "loading")["K0"]).all()
 
 
 def test_a_cut_last_step_goes_through_a_checkpoint(oedometer_run, tmp_path):

@@ -68,7 +68,9 @@ records. The cut step length is the solver's step, saved in checkpoints like the
 resumed run takes the same steps.
 
 Columns besides :mod:`grainlab.engine.sample_measures`: ``stage``, ``step``, ``time`` [s],
-``dt`` [s], ``unbalanced_force_ratio``, ``kinetic_energy_ratio``, ``friction``.
+``dt`` [s], ``unbalanced_force_ratio``, ``kinetic_energy_ratio``, ``friction``, and in tests
+with a one-dimensional stage (:attr:`~grainlab.lab.wall_stages.WallStage.oedometric`)
+``K0`` = (sigma_xx + sigma_yy) / (2 sigma_zz) [-] of the contact stresses.
 """
 
 from __future__ import annotations
@@ -240,6 +242,7 @@ class DiscreteTest:
         self.path = path
         self.settings = settings or DiscreteTestSettings()
         self.stages: list[WallStage] = wall_stages(path)
+        self.reports_k0 = any(stage.oedometric for stage in self.stages)
         self.on_record = on_record
         self.on_snapshot = on_snapshot
         self.on_stage_end = None
@@ -501,6 +504,8 @@ class DiscreteTest:
         full = {"stage": stage.name if stage else "end", "step": sim.step_index,
                 "time": sim.time, "dt": self.solver.dt, "friction": self.solver.friction}
         full.update(row)
+        if self.reports_k0:
+            full["K0"] = _k0(row)
         self.rows.append(full)
         every = self.settings.snapshot_every
         if every and sim.step_index % every == 0:
@@ -627,3 +632,11 @@ def _value(criterion: StopCriterion, row: dict[str, float]) -> float:
     """The value ``criterion`` compares with its limit."""
     value = float(row[criterion.quantity])
     return abs(value) if criterion.absolute else value
+
+
+def _k0(row: dict[str, float]) -> float:
+    """K0 = (sigma_xx + sigma_yy) / (2 sigma_zz) [-] of a row's contact stresses (NaN unless
+    sigma_zz > 0)."""
+    vertical = row["sigma_zz"]
+    return 0.5 * (row["sigma_xx"] + row["sigma_yy"]) / vertical if vertical > 0.0 \
+        else math.nan

@@ -107,6 +107,12 @@ class WallStage:
         return tuple(a for a in range(3) if self.modes[a] == "strain")
 
     @property
+    def oedometric(self) -> bool:
+        """One-dimensional compression or extension: z strain-controlled, x and y fixed
+        (K0 = (sigma_xx + sigma_yy) / (2 sigma_zz) is reported)."""
+        return self.modes == ("fixed", "fixed", "strain")
+
+    @property
     def stress_axes(self) -> tuple[int, ...]:
         """Stress-controlled axes."""
         return tuple(a for a in range(3) if self.modes[a] == "stress")
