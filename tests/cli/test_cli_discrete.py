@@ -33,6 +33,33 @@ def test_oedometer_runs_to_the_end_with_a_figure(tmp_path):
     assert (tmp_path / "vtk" / "particles_000000.vtu").exists()
 
 
+def test_oedometer_summary_and_figure_speak_of_k0(tmp_path):
+    out = tmp_path / "oedo"
+    result = runner.invoke(app, [
+        "oedometer", "--out", str(out), "-n", "30", "--seed", "3", "--axial-strain", "0.002",
+        "--unload-strain", "0.001", "--inertia", "0.01", "--sweep", "serial", "--no-progress",
+        "--record-every", "50"])
+    assert result.exit_code == 0, result.output
+    said = " ".join(result.output.split())  # rich wraps long lines
+    # each stage ends on its strain though a record was due every 50 steps only
+    assert "loading: to eps_zz 0.002 (asked 0.002)" in said
+    assert "unloading: by 0.001 (asked 0.001) to eps_zz 0.001" in said
+    assert "K0" in said and "at the end of loading" in said and "at the end of unloading" in said
+    assert "rigid grains" in said and "degenerate" in said
+    assert "shear" not in said
+    table = read_test_result(out / "results.csv").table
+    assert list(dict.fromkeys(table["stage"])) == ["compaction", "loading", "unloading"]
+    assert "K0" in table
+    assert (out / "curves.png").stat().st_size > 0
+
+
+def test_oedometer_help_defines_k0_and_warns_about_rigid_grains():
+    result = runner.invoke(app, ["oedometer", "--help"], terminal_width=100)
+    said = " ".join(result.output.split())
+    assert "K0 = (sigma_xx + sigma_yy) / (2 sigma_zz)" in said
+    assert "degenerate" in said and "rigid grains" in said
+
+
 @pytest.mark.parametrize("arguments, field", [
     (["triaxial", "--mu", "-0.1"], "solver.friction"),
     (["triaxial", "-n", "0"], "sample.n_particles"),

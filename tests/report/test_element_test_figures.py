@@ -28,6 +28,7 @@ from grainlab.report.element_test_figures import (
     failure_surface,
     hysteresis_figure,
     k0_figure,
+    oedometer_stages_figure,
     simple_shear_figure,
     triaxial_figure,
 )
@@ -160,3 +161,26 @@ def test_b_sweep_figure():
     with pytest.raises(InputError, match="deps_oct_x"):
         b_sweep_figure(TestResult.create(table.drop(columns="deps_oct_x"), specimen={},
                                          load_path={}, dimension=3))
+
+
+def test_oedometer_stages_figure_draws_k0_and_sigma_zz_by_stage():
+    table = pd.DataFrame({
+        "stage": ["compaction"] * 2 + ["loading"] * 3 + ["unloading"] * 2,
+        "eps_zz": [0.2, 0.25, 0.0, 1e-3, 2e-3, 1.5e-3, 1e-3],
+        "sigma_xx": [1e4, 1e4, 1e4, 2e4, 3e4, 2e4, 1.5e4],
+        "sigma_yy": [1e4, 1e4, 1e4, 2e4, 3e4, 2.5e4, 1.5e4],
+        "sigma_zz": [1e4, 1e4, 1e4, 4e4, 6e4, 3e4, 2e4]})
+    figure = oedometer_stages_figure(TestResult.create(table, specimen={}, load_path={}))
+    ax_k, ax_s = figure.axes
+    assert "K0" in ax_k.get_ylabel() and "sigma_zz" in ax_s.get_ylabel()
+    assert "eps_zz" in ax_k.get_xlabel()
+    for ax in (ax_k, ax_s):
+        assert [line.get_label() for line in ax.lines] == ["loading", "unloading"]
+    loading, unloading = ax_k.lines
+    # from the end of the compaction, at zero strain (strains are from its last box)
+    np.testing.assert_allclose(loading.get_xdata(), [0.0, 0.0, 0.1, 0.2])  # percent
+    np.testing.assert_allclose(loading.get_ydata(), [1.0, 1.0, 0.5, 0.5])
+    # the unloading starts where the loading ended
+    np.testing.assert_allclose(unloading.get_xdata(), [0.2, 0.15, 0.1])
+    np.testing.assert_allclose(unloading.get_ydata(), [0.5, 0.75, 0.75])
+    np.testing.assert_allclose(ax_s.lines[1].get_ydata(), [60.0, 30.0, 20.0])  # kPa

@@ -18,9 +18,27 @@ _OUT = typer.Option(Path("grainlab-run"), "--out", "-o",
                          "run.log, figures).")
 
 
+RIGID_OEDOMETER = (
+    "rigid grains: the sample cannot compress beyond rearrangement, so the oedometer is "
+    "degenerate: sigma_zz comes from the overlaps the solver leaves and from the loading "
+    "rate, and K0 is not an elastic K0 (until deformable contacts exist)")
+"""What the summary of an oedometer run says about its meaning."""
+
+
+def _test_config(result) -> dict:
+    """The [test] table of the run's config (kind, sigma0, targets)."""
+    return result.metadata["parameters"]["config"]["test"]
+
+
 def _figures(folder: Path, result) -> list[Path]:
-    """q/p, volumetric strain and packing fraction against eps_q (shear stages) or the
-    packing fraction against time (compaction)."""
+    """curves.png: K0 and sigma_zz against eps_zz by stage (oedometer), q/p, volumetric
+    strain and packing fraction against eps_q (shear stages) or the packing fraction against
+    time (compaction)."""
+    if _test_config(result)["kind"] == "oedometer":
+        from grainlab.report.curves import save_figure
+        from grainlab.report.element_test_figures import oedometer_stages_figure
+
+        return [save_figure(oedometer_stages_figure(result), folder / "curves.png", dpi=120)]
     import matplotlib
 
     matplotlib.use("Agg")
@@ -57,6 +75,27 @@ def _type_fractions(row) -> str:
                                          for k in names)
 
 
+def _oedometer_summary(result) -> None:
+    """Loading and unloading: strains reached against those asked, sigma_zz and K0 at the
+    end of each, and what they mean on rigid grains."""
+    table, asked = result.table, _test_config(result)
+    steps = {s["name"]: s["steps"] for s in result.metadata["outcome"]["stages"]}
+    loading = table[table["stage"] == "loading"]
+    unloading = table[table["stage"] == "unloading"]
+    if len(loading):
+        end = loading.iloc[-1]
+        console.print(f"loading: to eps_zz {end['eps_zz']:.6g} (asked {asked['axial_strain']:g})"
+                      f" in {steps.get('loading', '?')} steps; at the end of loading sigma_zz "
+                      f"{end['sigma_zz']:.4g} Pa, K0 {end['K0']:.4f}")
+    if len(unloading) and len(loading):
+        end, top = unloading.iloc[-1], loading.iloc[-1]
+        console.print(f"unloading: by {top['eps_zz'] - end['eps_zz']:.6g} (asked "
+                      f"{asked['unload_strain']:g}) to eps_zz {end['eps_zz']:.6g} in "
+                      f"{steps.get('unloading', '?')} steps; at the end of unloading sigma_zz "
+                      f"{end['sigma_zz']:.4g} Pa, K0 {end['K0']:.4f}")
+    console.print(f"note: {RIGID_OEDOMETER}")
+
+
 def _summary(result) -> None:
     table = result.table
     last = table.iloc[-1]
@@ -69,7 +108,9 @@ def _summary(result) -> None:
         console.print(f"end of compaction: packing fraction {c['packing_fraction']:.4f}, "
                       f"z {c['z']:.3f} (no rattlers {c['z_no_rattlers']:.3f}), "
                       f"z_c {c['z_c']:.3f}, p {c['p']:.4g} Pa{_type_fractions(c)}")
-    if len(shear) > 2:
+    if _test_config(result)["kind"] == "oedometer":
+        _oedometer_summary(result)
+    elif len(shear) > 2:
         peak = shear["q_over_p"].max()
         late = shear[shear["eps_q"] >= 0.7 * shear["eps_q"].max()]
         console.print(f"shear: peak q/p {peak:.4f}; over the last 30 % of eps_q: q/p "
@@ -216,7 +257,12 @@ def oedometer_command(
     progress: bool = _PROGRESS,
 ) -> None:
     """Oedometer (1-D compression, lateral walls fixed) of a discrete sample after
-    isotropic compaction to SIGMA0; K0 = sigma_xx / sigma_zz in the results."""
+    isotropic compaction to SIGMA0: loading by AXIAL_STRAIN, then unloading by UNLOAD_STRAIN
+    (each stage ends on its strain, whatever --record-every); K0 = (sigma_xx + sigma_yy) /
+    (2 sigma_zz) in the results (column K0), the summary and curves.png (K0 and sigma_zz
+    against eps_zz). On rigid grains the test is degenerate: the sample cannot compress
+    beyond rearrangement, sigma_zz comes from the overlaps the solver leaves and from the
+    loading rate, and K0 is not an elastic K0 (until deformable contacts exist)."""
     overrides = _options(shape, n, d_min, size_ratio, eta, density, mu, sigma0, inertia, seed,
                          dt, tolerance, sweep, record_every, snapshot_every, checkpoint_every,
                          vtk_every, faces=faces, templates=templates)

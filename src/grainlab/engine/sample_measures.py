@@ -83,6 +83,18 @@ def world_forces(report: StepReport, dt: float) -> np.ndarray:
     return np.einsum("cji,cj->ci", report.frames, report.impulses) / dt
 
 
+def box_strains(initial_lengths: np.ndarray, lengths: np.ndarray) -> dict[str, float]:
+    """The strain columns of a box of ``lengths`` (3,) [m] from ``initial_lengths`` (3,) [m]
+    (module docstring): logarithmic eps_xx, eps_yy, eps_zz, eps_p and eps_q [-], known from
+    the walls alone (stage ends are checked on them after every step)."""
+    strains = np.log(np.asarray(initial_lengths) / np.asarray(lengths))
+    row = {f"eps_{label}": float(value)
+           for label, value in zip(("xx", "yy", "zz"), strains, strict=True)}
+    row["eps_p"] = float(np.sum(strains))
+    row["eps_q"] = float(np.max(strains) - np.min(strains))
+    return row
+
+
 def contact_stress(report: StepReport, state: BodyState, volume: float,
                    dt: float) -> np.ndarray:
     """(3, 3) stress from contacts [Pa] (module docstring)."""
@@ -303,11 +315,7 @@ def sample_measures(report: StepReport, state: BodyState, library: ShapeLibrary,
     for label, value in zip(("xx", "yy", "zz"), wall, strict=True):
         row[f"wall_sigma_{label}"] = float(value)
     row.update(stress_invariants(stress))
-    strains = np.log(initial_lengths / box.lengths)
-    for label, value in zip(("xx", "yy", "zz"), strains, strict=True):
-        row[f"eps_{label}"] = float(value)
-    row["eps_p"] = float(np.sum(strains))
-    row["eps_q"] = float(np.max(strains) - np.min(strains))
+    row.update(box_strains(initial_lengths, box.lengths))
     rates = np.abs(box.speeds[0::2] + box.speeds[1::2]) / box.lengths
     mean_d = float(2.0 * np.mean(library.bounding_radius[state.shape_ids]))
     p = row["p"]

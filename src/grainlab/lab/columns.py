@@ -23,6 +23,7 @@ STANDARD_COLUMNS: dict[str, tuple[str, str]] = {
     "q": ("Pa", "deviator sigma_1 - sigma_3"),
     "q_over_3": ("Pa", "deviator (sigma_1 - sigma_3)/3 as used in seeds 002/003"),
     "stress_ratio": ("-", "principal stress ratio sigma_1/sigma_3"),
+    "K0": ("-", "lateral stress ratio (sigma_xx + sigma_yy)/(2 sigma_zz) of 1-D compression"),
     "eps_xx": ("-", "normal strain xx"),
     "eps_yy": ("-", "normal strain yy"),
     "eps_zz": ("-", "normal strain zz"),

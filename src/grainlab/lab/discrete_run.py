@@ -315,7 +315,7 @@ _UNITS = {
     "solver_residual": "-", "max_overlap_over_d": "-", "kinetic_energy": "J",
     "unbalanced_force_ratio": "-", "kinetic_energy_ratio": "-", "z_c_points": "-",
     "fraction_fv": "-", "fraction_ee": "-", "fraction_fe": "-", "fraction_ff": "-",
-    "z_core": "-", "z_c_core": "-",
+    "z_core": "-", "z_c_core": "-", "K0": "-",
 }
 
 

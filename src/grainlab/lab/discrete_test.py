@@ -49,8 +49,28 @@ before any. A stage without a strain-controlled axis ends when quasi-static
 (:class:`~grainlab.lab.wall_stages.QuasiStaticCriteria`) or after ``max_stage_steps``
 (then ``outcome`` says it did not settle).
 
+Stage ends do not wait for a record. After every step the walls alone decide (cheap: the box
+lengths give the strains): the strain target of each strain-controlled axis, stop criteria on
+strain columns (:data:`STRAIN_COLUMNS`: ``eps_q`` of the triaxial test) and
+``max_stage_steps``. The step that would carry a stage past a target is cut short:
+
+* a strain-controlled axis moves at a prescribed wall speed, so its last step is cut to end
+  on the target exactly (to round-off: :data:`TARGET_MARGIN` past it); an axis that reached
+  its target holds still while the others go on;
+* a stop criterion on a strain is crossed where the walls' speeds of the step before predict
+  (linear in the step length); the stress-controlled walls may move a little otherwise, so it
+  ends within a small fraction of a step's increment of its limit, at worst one more step of
+  at least :data:`SHORTEST_CUT` of a step.
+
+The state a stage ends in is always a results row (the last of the stage), whatever
+``record_every``; stop criteria on other columns, and quasi-static ends, are checked at the
+records. The cut step length is the solver's step, saved in checkpoints like the rest, so a
+resumed run takes the same steps.
+
 Columns besides :mod:`grainlab.engine.sample_measures`: ``stage``, ``step``, ``time`` [s],
-``dt`` [s], ``unbalanced_force_ratio``, ``kinetic_energy_ratio``, ``friction``.
+``dt`` [s], ``unbalanced_force_ratio``, ``kinetic_energy_ratio``, ``friction``, and in tests
+with a one-dimensional stage (:attr:`~grainlab.lab.wall_stages.WallStage.oedometric`)
+``K0`` = (sigma_xx + sigma_yy) / (2 sigma_zz) [-] of the contact stresses.
 """
 
 from __future__ import annotations
@@ -63,12 +83,12 @@ import numpy as np
 
 from grainlab._validate import at_least
 from grainlab.engine.contact_dynamics import ContactDynamicsStep
-from grainlab.engine.sample_measures import sample_measures
+from grainlab.engine.sample_measures import box_strains, sample_measures
 from grainlab.engine.simulation import Periodic, Simulation
 from grainlab.engine.state import SHAPE_POLYHEDRON, ShapeLibrary
 from grainlab.engine.wall_box import WALL_NAMES
 from grainlab.errors import InputError
-from grainlab.lab.load_path import LoadPath
+from grainlab.lab.load_path import LoadPath, StopCriterion
 from grainlab.lab.wall_stages import AXES, QuasiStaticCriteria, WallStage, wall_stages
 from grainlab.prep.loose_sample import DiscreteSample
 
@@ -84,6 +104,20 @@ def time_step_length(library: ShapeLibrary) -> float:
         lengths.append(2.0 * float(np.min(library.face_offsets)))
     return min(lengths)
 
+
+TARGET_MARGIN = 1e-12
+"""Strain [-] by which the cut last step of a stage aims past its target, so that round-off
+cannot leave the target a hair short (and add a step of a few femtoseconds)."""
+
+SHORTEST_CUT = 0.01
+"""Shortest fraction of a step that a last step cut to a stop criterion may take. The
+crossing is predicted from the walls' speeds of the step before; where the stress-controlled
+walls then move less than predicted, the criterion is met one step later, and this bounds how
+short that step is (its overshoot is below this fraction of a step's increment)."""
+
+STRAIN_COLUMNS = tuple(box_strains(np.ones(3), np.ones(3)))
+"""The columns known from the walls alone (:func:`~grainlab.engine.sample_measures.box_strains`):
+stop criteria on them are checked after every step, the others at the records."""
 
 RECOVERY_SPEED_FRACTION = 0.25
 """Cap of the overlap recovery's separation speed, as a fraction of the stage's wall speed [-].
@@ -208,6 +242,7 @@ class DiscreteTest:
         self.path = path
         self.settings = settings or DiscreteTestSettings()
         self.stages: list[WallStage] = wall_stages(path)
+        self.reports_k0 = any(stage.oedometric for stage in self.stages)
         self.on_record = on_record
         self.on_snapshot = on_snapshot
         self.on_stage_end = None
@@ -290,7 +325,12 @@ class DiscreteTest:
             d_min = time_step_length(sample.library)
             factor = s.time_step_factor if moving else s.compaction_time_step_factor
             self.solver.dt = factor * d_min / v_max
+        else:  # the last step of the previous stage may have been cut short
+            self.solver.dt = s.dt
         self.stage_dt = self.solver.dt
+        self.stage_start_step = self.simulation.step_index
+        self.stage_start_lengths = box.lengths.copy()
+        self.solver.dt = self._last_step(self.solver.dt)
         # stress walls: heavy enough that one step of driving force cannot take them past the
         # speed limit (h F / m_w <= v_max): otherwise the solver spends its sweeps trading the
         # driving impulse between the brake and the contacts
@@ -302,8 +342,6 @@ class DiscreteTest:
             masses = np.maximum(float(np.sum(sample.state.masses)) * s.wall_mass_factor,
                                 self.solver.dt * force / v_max)
             box.set_masses(masses)
-        self.stage_start_step = self.simulation.step_index
-        self.stage_start_lengths = box.lengths.copy()
         self.stage_started = True
 
     def _held_stress(self, axis: int) -> float:
@@ -313,17 +351,22 @@ class DiscreteTest:
         return float(self.rows[-1][f"wall_sigma_{AXES[axis] * 2}"])
 
     def drive(self) -> None:
-        """Keep the strain-controlled walls at a constant logarithmic strain rate; with
-        polyhedra, shorten the step to the particles' own speeds (module docstring)."""
+        """Keep the strain-controlled walls at a constant logarithmic strain rate (at rest
+        once their axis reached its target); with polyhedra, shorten the step to the
+        particles' own speeds; cut the last step of the stage (module docstring)."""
         stage, box = self.stage, self.sample.box
         if stage is None:
             return
+        strained = self._stage_strains()
         for a in stage.moving_axes:
             sign = math.copysign(1.0, stage.targets[a])
-            box.set_control(WALL_NAMES[2 * a + 1], "velocity",
-                            sign * self.strain_rate * box.lengths[a])
+            speed = 0.0 if abs(strained[a]) >= abs(stage.targets[a]) else \
+                sign * self.strain_rate * box.lengths[a]
+            box.set_control(WALL_NAMES[2 * a + 1], "velocity", speed)
+        dt = self.stage_dt
         if self.adaptive_step and self.settings.dt is None:
-            self.solver.dt = min(self.stage_dt, self._particle_speed_step())
+            dt = min(dt, self._particle_speed_step())
+        self.solver.dt = self._last_step(dt)
         if box.servo:  # damping fixed, mass c h follows the step (and the face areas)
             box.set_masses(box.servo_masses(self.solver.dt))
 
@@ -340,25 +383,80 @@ class DiscreteTest:
         factor = s.time_step_factor if self.stage.moving_axes else s.compaction_time_step_factor
         return factor * time_step_length(library) / fastest
 
+    # -- stage ends (module docstring) --------------------------------------------------------
+    def wall_strains(self, lengths: np.ndarray | None = None) -> dict[str, float]:
+        """The strain columns (:data:`STRAIN_COLUMNS`) of the box now, or of a box of
+        ``lengths`` (3,) [m], from the reference box."""
+        return box_strains(self.reference_lengths,
+                           self.sample.box.lengths if lengths is None else lengths)
+
+    def _stage_strains(self) -> np.ndarray:
+        """(3,) logarithmic strains [-] since the stage began."""
+        return np.log(self.stage_start_lengths / self.sample.box.lengths)
+
+    def wall_end(self) -> tuple[bool, str]:
+        """Whether the walls end the current stage now, and why (checked after every step):
+        a stop criterion on a strain column, every strain-controlled axis at its target,
+        ``max_stage_steps``."""
+        stage = self.stage
+        assert stage is not None
+        strains = self.wall_strains()
+        for criterion in stage.stop:
+            if criterion.quantity in strains and criterion.met(strains):
+                return True, _stop_reason(criterion)
+        if stage.moving_axes:
+            strained = self._stage_strains()
+            if all(abs(strained[a]) >= abs(stage.targets[a]) for a in stage.moving_axes):
+                return True, "strain reached"
+        if self.simulation.step_index - self.stage_start_step >= self.settings.max_stage_steps:
+            return True, "max_stage_steps reached"
+        return False, ""
+
     def stage_done(self, row: dict[str, Any]) -> tuple[bool, str]:
-        """Whether the current stage ends at this record, and why."""
+        """Whether the current stage ends at this record, and why: any stop criterion,
+        :meth:`wall_end`, quasi-static (stages without a strain-controlled axis)."""
         stage = self.stage
         assert stage is not None
         for criterion in stage.stop:
             if criterion.met(row):
-                return True, f"stop criterion {criterion.quantity} {criterion.when} " \
-                             f"{criterion.limit:g}"
-        if stage.moving_axes:
-            strained = np.log(self.stage_start_lengths / self.sample.box.lengths)
-            if all(abs(strained[a]) >= abs(stage.targets[a]) for a in stage.moving_axes):
-                return True, "strain reached"
-        else:
+                return True, _stop_reason(criterion)
+        done, reason = self.wall_end()
+        if done:
+            return done, reason
+        if not stage.moving_axes:
             targets = {a: self.sample.box.controls[2 * a + 1].value for a in stage.stress_axes}
             if self.settings.quasi_static.met(row, targets):
                 return True, "quasi-static"
-        if self.simulation.step_index - self.stage_start_step >= self.settings.max_stage_steps:
-            return True, "max_stage_steps reached"
         return False, ""
+
+    def _last_step(self, dt: float) -> float:
+        """``dt`` [s], or less where a step of ``dt`` would carry the stage past a target
+        (module docstring): the step that ends a strain-controlled axis on its target, the
+        predicted crossing of a stop criterion on a strain column (at least
+        :data:`SHORTEST_CUT` of ``dt``). Wall speeds as the coming step will have them."""
+        stage, box = self.stage, self.sample.box
+        lengths = box.lengths
+        closing = box.speeds[0::2] + box.speeds[1::2]  # [m/s], > 0 shortens the axis
+        cut = dt
+        for a in stage.moving_axes:
+            if closing[a] == 0.0:
+                continue
+            target = stage.targets[a] + math.copysign(TARGET_MARGIN, stage.targets[a])
+            travel = lengths[a] - self.stage_start_lengths[a] * math.exp(-target)
+            if 0.0 < travel / closing[a] < cut:
+                cut = travel / closing[a]
+        criteria = [c for c in stage.stop if c.quantity in STRAIN_COLUMNS]
+        if criteria:
+            now, after = self.wall_strains(), self.wall_strains(lengths - dt * closing)
+            for criterion in criteria:
+                if criterion.met(now) or not criterion.met(after):
+                    continue
+                start, end = _value(criterion, now), _value(criterion, after)
+                goal = criterion.limit + math.copysign(
+                    TARGET_MARGIN, 1.0 if criterion.when == "above" else -1.0)
+                fraction = min(1.0, max(SHORTEST_CUT, (goal - start) / (end - start)))
+                cut = min(cut, fraction * dt)
+        return cut
 
     def end_stage(self, reason: str) -> None:
         """Close the current stage and move to the next."""
@@ -406,6 +504,8 @@ class DiscreteTest:
         full = {"stage": stage.name if stage else "end", "step": sim.step_index,
                 "time": sim.time, "dt": self.solver.dt, "friction": self.solver.friction}
         full.update(row)
+        if self.reports_k0:
+            full["K0"] = _k0(row)
         self.rows.append(full)
         every = self.settings.snapshot_every
         if every and sim.step_index % every == 0:
@@ -488,13 +588,22 @@ class _StageControl:
 
     def act(self, simulation: Simulation) -> None:
         test = self.test
-        if not test.finished and not test.stage_started:
+        if test.finished:
+            return
+        if not test.stage_started:
             test.start_stage()
+        else:
+            done, reason = test.wall_end()
+            if done:
+                test.record()  # the state the stage ends in is a row
+                test.end_stage(reason)  # and the next stage's walls and step are set
+                return
         test.drive()
 
 
 class _Recorder:
-    """Records a results row; decides the end of the stage at each record."""
+    """Records a results row (unless the stage control recorded this step already); decides
+    the end of the stage at each record."""
 
     name = "recorder"
 
@@ -506,8 +615,28 @@ class _Recorder:
         test = self.test
         if test.finished or not test.stage_started:
             return
+        if test.rows and test.rows[-1]["step"] == simulation.step_index:
+            return
         row = test.record()
         done, reason = test.stage_done(row)
         if done:
             test.end_stage(reason)
 
+
+
+def _stop_reason(criterion: StopCriterion) -> str:
+    return f"stop criterion {criterion.quantity} {criterion.when} {criterion.limit:g}"
+
+
+def _value(criterion: StopCriterion, row: dict[str, float]) -> float:
+    """The value ``criterion`` compares with its limit."""
+    value = float(row[criterion.quantity])
+    return abs(value) if criterion.absolute else value
+
+
+def _k0(row: dict[str, float]) -> float:
+    """K0 = (sigma_xx + sigma_yy) / (2 sigma_zz) [-] of a row's contact stresses (NaN unless
+    sigma_zz > 0)."""
+    vertical = row["sigma_zz"]
+    return 0.5 * (row["sigma_xx"] + row["sigma_yy"]) / vertical if vertical > 0.0 \
+        else math.nan

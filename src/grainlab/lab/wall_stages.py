@@ -8,7 +8,8 @@ A discrete sample in a wall box controls the three normal components of its cont
 * strain-controlled with increment e != 0 per step: a constant logarithmic strain rate
   d eps/dt = sign(e) eps_dot, the upper wall ("+" side) moving at eps_dot L(t) and the lower
   one fixed (seed 002: "top wall at constant velocity"); the stage ends when the axis has
-  strained by n_steps x e since the stage began. The rate follows from the bound on the
+  strained by n_steps x e since the stage began, its last step cut short to end on that
+  strain (:class:`~grainlab.lab.discrete_test.DiscreteTest`). The rate follows from the bound on the
   inertia number, eps_dot = I_max sqrt(p_ref / rho) / <d> (p_ref: the stage's confining
   stress);
 * strain-controlled with e = 0: both walls fixed;
@@ -104,6 +105,12 @@ class WallStage:
     def moving_axes(self) -> tuple[int, ...]:
         """Axes whose walls move at a prescribed strain rate."""
         return tuple(a for a in range(3) if self.modes[a] == "strain")
+
+    @property
+    def oedometric(self) -> bool:
+        """One-dimensional compression or extension: z strain-controlled, x and y fixed
+        (K0 = (sigma_xx + sigma_yy) / (2 sigma_zz) is reported)."""
+        return self.modes == ("fixed", "fixed", "strain")
 
     @property
     def stress_axes(self) -> tuple[int, ...]:

@@ -10,6 +10,8 @@ function                    figure
 ==========================  ================================================================
 :func:`triaxial_figure`     q/p and eps_vol against the vertical strain (Figs. 3.4–3.6, 4.9)
 :func:`k0_figure`           K0 against the vertical strain and against OCR (Figs. 3.3, 4.6)
+:func:`oedometer_stages_figure`  K0 and sigma_zz against eps_zz, one line per stage (a
+                            discrete ``grainlab oedometer`` run: loading, unloading)
 :func:`b_sweep_figure`      peak phi against b, failure points on the octahedral plane with
                             Mohr–Coulomb, Matsuoka–Nakai and Lade–Duncan, strain-increment
                             directions at failure (Figs. 4.11–4.13)
@@ -180,6 +182,57 @@ def k0_figure(results: TestResult | Sequence[TestResult],
         _finish(ax)
     _legend(ax_e)
     figure.suptitle("One-dimensional compression: loading and unloading", fontsize="medium")
+    figure.set_layout_engine("tight")
+    return figure
+
+
+def oedometer_stages_figure(result: TestResult, skip: Sequence[str] = ("compaction",)
+                            ) -> Figure:
+    """K0 = (sigma_xx + sigma_yy)/(2 sigma_zz) (:func:`~grainlab.lab.derived.k0_series`) and
+    sigma_zz against eps_zz of a 3D one-dimensional compression in stages, one line per stage
+    labelled by its name (``loading``, ``unloading``), each starting at the last row of the
+    stage before so that the curves join. Stages named in ``skip`` are left out: the
+    compaction of a discrete run, whose strains are from the initial box while those of the
+    later stages are from the box the compaction ended in; the first line drawn starts at
+    the last skipped row, at eps_zz = 0. Two axes.
+
+    >>> t = pd.DataFrame({"stage": ["loading"] * 2 + ["unloading"], "eps_zz": [0, 1e-3, 5e-4],
+    ...                   "sigma_xx": [1e4, 2e4, 1.5e4], "sigma_yy": [1e4, 2e4, 1.5e4],
+    ...                   "sigma_zz": [1e4, 4e4, 2e4]})
+    >>> figure = oedometer_stages_figure(TestResult.create(t, specimen={}, load_path={}))
+    >>> [line.get_label() for line in figure.axes[0].lines]
+    ['loading', 'unloading']
+    """
+    table = result.table
+    _need(table, ("stage", "eps_zz", "sigma_xx", "sigma_yy", "sigma_zz"),
+          "oedometer_stages_figure")
+    k0 = k0_series(table)["K0"].to_numpy(dtype=float)
+    strain = 100.0 * table["eps_zz"].to_numpy(dtype=float)
+    sigma = 1e-3 * table["sigma_zz"].to_numpy(dtype=float)
+    stages = table["stage"].astype(str).to_numpy()
+    figure, (ax_k, ax_s) = new_figure_axes(1, 2, figsize=(10, 3.8))
+    previous, skipped = None, None
+    for name in dict.fromkeys(stages):
+        rows = np.flatnonzero(stages == name)
+        if name in skip:
+            skipped = rows[-1]
+            continue
+        x, k, y = strain[rows], k0[rows], sigma[rows]
+        start = previous if previous is not None else skipped
+        if start is not None:
+            x = np.concatenate([[strain[start] if previous is not None else 0.0], x])
+            k, y = np.concatenate([[k0[start]], k]), np.concatenate([[sigma[start]], y])
+        ax_k.plot(x, k, marker=".", ms=4, label=name)
+        ax_s.plot(x, y, marker=".", ms=4, label=name)
+        previous = rows[-1]
+    ax_k.set_ylabel("K0 = (sigma_xx + sigma_yy) / (2 sigma_zz)")
+    ax_s.set_ylabel("sigma_zz [kPa]")
+    for ax in (ax_k, ax_s):
+        ax.set_xlabel("vertical strain eps_zz [%]")
+        _finish(ax)
+        _legend(ax)
+    figure.suptitle(str(result.metadata.get("title") or "one-dimensional compression"),
+                    fontsize="medium")
     figure.set_layout_engine("tight")
     return figure
 
