@@ -23,17 +23,30 @@ polyhedra", GDC 2013): the separating-axis test (SAT) over those axes is exact f
    contact. A face f of A is skipped when its bound s(f) <= n_f . c_B - O_f - r_B (r_B: the
    distance from B's centre to its nearest face plane) is below a value of s already reached,
    first that of the faces of largest bound of A and of B (faces of B likewise): such a face
-   can be neither the best axis nor the first beyond the alert distance.
+   can be neither the best axis nor the first beyond the alert distance. The face axis kept
+   is the first (faces of A, then of B, in their order) whose s is within the round-off band
+   eps (:data:`TOUCH_TOLERANCE`) of the largest: a face of A and the face of B lying on it
+   give the same axis, and where two different axes tie (a vertex on a rim) the choice does
+   not depend on the round-off of the frame.
 3. Edge axes, pruned to the slab of the best face axis n*: an edge of A enters only if one of
    its ends lies above min_B n* . b - alert, an edge of B only if one end lies below
    max_A n* . a + alert (the witness points of any axis better than n* lie there), and only
    pairs forming a face of the Minkowski difference (Gauss-map arc test, its first half
    branch-free over all kept edges of B) are evaluated, each in O(1): s = n . (b0 - a0).
-4. If the best s is <= 0 it is the exact signed distance (overlap) with its axis as normal. If
-   0 < s <= alert, the SAT value is a lower bound (vertex-vertex and vertex-edge closest
-   pairs have no SAT axis), so the exact distance is taken as the smallest vertex-face
-   (projection inside the face) or segment-segment distance over the features within the
-   slab, and n = (p_B - p_A)/|p_B - p_A| unless the SAT axis already gives it.
+   The arc test is strict by :data:`ARC_TOLERANCE`: arcs that meet at (or within round-off
+   of) an end meet at a face normal, already a face axis; in a flat contact the edges lying
+   in the contact plane are such pairs (their s is that of the face, give or take round-off).
+   An edge axis replaces the face axis only if its s exceeds the largest face value by more
+   than eps.
+4. If the best s is <= eps it is the exact signed distance (overlap, or touching within the
+   round-off) with its axis as normal: when 0 < s <= eps the exact distance is at most
+   s / cos(alpha/2), alpha the widest normal cone of a vertex of A or B (< pi), so within
+   the band too. If eps < s <= alert, the SAT value is a lower bound (vertex-vertex and
+   vertex-edge closest pairs have no SAT axis), so the exact distance is taken as the
+   smallest vertex-face (projection inside the face; a distance within -eps of 0 counts as
+   0) or segment-segment distance over the features within the slab, and
+   n = (p_B - p_A)/|p_B - p_A| unless it exceeds s by no more than eps (the SAT axis then
+   gives the distance and the normal).
 
 Contact type, manifold and walls: :mod:`grainlab.geometry.polyhedron_manifold`.
 
@@ -67,6 +80,17 @@ DEFAULT_MAX_POINTS = 8
 """Points kept per manifold by default. Measured on a frictionless compaction of 60
 polyhedra (n_f = 30, docs/polyhedra.md): with 3 or 4 the largest overlap ran away to 10 % of
 <d>, with 6 it settled at 2 %, with 8 at 0.3 %, with 16 at 0.27 % (13 % more contacts)."""
+
+TOUCH_TOLERANCE = 1e-12
+"""Relative round-off band of the separations: two values of s within
+TOUCH_TOLERANCE (R_A + R_B + |c_A|_1 + |c_B|_1) of each other are treated as equal, and a best
+separation within that band of 0 as touching (R: circumscribed radius about the centre c [m];
+the world coordinates carry errors of about 1e-16 of their magnitude, so the band is about
+1e3 times the round-off and 1e-12 of the bodies' size)."""
+ARC_TOLERANCE = 1e-12
+"""Sine of the angle within which an end of one Gauss-map arc counts as lying on the great
+circle of the other: such a pair of edges crosses (if at all) at a face normal, which is a face
+axis, not an edge-edge face of the Minkowski difference."""
 
 _VERTEX, _EDGE, _FACE = 0, 1, 2
 _HUGE = 1e300
@@ -196,6 +220,16 @@ def _inradius(normals, offsets, c):
 
 
 @njit(inline="always")
+def _circumradius(vertices, c):
+    """Largest distance [m] from c to a vertex."""
+    r2 = 0.0
+    for v in range(vertices.shape[0]):
+        dx, dy, dz = vertices[v, 0] - c[0], vertices[v, 1] - c[1], vertices[v, 2] - c[2]
+        r2 = max(r2, dx * dx + dy * dy + dz * dz)
+    return math.sqrt(r2)
+
+
+@njit(inline="always")
 def _best_bound_face(normals, offsets, c, r):
     """Face f of largest bound n_f . c - O_f - r on its axis value s (c, r: centre and
     inradius of the other body): the face most likely to give the largest s."""
@@ -266,9 +300,9 @@ def _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
     _, low_b = _support(vb, nsb, nbb, -ux, -uy, -uz, 0)
     if -low_b - top_a > alert:
         return -low_b - top_a, False
-    best = -_HUGE
-    best_kind, best_f, best_g = -1, -1, -1  # 0 face of A, 1 face of B, 2 edge pair
-    bx, by, bz = 0.0, 0.0, 1.0
+    # round-off band of the separations (TOUCH_TOLERANCE): values of s within eps are equal
+    eps = TOUCH_TOLERANCE * (_circumradius(va, ca) + _circumradius(vb, cb) + abs(ca[0])
+                             + abs(ca[1]) + abs(ca[2]) + abs(cb[0]) + abs(cb[1]) + abs(cb[2]))
     # pruning of the face axes: s(f) <= n_f . c_B - O_f - r_B (face of A), n_g . c_A - O_g - r_A
     # (face of B), r the inradius about the centre; a face whose bound is below a value s
     # already reached can be neither the best axis nor the first one beyond the alert
@@ -276,8 +310,10 @@ def _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
     r_a, r_b = _inradius(na, oa, ca), _inradius(nb, ob, cb)
     if not prune or r_a <= 0.0 or r_b <= 0.0:
         r_a = r_b = -_HUGE  # (a centre outside its body: no bound)
+    # (tol >= eps: a face skipped is below the largest value by more than eps, so it can be
+    # no tie either)
     tol = 1e-9 * (max(r_a, 0.0) + max(r_b, 0.0) + length) + 1e-12 * (
-        abs(ca[0]) + abs(ca[1]) + abs(ca[2]) + abs(cb[0]) + abs(cb[1]) + abs(cb[2]))
+        abs(ca[0]) + abs(ca[1]) + abs(ca[2]) + abs(cb[0]) + abs(cb[1]) + abs(cb[2])) + eps
     floor = -_HUGE
     if r_a > 0.0:
         f = _best_bound_face(na, oa, cb, r_b)
@@ -288,32 +324,46 @@ def _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
         floor = max(floor, -neg - ob[f])
         if floor > alert:
             return floor, False
+    n_fa = na.shape[0]
+    face_s = np.full(n_fa + nb.shape[0], -_HUGE)  # s of the face axes evaluated
+    top = -_HUGE  # their largest s
     # face axes of A: s = min_b n.b - O_a
     start = 0
-    for f in range(na.shape[0]):
+    for f in range(n_fa):
         if na[f, 0] * cb[0] + na[f, 1] * cb[1] + na[f, 2] * cb[2] - oa[f] - r_b + tol \
-                < max(floor, best):
+                < max(floor, top):
             continue
         start, neg = _support(vb, nsb, nbb, -na[f, 0], -na[f, 1], -na[f, 2], start)
         s = -neg - oa[f]
-        if s > best:
-            best, bx, by, bz = s, na[f, 0], na[f, 1], na[f, 2]
-            best_kind, best_f = 0, f
-            if s > alert:
-                return s, False
+        if s > alert:
+            return s, False
+        face_s[f] = s
+        top = max(top, s)
     # face axes of B: the axis from A to B is -n_b; s = min_a n_b.a - O_b
     start = 0
     for f in range(nb.shape[0]):
         if nb[f, 0] * ca[0] + nb[f, 1] * ca[1] + nb[f, 2] * ca[2] - ob[f] - r_a + tol \
-                < max(floor, best):
+                < max(floor, top):
             continue
         start, neg = _support(va, nsa, nba, -nb[f, 0], -nb[f, 1], -nb[f, 2], start)
         s = -neg - ob[f]
-        if s > best:
-            best, bx, by, bz = s, -nb[f, 0], -nb[f, 1], -nb[f, 2]
-            best_kind, best_f = 1, f
-            if s > alert:
-                return s, False
+        if s > alert:
+            return s, False
+        face_s[n_fa + f] = s
+        top = max(top, s)
+    # the face axis kept: the first within eps of the largest (a tie-break independent of the
+    # frame's round-off)
+    best_kind, best_f, best_g = 0, 0, -1  # 0 face of A, 1 face of B, 2 edge pair
+    for k in range(face_s.shape[0]):
+        if face_s[k] >= top - eps:
+            best_f = k
+            break
+    best = face_s[best_f]
+    if best_f < n_fa:
+        bx, by, bz = na[best_f, 0], na[best_f, 1], na[best_f, 2]
+    else:
+        best_kind, best_f = 1, best_f - n_fa
+        bx, by, bz = -nb[best_f, 0], -nb[best_f, 1], -nb[best_f, 2]
     # slab of the best face axis
     sx, sy, sz = bx, by, bz
     _, hi = _support(va, nsa, nba, bx, by, bz, 0)
@@ -345,7 +395,10 @@ def _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
             arcs[c, j] = -nb[g0, c]
             arcs[3 + c, j] = -nb[g1, c]
     crossing = np.arange(n_b)
-    # edge-edge axes on faces of the Minkowski difference (scalar code)
+    # edge-edge axes on faces of the Minkowski difference (scalar code); the largest s with
+    # its axis and edges
+    edge_best, edge_e, edge_k = -_HUGE, -1, -1
+    ex, ey, ez = 0.0, 0.0, 1.0
     for i in range(n_a):
         e = keep_a[i]
         f0, f1 = efa[e, 0], efa[e, 1]
@@ -355,6 +408,7 @@ def _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
         a0x, a0y, a0z = va[u0, 0], va[u0, 1], va[u0, 2]
         tax, tay, taz = va[u1, 0] - a0x, va[u1, 1] - a0y, va[u1, 2] - a0z
         bxa_x, bxa_y, bxa_z = _cross(bx_, by_, bz_, ax_, ay_, az_)
+        arc_a = ARC_TOLERANCE * math.sqrt(bxa_x * bxa_x + bxa_y * bxa_y + bxa_z * bxa_z)
         ta2 = tax * tax + tay * tay + taz * taz
         m = n_b
         if prune:  # the B arcs whose ends lie on both sides of the plane of A's arc
@@ -371,12 +425,16 @@ def _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
             dx_, dy_, dz_ = -nb[g1, 0], -nb[g1, 1], -nb[g1, 2]
             cba = cx_ * bxa_x + cy_ * bxa_y + cz_ * bxa_z
             dba = dx_ * bxa_x + dy_ * bxa_y + dz_ * bxa_z
-            if cba * dba >= 0.0:
+            # (strict: an end of B's arc on A's great circle is a crossing at a face normal)
+            if cba * dba >= 0.0 or abs(cba) <= arc_a or abs(dba) <= arc_a:
                 continue
             dxc_x, dxc_y, dxc_z = _cross(dx_, dy_, dz_, cx_, cy_, cz_)
             adc = ax_ * dxc_x + ay_ * dxc_y + az_ * dxc_z
             bdc = bx_ * dxc_x + by_ * dxc_y + bz_ * dxc_z
             if not (adc * bdc < 0.0 and cba * bdc > 0.0):
+                continue
+            arc_b = ARC_TOLERANCE * math.sqrt(dxc_x * dxc_x + dxc_y * dxc_y + dxc_z * dxc_z)
+            if abs(adc) <= arc_b or abs(bdc) <= arc_b:
                 continue
             w0, w1 = eb[k, 0], eb[k, 1]
             b0x, b0y, b0z = vb[w0, 0], vb[w0, 1], vb[w0, 2]
@@ -389,13 +447,17 @@ def _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
             if sx_ * (a0x - ca[0]) + sy_ * (a0y - ca[1]) + sz_ * (a0z - ca[2]) < 0.0:
                 sx_, sy_, sz_ = -sx_, -sy_, -sz_
             s = sx_ * (b0x - a0x) + sy_ * (b0y - a0y) + sz_ * (b0z - a0z)
-            if s > best:
-                best, bx, by, bz = s, sx_, sy_, sz_
-                best_kind, best_f, best_g = 2, e, k
+            if s > edge_best:
+                edge_best, ex, ey, ez = s, sx_, sy_, sz_
+                edge_e, edge_k = e, k
+    # an edge axis replaces the face axis only beyond the round-off band
+    if edge_best > top + eps:
+        best, bx, by, bz = edge_best, ex, ey, ez
+        best_kind, best_f, best_g = 2, edge_e, edge_k
     if best > alert:
         return best, False
     normal_out[0], normal_out[1], normal_out[2] = bx, by, bz
-    if best <= 0.0:
+    if best <= eps:  # overlap, or touching within the round-off (module docstring, step 4)
         return best, True
     # apart: the SAT value is the distance when its witness features realise it (a vertex
     # over the face, or the closest points of the two edges inside both): O(1) check
@@ -410,9 +472,10 @@ def _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
     elif best_kind == 2:
         lx, ly, lz = _seg_seg(va, ea[best_f, 0], ea[best_f, 1], vb, eb[best_g, 0],
                               eb[best_g, 1])
-        if math.sqrt(lx * lx + ly * ly + lz * lz) <= best * (1.0 + 1e-12) + 1e-300:
+        if math.sqrt(lx * lx + ly * ly + lz * lz) <= best * (1.0 + 1e-12) + eps:
             return best, True
-    # otherwise (vertex-vertex, vertex-edge): exact distance over the features near the slab
+    # otherwise (vertex-vertex, vertex-edge): exact distance over the features near the slab;
+    # a vertex within -eps of a face plane touches it (distance 0, the SAT axis kept)
     exact = _HUGE
     nx, ny, nz = bx, by, bz
     for v in range(va.shape[0]):
@@ -421,30 +484,31 @@ def _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
             continue
         for f in range(nb.shape[0]):
             d = nb[f, 0] * a[0] + nb[f, 1] * a[1] + nb[f, 2] * a[2] - ob[f]
-            if d < 0.0 or d >= exact:
+            if d < -eps or d >= exact:
                 continue
             if _inside_face(a, vb, fsb, fvb, f, nb[f]):
-                exact, nx, ny, nz = d, -nb[f, 0], -nb[f, 1], -nb[f, 2]
+                exact, nx, ny, nz = max(d, 0.0), -nb[f, 0], -nb[f, 1], -nb[f, 2]
     for v in range(vb.shape[0]):
         b = vb[v]
         if b[0] * sx + b[1] * sy + b[2] * sz > hi + margin:
             continue
         for f in range(na.shape[0]):
             d = na[f, 0] * b[0] + na[f, 1] * b[1] + na[f, 2] * b[2] - oa[f]
-            if d < 0.0 or d >= exact:
+            if d < -eps or d >= exact:
                 continue
             if _inside_face(b, va, fsa, fva, f, na[f]):
-                exact, nx, ny, nz = d, na[f, 0], na[f, 1], na[f, 2]
+                exact, nx, ny, nz = max(d, 0.0), na[f, 0], na[f, 1], na[f, 2]
     for i in range(n_a):
         e = keep_a[i]
         for j in range(n_b):
             k = keep_b[j]
             lx, ly, lz = _seg_seg(va, ea[e, 0], ea[e, 1], vb, eb[k, 0], eb[k, 1])
             d = math.sqrt(lx * lx + ly * ly + lz * lz)
-            if d < exact and d > 0.0:
+            if d < exact:
                 exact = d
-                nx, ny, nz = lx / d, ly / d, lz / d
-    if exact < _HUGE and exact > best * (1.0 + 1e-9) + 1e-15:
+                if d > eps:
+                    nx, ny, nz = lx / d, ly / d, lz / d
+    if exact < _HUGE and exact > best * (1.0 + 1e-9) + eps:
         normal_out[0], normal_out[1], normal_out[2] = nx, ny, nz
         return exact, exact <= alert
     return best, True
