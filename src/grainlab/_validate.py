@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import operator
 
 from grainlab.errors import InputError
 
@@ -43,4 +44,20 @@ def in_range(
     if not (math.isfinite(number) and left_ok and right_ok):
         where = f"{closed[0]}{low:g}, {high:g}{closed[1]}"
         raise InputError(field, value, f"a number in {where}{unit and ' ' + unit}")
+    return number
+
+
+MAX_SEED = 2**32 - 1
+"""Largest random seed accepted (a 32-bit unsigned integer, as most generators take)."""
+
+
+def seed(field: str, value) -> int:
+    """Return ``value`` if it is an integer seed in [0, :data:`MAX_SEED`], else raise naming
+    ``field``."""
+    try:
+        number = operator.index(value)  # an int or a NumPy integer, never a float
+    except TypeError:
+        number = -1
+    if isinstance(value, bool) or not 0 <= number <= MAX_SEED:
+        raise InputError(field, value, f"an integer in [0, {MAX_SEED}]")
     return number

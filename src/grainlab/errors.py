@@ -32,7 +32,17 @@ class InputError(GrainlabError, ValueError):
         self.field = field
         self.value = value
         self.allowed = allowed
-        super().__init__(f"{field} = {value!r} is not allowed: expected {allowed}.")
+        super().__init__(f"{field} = {_shown(value)} is not allowed: expected {allowed}.")
+
+
+def _shown(value: Any) -> str:
+    """``value`` as a user would type it: numbers plain (``3.5``, not ``np.float64(3.5)``),
+    text quoted."""
+    if hasattr(value, "item") and getattr(value, "shape", None) == ():
+        value = value.item()  # a NumPy scalar
+    if isinstance(value, float) and value.is_integer() and abs(value) < 1e15:
+        return str(int(value))  # 200.0 typed as 200
+    return repr(value)
 
 
 class GeometryError(GrainlabError, ValueError):

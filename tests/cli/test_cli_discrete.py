@@ -61,10 +61,10 @@ def test_oedometer_help_defines_k0_and_warns_about_rigid_grains():
 
 
 @pytest.mark.parametrize("arguments, field", [
-    (["triaxial", "--mu", "-0.1"], "solver.friction"),
-    (["triaxial", "-n", "0"], "sample.n_particles"),
+    (["triaxial", "--mu", "-0.1"], "--mu"),
+    (["triaxial", "-n", "0"], "--n-particles"),
     (["triaxial", "--shape", "cube"], "--shape"),
-    (["compaction", "--d-min", "-1e-3"], "sample.d_min"),
+    (["compaction", "--d-min", "-1e-3"], "--d-min"),
     (["resume", "no-such-run"], "run folder"),
 ])
 def test_bad_input_is_one_message_naming_the_field(tmp_path, arguments, field):

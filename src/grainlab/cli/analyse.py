@@ -19,6 +19,7 @@ from grainlab.analysis.snapshot_files import (
 from grainlab.analysis.synthetic import synthetic_network
 from grainlab.analysis.trajectory import TrajectoryAnalysis
 from grainlab.cli.errors import friendly_errors
+from grainlab.cli.inputs import output_folder
 from grainlab.errors import InputError
 from grainlab.report.curves import save_figure
 from grainlab.report.microstructure_figures import (
@@ -103,6 +104,7 @@ def _analyse(path, out, snapshot, strain, window, min_contacts, frame_level, ang
     if frame_level not in ("points", "pairs"):
         raise InputError("--frame-level", frame_level, "points or pairs")
     low_high = parse_window(window)
+    output_folder("--out", out)
     out.mkdir(parents=True, exist_ok=True)
     if synthetic:
         source = synthetic_series(out / "synthetic_snapshots.h5", synthetic)

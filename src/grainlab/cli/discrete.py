@@ -4,12 +4,15 @@ sample (contact dynamics), run in a folder that can be resumed."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import typer
 from rich.console import Console
 
 from grainlab.cli.errors import friendly_errors
+from grainlab.cli.inputs import input_file, output_folder
 from grainlab.errors import InputError
+from grainlab.lab.run_config import RunConfig
 
 console = Console()
 
@@ -120,17 +123,31 @@ def _summary(result) -> None:
                       f"{_type_fractions(late.mean(numeric_only=True))}")
 
 
-def _run(kind: str, out: Path, config_file: Path | None, overrides: dict, overwrite: bool,
-         progress: bool) -> None:
+def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any],
+         overwrite: bool, progress: bool) -> None:
+    """Check every option, then start the run: nothing is written before the input is
+    accepted, and a rejected start leaves OUT as it was."""
     from grainlab.lab.discrete_run import start_run
-    from grainlab.lab.run_config import RunConfig
 
-    config = RunConfig.read(config_file) if config_file else RunConfig()
-    overrides = {section: {k: v for k, v in values.items() if v is not None}
-                 for section, values in overrides.items()}
-    overrides["test"]["kind"] = kind
-    config = config.with_updates(overrides)
-    run = start_run(out, config, overwrite=overwrite)
+    output_folder("--out", out)
+    if config_file is not None:
+        input_file("--config", config_file)
+        try:
+            config = RunConfig.read(config_file)
+        except InputError as error:
+            raise _as_typed(error, {}, config_file) from None
+    else:
+        config = RunConfig()
+    given = {key: value for key, value in options.items() if value is not None}
+    overrides: dict[str, dict[str, Any]] = {"test": {"kind": kind}}
+    for key, value in given.items():
+        section, name = _OPTIONS[key][1].split(".")
+        overrides.setdefault(section, {})[name] = value
+    try:
+        config = config.with_updates(overrides)
+        run = start_run(out, config, overwrite=overwrite)
+    except InputError as error:
+        raise _as_typed(error, given, config_file) from None
     sample = config.sample
     shapes = {"sphere": "spheres", "aggregate": "aggregates",
               "polyhedron": f"polyhedra of {sample.n_faces} faces"}[sample.shape]
@@ -143,58 +160,115 @@ def _run(kind: str, out: Path, config_file: Path | None, overrides: dict, overwr
         console.print(f"figure: {path}")
 
 
-def _options(shape, n, d_min, size_ratio, eta, density, mu, sigma0, inertia, seed, dt,
-             tolerance, sweep, record_every, snapshot_every, checkpoint_every, vtk_every,
-             max_iterations=None, faces=None, templates=None):
-    if shape not in (None, "sphere", "aggregate", "polyhedron"):
-        raise InputError("--shape", shape, "sphere, aggregate or polyhedron")
-    if faces is not None and (faces < 8 or faces % 2):
-        raise InputError("--faces", faces, "an even number of faces >= 8 (seed 002 Table I: "
-                                           "8, 20, 30, 46, 96, 176, 596)")
-    if templates is not None and templates < 0:
-        raise InputError("--templates", templates,
-                         "an integer >= 0 (0: every polyhedron its own)")
-    return {
-        "sample": {"shape": shape, "n_particles": n, "d_min": d_min, "size_ratio": size_ratio,
-                   "eta": eta, "n_faces": faces, "templates": templates, "density": density,
-                   "seed": seed},
-        "test": {"sigma0": sigma0},
-        "solver": {"friction": mu, "inertia_number": inertia, "dt": dt,
-                   "tolerance": tolerance, "sweep": sweep, "max_iterations": max_iterations},
-        "output": {"record_every": record_every, "snapshot_every": snapshot_every,
-                   "checkpoint_every": checkpoint_every, "vtk_every": vtk_every},
-    }
+def _as_typed(error: InputError, given: dict[str, Any], config_file: Path | None
+              ) -> InputError:
+    """``error`` naming what the user typed: the option (``--mu``) when the value came from
+    the command line, else the config key and its file (``solver.friction (in c.toml)``)."""
+    field = error.field
+    if field == "config":
+        return InputError("--config", error.value, error.allowed)
+    for key in given:
+        if _OPTIONS[key][1] == field:
+            return InputError(_OPTIONS[key][0], error.value, error.allowed)
+    if config_file is not None and field in _CONFIG_KEYS:
+        field = f"{field} (in {config_file})"
+    return InputError(field, error.value, error.allowed)
 
 
-# Shared options (None: the config file's or the default value).
-_SHAPE = typer.Option(None, "--shape", help="sphere | aggregate (seed 003 tetrahedral) | "
-                                             "polyhedron (seed 002 random convex).")
-_N = typer.Option(None, "-n", "--n-particles", help="Number of particles [default 1000].")
-_DMIN = typer.Option(None, "--d-min", help="Smallest diameter [m] [default 1e-3].")
-_RATIO = typer.Option(None, "--size-ratio", help="d_max/d_min, uniform by volume [2].")
-_ETA = typer.Option(None, "--eta", help="Aggregate non-convexity (R-R')/R [0.4].")
-_FACES = typer.Option(None, "--faces", help="Faces of each polyhedron, even, >= 8 (seed 002: "
-                                            "8, 20, 30, 46, 96, 176, 596) [30].")
-_TEMPLATES = typer.Option(None, "--templates",
-                          help="Polyhedra: 0 = every particle its own random shape (seed 002); "
-                               "K = K shapes reused in random orientations (faster) [0].")
-_RHO = typer.Option(None, "--density", help="Particle density [kg/m^3] [2600].")
-_MU = typer.Option(None, "--mu", help="Interparticle friction in shear [0.4].")
-_SIGMA0 = typer.Option(None, "--sigma0", help="Confining stress [Pa] [1e4].")
-_INERTIA = typer.Option(None, "--inertia", help="Bound on the inertia number [1e-3].")
-_SEED = typer.Option(None, "--seed", help="Seed of the sample [0].")
-_DT = typer.Option(None, "--dt", help="Time step [s] (0: automatic).")
-_TOL = typer.Option(None, "--tolerance", help="NLGS tolerance [1.666e-4].")
-_SWEEP = typer.Option(None, "--sweep", help="coloured (parallel) | serial NLGS.")
-_ITER = typer.Option(None, "--max-iterations",
-                     help="NLGS sweep cap per shearing step [400]; lower is faster, with larger "
-                          "overlaps (docs/discrete_engine.md).")
-_RECORD = typer.Option(None, "--record-every", help="Steps between results rows [10].")
-_SNAP = typer.Option(None, "--snapshot-every", help="Steps between contact snapshots [0].")
-_CKPT = typer.Option(None, "--checkpoint-every", help="Steps between checkpoints [500].")
-_VTK = typer.Option(None, "--vtk-every", help="Steps between ParaView frames [0].")
-_CONFIG = typer.Option(None, "--config", help="A config.toml to start from (options "
-                                              "given here override it).")
+_OPTIONS = {
+    "shape": ("--shape", "sample.shape"), "n": ("-n/--n-particles", "sample.n_particles"),
+    "d_min": ("--d-min", "sample.d_min"), "size_ratio": ("--size-ratio", "sample.size_ratio"),
+    "eta": ("--eta", "sample.eta"), "faces": ("--faces", "sample.n_faces"),
+    "templates": ("--templates", "sample.templates"), "density": ("--density", "sample.density"),
+    "seed": ("--seed", "sample.seed"), "sigma0": ("--sigma0", "test.sigma0"),
+    "eps_q": ("--eps-q", "test.eps_q_max"),
+    "axial_strain": ("--axial-strain", "test.axial_strain"),
+    "unload_strain": ("--unload-strain", "test.unload_strain"),
+    "mu": ("--mu", "solver.friction"), "inertia": ("--inertia", "solver.inertia_number"),
+    "dt": ("--dt", "solver.dt"), "tolerance": ("--tolerance", "solver.tolerance"),
+    "sweep": ("--sweep", "solver.sweep"),
+    "max_iterations": ("--max-iterations", "solver.max_iterations"),
+    "record_every": ("--record-every", "output.record_every"),
+    "snapshot_every": ("--snapshot-every", "output.snapshot_every"),
+    "checkpoint_every": ("--checkpoint-every", "output.checkpoint_every"),
+    "vtk_every": ("--vtk-every", "output.vtk_every"),
+}
+"""Each command-line option (parameter name) as typed and the config key it sets."""
+
+_CONFIG_KEYS = {f"{section}.{key}" for section, model in RunConfig.model_fields.items()
+                for key in model.annotation.model_fields}
+
+
+def _default(key: str) -> str:
+    """``"[default: 1000]"`` for the config key ``"sample.n_particles"`` (its one default)."""
+    section, name = key.split(".")
+    value = RunConfig.model_fields[section].annotation.model_fields[name].default
+    shown = f"{value:g}" if isinstance(value, float) else str(value)
+    return f"[default: {shown}]"
+
+
+def _option(parameter: str, *names: str, help: str) -> Any:
+    """A typer option for ``parameter`` of :data:`_OPTIONS` (None: the config file's value or
+    the default, which the help shows)."""
+    return typer.Option(None, *names, help=f"{help} {_default(_OPTIONS[parameter][1])}")
+
+
+_SHAPE = _option("shape", "--shape", help="Particle shape: sphere; aggregate (4 overlapping "
+                 "spheres on a tetrahedron, Azéma et al. 2013); polyhedron (random convex "
+                 "polyhedra, Azéma, Radjaï & Dubois 2013).")
+_N = _option("n", "-n", "--n-particles", help="Number of particles.")
+_DMIN = _option("d_min", "--d-min", help="Smallest particle diameter (of the circumscribed "
+                "sphere) [m].")
+_RATIO = _option("size_ratio", "--size-ratio", help="d_max/d_min, >= 1; diameters uniform by "
+                 "volume in between.")
+_ETA = _option("eta", "--eta", help="Non-convexity (R - R')/R of the aggregates, 0 to 0.828 "
+               "(R: circumscribed radius, R': inscribed radius).")
+_FACES = _option("faces", "--faces", help="Faces of each polyhedron: even, 8 to 1000; fewer "
+                 "faces, more angular (Table I of Azéma, Radjaï & Dubois 2013: 8, 20, 30, 46, "
+                 "96, 176, 596).")
+_TEMPLATES = _option("templates", "--templates", help="Polyhedra: 0 = every particle its own "
+                     "random shape (as Azéma, Radjaï & Dubois 2013); K = K shapes reused in "
+                     "random orientations (faster to build).")
+_RHO = _option("density", "--density", help="Particle density [kg/m^3].")
+_MU = _option("mu", "--mu", help="Friction coefficient between particles [-] while loading "
+              "(compaction is frictionless).")
+_SIGMA0 = _option("sigma0", "--sigma0", help="Confining stress [Pa]: the compaction pressure, "
+                  "then the lateral stress held while loading.")
+_INERTIA = _option("inertia", "--inertia", help="Largest inertia number I = (strain rate) x "
+                   "(mean diameter) x sqrt(density / p) [-] while loading; it sets the "
+                   "loading speed. "
+                   "I <= 1e-3 is quasi-static (a lab test); 1e-2 is 10 times faster and "
+                   "slightly rate dependent.")
+_SEED = _option("seed", "--seed", help="Random seed of the sample (sizes, positions, "
+                "orientations): an integer in [0, 4294967295]; the same seed gives the same "
+                "sample.")
+_DT = _option("dt", "--dt", help="Time step [s]; 0 = chosen from the particle sizes and the "
+              "loading speed.")
+_TOL = _option("tolerance", "--tolerance", help="Convergence tolerance of the contact solver "
+               "(NLGS, see --sweep) [-]: the relative change of the contact forces between "
+               "two sweeps, and the relative residual, must fall below it each step; 1e-4 to "
+               "1e-3 is usual, smaller is more accurate and slower.")
+_SWEEP = _option("sweep", "--sweep", help="How the contact solver visits the contacts. The "
+                 "solver is NLGS (non-linear Gauss-Seidel): each step it sweeps over the "
+                 "contacts, solving one contact at a time with the others held, until the "
+                 "forces settle. coloured: in parallel, by groups of contacts that share no "
+                 "particle; serial: one thread, in a random order.")
+_ITER = _option("max_iterations", "--max-iterations", help="Most NLGS sweeps per loading step "
+                "(100 to 1000 is usual); fewer is faster, with larger overlaps and unconverged "
+                "steps flagged in the results (docs/discrete_engine.md).")
+_RECORD = _option("record_every", "--record-every", help="Steps between results rows.")
+_SNAP = _option("snapshot_every", "--snapshot-every", help="Steps between contact-network "
+                "snapshots (for `grainlab analyse`; 0: none).")
+_CKPT = _option("checkpoint_every", "--checkpoint-every", help="Steps between checkpoints "
+                "(0: only at the end of each stage and on Ctrl-C).")
+_VTK = _option("vtk_every", "--vtk-every", help="Steps between ParaView frames (0: none).")
+_EPS_Q = _option("eps_q", "--eps-q", help="Deviatoric strain eps_q = eps_1 - eps_3 at which "
+                 "the test ends [-].")
+_AXIAL = _option("axial_strain", "--axial-strain", help="Vertical strain of loading [-].")
+_UNLOAD = _option("unload_strain", "--unload-strain", help="Vertical strain of unloading "
+                  "[-] (0: no unloading).")
+_CONFIG = typer.Option(None, "--config", help="A config.toml to start from (options given "
+                                              "here override it).")
 _OVERWRITE = typer.Option(False, "--overwrite", help="Replace a run already in OUT.")
 _PROGRESS = typer.Option(True, "--progress/--no-progress", help="Show a progress bar.")
 
@@ -204,23 +278,25 @@ def triaxial_command(
     out: Path = _OUT, shape: str = _SHAPE, n: int = _N, d_min: float = _DMIN,
     size_ratio: float = _RATIO, eta: float = _ETA, faces: int = _FACES,
     templates: int = _TEMPLATES, density: float = _RHO, mu: float = _MU,
-    sigma0: float = _SIGMA0, inertia: float = _INERTIA,
-    eps_q: float = typer.Option(None, "--eps-q", help="Deviatoric strain to reach [0.5]."),
+    sigma0: float = _SIGMA0, inertia: float = _INERTIA, eps_q: float = _EPS_Q,
     seed: int = _SEED, dt: float = _DT, tolerance: float = _TOL, sweep: str = _SWEEP,
     max_iterations: int = _ITER,
     record_every: int = _RECORD, snapshot_every: int = _SNAP, checkpoint_every: int = _CKPT,
     vtk_every: int = _VTK, config: Path = _CONFIG, overwrite: bool = _OVERWRITE,
     progress: bool = _PROGRESS,
 ) -> None:
-    """Triaxial compression of a discrete sample (seed 002/003): loose random sample,
-    frictionless isotropic compaction to SIGMA0 until quasi-static, then the top wall at a
-    constant strain rate (inertia number <= INERTIA), lateral walls at SIGMA0, friction MU,
-    until eps_q = eps_1 - eps_3 reaches EPS_Q."""
-    overrides = _options(shape, n, d_min, size_ratio, eta, density, mu, sigma0, inertia, seed,
-                         dt, tolerance, sweep, record_every, snapshot_every, checkpoint_every,
-                         vtk_every, max_iterations, faces, templates)
-    overrides["test"]["eps_q_max"] = eps_q
-    _run("triaxial", out, config, overrides, overwrite, progress)
+    """Triaxial compression of a discrete sample, as Azéma, Radjaï & Dubois 2013
+    (polyhedra) and Azéma et al. 2013 (aggregates): a loose random sample, frictionless
+    isotropic compaction to SIGMA0 until quasi-static, then the top wall at a constant strain
+    rate (inertia number <= INERTIA), the lateral walls at SIGMA0, friction MU, until
+    eps_q = eps_1 - eps_3 reaches EPS_Q."""
+    _run("triaxial", out, config, dict(
+        shape=shape, n=n, d_min=d_min, size_ratio=size_ratio, eta=eta, faces=faces,
+        templates=templates, density=density, mu=mu, sigma0=sigma0, inertia=inertia,
+        eps_q=eps_q, seed=seed, dt=dt, tolerance=tolerance, sweep=sweep,
+        max_iterations=max_iterations, record_every=record_every,
+        snapshot_every=snapshot_every, checkpoint_every=checkpoint_every,
+        vtk_every=vtk_every), overwrite, progress)
 
 
 @friendly_errors
@@ -233,12 +309,15 @@ def compaction_command(
     checkpoint_every: int = _CKPT, vtk_every: int = _VTK, config: Path = _CONFIG,
     overwrite: bool = _OVERWRITE, progress: bool = _PROGRESS,
 ) -> None:
-    """Isotropic compaction of a loose random sample to SIGMA0 (no gravity, no friction:
-    seed 002's preparation) until quasi-static; reports packing fraction and z."""
-    overrides = _options(shape, n, d_min, size_ratio, eta, density, None, sigma0, None, seed,
-                         dt, tolerance, sweep, record_every, snapshot_every, checkpoint_every,
-                         vtk_every, faces=faces, templates=templates)
-    _run("compaction", out, config, overrides, overwrite, progress)
+    """Isotropic compaction of a loose random sample to SIGMA0 (no gravity, no friction: the
+    preparation of Azéma, Radjaï & Dubois 2013) until quasi-static; reports the packing
+    fraction and the coordination number z."""
+    _run("compaction", out, config, dict(
+        shape=shape, n=n, d_min=d_min, size_ratio=size_ratio, eta=eta, faces=faces,
+        templates=templates, density=density, sigma0=sigma0, seed=seed, dt=dt,
+        tolerance=tolerance, sweep=sweep, record_every=record_every,
+        snapshot_every=snapshot_every, checkpoint_every=checkpoint_every,
+        vtk_every=vtk_every), overwrite, progress)
 
 
 @friendly_errors
@@ -246,11 +325,8 @@ def oedometer_command(
     out: Path = _OUT, shape: str = _SHAPE, n: int = _N, d_min: float = _DMIN,
     size_ratio: float = _RATIO, eta: float = _ETA, faces: int = _FACES,
     templates: int = _TEMPLATES, density: float = _RHO, mu: float = _MU,
-    sigma0: float = _SIGMA0, inertia: float = _INERTIA,
-    axial_strain: float = typer.Option(None, "--axial-strain",
-                                       help="Vertical strain of loading [0.05]."),
-    unload_strain: float = typer.Option(None, "--unload-strain",
-                                        help="Vertical strain of unloading [0: none]."),
+    sigma0: float = _SIGMA0, inertia: float = _INERTIA, axial_strain: float = _AXIAL,
+    unload_strain: float = _UNLOAD,
     seed: int = _SEED, dt: float = _DT, tolerance: float = _TOL, sweep: str = _SWEEP,
     record_every: int = _RECORD, snapshot_every: int = _SNAP, checkpoint_every: int = _CKPT,
     vtk_every: int = _VTK, config: Path = _CONFIG, overwrite: bool = _OVERWRITE,
@@ -263,11 +339,13 @@ def oedometer_command(
     against eps_zz). On rigid grains the test is degenerate: the sample cannot compress
     beyond rearrangement, sigma_zz comes from the overlaps the solver leaves and from the
     loading rate, and K0 is not an elastic K0 (until deformable contacts exist)."""
-    overrides = _options(shape, n, d_min, size_ratio, eta, density, mu, sigma0, inertia, seed,
-                         dt, tolerance, sweep, record_every, snapshot_every, checkpoint_every,
-                         vtk_every, faces=faces, templates=templates)
-    overrides["test"].update({"axial_strain": axial_strain, "unload_strain": unload_strain})
-    _run("oedometer", out, config, overrides, overwrite, progress)
+    _run("oedometer", out, config, dict(
+        shape=shape, n=n, d_min=d_min, size_ratio=size_ratio, eta=eta, faces=faces,
+        templates=templates, density=density, mu=mu, sigma0=sigma0, inertia=inertia,
+        axial_strain=axial_strain, unload_strain=unload_strain, seed=seed, dt=dt,
+        tolerance=tolerance, sweep=sweep, record_every=record_every,
+        snapshot_every=snapshot_every, checkpoint_every=checkpoint_every,
+        vtk_every=vtk_every), overwrite, progress)
 
 
 @friendly_errors
@@ -296,6 +374,8 @@ def vtk_command(
     the walls, and the contacts of the last snapshot (lines carrying force) if any."""
     from grainlab.lab.discrete_run import export_checkpoint_vtk
 
+    if out is not None:
+        output_folder("--out", out)
     paths = export_checkpoint_vtk(run, out)
     for path in paths:
         console.print(f"wrote {path}")

@@ -11,6 +11,7 @@ from rich.console import Console
 from grainlab._version import __version__
 from grainlab.cli import analyse, discrete, microelement, packing2d
 from grainlab.cli.errors import friendly_errors
+from grainlab.cli.inputs import output_folder
 
 app = typer.Typer(
     help=(
@@ -39,9 +40,10 @@ console = Console()
 def demo(
     out: Path = typer.Option(Path("grainlab-demo"), help="Folder for the demo's outputs."),
 ) -> None:
-    """Run the built-in demo: Table 1 of seed 000, then packing C loaded at alpha = 30 deg
-    from 17.24 kPa to failure with the paper's constants; writes a test result (CSV, HDF5)
-    and figures into OUT."""
+    """Run the built-in demo: Table 1 of Chang, Misra & Xue 1989 (regular packings of
+    discs), then their packing C loaded at alpha = 30 deg from 17.24 kPa to failure with the
+    paper's constants; writes a test result (CSV, HDF5) and figures into OUT."""
+    output_folder("--out", out)
     out.mkdir(parents=True, exist_ok=True)
     packing2d.table_command(csv=out / "table1.csv", tolerance=1e-6)
     model = packing2d.RegularPackingModel(

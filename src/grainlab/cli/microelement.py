@@ -20,7 +20,9 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from grainlab._validate import seed as check_seed
 from grainlab.cli.errors import friendly_errors
+from grainlab.cli.inputs import output_folder
 from grainlab.cli.microelement_options import (
     AFFINE_OPTION,
     DISTRIBUTION_OPTION,
@@ -90,10 +92,10 @@ from grainlab.report.element_test_figures import (
 
 app = typer.Typer(
     help=(
-        "Element tests on the micromechanical model of seed 001 (Chang's micro-elements: a "
+        "Element tests on the micromechanical model of Chang 1991 (micro-elements: a "
         "centre particle and its neighbours, linked to the whole by a distribution law). "
         "Pick a structure (`--structure idealized|binary|chang2d|FILE`), a contact law and a "
-        "load path; get a test result (CSV/HDF5) and the figures of seed 001. Start with "
+        "load path; get a test result (CSV/HDF5) and the figures of Chang 1991. Start with "
         "`grainlab microelement presets`, then `grainlab microelement run`."
     ),
     no_args_is_help=True,
@@ -278,7 +280,7 @@ def run_command(
                                     "microelement-PATH-STRUCTURE]."),
 ) -> None:
     """Run one load path on one structure and write the test result, derived outputs and
-    the figure of seed 001 that fits the path.
+    the figure of Chang 1991 that fits the path.
 
     The specimen is consolidated isotropically to sigma0, then loaded along the preset with
     defaults scaled to it (stresses ~ sigma0, strains ~ sigma0 / stiffness): e.g.
@@ -297,11 +299,15 @@ def run_command(
     user = parse_sets(sets)
     if path not in preset_names():
         raise InputError("--path", path, "one of " + ", ".join(preset_names()))
+    check_seed("--seed", seed)
+    if out is not None:
+        output_folder("--out", out)
     specimen = load_structure(structure, seed)
     model = options.build(specimen)
     eps_ref = reference_strain(model)
     load_path, parameters = _path(path, model, steps, user)
-    out = out or Path(f"microelement-{path}-{_structure_label(structure)}")
+    out = output_folder("--out", out or Path(f"microelement-{path}-"
+                                            f"{_structure_label(structure)}"))
     with _progress(f"{path} on {_structure_label(structure)}", load_path.n_steps) as (bar, task):
         result = _run(model, load_path, lambda done: bar.update(task, completed=done))
     result.metadata["setup"] = _setup(structure, seed, specimen, options, preset=path,
@@ -338,7 +344,7 @@ def sweep_b_command(
     steps: int = typer.Option(100, "--steps", help="Steps of each test (the preset's n_steps)."),
     out: Path = typer.Option(Path("microelement-b-sweep"), help="Output folder."),
 ) -> None:
-    """Cubical (true) triaxial tests at constant mean stress p = sigma0, one per b (seed 001
+    """Cubical (true) triaxial tests at constant mean stress p = sigma0, one per b (Chang 1991
     §4.2.2): z major, x intermediate, y minor principal axis.
 
     Writes one result per b (b0.csv/.h5, b0.5.csv/.h5, ...), a summary (summary.csv/.h5: per
@@ -352,6 +358,8 @@ def sweep_b_command(
     options = _options(law, kn, ks, friction_angle, shear_modulus, poisson_ratio, None,
                        sigma0, distribution, non_affine, spin, large_strain)
     user = parse_sets(sets)
+    check_seed("--seed", seed)
+    output_folder("--out", out)
     specimen = load_structure(structure, seed)
     if specimen.dimension != 3:
         raise InputError("--structure", structure, "a 3D structure (cubical tests)")
@@ -469,7 +477,7 @@ def circular_command(
     out: Path = typer.Option(Path("microelement-circular"), help="Output folder."),
 ) -> None:
     """Circular stress paths on the octahedral plane at constant p = sigma0 and constant q
-    (seed 001 §4.2.3): a radial approach to (q, alpha0), then one full turn in --steps steps.
+    (Chang 1991 §4.2.3): a radial approach to (q, alpha0), then one full turn in --steps steps.
 
     Writes one result per circle (alpha0_r0.5.csv/.h5, ...), summary.csv/.h5 (final strains,
     largest deviatoric strain) and circular_path.png (Fig. 4.14: stress path and strain path
@@ -480,6 +488,8 @@ def circular_command(
     options = _options(law, kn, ks, friction_angle, shear_modulus, poisson_ratio, None,
                        sigma0, distribution, non_affine, spin, large_strain)
     user = parse_sets(sets)
+    check_seed("--seed", seed)
+    output_folder("--out", out)
     specimen = load_structure(structure, seed)
     if specimen.dimension != 3:
         raise InputError("--structure", structure, "a 3D structure (octahedral plane)")
@@ -546,7 +556,7 @@ def cyclic_command(
                                           "the amplitude (a cycle has 4 times as many)."),
     sets: list[str] | None = SET_OPTION,
     structure: str = typer.Option("binary", "--structure", help=STRUCTURE_HELP + " [default: "
-                                  "binary, as in seed 001 §4.1.3]"),
+                                  "binary, as in Chang 1991 §4.1.3]"),
     seed: int = SEED_OPTION,
     law: Law | None = LAW_OPTION,
     kn: float | None = KN_OPTION,
@@ -563,7 +573,7 @@ def cyclic_command(
     out: Path = typer.Option(Path("microelement-cyclic"), help="Output folder."),
 ) -> None:
     """Strain-controlled cyclic simple shear at several amplitudes, the vertical stress held
-    at sigma0 (seed 001 §4.1.3): secant modulus and damping against amplitude.
+    at sigma0 (Chang 1991 §4.1.3): secant modulus and damping against amplitude.
 
     G_max is the tangent shear modulus of the consolidated specimen before cycling; G_s the
     secant modulus and D = W_loop / (4 pi W_elastic) the damping ratio of the last cycle.
@@ -577,6 +587,8 @@ def cyclic_command(
     options = _options(law, kn, ks, friction_angle, shear_modulus, poisson_ratio, thickness,
                        sigma0, distribution, non_affine, spin, large_strain)
     user = parse_sets(sets)
+    check_seed("--seed", seed)
+    output_folder("--out", out)
     specimen = load_structure(structure, seed)
     runs = []
     g_max = math.nan

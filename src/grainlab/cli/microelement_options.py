@@ -58,7 +58,7 @@ class Spin(StrEnum):
 
 
 STRUCTURE_HELP = (
-    "idealized (seed 001 §4.2: 30 micro-elements of 8 spheres), binary (§4.1: 12 binary "
+    "idealized (Chang 1991 §4.2: 30 micro-elements of 8 spheres), binary (§4.1: 12 binary "
     "units, Hertz-Mindlin), chang2d (ch. 3: random periodic packing of 25 discs, 2D; made "
     "in seconds to minutes) or a FILE: a contact-network snapshot (.h5) or a periodic disc "
     "packing (.toml/.csv, see `grainlab packing2d show --help`)."

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from enum import StrEnum
 from pathlib import Path
 
@@ -11,7 +13,9 @@ from rich.console import Console
 from rich.progress import Progress
 from rich.table import Table
 
+from grainlab._validate import in_range
 from grainlab.cli.errors import friendly_errors
+from grainlab.cli.inputs import figure_file, output_file, output_folder
 from grainlab.contact.linear_spring import LinearSpring2D
 from grainlab.contact.modified_hertz_mindlin import PAPER_SHEAR_MODULUS, ModifiedHertzMindlin2D
 from grainlab.errors import InputError
@@ -81,6 +85,34 @@ def load_packing(packing: str) -> DiscPacking2D:
     return named_packing(packing)
 
 
+_TYPED = {
+    "normal_stiffness": "--kn", "tangential_stiffness": "--ks",
+    "shear_modulus": "--shear-modulus", "poisson_ratio": "--poisson-ratio", "psi": "--psi",
+    "confining_stress": "--sigma0", "ratio_step": "--ratio-step", "max_ratio": "--max-ratio",
+    "tolerance": "--tolerance",
+}
+"""Options named by the model's parameter names when the model refuses them (same units;
+the angles, typed in degrees, are checked before: :func:`check_angles`)."""
+
+
+@contextmanager
+def options_as_typed() -> Iterator[None]:
+    """Inside, an :class:`InputError` naming a model parameter names its option instead."""
+    try:
+        yield
+    except InputError as error:
+        if error.field not in _TYPED:
+            raise
+        raise InputError(_TYPED[error.field], error.value, error.allowed) from None
+
+
+def check_angles(friction_angle: float, alpha: float | None = None) -> None:
+    """The angles as typed, in degrees: friction in (0, 90), alpha in [-90, 90]."""
+    in_range("--friction-angle", friction_angle, 0.0, 90.0, "deg")
+    if alpha is not None:
+        in_range("--alpha", alpha, -90.0, 90.0, "deg", closed="[]")
+
+
 def make_law(
     law: Law, friction_angle: float, shear_modulus: float, poisson_ratio: float, psi: float,
     kn: float | None, ks: float | None,
@@ -102,9 +134,11 @@ def table_command(
         DEFAULT_CONTACT_TOLERANCE, help="Relative gap below which discs count as touching."
     ),
 ) -> None:
-    """Print seed 000's Table 1 (void ratio, coordination number) for every named packing,
-    beside the paper's values."""
-    table = Table(title="Regular packings of seed 000 (Table 1: A-D)")
+    """Print Table 1 of Chang, Misra & Xue 1989 (void ratio, coordination number) for every
+    named packing, beside the paper's values."""
+    if csv is not None:
+        output_file("--csv", csv)
+    table = Table(title="Regular packings of Chang, Misra & Xue 1989 (Table 1: A-D)")
     for column in ("packing", "e", "e (paper)", "CN", "CN (paper)", "contacts per disc"):
         table.add_column(column)
     lines = ["packing,void_ratio,void_ratio_paper,coordination_number,"
@@ -149,8 +183,10 @@ def show_command(
     `[[particles]]` table per disc with `x`, `y`, `radius` (and optional `label`), in metres.
     In CSV: columns kind,x,y,radius,label with two `lattice` rows and one `particle` row per disc.
     """
+    figure_file("--out", out)
     p = load_packing(packing)
-    contacts = find_disc_contacts(p, tolerance)
+    with options_as_typed():
+        contacts = find_disc_contacts(p, tolerance)
     tessellation = power_tessellation(p)
     console.print(
         f"[bold]{p.name}[/]: {p.n_particles} discs, cell area {p.cell.area:.6g} m^2, "
@@ -181,8 +217,9 @@ def _common_model(packing, law, friction_angle, shear_modulus, poisson_ratio, ps
     )
 
 
-LAW_OPTION = typer.Option(Law.hertz_mindlin, help="Contact law: seed 000's modified "
-                          "Hertz-Mindlin (eqs. 17-19) or linear springs (--kn, --ks).")
+LAW_OPTION = typer.Option(Law.hertz_mindlin, help="Contact law: the modified "
+                          "Hertz-Mindlin of Chang, Misra & Xue 1989 (eqs. 17-19) or linear "
+                          "springs (--kn, --ks).")
 PHI_OPTION = typer.Option(15.0, help="Interparticle friction angle phi_mu [deg].")
 G_OPTION = typer.Option(PAPER_SHEAR_MODULUS, help="Equivalent shear modulus G~ [Pa] "
                         "(Hertz-Mindlin).")
@@ -224,11 +261,16 @@ def load_command(
 ) -> None:
     """Load a packing from the isotropic state sigma0 along a stress path whose major
     principal axis is at ALPHA from the Y axis, until failure; write the test result
-    (result.csv, result.h5) and the figures of seed 000 Figs. 7 and 10."""
-    model = _common_model(packing, law, friction_angle, shear_modulus, poisson_ratio, psi, kn,
-                          ks, tolerance)
-    path = RotatedStressPath(np.radians(alpha), sigma0, control.value, ratio_step, max_ratio)
-    out = out or Path(f"packing2d-{model.packing.name}-alpha{alpha:g}")
+    (result.csv, result.h5) and Figs. 7 and 10 of Chang, Misra & Xue 1989."""
+    check_angles(friction_angle, alpha)
+    if out is not None:
+        output_folder("--out", out)
+    with options_as_typed():
+        model = _common_model(packing, law, friction_angle, shear_modulus, poisson_ratio, psi,
+                              kn, ks, tolerance)
+        path = RotatedStressPath(np.radians(alpha), sigma0, control.value, ratio_step,
+                                 max_ratio)
+    out = output_folder("--out", out or Path(f"packing2d-{model.packing.name}-alpha{alpha:g}"))
     with Progress(console=console, transient=True) as bar:
         task = bar.add_task(f"packing {model.packing.name}, alpha {alpha:g} deg", total=1.0)
         result = run_rotated_stress_path(
@@ -296,13 +338,18 @@ def sweep_command(
     max_ratio: float = MAX_RATIO_OPTION,
     tolerance: float = TOL_OPTION,
 ) -> None:
-    """Run the stress path for several loading directions alpha and draw seed 000 Figs. 7-9:
-    strains, strain ratios gamma_xy/eps_x and eps_x/eps_y, and non-coaxiality against alpha."""
-    model = _common_model(packing, law, friction_angle, shear_modulus, poisson_ratio, psi, kn,
-                          ks, tolerance)
+    """Run the stress path for several loading directions alpha and draw Figs. 7-9
+    of Chang, Misra & Xue 1989: strains, strain ratios gamma_xy/eps_x and eps_x/eps_y, and
+    non-coaxiality against alpha."""
+    check_angles(friction_angle)
     angles = parse_alphas(alphas)
-    path = RotatedStressPath(0.0, sigma0, control.value, ratio_step, max_ratio)
-    out = out or Path(f"packing2d-{model.packing.name}-sweep")
+    if out is not None:
+        output_folder("--out", out)
+    with options_as_typed():
+        model = _common_model(packing, law, friction_angle, shear_modulus, poisson_ratio, psi,
+                              kn, ks, tolerance)
+        path = RotatedStressPath(0.0, sigma0, control.value, ratio_step, max_ratio)
+    out = output_folder("--out", out or Path(f"packing2d-{model.packing.name}-sweep"))
     with Progress(console=console, transient=True) as bar:
         task = bar.add_task(f"packing {model.packing.name}: {len(angles)} directions",
                             total=len(angles))

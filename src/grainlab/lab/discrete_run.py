@@ -79,11 +79,17 @@ def _logger(folder: Path) -> logging.Logger:
 def build_sample(config: RunConfig) -> DiscreteSample:
     """The loose random sample of ``config.sample``."""
     s = config.sample
-    return loose_sample(shape=s.shape, n_particles=s.n_particles, d_min=s.d_min,
-                        size_ratio=s.size_ratio, eta=s.eta, n_faces=s.n_faces,
-                        templates=s.templates, density=s.density,
-                        packing_fraction=s.packing_fraction, wall_friction=s.wall_friction,
-                        seed=s.seed)
+    try:
+        return loose_sample(shape=s.shape, n_particles=s.n_particles, d_min=s.d_min,
+                            size_ratio=s.size_ratio, eta=s.eta, n_faces=s.n_faces,
+                            templates=s.templates, density=s.density,
+                            packing_fraction=s.packing_fraction,
+                            wall_friction=s.wall_friction, seed=s.seed)
+    except InputError as error:
+        if error.field not in type(s).model_fields:
+            raise
+        # the keywords are the keys of [sample]: name the key as the config spells it
+        raise InputError(f"sample.{error.field}", error.value, error.allowed) from None
 
 
 class DiscreteRun:
@@ -296,7 +302,7 @@ class _ProgressBar:
         else:
             done = min(1.0, row["packing_fraction"] / 0.64)
         info = (f"step {row['step']}  q/p {row['q_over_p']:.3f}  "
-                f"phi {row['packing_fraction']:.4f}  z {row['z']:.2f}  "
+                f"packing fraction {row['packing_fraction']:.4f}  z {row['z']:.2f}  "
                 f"I {row['inertia_number']:.1e}")
         self.progress.update(self.task, completed=min(done, 1.0), description=stage.name,
                              info=info)
@@ -337,20 +343,22 @@ def _plain(value: Any) -> Any:
 
 def start_run(folder: str | Path, config: RunConfig, *, overwrite: bool = False
               ) -> DiscreteRun:
-    """Create the run folder (refusing to replace a run unless ``overwrite``), write the
-    config and build the sample and the test."""
+    """Build the sample and the test, then create the run folder (refusing to replace a run
+    unless ``overwrite``) and write the config. An input rejected while building leaves the
+    folder as it was: no new folder, the old run (if any) untouched."""
     folder = Path(folder)
-    if (folder / CHECKPOINT).exists() or (folder / CONFIG).exists():
-        if not overwrite:
-            raise InputError("run folder", str(folder),
-                             "a new folder (this one holds a run: `grainlab resume` it, or "
-                             "pass --overwrite)")
+    holds_run = (folder / CHECKPOINT).exists() or (folder / CONFIG).exists()
+    if holds_run and not overwrite:
+        raise InputError("run folder", str(folder),
+                         "a new folder (this one holds a run: `grainlab resume` it, or "
+                         "pass --overwrite)")
+    sample = build_sample(config)
+    test = DiscreteTest(sample, config.load_path(), config.settings())
+    if holds_run:
         for name in (CHECKPOINT, RESULTS, RESULTS_H5, SNAPSHOTS, LOG):
             (folder / name).unlink(missing_ok=True)
     folder.mkdir(parents=True, exist_ok=True)
     config.write(folder / CONFIG)
-    sample = build_sample(config)
-    test = DiscreteTest(sample, config.load_path(), config.settings())
     run = DiscreteRun(folder, config, test)
     run.log.info("run started: %s, %d %s particles", config.test.kind,
                  config.sample.n_particles, config.sample.shape)

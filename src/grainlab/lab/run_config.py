@@ -28,29 +28,38 @@ from __future__ import annotations
 
 import tomllib
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, get_args, get_origin
 
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from grainlab._validate import MAX_SEED
 from grainlab.errors import InputError
 from grainlab.lab.discrete_test import DiscreteTestSettings
 from grainlab.lab.load_path import LoadPath, StopCriterion
 from grainlab.lab.presets import isotropic_compression, oedometer, triaxial_compression
+from grainlab.prep.loose_sample import MAX_FACES
 
 TEST_KINDS = ("compaction", "triaxial", "oedometer")
 
+UNITS = {"sample.d_min": "m", "sample.density": "kg/m^3", "test.sigma0": "Pa",
+         "solver.dt": "s"}
+"""Units of the keys that carry one (the others are dimensionless or counts)."""
+
+_FACES_NOTE = ("even: n_f = 2 n_v - 4; Table I of Azéma, Radjaï & Dubois 2013: 8, 20, 30, "
+               "46, 96, 176, 596")
+
 
 class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
 
 
 class SampleConfig(_Section):
     """Particles of a loose random sample (:func:`grainlab.prep.loose_sample.loose_sample`).
 
-    ``n_faces`` (even, >= 8; seed 002 Table I: 8, 20, 30, 46, 96, 176, 596) and ``templates``
-    (0: every polyhedron its own, as seed 002; K > 0: K shapes reused in random orientations)
-    apply to polyhedra only, ``eta`` to aggregates only.
+    ``n_faces`` (even, in [8, 1000]; seed 002 Table I: 8, 20, 30, 46, 96, 176, 596) and
+    ``templates`` (0: every polyhedron its own, as seed 002; K > 0: K shapes reused in random
+    orientations) apply to polyhedra only, ``eta`` to aggregates only.
     """
 
     shape: Literal["sphere", "aggregate", "polyhedron"] = "sphere"
@@ -58,19 +67,18 @@ class SampleConfig(_Section):
     d_min: float = Field(1e-3, gt=0)
     size_ratio: float = Field(2.0, ge=1)
     eta: float = Field(0.4, ge=0, le=0.828)
-    n_faces: int = Field(30, ge=8)
+    n_faces: int = Field(30, ge=8, le=MAX_FACES, description=_FACES_NOTE)
     templates: int = Field(0, ge=0)
     density: float = Field(2600.0, gt=0)
     packing_fraction: float = Field(0.3, gt=0, le=0.35)
     wall_friction: float = Field(0.0, ge=0)
-    seed: int = 0
+    seed: int = Field(0, ge=0, le=MAX_SEED)
 
     @field_validator("n_faces")
     @classmethod
     def _even_faces(cls, value: int) -> int:
         if value % 2:
-            raise ValueError("an even number of faces >= 8 (n_f = 2 n_v - 4; seed 002 "
-                             "Table I: 8, 20, 30, 46, 96, 176, 596)")
+            raise ValueError(_FACES_NOTE)
         return value
 
 
@@ -105,7 +113,7 @@ class SolverConfig(_Section):
     max_stage_steps: int = Field(200_000, ge=1)
     wall_mass_factor: float = Field(1.0, gt=0)
     wall_servo: bool = True
-    seed: int = 0
+    seed: int = Field(0, ge=0, le=MAX_SEED)
     overlap_recovery: float = Field(0.05, ge=0, le=1)
     compaction_max_iterations: int = Field(200, ge=1)
     compaction_tolerance: float = Field(1e-4, gt=0, lt=1)
@@ -141,12 +149,24 @@ class RunConfig(_Section):
         """Read a TOML file."""
         path = Path(path)
         try:
-            data = tomllib.loads(path.read_text())
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
         except FileNotFoundError:
             raise InputError("config", str(path), "an existing TOML file") from None
+        except IsADirectoryError:
+            raise InputError("config", str(path), "a TOML file (it is a folder)") from None
+        except UnicodeDecodeError:
+            raise InputError("config", str(path), "a TOML text file (this one is not "
+                                                  "UTF-8 text)") from None
+        except OSError as error:
+            raise InputError("config", str(path), f"a readable TOML file "
+                                                  f"({error.strerror or error})") from None
         except tomllib.TOMLDecodeError as error:
             raise InputError("config", str(path), f"valid TOML ({error})") from None
-        return cls.model_validate(data)
+        try:
+            return cls.model_validate(data)
+        except InputError as error:
+            raise InputError(f"{error.field} (in {path})", error.value,
+                             error.allowed) from None
 
     def write(self, path: str | Path) -> Path:
         """Write as TOML."""
@@ -212,10 +232,63 @@ def _renamed(stages, name: str):
 
 
 def _input_error(error: ValidationError) -> InputError:
+    """The first error, naming the key (``section.key``) and all that the key allows."""
     first = error.errors()[0]
     field = ".".join(str(p) for p in first["loc"]) or "config"
     kind = first["type"]
     if kind == "extra_forbidden":
         return InputError(field, first.get("input"), "no such key: see the keys of "
                           "grainlab.lab.run_config (or `grainlab triaxial --help`)")
-    return InputError(field, first.get("input"), first["msg"].lower())
+    info = _field_info(first["loc"])
+    if info is None:
+        return InputError(field, first.get("input"), first["msg"].lower())
+    return InputError(field, first.get("input"), _allowed_text(info, UNITS.get(field, "")))
+
+
+def _field_info(loc: tuple) -> Any:
+    """The pydantic field at ``loc`` (section, key) of :class:`RunConfig`, or None."""
+    model: Any = RunConfig
+    info = None
+    for name in loc:
+        fields = getattr(model, "model_fields", None)
+        if not isinstance(name, str) or fields is None or name not in fields:
+            return None
+        info = fields[name]
+        model = info.annotation
+    return info
+
+
+def _number(value: Any) -> str:
+    return str(value) if isinstance(value, int) else f"{value:g}"
+
+
+def _allowed_text(info: Any, unit: str = "") -> str:
+    """What a config field allows, in words: ``"a finite number in (0, 1] (in Pa)"``,
+    ``"an integer >= 1"``, ``"one of 'coloured', 'serial'"`` (plus the field's
+    description)."""
+    annotation = info.annotation
+    if get_origin(annotation) is Literal:
+        text = "one of " + ", ".join(repr(a) for a in get_args(annotation))
+    elif annotation is bool:
+        text = "true or false"
+    else:
+        text = "an integer" if annotation is int else "a finite number"
+        low = high = None
+        for item in info.metadata:
+            for name, side in (("gt", "("), ("ge", "["), ("lt", ")"), ("le", "]")):
+                bound = getattr(item, name, None)
+                if bound is not None and side in "([":
+                    low = (side, bound)
+                elif bound is not None:
+                    high = (side, bound)
+        if low and high:
+            text += f" in {low[0]}{_number(low[1])}, {_number(high[1])}{high[0]}"
+        elif low:
+            text += f" {'>' if low[0] == '(' else '>='} {_number(low[1])}"
+        elif high:
+            text += f" {'<' if high[0] == ')' else '<='} {_number(high[1])}"
+    if unit:
+        text += f" (in {unit})"
+    if info.description:
+        text += f" ({info.description})"
+    return text

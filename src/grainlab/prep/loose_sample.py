@@ -37,6 +37,7 @@ from functools import lru_cache
 import numpy as np
 
 from grainlab._validate import at_least
+from grainlab._validate import seed as check_seed
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
 from grainlab.errors import InputError
@@ -45,6 +46,10 @@ from grainlab.geometry.sphere_aggregate import tetrahedral_aggregate
 
 SHAPES = ("sphere", "aggregate", "polyhedron")
 """Particle shapes a loose sample can be made of."""
+
+MAX_FACES = 1000
+"""Most faces a sample's polyhedra may have: above seed 002's largest (596, Table I), below
+where contact detection would cost seconds per pair and hull draws dominate the run."""
 
 
 @dataclass
@@ -154,13 +159,14 @@ def aggregate_library(bounding_radii: np.ndarray, eta: float) -> ShapeLibrary:
 
 
 def check_n_faces(n_faces, field: str = "n_faces") -> int:
-    """``n_faces`` as the face count of a seed 002 random polyhedron: an even integer >= 8
-    (Table I: 8, 20, 30, 46, 96, 176, 596; n_f = 2 n_v - 4), else InputError naming
-    ``field``."""
+    """``n_faces`` as the face count of a seed 002 random polyhedron: an even integer in
+    [8, :data:`MAX_FACES`] (Table I: 8, 20, 30, 46, 96, 176, 596; n_f = 2 n_v - 4), else
+    InputError naming ``field``."""
     if isinstance(n_faces, bool) or not isinstance(n_faces, int | np.integer) \
-            or n_faces < 8 or n_faces % 2:
-        raise InputError(field, n_faces, "an even number of faces >= 8 (n_f = 2 n_v - 4; "
-                                         "seed 002 Table I: 8, 20, 30, 46, 96, 176, 596)")
+            or not 8 <= n_faces <= MAX_FACES or n_faces % 2:
+        raise InputError(field, n_faces, f"an even number of faces in [8, {MAX_FACES}] "
+                                         "(n_f = 2 n_v - 4; Table I of Azéma, Radjaï & "
+                                         "Dubois 2013: 8, 20, 30, 46, 96, 176, 596)")
     return int(n_faces)
 
 
@@ -244,7 +250,7 @@ def loose_sample(
     if shape_ratio.shape != (3,) or not np.all(np.isfinite(shape_ratio)) \
             or np.any(shape_ratio <= 0.0):
         raise InputError("aspect", aspect, "three positive box side ratios")
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(check_seed("seed", seed))
     radii = 0.5 * diameters_uniform_by_volume(int(n_particles), d_min, ratio * d_min, rng)
     if shape == "sphere":
         library = ShapeLibrary.from_spheres(radii)
@@ -265,7 +271,14 @@ def loose_sample(
     volume = float(np.sum(4.0 / 3.0 * np.pi * bounding**3)) / phi
     side = shape_ratio * (volume / float(np.prod(shape_ratio))) ** (1.0 / 3.0)
     side = np.maximum(side, 2.0 * bounding.max() * 1.01)
-    positions = random_sequential_placement(bounding, side, rng)
+    try:
+        positions = random_sequential_placement(bounding, side, rng)
+    except InputError:
+        # few particles: the box is barely wider than the largest, the walls leave no room
+        raise InputError("n_particles", n_particles,
+                         f"more particles, a looser start (packing_fraction, now {phi:g}) or "
+                         f"another size ratio (now {ratio:g}): random placement found no "
+                         f"room for all {int(n_particles)} in so small a box") from None
     orientations = random_orientations(int(n_particles), rng) if shape != "sphere" else None
     state = BodyState.from_library(library, np.arange(int(n_particles)), positions, density,
                                    orientations)

@@ -99,6 +99,9 @@ def read_packing(path: str | Path) -> DiscPacking2D:
             ))
     except ValidationError as error:
         _raise_validation(path, error)
+    except UnicodeDecodeError:
+        raise InputError("packing file", str(path), f"a {suffix[1:].upper()} text file (this "
+                                                    "one is not UTF-8 text)") from None
     raise InputError("packing file", str(path), "a file ending in .toml or .csv")
 
 
