@@ -96,6 +96,14 @@ def analyse_command(
              force_bins, color_by, synthetic)
 
 
+def analyse_run(path: Path, out: Path, window: tuple[float, float],
+                strain: str = "eps_q") -> None:
+    """The analysis of ``grainlab analyse PATH --out OUT`` with its default options and the
+    residual state over ``window`` (low, high) of ``strain``."""
+    _analyse(path, out, -1, strain, f"{window[0]!r}:{window[1]!r}", 2, "points", 18, 40,
+             "type", 0)
+
+
 @friendly_errors
 def _analyse(path, out, snapshot, strain, window, min_contacts, frame_level, angle_bins,
              force_bins, color_by, synthetic) -> None:
@@ -139,6 +147,14 @@ def _analyse(path, out, snapshot, strain, window, min_contacts, frame_level, ang
         residual.to_csv(out / "residual_state.csv", index=False, float_format="%.10g")
         console.print(f"residual state: {residual['n_snapshots'].iloc[0]} snapshot(s) with "
                       f"{strain} in [{low_high[0]:g}, {low_high[1]:g}] -> residual_state.csv")
+    elif strain in table.columns:
+        console.print(f"[yellow]no residual state:[/] no snapshot has {strain} in the window "
+                      f"[{low_high[0]:g}, {low_high[1]:g}] (the snapshots span {strain} "
+                      f"{table[strain].min():.4g} to {table[strain].max():.4g}); "
+                      "residual_state.csv not written: choose --window within that span")
+    else:
+        console.print(f"[yellow]no residual state:[/] the snapshots have no {strain} "
+                      "(--strain); residual_state.csv not written")
     analysis = drawn["analysis"]
     save_figure(polar_distributions_figure(analysis.angular), out / "polar_distributions.png")
     save_figure(force_pdf_figure(analysis.forces), out / "force_pdfs.png")

@@ -379,3 +379,13 @@ def vtk_command(
     paths = export_checkpoint_vtk(run, out)
     for path in paths:
         console.print(f"wrote {path}")
+
+
+def print_summary(result) -> None:
+    """The end-of-run summary of a discrete run's result (as the run commands print it)."""
+    _summary(result)
+
+
+def write_figures(folder: Path, result) -> list[Path]:
+    """The figures of a discrete run's result written into ``folder`` (curves.png)."""
+    return _figures(folder, result)
