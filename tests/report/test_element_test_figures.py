@@ -9,17 +9,17 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
+from grainlab.lab.test_result import TestResult
 from matplotlib.figure import Figure
 
 from grainlab.errors import GrainlabWarning, InputError
 from grainlab.lab.element_test import run_element_test
-from grainlab.lab.presets import preset
-from grainlab.lab.test_result import TestResult
-from grainlab.micromech.micro_element.setup import (
+from grainlab.lab.micro_element_setup import (
     build_model,
     build_structure,
     default_path_parameters,
 )
+from grainlab.lab.presets import preset
 from grainlab.prep.regular_packings import named_packing
 from grainlab.report.element_test_figures import (
     b_sweep_figure,

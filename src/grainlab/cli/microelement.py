@@ -64,16 +64,16 @@ from grainlab.lab.derived import (
     principal_angles,
 )
 from grainlab.lab.load_path import LoadPath
-from grainlab.lab.presets import preset, preset_description, preset_names
-from grainlab.lab.test_result import TestResult
-from grainlab.micromech.micro_element.model import MicroElementModel
-from grainlab.micromech.micro_element.setup import (
+from grainlab.lab.micro_element_setup import (
     THREE_D_ONLY,
     TWO_D_ONLY,
     default_path_parameters,
     mean_stress,
     reference_strain,
 )
+from grainlab.lab.presets import preset, preset_description, preset_names
+from grainlab.lab.test_result import TestResult
+from grainlab.micromech.micro_element.model import MicroElementModel
 from grainlab.report.curves import save_figure
 from grainlab.report.element_test_figures import (
     b_sweep_figure,
