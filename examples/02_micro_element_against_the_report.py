@@ -27,7 +27,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from grainlab.lab.test_result import TestResult
 
 from grainlab.errors import GrainlabError
 from grainlab.lab.derived import fit_kappa, k0_series, peak_friction_angle, principal_angles
@@ -38,6 +37,7 @@ from grainlab.lab.micro_element_setup import (
     default_path_parameters,
 )
 from grainlab.lab.presets import preset
+from grainlab.result.test_result import TestResult
 
 LAWS = {
     "homogeneous": ("homogeneous", "overall"),

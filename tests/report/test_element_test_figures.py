@@ -9,7 +9,6 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
-from grainlab.lab.test_result import TestResult
 from matplotlib.figure import Figure
 
 from grainlab.errors import GrainlabWarning, InputError
@@ -31,6 +30,7 @@ from grainlab.report.element_test_figures import (
     simple_shear_figure,
     triaxial_figure,
 )
+from grainlab.result.test_result import TestResult
 
 PHI = math.radians(30.0)
 

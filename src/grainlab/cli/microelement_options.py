@@ -26,9 +26,9 @@ from grainlab.lab.micro_element_setup import (
     disc_thickness,
     structure_defaults,
 )
-from grainlab.lab.test_result import TestResult
 from grainlab.micromech.micro_element.model import MicroElementModel
 from grainlab.micromech.micro_element.structure import MicroElementStructure
+from grainlab.result.test_result import TestResult
 
 console = Console()
 
