@@ -73,8 +73,8 @@ def grainlab_run(n: int, eps_q: float, folder: Path) -> dict:
             compaction["z_no_rattlers"].iloc[-1],
         "z_m after compaction (no rattlers, wall contacts counted)":
             compaction["z_mechanical"].iloc[-1],
-        "peak q/p": shear["q_over_p"].max(),
-        "residual q/p (last 40 % of eps_q)": late["q_over_p"].mean(),
+        "peak q/p": shear["q_over_trace"].max(),
+        "residual q/p (last 40 % of eps_q)": late["q_over_trace"].mean(),
         "residual packing fraction": late["packing_fraction"].mean(),
         "residual z (with rattlers; no rattlers)":
             f"{late['z'].mean():.3f}; {late['z_no_rattlers'].mean():.3f}",

@@ -69,9 +69,9 @@ def polyhedra_run(n: int, faces: int, eps_q: float, templates: int, max_iteratio
     }
     if len(shear):
         summary.update({
-            "peak q/p (at eps_q)": (_r(shear["q_over_p"].max(), 4),
-                                    _r(shear["eps_q"][shear["q_over_p"].idxmax()], 4)),
-            "residual q/p (last 40 % of eps_q)": late["q_over_p"].mean(),
+            "peak q/p (at eps_q)": (_r(shear["q_over_trace"].max(), 4),
+                                    _r(shear["eps_q"][shear["q_over_trace"].idxmax()], 4)),
+            "residual q/p (last 40 % of eps_q)": late["q_over_trace"].mean(),
             "residual packing fraction": late["packing_fraction"].mean(),
             "residual z, z_c": (_r(late["z"].mean(), 3), _r(late["z_c"].mean(), 3)),
             "residual core z, z_c": (_r(late["z_core"].mean(), 3),

@@ -31,13 +31,13 @@ import numpy as np
 from grainlab.errors import GrainlabError
 from grainlab.lab.derived import fit_kappa, k0_series, peak_friction_angle, principal_angles
 from grainlab.lab.element_test import run_element_test
-from grainlab.lab.presets import preset
-from grainlab.lab.test_result import TestResult
-from grainlab.micromech.micro_element.setup import (
+from grainlab.lab.micro_element_setup import (
     build_model,
     build_structure,
     default_path_parameters,
 )
+from grainlab.lab.presets import preset
+from grainlab.result.test_result import TestResult
 
 LAWS = {
     "homogeneous": ("homogeneous", "overall"),

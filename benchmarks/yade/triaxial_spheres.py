@@ -44,12 +44,13 @@ Axial strain rate: eps_dot = I / (d_mean sqrt(rho / sigma0)) with the inertia nu
 Conventions: compression positive for stresses and strains; axis 1 = y (axial),
 3 = lateral (x and z averaged). Strains are logarithmic from the box dimensions at the
 start of the triaxial phase: eps_1 = ln(h0/h), eps_3 = [ln(w0/w) + ln(D0/D)]/2,
-eps_v = eps_1 + 2 eps_3, eps_q = eps_1 - eps_3. Stresses are wall force / current face
-area (mean of the two opposite walls). p = (s1 + 2 s3)/3, q = (s1 - s3)/3 (seed 002's
-definition, with the 1/3).
+eps_vol = eps_1 + 2 eps_3, eps_q = eps_1 - eps_3. Stresses are wall force / current face
+area (mean of the two opposite walls). p = (s1 + 2 s3)/3, q_over_3 = (s1 - s3)/3 (seed
+002's q, with the 1/3) and q_over_trace = q_over_3 / p (the seeds' q/p), the column names
+of grainlab's results (grainlab.result.columns).
 
 Output: a CSV (``--csv``) with one row about every ``--record-every`` [0.01] of eps_q:
-instantaneous state (strains, wall stresses, p, q, q/p, packing fraction, coordination
+instantaneous state (strains, wall stresses, p, q_over_3, q/p, packing fraction, coordination
 numbers, unbalanced force, inertia number) and q/p averaged over the samples (every
 ``--sample-every`` [20] steps) since the previous row (``qp_avg``). Peak and residual
 q/p are computed from ``qp_avg`` (the instantaneous peak is printed too). Residual: mean
@@ -329,8 +330,8 @@ triax.goal2 = -EPS_DOT                       # true strain rate (compression neg
 triax.max_vel = 1.0                          # YADE default cap on the lateral walls
 
 W0, H0, D0 = box_dims()
-COLUMNS = ["iter", "time", "eps_1", "eps_3", "eps_v", "eps_q", "sigma_1", "sigma_3",
-           "sigma_x", "sigma_z", "p", "q", "q_over_p", "qp_avg", "n_samples", "phi",
+COLUMNS = ["iter", "time", "eps_1", "eps_3", "eps_vol", "eps_q", "sigma_1", "sigma_3",
+           "sigma_x", "sigma_z", "p", "q_over_3", "q_over_trace", "qp_avg", "n_samples", "phi",
            "z", "z_no_rattlers", "rattler_fraction", "z_walls_no_rattlers", "unbalanced",
            "inertia_number"]
 os.makedirs(os.path.dirname(os.path.abspath(A.csv)), exist_ok=True)
@@ -389,7 +390,7 @@ def sample():
     if ST["prog"].due():
         r = ROWS[-1]
         say(f"  triax iter={O.iter} t_wall={time.perf_counter() - ST['t0']:.0f} s  "
-            f"eps_q={e[3]:.4f} eps_1={e[0]:.4f} eps_v={e[2]:.4f}  q/p(avg)={r['qp_avg']:.4f} "
+            f"eps_q={e[3]:.4f} eps_1={e[0]:.4f} eps_vol={e[2]:.4f}  q/p(avg)={r['qp_avg']:.4f} "
             f"phi={r['phi']:.4f} z={r['z']:.3f}")
     if e[3] >= A.eps_q_target or time.perf_counter() - ST["t0"] > A.max_wall:
         ST["done"] = True
@@ -411,7 +412,7 @@ CSV_FILE.close()
 last = ROWS[-1]
 eq_final = last["eps_q"]
 peak = max(ROWS[1:], key=lambda r: r["qp_avg"])
-peak_inst = max(ROWS, key=lambda r: r["q_over_p"])
+peak_inst = max(ROWS, key=lambda r: r["q_over_trace"])
 if eq_final >= 0.5 - 1e-9:
     lo, hi = 0.3, 0.5
 else:
@@ -436,9 +437,9 @@ say(f"RESULT compaction: wall {T_COMP:.2f} s, steps {STEPS_COMP}, phi={PHI_COMP:
     f"z_walls_nr={Z_COMP[3]:.3f}; rattler threshold 4: z_nr={Z_COMP_ISO[1]:.3f} "
     f"(rattlers {Z_COMP_ISO[2]:.3f}) z_walls_nr={Z_COMP_ISO[3]:.3f}")
 say(f"RESULT triaxial: wall {T_TRIAX:.2f} s, steps {STEPS_TRIAX}, final eps_q={eq_final:.4f} "
-    f"eps_1={last['eps_1']:.4f} eps_v={last['eps_v']:.4f}")
+    f"eps_1={last['eps_1']:.4f} eps_vol={last['eps_vol']:.4f}")
 say(f"RESULT peak q/p (interval mean)={peak['qp_avg']:.4f} at eps_q={peak['eps_q']:.3f}; "
-    f"peak q/p (instantaneous)={peak_inst['q_over_p']:.4f} at eps_q={peak_inst['eps_q']:.3f}")
+    f"peak q/p (instantaneous)={peak_inst['q_over_trace']:.4f} at eps_q={peak_inst['eps_q']:.3f}")
 say(f"RESULT residual q/p={resid:.4f} (mean over eps_q in [{lo:.3f}, {hi:.3f}], "
     f"{len(win)} rows)")
 say(f"RESULT final: phi={last['phi']:.4f} z={z_end[0]:.3f} z_nr={z_end[1]:.3f} "

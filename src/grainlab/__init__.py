@@ -4,9 +4,9 @@ Describe particles (shape, size, friction, stiffness), run the tests a soil or p
 runs, on a discrete simulation of the packing or on a micromechanical theory of it, and read the
 answer in one test-result format.
 
-Layers, lowest first (a lower layer never imports a higher one):
-``geometry`` → ``contact`` → ``analysis`` → ``engine`` → ``micromech`` → ``prep`` → ``lab`` →
-``report`` and ``cli``.
+Layers, lowest first (a lower layer never imports a higher one; ``tests/test_layers.py``):
+``result`` (the test-result format) → ``geometry`` → ``contact`` → ``analysis`` → ``engine`` →
+``micromech`` → ``prep`` → ``lab`` → ``report`` → ``cli``.
 
 Quick start::
 
@@ -20,8 +20,8 @@ import grainlab._numba_setup  # noqa: F401  (threading layer, before any kernel)
 from grainlab._version import __version__
 from grainlab.errors import ConvergenceError, GeometryError, GrainlabError, InputError
 from grainlab.geometry.disc_packing import DiscPacking2D
-from grainlab.lab.test_result import TestResult, read_test_result
 from grainlab.prep.regular_packings import named_packing, packing_names
+from grainlab.result import TestResult, read_test_result
 
 __all__ = [
     "ConvergenceError",

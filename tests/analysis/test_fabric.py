@@ -14,7 +14,7 @@ import pytest
 
 from grainlab.analysis.compute import NotComputedError
 from grainlab.analysis.contact_network import ContactNetwork
-from grainlab.analysis.fabric import Fabric, q_over_p_second_order
+from grainlab.analysis.fabric import Fabric, q_over_trace_second_order
 from grainlab.errors import InputError
 
 N_SAMPLES = 200_000
@@ -95,7 +95,7 @@ def model_3d(a_c, a_fn, a_ft, a_ln=0.0, a_lt=0.0):
     transverse = np.sum(p * (f_n * s - f_t * u) * (l_n * s - l_t * u)) / 2
     return {"a_c": r_f, "a_ln": r_ln - r_f, "a_lt": r_l - r_ln, "a_fn": r_fn - r_f,
             "a_ft": r_f_all - r_fn,
-            "q_over_p": (axial - transverse) / (axial + 2 * transverse)}
+            "q_over_trace": (axial - transverse) / (axial + 2 * transverse)}
 
 
 def sample_2d(n, a_c, a_fn, a_ft, *, axis_angle=0.0, seed=0):
@@ -140,7 +140,7 @@ def model_2d(a_c, a_fn, a_ft):
     r_f, r_fn, r_f_all = a2(1.0, 0.0), a2(f_n, 0.0), a2(f_n, f_t)
     xx, yy = np.sum(p * (f_n * c + f_t * s) * c), np.sum(p * (f_n * s - f_t * c) * s)
     return {"a_c": r_f, "a_fn": r_fn - r_f, "a_ft": r_f_all - r_fn,
-            "q_over_p": (xx - yy) / (xx + yy)}
+            "q_over_trace": (xx - yy) / (xx + yy)}
 
 
 # -- loop-based twin (STYLE.md 12) -----------------------------------------------------------
@@ -289,23 +289,23 @@ def test_recovers_harmonic_anisotropies(axial):
     assert axial.mean_radial_force == pytest.approx(axial.mean_normal_force, rel=1e-12)
 
 
-def test_q_over_p_harmonic_approximations(axial):
+def test_q_over_trace_harmonic_approximations(axial):
     expected = model_3d(A_C, A_FN, A_FT)
-    assert axial.q_over_p == pytest.approx(expected["q_over_p"], abs=TOL)
-    harmonic = axial.q_over_p_harmonic
+    assert axial.q_over_trace == pytest.approx(expected["q_over_trace"], abs=TOL)
+    harmonic = axial.q_over_trace_harmonic
     # the measured q/p and eq. 27a with the inputs differ by the neglected cross terms only
-    assert abs(axial.q_over_p - 0.4 * (A_C + A_FN + A_FT)) < 0.02
+    assert abs(axial.q_over_trace - 0.4 * (A_C + A_FN + A_FT)) < 0.02
     # for equal spheres, chi_l = F and sigma / tr sigma = chi_f: eqs. 27a and 27b are exact
     # identities for the A2 anisotropies
-    assert harmonic["contact_first_order"] == pytest.approx(axial.q_over_p, abs=1e-10)
-    assert harmonic["branch_first_order"] == pytest.approx(axial.q_over_p, abs=1e-10)
+    assert harmonic["contact_first_order"] == pytest.approx(axial.q_over_trace, abs=1e-10)
+    assert harmonic["branch_first_order"] == pytest.approx(axial.q_over_trace, abs=1e-10)
     a = axial.anisotropies
     b1 = (0.4 * (a["a_c"] + a["a_fn"] + a["a_ft"]) + 4 / 105 * a["a_c"] * a["a_fn"]
           + 16 / 105 * a["a_c"] * a["a_ft"])  # eq. B1 with a_ln = a_lt = 0
     assert harmonic["contact_second_order"] == pytest.approx(b1, abs=1e-12)
     d = axial.descriptors()
-    assert d["q_over_p_27a"] == harmonic["contact_first_order"]
-    assert d["q_over_p_B1"] == harmonic["contact_second_order"]
+    assert d["q_over_trace_27a"] == harmonic["contact_first_order"]
+    assert d["q_over_trace_B1"] == harmonic["contact_second_order"]
     assert d["a_c"] == a["a_c"] and d["a_ft_branch"] == a["a_ft_branch"]
 
 
@@ -313,7 +313,7 @@ def test_second_order_formula_by_hand():
     # eq. B1 term by term for (a_c, a_ln, a_lt, a_fn, a_ft) = (0.3, 0.1, 0.05, 0.4, 0.2)
     first = 0.4 * 1.05
     second = 4 / 105 * (0.12 + 0.03 + 0.04) + 16 / 105 * (0.06 + 0.015 + 0.02 + 0.02)
-    assert q_over_p_second_order(0.3, 0.1, 0.05, 0.4, 0.2) == pytest.approx(first + second)
+    assert q_over_trace_second_order(0.3, 0.1, 0.05, 0.4, 0.2) == pytest.approx(first + second)
 
 
 def test_non_spherical_branch_vectors():
@@ -323,12 +323,12 @@ def test_non_spherical_branch_vectors():
     fab = Fabric().compute(sample_3d(N_SAMPLES, A_C, A_FN, A_FT, a_ln=a_ln, a_lt=a_lt,
                                      seed=13))
     expected = model_3d(A_C, A_FN, A_FT, a_ln, a_lt)
-    for name in ("a_c", "a_ln", "a_lt", "a_fn", "a_ft", "q_over_p"):
-        value = fab.q_over_p if name == "q_over_p" else fab.anisotropies[name]
+    for name in ("a_c", "a_ln", "a_lt", "a_fn", "a_ft", "q_over_trace"):
+        value = fab.q_over_trace if name == "q_over_trace" else fab.anisotropies[name]
         assert value == pytest.approx(expected[name], abs=TOL), name
-    gap = fab.q_over_p_harmonic["contact_first_order"] - fab.q_over_p
+    gap = fab.q_over_trace_harmonic["contact_first_order"] - fab.q_over_trace
     expected_gap = 0.4 * sum(expected[k] for k in ("a_c", "a_ln", "a_lt", "a_fn", "a_ft")) \
-        - expected["q_over_p"]
+        - expected["q_over_trace"]
     assert abs(expected_gap) > 0.002  # the cross terms are visible here
     assert gap == pytest.approx(expected_gap, abs=0.002)
 
@@ -354,7 +354,7 @@ def test_isotropic_sample_has_no_anisotropy():
     fab = Fabric().compute(sample_3d(N_SAMPLES, 0.0, 0.0, 0.0, seed=14))
     for name, value in fab.anisotropies.items():
         assert abs(value) < TOL, name
-    assert abs(fab.q_over_p) < TOL
+    assert abs(fab.q_over_trace) < TOL
 
 
 def test_rotation_rotates_tensors_and_keeps_anisotropies(tilted_network):
@@ -373,7 +373,7 @@ def test_rotation_rotates_tensors_and_keeps_anisotropies(tilted_network):
         assert rot.partial_anisotropies["k1"][name] == pytest.approx(value, abs=1e-10), name
     cosines = np.abs(np.sum((rotation @ fab.stress_directions) * rot.stress_directions, 0))
     np.testing.assert_allclose(cosines, 1.0, atol=1e-10)
-    assert rot.q_over_p == pytest.approx(fab.q_over_p, abs=1e-12)
+    assert rot.q_over_trace == pytest.approx(fab.q_over_trace, abs=1e-12)
 
 
 def test_relabelling_changes_nothing():
@@ -424,9 +424,9 @@ def test_partial_anisotropies_add_up(tilted_network):
         total = sum(values[name] for values in partial.values())
         assert total == pytest.approx(fab.anisotropies[name], abs=1e-12), name
     assert sum(v["pair_fraction"] for v in partial.values()) == pytest.approx(1.0)
-    assert sum(fab.partial_q_over_p_harmonic.values()) == pytest.approx(
-        fab.q_over_p_harmonic["branch_first_order"], abs=1e-12)
-    assert sum(fab.partial_q_over_p.values()) == pytest.approx(fab.q_over_p, abs=1e-12)
+    assert sum(fab.partial_q_over_trace_harmonic.values()) == pytest.approx(
+        fab.q_over_trace_harmonic["branch_first_order"], abs=1e-12)
+    assert sum(fab.partial_q_over_trace.values()) == pytest.approx(fab.q_over_trace, abs=1e-12)
     # types drawn at random: each carries its share of every anisotropy (sampling error)
     for values in partial.values():
         share = values["pair_fraction"]
@@ -436,7 +436,7 @@ def test_partial_anisotropies_add_up(tilted_network):
                                                       abs=TOL)
     d = fab.descriptors()
     assert d["a_c_branch_k2"] == partial["k2"]["a_c_branch"]
-    assert d["q_over_p_27b_k0"] == fab.partial_q_over_p_harmonic["k0"]
+    assert d["q_over_trace_27b_k0"] == fab.partial_q_over_trace_harmonic["k0"]
 
 
 def test_two_dimensional_fourier_anisotropies():
@@ -448,12 +448,12 @@ def test_two_dimensional_fourier_anisotropies():
     for name in ("a_c", "a_fn", "a_ft"):
         assert fab.anisotropies[name] == pytest.approx(expected[name], abs=TOL), name
     assert fab.anisotropies["a_c"] == pytest.approx(a_c, abs=TOL)  # no cross term in a_c
-    assert fab.q_over_p == pytest.approx(expected["q_over_p"], abs=TOL)
+    assert fab.q_over_trace == pytest.approx(expected["q_over_trace"], abs=TOL)
     # first order misses only second-order cross terms, bounded by a_c (a_fn + a_ft) / 2
-    assert 0 < 0.5 * (a_c + a_fn + a_ft) - fab.q_over_p < 0.5 * a_c * (a_fn + a_ft)
-    assert fab.q_over_p_harmonic["contact_first_order"] == pytest.approx(fab.q_over_p,
+    assert 0 < 0.5 * (a_c + a_fn + a_ft) - fab.q_over_trace < 0.5 * a_c * (a_fn + a_ft)
+    assert fab.q_over_trace_harmonic["contact_first_order"] == pytest.approx(fab.q_over_trace,
                                                                          abs=1e-10)
-    assert np.isnan(fab.q_over_p_harmonic["contact_second_order"])
+    assert np.isnan(fab.q_over_trace_harmonic["contact_second_order"])
     for name in ("a_c", "a_fn", "a_ft"):  # 2D: the magnitude form equals the projected one
         assert fab.magnitude_anisotropies[name + "_mag"] == pytest.approx(
             fab.anisotropies[name], abs=1e-3), name
@@ -462,7 +462,7 @@ def test_two_dimensional_fourier_anisotropies():
 def test_results_before_compute_raise():
     fab = Fabric()
     for name in ("stress_directions", "tensors", "anisotropies", "misalignment_deg",
-                 "q_over_p_harmonic", "partial_anisotropies", "partial_q_over_p_harmonic",
+                 "q_over_trace_harmonic", "partial_anisotropies", "partial_q_over_trace_harmonic",
                  "mean_normal_force", "mean_radial_force", "mean_normal_length",
                  "mean_branch_length"):
         with pytest.raises(NotComputedError):
@@ -479,5 +479,5 @@ def test_no_active_contact_gives_nan():
                                  "point_forces": np.zeros((10, 3))})
     d = Fabric().compute(unloaded).descriptors()
     assert d["n_contact_entries"] == 0 and d["n_branch_entries"] == 0
-    assert np.isnan(d["a_c"]) and np.isnan(d["q_over_p_27b"]) and np.isnan(d["q_over_p"])
+    assert np.isnan(d["a_c"]) and np.isnan(d["q_over_trace_27b"]) and np.isnan(d["q_over_trace"])
     assert np.isnan(d["a_c_branch_k1"])

@@ -59,8 +59,8 @@ def test_simple_cubic_under_a_known_load():
     # Major axis z, minor x: a_fn = 5/2 (f_z - f_x) / (f_x + f_y + f_z).
     assert d["a_fn"] == pytest.approx(2.5 * (4.0 - 1.0) / 6.5, rel=1e-12)
     # q/p = (s1 - s3)/tr(s) = (f_z - f_x)/(sum f) = 2/5 a_fn: eq. 27a exact here.
-    assert d["q_over_p"] == pytest.approx(3.0 / 6.5, rel=1e-12)
-    assert d["q_over_p_27a"] == pytest.approx(d["q_over_p"], rel=1e-10)
+    assert d["q_over_trace"] == pytest.approx(3.0 / 6.5, rel=1e-12)
+    assert d["q_over_trace_27a"] == pytest.approx(d["q_over_trace"], rel=1e-10)
 
 
 def test_fcc_under_isotropic_forces():
@@ -77,6 +77,6 @@ def test_fcc_under_isotropic_forces():
     assert d["coordination_number"] == pytest.approx(12.0)
     assert d["packing_fraction"] == pytest.approx(np.pi / (3 * np.sqrt(2)))
     np.testing.assert_allclose(analysis.fabric.tensors["F"], np.eye(3) / 3, atol=1e-12)
-    for key in ("a_c", "a_fn", "a_ft", "a_c_branch", "q_over_p"):
+    for key in ("a_c", "a_fn", "a_ft", "a_c_branch", "q_over_trace"):
         assert d[key] == pytest.approx(0.0, abs=1e-12)
     assert d["rattler_fraction"] == 0.0

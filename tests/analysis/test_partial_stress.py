@@ -75,9 +75,9 @@ def test_lattice_split_by_axis():
     np.testing.assert_allclose(part.tensors["b"], np.diag([0, 2 * c, 0]), rtol=1e-12)
     np.testing.assert_allclose(part.tensors["c"], np.diag([0, 0, c]), rtol=1e-12)
     assert part.p == pytest.approx(2 * c)
-    assert part.q_over_p == pytest.approx({"a": 0.5, "b": 0.0, "c": -1.0 / 6.0}, abs=1e-12)
+    assert part.q_over_trace == pytest.approx({"a": 0.5, "b": 0.0, "c": -1.0 / 6.0}, abs=1e-12)
     assert part.descriptors() == pytest.approx(
-        {"q_over_p_a": 0.5, "q_over_p_b": 0.0, "q_over_p_c": -1.0 / 6.0}, abs=1e-12)
+        {"q_over_trace_a": 0.5, "q_over_trace_b": 0.0, "q_over_trace_c": -1.0 / 6.0}, abs=1e-12)
 
 
 @pytest.mark.parametrize("d", [2, 3])
@@ -97,12 +97,12 @@ def test_partial_stresses_sum_to_the_total(d, seed):
                 slow += np.outer(net.point_forces[c], net.point_branches[c])
         np.testing.assert_allclose(part.tensors[name], slow / net.volume, rtol=1e-12,
                                    atol=1e-14)
-    assert sum(part.q_over_p.values()) == pytest.approx(state.q_over_p, rel=1e-10)
+    assert sum(part.q_over_trace.values()) == pytest.approx(state.q_over_trace, rel=1e-10)
     assert part.p == pytest.approx(state.p, rel=1e-12)
-    assert state.q_over_p > 0.05
+    assert state.q_over_trace > 0.05
 
 
-def test_rotation_and_relabelling_leave_q_over_p_unchanged():
+def test_rotation_and_relabelling_leave_q_over_trace_unchanged():
     rng = np.random.default_rng(5)
     net = random_typed_network(rng)
     q, r = np.linalg.qr(rng.normal(size=(3, 3)))
@@ -115,7 +115,7 @@ def test_rotation_and_relabelling_leave_q_over_p_unchanged():
         net.relabelled(rng.permutation(net.n_particles), rng.permutation(net.n_pairs),
                        rng.permutation(net.n_points)))
     for other in (rotated, relabelled):
-        assert other.q_over_p == pytest.approx(before.q_over_p, rel=1e-9, abs=1e-12)
+        assert other.q_over_trace == pytest.approx(before.q_over_trace, rel=1e-9, abs=1e-12)
 
 
 def test_errors():
@@ -128,4 +128,4 @@ def test_errors():
     with pytest.raises(InputError, match="pair_types"):
         partial_stress_tensors(ContactNetwork(**values))
     with pytest.raises(NotComputedError):
-        PartialStresses().q_over_p  # noqa: B018
+        PartialStresses().q_over_trace  # noqa: B018

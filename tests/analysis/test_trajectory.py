@@ -52,7 +52,7 @@ def test_table_before_run_raises():
 
 
 def test_to_test_result_round_trips(trajectory, tmp_path):
-    from grainlab.lab.test_result import read_test_result
+    from grainlab.result.test_result import read_test_result
 
     result = trajectory.to_test_result(source="synthetic", strain="eps_q")
     result.save(tmp_path)

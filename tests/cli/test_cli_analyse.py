@@ -8,7 +8,7 @@ from typer.testing import CliRunner
 from grainlab.analysis.snapshot_files import write_snapshots
 from grainlab.analysis.synthetic import synthetic_network
 from grainlab.cli.main import app
-from grainlab.lab.test_result import read_test_result
+from grainlab.result.test_result import read_test_result
 
 runner = CliRunner()
 

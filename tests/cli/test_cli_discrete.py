@@ -6,7 +6,7 @@ import pytest
 from typer.testing import CliRunner
 
 from grainlab.cli.main import app
-from grainlab.lab.test_result import read_test_result
+from grainlab.result.test_result import read_test_result
 
 runner = CliRunner()
 

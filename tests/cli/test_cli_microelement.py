@@ -12,9 +12,9 @@ from grainlab.analysis.synthetic import synthetic_network
 from grainlab.cli.microelement import app, parse_list, parse_sets
 from grainlab.errors import InputError
 from grainlab.lab.presets import preset_names
-from grainlab.lab.test_result import read_test_result
 from grainlab.prep.packing_files import write_packing
 from grainlab.prep.regular_packings import named_packing
+from grainlab.result.test_result import read_test_result
 
 runner = CliRunner()
 
@@ -63,7 +63,7 @@ def test_run_triaxial_writes_result_derived_and_figure(tmp_path):
     # driver tolerance: 1e-4 of the norm of the whole stress (sigma_zz grows to ~3 sigma_xx)
     np.testing.assert_allclose(converged["sigma_xx"], 1e5, rtol=2e-3)
     derived = read_test_result(tmp_path / "derived.h5").table
-    assert {"phi_mobilised", "q_over_p", "oct_x", "lode_angle"} <= set(derived.columns)
+    assert {"phi_mobilised", "eta", "oct_x", "lode_angle"} <= set(derived.columns)
     assert (tmp_path / "result.h5").stat().st_size > 0
     assert (tmp_path / "triaxial.png").stat().st_size > 0
 

@@ -7,9 +7,9 @@ import pytest
 from typer.testing import CliRunner
 
 from grainlab.cli.main import app
-from grainlab.lab.test_result import read_test_result
 from grainlab.prep.packing_files import write_packing
 from grainlab.prep.regular_packings import named_packing
+from grainlab.result.test_result import read_test_result
 
 runner = CliRunner()
 

@@ -6,12 +6,13 @@ import numpy as np
 import pytest
 
 from grainlab.engine.contact_dynamics import ContactDynamicsStep
+from grainlab.engine.discrete_sample import DiscreteSample
 from grainlab.engine.sample_measures import contact_stress
 from grainlab.engine.simulation import Periodic, Simulation, SimulationBlowUp
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
 from grainlab.errors import InputError
-from grainlab.prep.loose_sample import DiscreteSample, loose_sample
+from grainlab.prep.loose_sample import loose_sample
 
 R = 1e-3
 RHO = 2600.0

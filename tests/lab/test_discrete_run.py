@@ -24,8 +24,8 @@ from grainlab.lab.discrete_run import (
 )
 from grainlab.lab.presets import simple_shear, triaxial_compression
 from grainlab.lab.run_config import RunConfig
-from grainlab.lab.test_result import read_test_result
 from grainlab.lab.wall_stages import wall_stages
+from grainlab.result.test_result import read_test_result
 
 SMALL = {
     "sample": {"n_particles": 40, "seed": 4},
@@ -66,7 +66,7 @@ def test_triaxial_run_records_every_column_and_agrees_with_walls(finished_run):
     table = result.table
     assert list(table["stage"].unique()) == ["compaction", "triaxial_compression"] or \
         set(table["stage"].unique()) == {"compaction", "shear"}
-    for column in ("p", "q", "q_over_p", "sin_phi", "eps_q", "eps_p", "packing_fraction",
+    for column in ("p", "q", "q_over_trace", "sin_phi", "eps_q", "eps_vol", "packing_fraction",
                    "z", "z_c", "z_no_rattlers", "inertia_number", "solver_iterations",
                    "wall_sigma_xx", "unbalanced_force_ratio"):
         assert column in table and np.isfinite(table[column].iloc[-1]), column
@@ -87,7 +87,7 @@ def test_triaxial_run_records_every_column_and_agrees_with_walls(finished_run):
     for name in (RESULTS, CHECKPOINT, SNAPSHOTS, "config.toml", "run.log", "results.h5"):
         assert (folder / name).exists(), name
     again = read_test_result(folder / RESULTS)
-    np.testing.assert_allclose(again.table["q_over_p"], table["q_over_p"])
+    np.testing.assert_allclose(again.table["q_over_trace"], table["q_over_trace"])
 
 
 def test_snapshots_feed_the_analysis_layer(finished_run):
@@ -164,7 +164,8 @@ def test_resume_after_kill_loses_only_the_steps_since_the_checkpoint(tmp_path, f
     table, expected = result.table, reference.table
     assert len(table) == len(expected)
     np.testing.assert_allclose(table["step"], expected["step"])
-    np.testing.assert_allclose(table["q_over_p"], expected["q_over_p"], rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(table["q_over_trace"], expected["q_over_trace"], rtol=1e-6,
+                               atol=1e-9)
     np.testing.assert_allclose(table["packing_fraction"], expected["packing_fraction"],
                                rtol=1e-9)
 

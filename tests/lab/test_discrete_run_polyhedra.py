@@ -152,7 +152,8 @@ def test_polyhedra_run_resumed_from_a_checkpoint_reproduces_the_rows(polyhedra_r
     table, expected = run.run().table, reference.table
     assert len(table) == len(expected)
     np.testing.assert_array_equal(table["step"], expected["step"])
-    np.testing.assert_allclose(table["q_over_p"], expected["q_over_p"], rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(table["q_over_trace"], expected["q_over_trace"], rtol=1e-6,
+                               atol=1e-9)
     np.testing.assert_allclose(table["packing_fraction"], expected["packing_fraction"],
                                rtol=1e-9)
     np.testing.assert_allclose(table["z_c"], expected["z_c"])

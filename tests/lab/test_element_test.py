@@ -10,7 +10,7 @@ import pytest
 
 from grainlab.errors import GrainlabWarning, InputError
 from grainlab.lab import load_path as lp
-from grainlab.lab import presets, read_test_result
+from grainlab.lab import presets
 from grainlab.lab.element_test import (
     control_matrix,
     strain_rotation,
@@ -19,6 +19,7 @@ from grainlab.lab.element_test import (
 from grainlab.lab.element_test import run_element_test as _run_element_test
 from grainlab.lab.load_path import LoadPath, LoadStage, StopCriterion
 from grainlab.lab.specimen import tensor_to_voigt, voigt_to_tensor
+from grainlab.result import read_test_result
 
 E, NU = 8.0e7, 0.25
 
@@ -127,7 +128,7 @@ class MohrCoulombSpecimen:
         self.eps = self.eps + increment
 
     def descriptors(self):
-        return {"sin_phi": self.sin_phi()}
+        return {"sin_phi_model": self.sin_phi()}
 
     def describe(self):
         return {"kind": "hypoelastic Mohr-Coulomb", "phi_max_deg": 30.0}
@@ -377,9 +378,9 @@ def test_table_columns_units_metadata_and_progress(tmp_path):
     expected = ["increment", "stage", "step",
                 "sigma_xx", "sigma_yy", "sigma_zz", "sigma_yz", "sigma_xz", "sigma_xy",
                 "eps_xx", "eps_yy", "eps_zz", "gamma_yz", "gamma_xz", "gamma_xy",
-                "sigma_1", "sigma_2", "sigma_3", "p", "q", "q_over_3", "stress_ratio", "b",
-                "eps_vol", "frame_angle", "sub_steps", "iterations", "stress_error",
-                "converged", "sin_phi"]
+                "sigma_1", "sigma_2", "sigma_3", "p", "q", "q_over_3", "q_over_trace",
+                "sin_phi", "stress_ratio", "b", "eps_vol", "eps_q", "frame_angle", "sub_steps",
+                "iterations", "stress_error", "converged", "sin_phi_model"]
     assert columns == expected
     assert result.units["sigma_xz"] == "Pa" and result.units["frame_angle"] == "rad"
     assert result.units["gamma_xz"] == "-" and result.units["iterations"] == "-"
@@ -393,6 +394,10 @@ def test_table_columns_units_metadata_and_progress(tmp_path):
     t = result.table
     assert np.allclose(t["p"], t[["sigma_xx", "sigma_yy", "sigma_zz"]].sum(axis=1) / 3)
     assert np.allclose(t["q"], t["sigma_1"] - t["sigma_3"])
+    assert np.allclose(t["q_over_3"], t["q"] / 3)
+    assert np.allclose(t["q_over_trace"], t["q"] / (3 * t["p"]))
+    assert np.allclose(t["sin_phi"], t["sin_phi_model"])
+    assert np.allclose(t["eps_vol"], t[["eps_xx", "eps_yy", "eps_zz"]].sum(axis=1))
     assert (t["sigma_1"] >= t["sigma_2"]).all() and (t["sigma_2"] >= t["sigma_3"]).all()
 
 

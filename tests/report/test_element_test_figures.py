@@ -13,13 +13,12 @@ from matplotlib.figure import Figure
 
 from grainlab.errors import GrainlabWarning, InputError
 from grainlab.lab.element_test import run_element_test
-from grainlab.lab.presets import preset
-from grainlab.lab.test_result import TestResult
-from grainlab.micromech.micro_element.setup import (
+from grainlab.lab.micro_element_setup import (
     build_model,
     build_structure,
     default_path_parameters,
 )
+from grainlab.lab.presets import preset
 from grainlab.prep.regular_packings import named_packing
 from grainlab.report.element_test_figures import (
     b_sweep_figure,
@@ -32,6 +31,7 @@ from grainlab.report.element_test_figures import (
     simple_shear_figure,
     triaxial_figure,
 )
+from grainlab.result.test_result import TestResult
 
 PHI = math.radians(30.0)
 

@@ -13,8 +13,9 @@ Two forms of seed 002 eq. 3 are offered for a :class:`~grainlab.analysis.Contact
 * the contact form, :func:`stress_from_network`: sigma = (1/V) sum_c f^c (x) l^c.
 
 They agree identically (the contact positions x^c cancel pair by pair), whether or not the
-particles are in equilibrium; :class:`StressState` computes both and the invariants p, q, q/p,
-sin phi and b used by seeds 002/003 (eqs. 4, 5, 11).
+particles are in equilibrium; :class:`StressState` computes both and the invariants of every
+test result (:mod:`grainlab.result.invariants`): p, q, q_over_3, the seeds' q/p as
+q_over_trace, sin phi and b (seeds 002/003 eqs. 4, 5, 11).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from grainlab.analysis.compute import Compute
+from grainlab.result.invariants import stress_invariants
 
 
 def stress_from_contact_dyads(
@@ -146,11 +148,6 @@ def stress_from_network(network) -> np.ndarray:
 
 
 # -- invariants --------------------------------------------------------------------------------
-def _ratio(numerator: float, denominator: float) -> float:
-    """numerator / denominator, NaN (without a warning) when the denominator is zero."""
-    return float(numerator / denominator) if denominator != 0 else float("nan")
-
-
 def principal_stresses(stress: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Principal values (d,) in descending order (first = major = most compressive) [Pa] and
     principal directions (d, d) as columns, of the symmetric part of ``stress``.
@@ -190,17 +187,17 @@ class StressState(Compute):
     * ``principal_values`` (d,) descending, sigma_1 major (most compressive) and
       ``principal_directions`` (d, d), the matching unit vectors as columns;
     * ``p`` = tr(sigma)/d;
-    * ``q`` = sigma_1 - sigma_minor (sigma_3 in 3D, sigma_2 in 2D), the usual deviator;
+    * ``q`` = sigma_1 - sigma_minor (the last principal value), the usual deviator;
     * ``q_over_3`` = (sigma_1 - sigma_minor)/3, the q of seeds 002/003 (eq. 5);
-    * ``q_over_p``: in 3D (sigma_1 - sigma_3)/3 / p, the papers' normalised shear stress; in
-      2D (sigma_1 - sigma_2)/2 / p;
+    * ``q_over_trace`` = q / tr(sigma), the papers' normalised shear stress q/p: in 3D
+      (sigma_1 - sigma_3)/3 / p; in 2D (sigma_1 - sigma_minor)/2 / p;
     * ``sin_phi`` = (sigma_1 - sigma_minor)/(sigma_1 + sigma_minor), the mobilised friction
       angle, equal to seed 002 eq. 11, 3(q/p)/(2 + q/p), under axisymmetric stress
       sigma_2 = sigma_3;
-    * ``b`` = (sigma_2 - sigma_3)/(sigma_1 - sigma_3) in 3D (NaN in 2D or when sigma_1 =
-      sigma_3).
+    * ``b`` = (sigma_2 - sigma_3)/(sigma_1 - sigma_3) in 3D (NaN in 2D and at isotropic
+      states).
 
-    Ratios with a zero denominator are NaN.
+    Ratios with a zero denominator are NaN (:mod:`grainlab.result.invariants`).
 
     >>> from grainlab.analysis.contact_network import ContactNetwork
     >>> net = ContactNetwork.from_arrays(
@@ -209,7 +206,7 @@ class StressState(Compute):
     ...     point_pairs=[0, 1], point_positions=[[1.0, 0.0], [0.0, 1.0]],
     ...     point_normals=[[1.0, 0.0], [0.0, 1.0]], point_forces=[[12.0, 0.0], [0.0, 4.0]])
     >>> state = StressState().compute(net)
-    >>> state.principal_values, state.p, state.q_over_p
+    >>> state.principal_values, state.p, state.q_over_trace
     (array([3., 1.]), 2.0, 0.5)
     """
 
@@ -222,10 +219,7 @@ class StressState(Compute):
         skew = 0.5 * (full - full.T)
         norm = float(np.linalg.norm(full))
         values, directions = principal_stresses(sym)
-        s1, s_minor = float(values[0]), float(values[-1])
-        p = float(np.trace(sym)) / d
-        deviator = s1 - s_minor
-        b = _ratio(float(values[1]) - s_minor, deviator) if d == 3 else float("nan")
+        invariants = stress_invariants(sym)
         self._store(
             tensor=sym,
             tensor_full=full,
@@ -234,12 +228,13 @@ class StressState(Compute):
             asymmetry=float(np.linalg.norm(skew)) / norm if norm > 0 else 0.0,
             principal_values=values,
             principal_directions=directions,
-            p=p,
-            q=deviator,
-            q_over_3=deviator / 3.0,
-            q_over_p=_ratio(deviator / (3.0 if d == 3 else 2.0), p),
-            sin_phi=_ratio(deviator, s1 + s_minor),
-            b=b,
+            p=invariants["p"],
+            q=invariants["q"],
+            q_over_3=invariants["q_over_3"],
+            q_over_trace=invariants["q_over_trace"],
+            sin_phi=invariants["sin_phi"],
+            b=invariants.get("b", float("nan")),
+            invariants=invariants,
             dimension=d,
         )
 
@@ -294,9 +289,10 @@ class StressState(Compute):
         return self._get("q_over_3")
 
     @property
-    def q_over_p(self) -> float:
-        """Normalised shear stress [-]: 3D (sigma_1 - sigma_3)/(3p), 2D (sigma_1 - sigma_2)/(2p)."""
-        return self._get("q_over_p")
+    def q_over_trace(self) -> float:
+        """Normalised shear stress q / tr(sigma) [-], the seeds' q/p: 3D (sigma_1 - sigma_3)/(3p),
+        2D (sigma_1 - sigma_minor)/(2p)."""
+        return self._get("q_over_trace")
 
     @property
     def sin_phi(self) -> float:
@@ -311,9 +307,10 @@ class StressState(Compute):
         return self._get("b")
 
     def descriptors(self) -> dict[str, float]:
-        """Flat dict of scalars, named as in :mod:`grainlab.lab.columns` where they exist:
-        sigma_xx, sigma_yy, (sigma_zz,) sigma_xy, (sigma_xz, sigma_yz,) sigma_1, sigma_2,
-        (sigma_3,) p, q, q_over_3, q_over_p, sin_phi, (b,) stress_asymmetry. Keys in
+        """Flat dict of scalars, named as in :mod:`grainlab.result.columns`: sigma_xx,
+        sigma_yy, (sigma_zz,) sigma_xy, (sigma_xz, sigma_yz,) the invariants of
+        :func:`grainlab.result.invariants.stress_invariants` (sigma_1, (sigma_2,) sigma_3, p,
+        q, q_over_3, q_over_trace, sin_phi, stress_ratio, (b)) and stress_asymmetry. Keys in
         parentheses exist in 3D only."""
         d = self._get("dimension")
         tensor = self.tensor
@@ -323,11 +320,6 @@ class StressState(Compute):
         for a in range(d):
             for b in range(a + 1, d):
                 out[f"sigma_{_AXES[a]}{_AXES[b]}"] = float(tensor[a, b])
-        for k, value in enumerate(self.principal_values):
-            out[f"sigma_{k + 1}"] = float(value)
-        out.update(p=self.p, q=self.q, q_over_3=self.q_over_3, q_over_p=self.q_over_p,
-                   sin_phi=self.sin_phi)
-        if d == 3:
-            out["b"] = self.b
+        out.update(self._get("invariants"))
         out["stress_asymmetry"] = self.asymmetry
         return out

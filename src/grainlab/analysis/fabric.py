@@ -403,20 +403,21 @@ def misalignment_deg(tensor: np.ndarray, e1: np.ndarray) -> float:
     return float(np.degrees(np.arccos(cos)))
 
 
-def q_over_p_first_order(anisotropies: list[float] | tuple[float, ...], dimension: int) -> float:
+def q_over_trace_first_order(anisotropies: list[float] | tuple[float, ...],
+                             dimension: int) -> float:
     """Harmonic q/p to first order (seed 002 eq. 27): 2/5 sum a (3D), 1/2 sum a (2D).
 
-    >>> q_over_p_first_order([0.25, 0.0, 0.0, 0.25, 0.0], 3)
+    >>> q_over_trace_first_order([0.25, 0.0, 0.0, 0.25, 0.0], 3)
     0.2
     """
     return (0.4 if dimension == 3 else 0.5) * float(np.sum(anisotropies))
 
 
-def q_over_p_second_order(a_c: float, a_ln: float, a_lt: float, a_fn: float,
-                          a_ft: float) -> float:
+def q_over_trace_second_order(a_c: float, a_ln: float, a_lt: float, a_fn: float,
+                              a_ft: float) -> float:
     """q/p of seed 002 eq. B1 (seed 003 eq. 36), 3D contact frame, with cross products.
 
-    >>> round(q_over_p_second_order(0.3, 0.0, 0.0, 0.4, 0.2), 6)  # 0.36 + 0.48/105 + 0.96/105
+    >>> round(q_over_trace_second_order(0.3, 0.0, 0.0, 0.4, 0.2), 6)  # 0.36 + 0.48/105 + 0.96/105
     0.373714
     """
     return (0.4 * (a_c + a_ln + a_lt + a_fn + a_ft)
@@ -440,17 +441,17 @@ class Fabric(Compute):
 
     * :attr:`stress` (d, d) symmetric stress [Pa]; :attr:`principal_stresses` (d,) descending;
       :attr:`stress_directions` (d, d), columns e1 (major, most compressive) ... e_minor;
-      :attr:`q_over_p` measured: (sigma1 - sigma3)/tr sigma (3D), (sigma1 - sigma2)/tr (2D);
+      :attr:`q_over_trace` measured: (sigma1 - sigma_minor)/tr sigma, the seeds' q/p;
     * :attr:`tensors`: dict name -> (d, d) of ``F chi_ln chi_lt chi_fn chi_ft chi_l chi_f`` and
       ``F_branch chi_ln_branch chi_fn_branch chi_ft_branch chi_f_branch`` (dimensionless);
     * :attr:`anisotropies`: ``a_c a_ln a_lt a_fn a_ft`` and ``a_c_branch a_ln_branch
       a_fn_branch a_ft_branch`` (eq. A2 on the stress axes); :attr:`magnitude_anisotropies`
       the same keys + ``_mag``; :attr:`misalignment_deg` per tensor [deg];
-    * :attr:`q_over_p_harmonic`: ``contact_first_order`` (eq. 27a), ``branch_first_order``
+    * :attr:`q_over_trace_harmonic`: ``contact_first_order`` (eq. 27a), ``branch_first_order``
       (27b), ``contact_second_order`` (B1; NaN in 2D);
     * :attr:`partial_anisotropies` (type name -> ``a_c_branch a_ln_branch a_fn_branch
-      a_ft_branch pair_fraction``), :attr:`partial_q_over_p_harmonic` (type -> eq. 30) and
-      :attr:`partial_q_over_p` (type -> measured delta(sigma_gamma)/tr sigma); empty dicts when
+      a_ft_branch pair_fraction``), :attr:`partial_q_over_trace_harmonic` (type -> eq. 30) and
+      :attr:`partial_q_over_trace` (type -> measured delta(sigma_gamma)/tr sigma); empty dicts when
       the network has no ``pair_types``;
     * means over the active entries: :attr:`mean_normal_force` <f_n> [N],
       :attr:`mean_radial_force` <f_n'> [N], :attr:`mean_normal_length` <l_n> [m],
@@ -472,7 +473,7 @@ class Fabric(Compute):
     >>> # F = diag(1/2, 0, 1/2), chi_fn = diag(1/4, 0, 3/4), e_minor = e_y:
     >>> fab.anisotropies["a_c"], round(fab.anisotropies["a_fn"], 12)
     (1.25, 0.625)
-    >>> round(fab.q_over_p, 12), round(fab.q_over_p_harmonic["contact_first_order"], 12)
+    >>> round(fab.q_over_trace, 12), round(fab.q_over_trace_harmonic["contact_first_order"], 12)
     (0.75, 0.75)
     """
 
@@ -489,7 +490,7 @@ class Fabric(Compute):
         values, directions = principal_frame(stress)
         e1, e_minor = directions[:, 0], directions[:, -1]
         trace = float(np.trace(stress))
-        q_over_p = _safe_ratio(values[0] - values[-1], trace)
+        q_over_trace = _safe_ratio(values[0] - values[-1], trace)
 
         contact = contact_frame_components(network, self.frame_level)
         branch = branch_frame_components(network)
@@ -506,11 +507,11 @@ class Fabric(Compute):
         misalign = {name: misalignment_deg(value, e1) for name, value in tensors.items()}
 
         first = {
-            "contact_first_order": q_over_p_first_order([anis[k] for k in CONTACT_ANISOTROPIES],
+            "contact_first_order": q_over_trace_first_order([anis[k] for k in CONTACT_ANISOTROPIES],
                                                         d),
-            "branch_first_order": q_over_p_first_order([anis[k] for k in BRANCH_ANISOTROPIES],
+            "branch_first_order": q_over_trace_first_order([anis[k] for k in BRANCH_ANISOTROPIES],
                                                        d),
-            "contact_second_order": (q_over_p_second_order(*(anis[k] for k in
+            "contact_second_order": (q_over_trace_second_order(*(anis[k] for k in
                                                              CONTACT_ANISOTROPIES))
                                      if d == 3 else float("nan")),
         }
@@ -530,7 +531,7 @@ class Fabric(Compute):
                     "a_fn_branch": k * _delta(g["chi_fn"], e1, e_minor) - a_c,
                     "a_ft_branch": k * _delta(g["chi_ft"], e1, e_minor),
                 }
-                partial_harmonic[name] = q_over_p_first_order(list(values_g.values()), d)
+                partial_harmonic[name] = q_over_trace_first_order(list(values_g.values()), d)
                 values_g["pair_fraction"] = _safe_ratio(sums["count"], branch_totals["count"])
                 partial[name] = values_g
                 sel = point_types == code
@@ -547,10 +548,10 @@ class Fabric(Compute):
         }
         self._store(
             stress=stress, principal_stresses=values, stress_directions=directions,
-            q_over_p=q_over_p, tensors=tensors, anisotropies=anis,
-            magnitude_anisotropies=mags, misalignment_deg=misalign, q_over_p_harmonic=first,
-            partial_anisotropies=partial, partial_q_over_p_harmonic=partial_harmonic,
-            partial_q_over_p=partial_measured, contact_components=contact,
+            q_over_trace=q_over_trace, tensors=tensors, anisotropies=anis,
+            magnitude_anisotropies=mags, misalignment_deg=misalign, q_over_trace_harmonic=first,
+            partial_anisotropies=partial, partial_q_over_trace_harmonic=partial_harmonic,
+            partial_q_over_trace=partial_measured, contact_components=contact,
             branch_components=branch, n_contact_entries=contact.size,
             n_branch_entries=branch.size, **means,
         )
@@ -572,9 +573,9 @@ class Fabric(Compute):
         return self._get("stress_directions")
 
     @property
-    def q_over_p(self) -> float:
+    def q_over_trace(self) -> float:
         """Measured q/p = (sigma1 - sigma_minor) / tr sigma (3D and 2D definitions agree)."""
-        return self._get("q_over_p")
+        return self._get("q_over_trace")
 
     @property
     def tensors(self) -> dict[str, np.ndarray]:
@@ -597,9 +598,9 @@ class Fabric(Compute):
         return self._get("misalignment_deg")
 
     @property
-    def q_over_p_harmonic(self) -> dict[str, float]:
+    def q_over_trace_harmonic(self) -> dict[str, float]:
         """contact_first_order (eq. 27a), branch_first_order (27b), contact_second_order (B1)."""
-        return self._get("q_over_p_harmonic")
+        return self._get("q_over_trace_harmonic")
 
     @property
     def partial_anisotropies(self) -> dict[str, dict[str, float]]:
@@ -608,15 +609,15 @@ class Fabric(Compute):
         return self._get("partial_anisotropies")
 
     @property
-    def partial_q_over_p_harmonic(self) -> dict[str, float]:
+    def partial_q_over_trace_harmonic(self) -> dict[str, float]:
         """Per contact type: 2/5 (a'_c + a_ln' + a_fn' + a_ft')_gamma (seed 002 eq. 30)."""
-        return self._get("partial_q_over_p_harmonic")
+        return self._get("partial_q_over_trace_harmonic")
 
     @property
-    def partial_q_over_p(self) -> dict[str, float]:
+    def partial_q_over_trace(self) -> dict[str, float]:
         """Per contact type: measured delta(sigma_gamma)/tr sigma on the global stress axes
-        (seed 002 eq. 29, seed 003 eq. 26); they add up to :attr:`q_over_p`."""
-        return self._get("partial_q_over_p")
+        (seed 002 eq. 29, seed 003 eq. 26); they add up to :attr:`q_over_trace`."""
+        return self._get("partial_q_over_trace")
 
     @property
     def contact_components(self) -> FrameComponents:
@@ -651,19 +652,20 @@ class Fabric(Compute):
     def descriptors(self) -> dict[str, float]:
         """All scalar results as one flat dict, for a results table.
 
-        Keys: ``q_over_p`` (measured), ``q_over_p_27a``, ``q_over_p_27b``, ``q_over_p_B1``,
-        the anisotropies (``a_c`` ... ``a_ft_branch``) and their ``_mag`` variants,
+        Keys: ``q_over_trace`` (measured, the seeds' q/p), ``q_over_trace_27a``,
+        ``q_over_trace_27b``, ``q_over_trace_B1``, the anisotropies (``a_c`` ...
+        ``a_ft_branch``) and their ``_mag`` variants,
         ``misalignment_<tensor>_deg``, the four means, ``n_contact_entries``,
         ``n_branch_entries`` and per contact type t: ``a_c_branch_t``, ``a_ln_branch_t``,
-        ``a_fn_branch_t``, ``a_ft_branch_t``, ``pair_fraction_t``, ``q_over_p_27b_t``,
-        ``q_over_p_t``.
+        ``a_fn_branch_t``, ``a_ft_branch_t``, ``pair_fraction_t``, ``q_over_trace_27b_t``,
+        ``q_over_trace_t``.
         """
-        harmonic = self.q_over_p_harmonic
+        harmonic = self.q_over_trace_harmonic
         out: dict[str, float] = {
-            "q_over_p": self.q_over_p,
-            "q_over_p_27a": harmonic["contact_first_order"],
-            "q_over_p_27b": harmonic["branch_first_order"],
-            "q_over_p_B1": harmonic["contact_second_order"],
+            "q_over_trace": self.q_over_trace,
+            "q_over_trace_27a": harmonic["contact_first_order"],
+            "q_over_trace_27b": harmonic["branch_first_order"],
+            "q_over_trace_B1": harmonic["contact_second_order"],
         }
         out.update(self.anisotropies)
         out.update(self.magnitude_anisotropies)
@@ -673,6 +675,6 @@ class Fabric(Compute):
             out[name] = self._get(name)
         for type_name, values in self.partial_anisotropies.items():
             out.update({f"{k}_{type_name}": v for k, v in values.items()})
-            out[f"q_over_p_27b_{type_name}"] = self.partial_q_over_p_harmonic[type_name]
-            out[f"q_over_p_{type_name}"] = self.partial_q_over_p[type_name]
+            out[f"q_over_trace_27b_{type_name}"] = self.partial_q_over_trace_harmonic[type_name]
+            out[f"q_over_trace_{type_name}"] = self.partial_q_over_trace[type_name]
         return {k: float(v) for k, v in out.items()}

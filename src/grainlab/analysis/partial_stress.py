@@ -7,13 +7,13 @@ contact type gamma,
 
 gives tensors that sum to the total stress, sigma = sum_gamma sigma_gamma. Each type's share
 of the shear stress is measured along the principal directions e_1 (major) and e_minor (e_3 in
-3D, e_2 in 2D) of the *total* symmetric stress and normalised by the total mean stress p:
+3D, e_2 in 2D) of the *total* symmetric stress and normalised by its trace, the seeds' q/p
+(``q_over_trace`` of :mod:`grainlab.result.columns`):
 
-    3D:  q_gamma / p = (e_1 . sigma_gamma . e_1 - e_3 . sigma_gamma . e_3) / 3 / p,
-    2D:  q_gamma / p = (e_1 . sigma_gamma . e_1 - e_2 . sigma_gamma . e_2) / 2 / p,
+    q_gamma / tr(sigma) = (e_1 . sigma_gamma . e_1 - e_minor . sigma_gamma . e_minor) / tr(sigma)
 
-so that sum_gamma q_gamma / p = q / p of :class:`~grainlab.analysis.contact_stress.StressState`
-(seed 002 Fig. 22, seed 003 Fig. 18).
+(3D: (...)/3/p, 2D: (...)/2/p), so that sum_gamma q_gamma / tr(sigma) = ``q_over_trace`` of
+:class:`~grainlab.analysis.contact_stress.StressState` (seed 002 Fig. 22, seed 003 Fig. 18).
 """
 
 from __future__ import annotations
@@ -46,12 +46,12 @@ def partial_stress_tensors(network) -> dict[str, np.ndarray]:
 
 
 class PartialStresses(Compute):
-    """Partial stress tensors by contact type and their normalised shear stresses q_gamma / p
-    (module docstring; seed 002 eq. 29, seed 003 eq. 26).
+    """Partial stress tensors by contact type and their normalised shear stresses
+    q_gamma / tr(sigma) (module docstring; seed 002 eq. 29, seed 003 eq. 26).
 
     Properties after :meth:`compute`: ``tensors`` ({type: (d, d) full tensor [Pa]}),
     ``tensor`` (the total, their sum), ``p`` (total mean stress tr(sigma)/d [Pa]),
-    ``q_over_p`` ({type: q_gamma / p [-]}, NaN when p = 0).
+    ``q_over_trace`` ({type: q_gamma / tr(sigma) [-]}, NaN when p = 0).
 
     >>> from grainlab.analysis.contact_network import ContactNetwork
     >>> net = ContactNetwork.from_arrays(
@@ -60,7 +60,7 @@ class PartialStresses(Compute):
     ...     point_pairs=[0, 1], point_positions=[[1.0, 0.0], [0.0, 1.0]],
     ...     point_normals=[[1.0, 0.0], [0.0, 1.0]], point_forces=[[12.0, 0.0], [0.0, 4.0]],
     ...     pair_types=[0, 1], type_names=("s", "d"))
-    >>> PartialStresses().compute(net).q_over_p
+    >>> PartialStresses().compute(net).q_over_trace
     {'s': 0.75, 'd': -0.25}
     """
 
@@ -72,12 +72,11 @@ class PartialStresses(Compute):
         _, directions = principal_stresses(sym)
         major, minor = directions[:, 0], directions[:, -1]
         p = float(np.trace(sym)) / d
-        scale = 3.0 if d == 3 else 2.0
-        q_over_p = {}
+        q_over_trace = {}
         for name, tensor in tensors.items():
-            q = (major @ tensor @ major - minor @ tensor @ minor) / scale
-            q_over_p[name] = float(q / p) if p != 0 else float("nan")
-        self._store(tensors=tensors, tensor=total, p=p, q_over_p=q_over_p)
+            q = major @ tensor @ major - minor @ tensor @ minor
+            q_over_trace[name] = float(q / (d * p)) if p != 0 else float("nan")
+        self._store(tensors=tensors, tensor=total, p=p, q_over_trace=q_over_trace)
 
     @property
     def tensors(self) -> dict[str, np.ndarray]:
@@ -95,10 +94,11 @@ class PartialStresses(Compute):
         return self._get("p")
 
     @property
-    def q_over_p(self) -> dict[str, float]:
-        """{type name: q_gamma / p [-]}, along the total stress's principal directions."""
-        return self._get("q_over_p")
+    def q_over_trace(self) -> dict[str, float]:
+        """{type name: q_gamma / tr(sigma) [-]}, along the total stress's principal
+        directions."""
+        return self._get("q_over_trace")
 
     def descriptors(self) -> dict[str, float]:
-        """Flat dict: q_over_p_<type> for each contact type."""
-        return {f"q_over_p_{name}": value for name, value in self.q_over_p.items()}
+        """Flat dict: q_over_trace_<type> for each contact type."""
+        return {f"q_over_trace_{name}": value for name, value in self.q_over_trace.items()}

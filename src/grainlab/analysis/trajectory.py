@@ -17,13 +17,17 @@ import pandas as pd
 from grainlab.analysis.contact_network import ContactNetwork
 from grainlab.analysis.snapshot_analysis import SnapshotAnalysis
 from grainlab.errors import InputError
-
-STRESS_COLUMNS = {"p", "q", "q_over_3"}
+from grainlab.result.columns import unit_of
+from grainlab.result.test_result import TestResult
 
 
 def descriptor_unit(name: str) -> str:
-    """Unit of a descriptor column (Pa for stresses, N for forces, m for lengths)."""
-    if name.startswith("sigma_") or name in STRESS_COLUMNS:
+    """Unit of a descriptor column: that of :mod:`grainlab.result.columns` for a standard
+    column, else Pa for stresses, N for forces, m for lengths, deg for angles."""
+    standard = unit_of(name)
+    if standard:
+        return standard
+    if name.startswith("sigma_"):
         return "Pa"
     if name.startswith("mean_") and "force" in name:
         return "N"
@@ -123,9 +127,7 @@ class TrajectoryAnalysis:
         })
 
     def to_test_result(self, source: str = "", strain: str | None = None):
-        """The table as a :class:`~grainlab.lab.TestResult` (metadata: source, options)."""
-        from grainlab.lab.test_result import TestResult
-
+        """The table as a :class:`~grainlab.result.TestResult` (metadata: source, options)."""
         dimension = 3
         if self.last is not None:
             dimension = self.last.network.dimension

@@ -35,10 +35,10 @@ console = Console()
 SUMMARY = (
     ("packing_fraction", "packing fraction"), ("coordination_number", "z"),
     ("connectivity_number", "z_c"), ("coordination_number_no_rattlers", "z (no rattlers)"),
-    ("p", "p [Pa]"), ("q_over_p", "q/p (q = (s1-s3)/3)"), ("sin_phi", "sin(phi)"),
+    ("p", "p [Pa]"), ("q_over_trace", "q/p (q = (s1-s3)/3)"), ("sin_phi", "sin(phi)"),
     ("a_c", "a_c"), ("a_fn", "a_fn"), ("a_ft", "a_ft"), ("a_c_branch", "a'_c"),
-    ("q_over_p_27a", "q/p eq. 27a"), ("q_over_p_27b", "q/p eq. 27b"),
-    ("q_over_p_B1", "q/p eq. B1"), ("sliding_proportion", "sliding proportion S"),
+    ("q_over_trace_27a", "q/p eq. 27a"), ("q_over_trace_27b", "q/p eq. 27b"),
+    ("q_over_trace_B1", "q/p eq. B1"), ("sliding_proportion", "sliding proportion S"),
     ("mobilisation_index", "mobilisation I_mu"),
     ("mobilisation_index_harmonic", "I_mu from a_ft (eq. 28)"),
     ("mobilisation_index_branch", "mobilisation I' (branch frame)"),

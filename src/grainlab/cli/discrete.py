@@ -55,8 +55,8 @@ def _figures(folder: Path, result) -> list[Path]:
     fig, axes = plt.subplots(1, 3, figsize=(13.0, 3.8), layout="constrained")
     if len(shear) > 1:
         sub = type(result)(shear.reset_index(drop=True), result.metadata)
-        plot_curves(sub, "eps_q", "q_over_p", ax=axes[0])
-        plot_curves(sub, "eps_q", "eps_p", ax=axes[1])
+        plot_curves(sub, "eps_q", "q_over_trace", ax=axes[0])
+        plot_curves(sub, "eps_q", "eps_vol", ax=axes[1])
         plot_curves(sub, "eps_q", "packing_fraction", ax=axes[2])
     else:
         plot_curves(result, "time", "packing_fraction", ax=axes[0])
@@ -114,10 +114,10 @@ def _summary(result) -> None:
     if _test_config(result)["kind"] == "oedometer":
         _oedometer_summary(result)
     elif len(shear) > 2:
-        peak = shear["q_over_p"].max()
+        peak = shear["q_over_trace"].max()
         late = shear[shear["eps_q"] >= 0.7 * shear["eps_q"].max()]
         console.print(f"shear: peak q/p {peak:.4f}; over the last 30 % of eps_q: q/p "
-                      f"{late['q_over_p'].mean():.4f}, packing fraction "
+                      f"{late['q_over_trace'].mean():.4f}, packing fraction "
                       f"{late['packing_fraction'].mean():.4f}, z {late['z'].mean():.3f}; "
                       f"max inertia number {shear['inertia_number'].max():.2e}"
                       f"{_type_fractions(late.mean(numeric_only=True))}")

@@ -66,16 +66,15 @@ from grainlab.lab.derived import (
     principal_angles,
 )
 from grainlab.lab.load_path import LoadPath
-from grainlab.lab.presets import preset, preset_description, preset_names
-from grainlab.lab.test_result import TestResult
-from grainlab.micromech.micro_element.model import MicroElementModel
-from grainlab.micromech.micro_element.setup import (
+from grainlab.lab.micro_element_setup import (
     THREE_D_ONLY,
     TWO_D_ONLY,
     default_path_parameters,
     mean_stress,
     reference_strain,
 )
+from grainlab.lab.presets import preset, preset_description, preset_names
+from grainlab.micromech.micro_element.model import MicroElementModel
 from grainlab.report.curves import save_figure
 from grainlab.report.element_test_figures import (
     b_sweep_figure,
@@ -85,10 +84,10 @@ from grainlab.report.element_test_figures import (
     k0_figure,
     simple_shear_figure,
     strain_octahedral_coordinates,
-    stress_ratio,
     triaxial_figure,
     vertical_strain_column,
 )
+from grainlab.result.test_result import TestResult
 
 app = typer.Typer(
     help=(
@@ -122,15 +121,15 @@ def _jsonable(parameters: dict[str, Any]) -> dict[str, Any]:
 
 
 def _derived(result: TestResult, name: str) -> TestResult:
-    """Derived columns of one test in the test-result format (friction angle, q/p, K0 and
+    """Derived columns of one test in the test-result format (friction angle, eta = q/p, K0 and
     OCR, octahedral coordinates, simple-shear angles), aligned with the result's rows."""
     table = result.table
     columns: dict[str, Any] = {"increment": table["increment"], "stage": table["stage"]}
     units: dict[str, str] = {}
     columns["phi_mobilised"] = mobilised_friction_angle(table["sigma_1"], table["sigma_3"])
     units["phi_mobilised"] = "rad"
-    columns["q_over_p"], _ = stress_ratio(table)
-    units["q_over_p"] = "-"
+    columns["eta"] = (table["q"] / table["p"].where(table["p"] > 0.0)).to_numpy()
+    units["eta"] = "-"
     if name == "oedometer":
         series = k0_series(table)
         for column in series.columns:

@@ -19,16 +19,16 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from grainlab.errors import ConvergenceError, InputError
 from grainlab.lab.element_test import run_element_test
 from grainlab.lab.load_path import LoadPath
-from grainlab.lab.test_result import TestResult
-from grainlab.micromech.micro_element.model import MicroElementModel
-from grainlab.micromech.micro_element.setup import (
+from grainlab.lab.micro_element_setup import (
     STRUCTURE_NAMES,
     build_model,
     build_structure,
     disc_thickness,
     structure_defaults,
 )
+from grainlab.micromech.micro_element.model import MicroElementModel
 from grainlab.micromech.micro_element.structure import MicroElementStructure
+from grainlab.result.test_result import TestResult
 
 console = Console()
 

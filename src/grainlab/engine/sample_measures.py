@@ -12,10 +12,13 @@ In static equilibrium it equals the stress from the wall reactions exactly (the 
 contacts cancel pairwise, the rest is the walls' forces times their positions), so the two
 agree only when the sample is quasi-static; both are recorded.
 
-Invariants (seed 002 eqs. 5, 10, 11): sigma_1 >= sigma_2 >= sigma_3 principal stresses,
-p = (sigma_1 + sigma_2 + sigma_3)/3, q = (sigma_1 - sigma_3)/3, sin phi = 3 (q/p)/(2 + q/p);
-logarithmic strains eps_a = ln(L0_a / L_a) (compression positive, eq. 8), eps_p = sum eps_a
-(eq. 9), eps_q = eps_1 - eps_3 (eq. 10) with eps_1 >= eps_3 the largest and smallest of the
+Invariants (:mod:`grainlab.result.invariants`, the columns of every specimen):
+sigma_1 >= sigma_2 >= sigma_3 principal stresses, p = (sigma_1 + sigma_2 + sigma_3)/3,
+q = sigma_1 - sigma_3, the seeds' q as q_over_3 = (sigma_1 - sigma_3)/3 (seed 002 eq. 5) and
+their q/p as q_over_trace = q_over_3 / p, sin_phi = (sigma_1 - sigma_3)/(sigma_1 + sigma_3)
+(seed 002 eq. 11 when sigma_2 = sigma_3); logarithmic strains eps_a = ln(L0_a / L_a)
+(compression positive, eq. 8), eps_vol = sum eps_a (eq. 9), eps_q = eps_1 - eps_3 (eq. 10)
+with eps_1 >= eps_3 the largest and smallest of the
 three. Mechanical coordination z_m = 2 (C_pp + C_pw) / N_m: force-carrying contacts between
 particles (C_pp) and with walls (C_pw), over the N_m particles left after removing rattlers
 (fewer than 4 such contacts for frictionless particles, d + 1 = 4; fewer than 2 with
@@ -65,6 +68,7 @@ from grainlab.engine.contact_dynamics import StepReport
 from grainlab.engine.narrow_phase import CONTACT_CLASS_NAMES, Contacts, classify_aggregate_pairs
 from grainlab.engine.state import SHAPE_AGGREGATE, SHAPE_POLYHEDRON, BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
+from grainlab.result.invariants import strain_invariants, stress_invariants
 
 _SLIDING = 1e-6
 
@@ -85,13 +89,12 @@ def world_forces(report: StepReport, dt: float) -> np.ndarray:
 
 def box_strains(initial_lengths: np.ndarray, lengths: np.ndarray) -> dict[str, float]:
     """The strain columns of a box of ``lengths`` (3,) [m] from ``initial_lengths`` (3,) [m]
-    (module docstring): logarithmic eps_xx, eps_yy, eps_zz, eps_p and eps_q [-], known from
+    (module docstring): logarithmic eps_xx, eps_yy, eps_zz, eps_vol and eps_q [-], known from
     the walls alone (stage ends are checked on them after every step)."""
     strains = np.log(np.asarray(initial_lengths) / np.asarray(lengths))
     row = {f"eps_{label}": float(value)
            for label, value in zip(("xx", "yy", "zz"), strains, strict=True)}
-    row["eps_p"] = float(np.sum(strains))
-    row["eps_q"] = float(np.max(strains) - np.min(strains))
+    row.update(strain_invariants(np.diag(strains)))
     return row
 
 
@@ -109,17 +112,6 @@ def contact_stress(report: StepReport, state: BodyState, volume: float,
     arm[~inner] = x[contacts.body_j[~inner]] - contacts.point[~inner]
     moment = np.einsum("ci,cj->ij", arm, f) / volume
     return 0.5 * (moment + moment.T)
-
-
-def stress_invariants(stress: np.ndarray) -> dict[str, float]:
-    """Principal stresses, p, q, q/p and sin(phi) (seed 002 eqs. 5, 11) of a (3, 3) stress."""
-    s3, s2, s1 = np.linalg.eigvalsh(0.5 * (stress + stress.T))
-    p = (s1 + s2 + s3) / 3.0
-    q = (s1 - s3) / 3.0
-    ratio = q / p if p > 0.0 else float("nan")
-    sin_phi = 3.0 * ratio / (2.0 + ratio) if p > 0.0 else float("nan")
-    return {"sigma_1": float(s1), "sigma_2": float(s2), "sigma_3": float(s3), "p": float(p),
-            "q": float(q), "q_over_p": float(ratio), "sin_phi": float(sin_phi)}
 
 
 def pair_resultants(body_i: np.ndarray, body_j: np.ndarray, points: np.ndarray,

@@ -45,8 +45,8 @@ from typing import Protocol
 import numpy as np
 
 from grainlab.engine.contact_dynamics import ContactDynamicsStep, StepReport
+from grainlab.engine.discrete_sample import DiscreteSample
 from grainlab.errors import GrainlabError, InputError
-from grainlab.prep.loose_sample import DiscreteSample
 
 
 class SimulationBlowUp(GrainlabError, RuntimeError):
@@ -85,7 +85,7 @@ class Simulation:
     Attributes
     ----------
     sample:
-        The :class:`~grainlab.prep.loose_sample.DiscreteSample` (library, state, box).
+        The :class:`~grainlab.engine.discrete_sample.DiscreteSample` (library, state, box).
     solver:
         The :class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`.
     step_index, time:

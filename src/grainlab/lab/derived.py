@@ -1,4 +1,4 @@
-"""Derived outputs of element tests, computed from a :class:`~grainlab.lab.TestResult` table.
+"""Derived outputs of element tests, computed from a :class:`~grainlab.result.TestResult` table.
 
 Pure functions of the table (or of arrays): they read the columns written by
 :func:`grainlab.lab.element_test.run_element_test` (compression positive, SI units, angles in
@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from grainlab.errors import InputError
-from grainlab.lab.test_result import TestResult
+from grainlab.result.test_result import TestResult
 
 _CYCLE_STAGE = re.compile(r"^cycle_(\d+)$")
 

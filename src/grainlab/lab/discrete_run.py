@@ -36,6 +36,7 @@ import numpy as np
 import pandas as pd
 
 from grainlab.analysis.snapshot_files import append_snapshot
+from grainlab.engine.discrete_sample import DiscreteSample
 from grainlab.engine.sample_measures import PAIR_TYPE_NAMES
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.state import BodyState, ShapeLibrary
@@ -43,8 +44,8 @@ from grainlab.engine.wall_box import WallBox
 from grainlab.errors import GrainlabError, InputError
 from grainlab.lab.discrete_test import DiscreteTest
 from grainlab.lab.run_config import RunConfig
-from grainlab.lab.test_result import TestResult
-from grainlab.prep.loose_sample import DiscreteSample, loose_sample
+from grainlab.prep.loose_sample import loose_sample
+from grainlab.result.test_result import TestResult
 
 CONFIG = "config.toml"
 RESULTS = "results.csv"
@@ -151,7 +152,7 @@ class DiscreteRun:
             outcome={**test.outcome, "finished": test.finished,
                      "unconverged_steps": test.simulation.unconverged_steps,
                      "steps": test.simulation.step_index},
-            units=_UNITS, dimension=3, title=f"{test.path.name} on a discrete sample")
+            dimension=3, title=f"{test.path.name} on a discrete sample")
 
     def write_results(self, final: bool = False) -> None:
         """Rewrite results.csv (and results.h5 when ``final``)."""
@@ -301,7 +302,7 @@ class _ProgressBar:
                 / abs(stage.targets[a]) for a in stage.moving_axes)
         else:
             done = min(1.0, row["packing_fraction"] / 0.64)
-        info = (f"step {row['step']}  q/p {row['q_over_p']:.3f}  "
+        info = (f"step {row['step']}  q/p {row['q_over_trace']:.3f}  "
                 f"packing fraction {row['packing_fraction']:.4f}  z {row['z']:.2f}  "
                 f"I {row['inertia_number']:.1e}")
         self.progress.update(self.task, completed=min(done, 1.0), description=stage.name,
@@ -309,20 +310,6 @@ class _ProgressBar:
 
     def stop(self) -> None:
         self.progress.stop()
-
-
-_UNITS = {
-    "time": "s", "dt": "s", "step": "-", "friction": "-", "p": "Pa", "q": "Pa",
-    "q_over_p": "-", "sin_phi": "-", "sigma_1": "Pa", "sigma_2": "Pa", "sigma_3": "Pa",
-    "wall_sigma_xx": "Pa", "wall_sigma_yy": "Pa", "wall_sigma_zz": "Pa", "eps_p": "-",
-    "eps_q": "-", "inertia_number": "-", "packing_fraction": "-", "z": "-", "z_c": "-",
-    "z_no_rattlers": "-", "z_c_no_rattlers": "-", "rattler_fraction": "-", "n_contacts": "-",
-    "solver_iterations": "-", "solver_converged": "-", "solver_change": "-",
-    "solver_residual": "-", "max_overlap_over_d": "-", "kinetic_energy": "J",
-    "unbalanced_force_ratio": "-", "kinetic_energy_ratio": "-", "z_c_points": "-",
-    "fraction_fv": "-", "fraction_ee": "-", "fraction_fe": "-", "fraction_ff": "-",
-    "z_core": "-", "z_c_core": "-", "K0": "-",
-}
 
 
 def _plain(value: Any) -> Any:

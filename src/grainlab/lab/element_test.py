@@ -40,12 +40,13 @@ Otherwise ``"completed"``. A step that changed the specimen before the failure i
 
 One row per step (plus row 0, stage ``"initial"``): ``increment`` (global), ``stage``,
 ``step`` (within the stage), the lab-frame stresses ``sigma_xx``... and strains
-``eps_xx``... ``gamma_xy`` (names of :mod:`grainlab.lab.columns`), ``sigma_1`` >= ``sigma_2``
-(3D) >= ``sigma_3``, ``p`` (trace/3 in 3D, trace/2 in 2D), ``q`` = sigma_1 - sigma_3,
-``q_over_3``, ``stress_ratio`` = sigma_1/sigma_3 (NaN unless sigma_3 > 0), ``b`` (3D) =
-(sigma_2 - sigma_3)/(sigma_1 - sigma_3) (NaN at isotropic states), ``eps_vol`` (trace),
-``frame_angle`` [rad], ``sub_steps``, ``iterations``, ``stress_error`` (relative), ``converged``,
-then ``specimen.descriptors()``.
+``eps_xx``... ``gamma_xy``, the stress and strain invariants of every specimen
+(:mod:`grainlab.result.invariants`: ``sigma_1`` >= ``sigma_2`` (3D) >= ``sigma_3``, ``p``
+(trace/3 in 3D, trace/2 in 2D), ``q`` = sigma_1 - sigma_3, ``q_over_3``, ``q_over_trace``,
+``sin_phi``, ``stress_ratio`` = sigma_1/sigma_3, ``b`` (3D), ``eps_vol`` (trace), ``eps_q``),
+``frame_angle`` [rad], ``sub_steps``, ``iterations``, ``stress_error`` (relative),
+``converged``, then ``specimen.descriptors()``; names and units in
+:mod:`grainlab.result.columns`.
 """
 
 from __future__ import annotations
@@ -62,19 +63,14 @@ import pandas as pd
 from grainlab.errors import GrainlabWarning, InputError, StrengthReached
 from grainlab.lab.load_path import LoadPath, LoadStage
 from grainlab.lab.specimen import ElementSpecimen, voigt_labels, voigt_to_tensor
-from grainlab.lab.test_result import TestResult
+from grainlab.result.invariants import strain_invariants, stress_invariants
+from grainlab.result.test_result import TestResult
 
 _PAIRS = {
     3: ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)),
     2: ((0, 0), (1, 1), (0, 1)),
 }
 """Voigt index -> tensor index pair (same order as :mod:`grainlab.lab.specimen`)."""
-
-EXTRA_UNITS = {
-    "step": "-", "b": "-", "frame_angle": "rad", "sub_steps": "-", "iterations": "-",
-    "stress_error": "-", "converged": "-",
-}
-"""Units of the driver's columns that :mod:`grainlab.lab.columns` does not list."""
 
 _UNCONVERGED_LISTED = 50
 
@@ -336,21 +332,8 @@ def state_row(specimen: ElementSpecimen) -> dict[str, Any]:
     labels = voigt_labels(dim)
     row: dict[str, Any] = {f"sigma_{c}": float(v) for c, v in zip(labels, sigma, strict=True)}
     row.update({_strain_column(c): float(v) for c, v in zip(labels, eps, strict=True)})
-    principal = np.sort(np.linalg.eigvalsh(voigt_to_tensor(sigma, engineering_shear=False)))
-    s1, s3 = float(principal[-1]), float(principal[0])
-    row["sigma_1"] = s1
-    if dim == 3:
-        row["sigma_2"] = float(principal[1])
-    row["sigma_3"] = s3
-    row["p"] = float(np.sum(sigma[:dim])) / dim
-    q = s1 - s3
-    row["q"] = q
-    row["q_over_3"] = q / 3.0
-    row["stress_ratio"] = s1 / s3 if s3 > 0.0 else math.nan
-    if dim == 3:
-        isotropic = q <= 1e-9 * max(abs(s1), abs(s3))
-        row["b"] = math.nan if isotropic or q == 0.0 else (float(principal[1]) - s3) / q
-    row["eps_vol"] = float(np.sum(eps[:dim]))
+    row.update(stress_invariants(voigt_to_tensor(sigma, engineering_shear=False)))
+    row.update(strain_invariants(voigt_to_tensor(eps, engineering_shear=True)))
     return row
 
 
@@ -519,5 +502,5 @@ def run_element_test(
                   "singular_tolerance": singular_tolerance}
     return TestResult.create(
         pd.DataFrame(rows), specimen=specimen.describe(), load_path=path.to_dict(),
-        parameters=parameters, outcome=outcome, units=EXTRA_UNITS,
+        parameters=parameters, outcome=outcome,
         dimension=path.dimension, title=path.name)

@@ -23,6 +23,9 @@ few faces (n_f = 8 keeps about one hull in 900, ~0.25 s per shape). Each shape i
 that its circumscribed sphere about the centre of mass has the drawn diameter d: vertices
 v d / (2 R_c), volume V (d / 2 R_c)^3, inertia ~ (d / 2 R_c)^5 (recomputed exactly).
 
+The result is an engine :class:`~grainlab.engine.discrete_sample.DiscreteSample` (also
+importable from here).
+
 >>> sample = loose_sample(n_particles=20, seed=3)
 >>> sample.state.n_bodies, bool(sample.box.volume > 0)
 (20, True)
@@ -31,13 +34,13 @@ v d / (2 R_c), volume V (d / 2 R_c)^3, inertia ~ (d / 2 R_c)^5 (recomputed exact
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
 from grainlab._validate import at_least
 from grainlab._validate import seed as check_seed
+from grainlab.engine.discrete_sample import DiscreteSample
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
 from grainlab.errors import InputError
@@ -50,28 +53,6 @@ SHAPES = ("sphere", "aggregate", "polyhedron")
 MAX_FACES = 1000
 """Most faces a sample's polyhedra may have: above seed 002's largest (596, Table I), below
 where contact detection would cost seconds per pair and hull draws dominate the run."""
-
-
-@dataclass
-class DiscreteSample:
-    """Particles and their box: the static ``library``, the changing ``state`` and the walls
-    ``box`` (:class:`~grainlab.engine.wall_box.WallBox`); ``description`` is plain data
-    (shape, sizes, seed) for the results' metadata."""
-
-    library: ShapeLibrary
-    state: BodyState
-    box: WallBox
-    description: dict
-
-    @property
-    def mean_diameter(self) -> float:
-        """Mean diameter of the particles' bounding spheres [m]."""
-        return float(2.0 * np.mean(self.library.bounding_radius[self.state.shape_ids]))
-
-    @property
-    def solid_volume(self) -> float:
-        """Sum of the particle volumes [m^3]."""
-        return float(np.sum(self.library.volume[self.state.shape_ids]))
 
 
 def diameters_uniform_by_volume(n: int, d_min: float, d_max: float,

@@ -12,7 +12,7 @@ from pathlib import Path
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from grainlab.lab.test_result import TestResult
+from grainlab.result.test_result import TestResult
 
 
 def new_figure_axes(nrows: int = 1, ncols: int = 1, figsize=(5.0, 3.8), **subplot_kw):

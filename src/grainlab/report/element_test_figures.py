@@ -1,6 +1,6 @@
 """Figures of element tests on seed 001's model (Figs. 3.3–3.6, 4.3–4.4 and 4.6–4.16).
 
-Every function takes test results (:class:`~grainlab.lab.test_result.TestResult`) or a
+Every function takes test results (:class:`~grainlab.result.test_result.TestResult`) or a
 summary in the same format and returns a matplotlib :class:`~matplotlib.figure.Figure` made
 without pyplot (:func:`grainlab.report.curves.new_figure_axes`). Compression is positive;
 strains are drawn in percent, stresses in kPa, angles in degrees.
@@ -51,8 +51,8 @@ from grainlab.lab.derived import (
     octahedral_coordinates,
     principal_angles,
 )
-from grainlab.lab.test_result import TestResult
 from grainlab.report.curves import new_figure_axes
+from grainlab.result.test_result import TestResult
 
 SQRT2 = math.sqrt(2.0)
 SQRT6 = math.sqrt(6.0)

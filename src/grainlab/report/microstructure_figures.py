@@ -148,7 +148,7 @@ def anisotropy_evolution_figure(table: pd.DataFrame, strain: str = "eps_q") -> F
     groups = (
         ("contact frame", ["a_c", "a_ln", "a_lt", "a_fn", "a_ft"]),
         ("branch frame", ["a_c_branch", "a_ln_branch", "a_fn_branch", "a_ft_branch"]),
-        ("q/p", ["q_over_p", "q_over_p_27a", "q_over_p_27b", "q_over_p_B1"]),
+        ("q/p", ["q_over_trace", "q_over_trace_27a", "q_over_trace_27b", "q_over_trace_B1"]),
     )
     for ax, (title, columns) in zip(axes, groups, strict=True):
         for column in columns:

@@ -11,9 +11,9 @@ from matplotlib.patches import Circle, Polygon
 
 from grainlab.geometry.disc_packing import DiscPacking2D
 from grainlab.geometry.power_tessellation import power_tessellation
-from grainlab.lab.test_result import TestResult
 from grainlab.micromech.regular_packing.model import RegularPackingModel
 from grainlab.report.curves import new_figure_axes
+from grainlab.result.test_result import TestResult
 
 
 def stress_ratio_strain_figure(results: TestResult | Sequence[TestResult]) -> Figure:

@@ -13,10 +13,10 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 
-from grainlab.lab.test_result import TestResult
 from grainlab.micromech.regular_packing.model import RegularPackingModel
 from grainlab.micromech.regular_packing.stress_path import RotatedStressPath
 from grainlab.micromech.regular_packing.stress_path_test import run_rotated_stress_path
+from grainlab.result.test_result import TestResult
 
 SUMMARY_COLUMNS = (
     "eps_xx", "eps_yy", "gamma_xy", "gamma_xy_over_eps_xx", "eps_xx_over_eps_yy",

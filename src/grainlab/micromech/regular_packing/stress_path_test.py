@@ -20,9 +20,10 @@ import pandas as pd
 
 from grainlab.contact.coulomb import friction_mobilisation
 from grainlab.errors import ConvergenceError
-from grainlab.lab.test_result import TestResult
 from grainlab.micromech.regular_packing.model import RegularPackingModel, RegularPackingState
 from grainlab.micromech.regular_packing.stress_path import RotatedStressPath
+from grainlab.result.invariants import strain_invariants, stress_invariants
+from grainlab.result.test_result import TestResult
 
 RELATIVE_STRESS_TOLERANCE = 1e-10
 """Equilibrium is reached when |sigma_target - sigma(f)| <= tol |sigma_target|."""
@@ -30,6 +31,13 @@ RELATIVE_STRESS_TOLERANCE = 1e-10
 MAX_ITERATIONS = 40
 STEP_HALVINGS = 10
 ISOTROPIC_STEPS = 10
+
+
+def voigt_tensor(voigt: np.ndarray, shear_factor: float) -> np.ndarray:
+    """(2, 2) tensor of a Voigt vector (xx, yy, xy), the shear times ``shear_factor`` (0.5
+    for engineering shear strains)."""
+    shear = shear_factor * voigt[2]
+    return np.array([[voigt[0], shear], [shear, voigt[1]]])
 
 
 def solve_stress_target(
@@ -134,8 +142,6 @@ class _Recorder:
         contacts = state.contacts
         mean_force = float(np.mean(np.hypot(contacts.normal_force, contacts.tangential_force)))
         mean_radius = float(np.mean(model.packing.radii))
-        major = 0.5 * (stress[0] + stress[1]) + np.hypot(0.5 * (stress[0] - stress[1]), stress[2])
-        minor = stress[0] + stress[1] - major
         alpha_sigma = _principal_angle_from_y(*stress)
         if d_strain is None or np.allclose(d_strain, 0.0):
             alpha_de, noncoaxiality = np.nan, np.nan
@@ -148,12 +154,13 @@ class _Recorder:
         self.rows.append({
             "increment": len(self.rows),
             "stage": stage,
-            "stress_ratio": ratio,
             "sigma_xx": stress[0], "sigma_yy": stress[1], "sigma_xy": stress[2],
-            "sigma_1": major, "sigma_3": minor,
-            "p": 0.5 * (major + minor), "q": major - minor,
+            **stress_invariants(voigt_tensor(stress, 1.0)),
+            # the applied sigma_1/sigma_3 (equal to the measured one within the equilibrium
+            # tolerance), exact so that runs can be compared at given ratios
+            "stress_ratio": ratio,
             "eps_xx": strain[0], "eps_yy": strain[1], "gamma_xy": strain[2],
-            "eps_vol": strain[0] + strain[1],
+            **strain_invariants(voigt_tensor(strain, 0.5)),
             "gamma_xy_over_eps_xx": gamma_over_ex,
             "eps_xx_over_eps_yy": ex_over_ey,
             "stress_direction_deg": alpha_sigma,

@@ -65,6 +65,7 @@ import numpy as np
 from grainlab.analysis.snapshot_files import read_snapshot
 from grainlab.contact.spring_contact import SpringContactLaw
 from grainlab.errors import InputError
+from grainlab.lab.presets import preset_names
 from grainlab.micromech.micro_element.model import DISTRIBUTIONS, MicroElementModel
 from grainlab.micromech.micro_element.structure import MicroElementStructure
 from grainlab.micromech.micro_element.structures import (
@@ -455,8 +456,6 @@ def default_path_parameters(name: str, model: MicroElementModel,
 
     Presets taking ``dimension`` get the model's.
     """
-    from grainlab.lab.presets import preset_names
-
     if name not in preset_names():
         raise InputError("--path", name, "one of " + ", ".join(preset_names()))
     d = model.dimension

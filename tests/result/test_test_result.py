@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from grainlab.errors import InputError
-from grainlab.lab import TestResult, read_test_result
+from grainlab.result import TestResult, read_test_result
 
 FLOATS = [0.0, -0.0, 0.1, 1.0 / 3.0, 5e-324, 2.2250738585072014e-308, 1e-300,
           1.7976931348623157e308, -1e300, np.nan, np.pi, -123456.789]
@@ -168,6 +168,39 @@ def test_newer_format_version_rejected(tmp_path):
     path.write_text(prefix + json.dumps(meta) + "\n" + lines[1], encoding="utf-8")
     with pytest.raises(InputError, match="format_version"):
         read_test_result(path)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".h5"])
+def test_version_1_discrete_tables_are_upgraded(tmp_path, suffix):
+    """Version 1 discrete runs wrote q = (s1 - s3)/3, q_over_p and eps_p."""
+    s1, s3 = np.array([1e4, 3e4]), np.array([1e4, 1e4])
+    p = (s1 + 2 * s3) / 3
+    old = pd.DataFrame({"sigma_1": s1, "sigma_3": s3, "p": p, "q": (s1 - s3) / 3,
+                        "q_over_p": (s1 - s3) / 3 / p, "eps_p": [0.0, -0.01],
+                        "eps_q": [0.0, 0.05]})
+    result = TestResult.create(old, specimen={"kind": "discrete sample"}, load_path={},
+                               units={"q_over_p": "-", "eps_p": "-"})
+    result.metadata["format_version"] = 1
+    path = result.to_csv(tmp_path / "r.csv") if suffix == ".csv" \
+        else result.to_hdf5(tmp_path / "r.h5")
+    back = read_test_result(path)
+    table = back.table
+    assert list(table.columns) == ["sigma_1", "sigma_3", "p", "q", "q_over_3", "q_over_trace",
+                                   "eps_vol", "eps_q"]
+    np.testing.assert_allclose(table["q"], s1 - s3)
+    np.testing.assert_allclose(table["q_over_3"], (s1 - s3) / 3)
+    np.testing.assert_allclose(table["q_over_trace"], (s1 - s3) / 3 / p)
+    np.testing.assert_array_equal(table["eps_vol"], [0.0, -0.01])
+    assert back.units["q"] == back.units["q_over_3"] == "Pa"
+    assert back.units["eps_vol"] == "-" and "eps_p" not in back.units
+    assert back.metadata["upgraded_from_format_version"] == 1
+
+
+def test_version_1_tables_without_eps_p_read_unchanged(tmp_path):
+    result = make_result()
+    result.metadata["format_version"] = 1
+    back = read_test_result(result.to_csv(tmp_path / "r.csv"))
+    pd.testing.assert_frame_equal(back.table, result.table)
 
 
 def test_missing_file_and_extension(tmp_path):

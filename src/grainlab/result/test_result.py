@@ -6,12 +6,18 @@ A :class:`TestResult` holds
   (e.g. failure), the versions of the software, the time of creation, the sign convention and
   the unit of every column;
 * ``table`` — a :class:`pandas.DataFrame`, one row per recorded increment, with stress, strain
-  and any descriptor as columns (names in :mod:`grainlab.lab.columns`);
+  and any descriptor as columns (names in :mod:`grainlab.result.columns`);
 * ``snapshots`` — named numpy arrays whose first axis runs over the recorded increments (contact
   forces, stiffness matrices, ...).
 
 Files: HDF5 keeps all three; CSV keeps metadata (a JSON header line) and the table. Both read
 back losslessly (floats written with 17 significant digits, dtypes restored).
+
+Format versions: 2 gives every column one meaning (:mod:`grainlab.result.columns`). In version
+1, discrete runs wrote ``q`` = (sigma_1 - sigma_3)/3, ``q_over_p`` = that q over p and ``eps_p``
+for the volumetric strain; such tables (recognised by ``eps_p``) are upgraded on reading to
+``q`` = sigma_1 - sigma_3, ``q_over_3``, ``q_over_trace`` and ``eps_vol``. Other version-1
+tables read unchanged (their ``q`` was already sigma_1 - sigma_3).
 """
 
 from __future__ import annotations
@@ -29,10 +35,10 @@ import pandas as pd
 
 from grainlab._version import __version__
 from grainlab.errors import InputError
-from grainlab.lab.columns import unit_of
+from grainlab.result.columns import unit_of
 
 FORMAT_NAME = "grainlab.test_result"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 CSV_HEADER_PREFIX = "# grainlab-test-result "
 
 
@@ -105,7 +111,7 @@ class TestResult:
     ) -> TestResult:
         """Assemble a result and stamp it with versions, time and units.
 
-        Units default to those of :mod:`grainlab.lab.columns`; ``units`` overrides or adds.
+        Units default to those of :mod:`grainlab.result.columns`; ``units`` overrides or adds.
         """
         if dimension not in (2, 3):
             raise InputError("dimension", dimension, "2 or 3")
@@ -237,6 +243,25 @@ def _split_metadata(meta: dict[str, Any]) -> tuple[dict[str, Any], list[str], di
     return meta, columns, dtypes
 
 
+def _upgrade(table: pd.DataFrame, meta: dict[str, Any]) -> pd.DataFrame:
+    """Version-1 discrete-run columns renamed to their version-2 names (module docstring)."""
+    if meta.get("format_version", FORMAT_VERSION) >= 2 or "eps_p" not in table.columns:
+        return table
+    units = dict(meta.get("units", {}))
+    renames = {"eps_p": "eps_vol", "q": "q_over_3", "q_over_p": "q_over_trace"}
+    table = table.rename(columns=renames)
+    for old, new in renames.items():
+        if old in units:
+            units[new] = units.pop(old)
+    if "q_over_3" in table.columns:
+        table.insert(table.columns.get_loc("q_over_3"), "q", 3.0 * table["q_over_3"])
+        units["q"] = "Pa"
+    meta["units"] = units
+    meta["upgraded_from_format_version"] = meta.get("format_version")
+    meta["format_version"] = FORMAT_VERSION
+    return table
+
+
 def read_test_result(path: str | Path) -> TestResult:
     """Read a test result written by :meth:`TestResult.to_csv` or :meth:`TestResult.to_hdf5`.
 
@@ -259,7 +284,7 @@ def read_test_result(path: str | Path) -> TestResult:
                 keep_default_na=False,
                 na_values={c: [""] for c in columns if c not in text},
             )
-        table = _restore_dtypes(table[columns], dtypes)
+        table = _upgrade(_restore_dtypes(table[columns], dtypes), meta)
         return TestResult(table, meta, {})
     if suffix in (".h5", ".hdf5"):
         with h5py.File(path, "r") as f:
@@ -274,6 +299,6 @@ def read_test_result(path: str | Path) -> TestResult:
                                       dtype=object)
                 data[name] = values
             snapshots = {name: f["snapshots"][name][()] for name in f["snapshots"]}
-        table = _restore_dtypes(pd.DataFrame(data, columns=columns), dtypes)
+        table = _upgrade(_restore_dtypes(pd.DataFrame(data, columns=columns), dtypes), meta)
         return TestResult(table, meta, snapshots)
     raise InputError("path", str(path), "a file ending in .csv, .h5 or .hdf5")
