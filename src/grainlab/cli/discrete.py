@@ -37,36 +37,15 @@ def _figures(folder: Path, result) -> list[Path]:
     """curves.png: K0 and sigma_zz against eps_zz by stage (oedometer), q/p, volumetric
     strain and packing fraction against eps_q (shear stages) or the packing fraction against
     time (compaction)."""
+    from grainlab.report.curves import save_figure
+
     if _test_config(result)["kind"] == "oedometer":
-        from grainlab.report.curves import save_figure
         from grainlab.report.element_test_figures import oedometer_stages_figure
 
         return [save_figure(oedometer_stages_figure(result), folder / "curves.png", dpi=120)]
-    import matplotlib
+    from grainlab.report.run_curves import discrete_curves_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from grainlab.report.curves import plot_curves
-
-    table = result.table
-    shear = table[table["stage"] != "compaction"] if "stage" in table else table
-    paths = []
-    fig, axes = plt.subplots(1, 3, figsize=(13.0, 3.8), layout="constrained")
-    if len(shear) > 1:
-        sub = type(result)(shear.reset_index(drop=True), result.metadata)
-        plot_curves(sub, "eps_q", "q_over_trace", ax=axes[0])
-        plot_curves(sub, "eps_q", "eps_vol", ax=axes[1])
-        plot_curves(sub, "eps_q", "packing_fraction", ax=axes[2])
-    else:
-        plot_curves(result, "time", "packing_fraction", ax=axes[0])
-        plot_curves(result, "time", "p", ax=axes[1])
-        plot_curves(result, "time", "z_no_rattlers", ax=axes[2])
-    path = folder / "curves.png"
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    paths.append(path)
-    return paths
+    return [save_figure(discrete_curves_figure(result), folder / "curves.png", dpi=120)]
 
 
 def _type_fractions(row) -> str:

@@ -174,7 +174,9 @@ FIGURES: dict[str, tuple[str, Callable[[TestResult], Any]]] = {
 
 def _outcome_line(result: TestResult) -> str:
     outcome = result.outcome
-    text = (f"[bold]{result.metadata.get('title', '')}[/]: {outcome.get('status')} after "
+    status = outcome.get("status")
+    words = "specimen failure (strength reached)" if status == "failure" else status
+    text = (f"[bold]{result.metadata.get('title', '')}[/]: {words} after "
             f"{outcome.get('steps_completed')} steps")
     if outcome.get("status") == "failure":
         text += f" (stage {outcome.get('stage')!r}, step {outcome.get('step')}): " \

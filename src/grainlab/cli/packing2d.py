@@ -284,10 +284,14 @@ def report_load(model, result, out: Path) -> None:
     save_figure(stress_ratio_strain_figure(result), out / "fig7_stress_ratio_strains.png")
     save_figure(contact_force_figure(model, result), out / "fig10_contact_forces.png")
     last = result.table.iloc[-1]
-    console.print(
-        f"[bold]{result.metadata['title']}[/]: {result.outcome['status']} — "
-        f"{result.outcome['reason']}"
-    )
+    status = result.outcome["status"]
+    if status == "failure":  # the specimen's strength, not a fault of the program
+        ratio = result.outcome.get("failure_stress_ratio")
+        words = "specimen failure (strength reached" + (
+            f" at sigma_1/sigma_3 = {ratio:.4g})" if ratio is not None else ")")
+    else:
+        words = status
+    console.print(f"[bold]{result.metadata['title']}[/]: {words} — {result.outcome['reason']}")
     console.print(
         f"last record: sigma_1/sigma_3 = {last['stress_ratio']:.4g}, eps_xx = "
         f"{last['eps_xx']:.4g}, eps_yy = {last['eps_yy']:.4g}, gamma_xy = {last['gamma_xy']:.4g}"

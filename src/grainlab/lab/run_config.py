@@ -120,10 +120,13 @@ class SolverConfig(_Section):
 
 
 class OutputConfig(_Section):
-    """How often (in steps) to record, snapshot, checkpoint and export VTK (0: never)."""
+    """How often (in steps) to record, snapshot, checkpoint and export VTK (0: never).
+    Contact networks are snapshotted by default (every 500 steps: some 30 over a
+    1000-sphere triaxial test to eps_q = 0.5), so that ``grainlab analyse RUN`` has
+    something to read."""
 
     record_every: int = Field(10, ge=1)
-    snapshot_every: int = Field(0, ge=0)
+    snapshot_every: int = Field(500, ge=0)
     checkpoint_every: int = Field(500, ge=0)
     vtk_every: int = Field(0, ge=0)
 

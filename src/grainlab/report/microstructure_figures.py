@@ -142,21 +142,38 @@ def force_network_figure(
 
 
 def anisotropy_evolution_figure(table: pd.DataFrame, strain: str = "eps_q") -> Figure:
-    """Anisotropies and q/p (direct and from the anisotropies) against a strain column."""
-    x = table[strain] if strain in table.columns else table.index
-    figure, axes = new_figure_axes(1, 3, figsize=(14, 3.8))
+    """Anisotropies and q/p (direct and from the anisotropies) against a strain column.
+
+    Snapshots of a discrete run carry their ``stage``; eps_q starts again from 0 when the
+    shear begins, so against eps_q only the snapshots of the stages after the compaction are
+    drawn (a compaction snapshot joined to the shear ones would draw a line back across the
+    axis)."""
+    title = "snapshots"
+    if "stage" in table.columns and strain == "eps_q":
+        sheared = table["stage"].astype(str) != "compaction"
+        if sheared.any() and not sheared.all():
+            table = table[sheared]
+            title = "snapshots after the compaction"
+    x = table[strain] if strain in table.columns else np.arange(len(table))
+    figure, axes = new_figure_axes(1, 3, figsize=(14, 4.0))
     groups = (
-        ("contact frame", ["a_c", "a_ln", "a_lt", "a_fn", "a_ft"]),
-        ("branch frame", ["a_c_branch", "a_ln_branch", "a_fn_branch", "a_ft_branch"]),
-        ("q/p", ["q_over_trace", "q_over_trace_27a", "q_over_trace_27b", "q_over_trace_B1"]),
+        ("contact frame", "anisotropy [-]", ["a_c", "a_ln", "a_lt", "a_fn", "a_ft"]),
+        ("branch frame", "anisotropy [-]",
+         ["a_c_branch", "a_ln_branch", "a_fn_branch", "a_ft_branch"]),
+        ("q/p (direct and eqs. 27a, 27b, B1)", "q / (sigma_1 + sigma_2 + sigma_3) [-]",
+         ["q_over_trace", "q_over_trace_27a", "q_over_trace_27b", "q_over_trace_B1"]),
     )
-    for ax, (title, columns) in zip(axes, groups, strict=True):
+    for ax, (name, ylabel, columns) in zip(axes, groups, strict=True):
         for column in columns:
             if column in table.columns:
                 ax.plot(x, table[column], marker=".", label=column)
-        ax.set_title(title, fontsize="medium")
-        ax.set_xlabel(strain if strain in table.columns else "snapshot")
+        ax.set_title(name, fontsize="medium")
+        ax.set_xlabel(f"{strain} [-]" if strain in table.columns else "snapshot")
+        ax.set_ylabel(ylabel)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize="x-small")
+        if ax.lines:
+            ax.legend(fontsize="x-small", loc="best", framealpha=0.6)
+    figure.suptitle(f"Anisotropies of the contact network ({len(table)} {title})",
+                    fontsize="medium")
     figure.set_layout_engine("tight")
     return figure

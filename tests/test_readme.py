@@ -1,0 +1,105 @@
+"""Every command of the README, run as typed (at small sizes): the command-line lines of its
+bash blocks in order, then its Python blocks in one namespace, in a scratch folder.
+
+Sizes are shrunk so the whole README runs in about a minute: particle counts to a few dozen,
+strain targets to 0.02, step counts and sweeps cut (:data:`SMALLER`). Nothing else is edited:
+a README command that no longer exists, takes a renamed option or fails, fails here.
+"""
+
+from __future__ import annotations
+
+import re
+import shlex
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from grainlab.cli.main import app
+from grainlab.lab.run_config import RunConfig
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+SMALLER = (
+    (re.compile(r"(-n|--n-particles) \d+"), r"\1 24"),
+    (re.compile(r"--eps-q [0-9.]+"), "--eps-q 0.02"),
+    (re.compile(r"--steps \d+"), "--steps 400"),
+    (re.compile(r"--alphas 0:90:15"), "--alphas 0:90:45"),
+    (re.compile(r'"n_particles": \d+'), '"n_particles": 24'),
+    (re.compile(r'"eps_q_max": [0-9.]+'), '"eps_q_max": 0.02'),
+)
+"""(pattern, replacement) making a README command small."""
+
+FAST_POLYHEDRA = {"solver": {"compaction_inertia_number": 0.05,
+                             "compaction_time_step_factor": 0.02}}
+"""A quicker compaction for the polyhedra commands (a test setting, passed with --config)."""
+
+
+def _blocks(language: str) -> list[str]:
+    text = README.read_text(encoding="utf-8")
+    return re.findall(rf"^```{language}\n(.*?)^```", text, flags=re.S | re.M)
+
+
+def _commands() -> list[str]:
+    """The grainlab command lines of the README's bash blocks, comments removed."""
+    lines = []
+    for block in _blocks("bash"):
+        for line in block.splitlines():
+            line = line.split("#")[0].strip()
+            if line.startswith("grainlab "):
+                lines.append(line)
+    return lines
+
+
+def _small(text: str) -> str:
+    for pattern, replacement in SMALLER:
+        text = pattern.sub(replacement, text)
+    return text
+
+
+def _packing_file(folder: Path) -> None:
+    """my_packing.toml, the README's own packing file: two discs per cell (packing C)."""
+    from grainlab.prep.packing_files import write_packing
+    from grainlab.prep.regular_packings import named_packing
+
+    write_packing(named_packing("C"), folder / "my_packing.toml")
+
+
+def test_the_readme_lists_the_commands_a_new_user_needs():
+    commands = _commands()
+    for needed in ("grainlab triaxial", "grainlab resume", "grainlab vtk", "grainlab analyse",
+                   "grainlab packing2d load", "grainlab microelement run"):
+        assert any(c.startswith(needed) for c in commands), needed
+    assert len(_blocks("python")) >= 3
+
+
+def test_every_readme_command_runs_as_typed(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    _packing_file(tmp_path)
+    RunConfig.model_validate(FAST_POLYHEDRA).write(tmp_path / "fast.toml")
+    runner = CliRunner()
+    for line in _commands():
+        arguments = shlex.split(_small(line))[1:]
+        if "polyhedron" in arguments:
+            arguments += ["--config", "fast.toml", "--templates", "3"] \
+                if "--templates" not in arguments else ["--config", "fast.toml"]
+        if arguments[0] in ("triaxial", "compaction", "oedometer", "resume"):
+            arguments.append("--no-progress")
+        result = runner.invoke(app, arguments)
+        assert result.exit_code == 0, f"{line}\n{result.output}"
+    # what the README says these commands leave behind
+    assert (tmp_path / "runs" / "tri" / "snapshots.h5").exists()
+    assert (tmp_path / "runs" / "tri" / "vtk-checkpoint").is_dir()
+    assert (tmp_path / "analysis" / "analysis.csv").exists()
+    for block in _blocks("python"):
+        code = _small(block)
+        if "start_run(" in code:  # the README's run folder is taken by the CLI's run above
+            code = code.replace('start_run("runs/tri", config)',
+                                'start_run("runs/tri-python", config)')
+        exec(compile(code, "README.md", "exec"), {"__name__": "readme"})
+    assert (tmp_path / "runs" / "tri-python" / "results.csv").exists()
+
+
+@pytest.mark.parametrize("command", ["grainlab demo", "make demo", "make test"])
+def test_the_readme_gives_the_two_commands(command):
+    assert command in README.read_text(encoding="utf-8")
