@@ -104,8 +104,7 @@ def _simulation(folder: Path, particles: int, eps_q: float) -> list[tuple[Path, 
                   f"to eps_q = {eps_q:g}")
     console.print("The first discrete run on this machine compiles the contact-dynamics "
                   "kernels (about a minute on two cores; they are cached for later runs).")
-    result = run.run(progress=True)
-    discrete.print_summary(result)
+    _, figures = discrete.finish_run(folder, run, progress=True)
     files = [(folder / "config.toml", "the run's input (edit it and pass it with --config)"),
              (folder / "results.csv", "one row per record: stresses, strains, packing "
                                       "fraction, coordination, inertia number, solver"),
@@ -113,7 +112,7 @@ def _simulation(folder: Path, particles: int, eps_q: float) -> list[tuple[Path, 
              (folder / "snapshots.h5", "contact networks (forces, normals, branches)"),
              (folder / "checkpoint.h5", "the last state, to resume or export"),
              (folder / "run.log", "the run's log")]
-    for path in discrete.write_figures(folder, result):
+    for path in figures:
         files.append((path, "q/p, volumetric strain and packing fraction against eps_q"))
     console.print("analysing the recorded contact networks ...")
     analysis = folder / "analysis"

@@ -1,5 +1,11 @@
 """``grainlab triaxial | compaction | oedometer | resume | vtk``: lab tests on a discrete
-sample (contact dynamics), run in a folder that can be resumed."""
+sample (contact dynamics), run in a folder that can be resumed.
+
+Exit status: 0 when the run did what was asked; 3 when it ran but its outcome is not what was
+asked (a stage not reached, the inertia bound exceeded, a blow-up: the summary and run.log say
+why; :mod:`grainlab.lab.run_outcome`); 2 on bad input or when a run cannot go on (no
+checkpoint, damaged checkpoints, a full disk), with one message.
+"""
 
 from __future__ import annotations
 
@@ -82,7 +88,7 @@ def _summary(result) -> None:
     table = result.table
     last = table.iloc[-1]
     console.print(f"[bold]{result.metadata['title']}[/]: {len(table)} rows, "
-                  f"{int(last['step'])} steps, outcome {result.metadata['outcome']['stages']}")
+                  f"{int(last['step'])} steps")
     shear = table[table["stage"] != "compaction"]
     compaction = table[table["stage"] == "compaction"]
     if len(compaction):
@@ -100,6 +106,37 @@ def _summary(result) -> None:
                       f"{late['packing_fraction'].mean():.4f}, z {late['z'].mean():.3f}; "
                       f"max inertia number {shear['inertia_number'].max():.2e}"
                       f"{_type_fractions(late.mean(numeric_only=True))}")
+
+
+def finish_run(folder: Path, run, progress: bool) -> tuple[Any, list[Path]]:
+    """Run to the end, print the summary, the outcome in words and the figures; exit 3 when
+    the outcome is not as asked or the run blew up. Returns the result and the figures."""
+    from grainlab.engine.simulation import SimulationBlowUp
+    from grainlab.lab.run_outcome import EXIT_NOT_AS_ASKED, RunOutcome
+
+    for note in run.notes:
+        console.print(f"[bold yellow]note:[/] {note}")
+    try:
+        result = run.run(progress=progress)
+    except SimulationBlowUp as error:
+        console.print(f"[bold red]blow-up:[/] {error}")
+        raise typer.Exit(code=EXIT_NOT_AS_ASKED) from None
+    outcome = RunOutcome.of_result(result)
+    figures = []
+    if len(result.table):
+        _summary(result)
+        figures = _figures(folder, result)
+        for path in figures:
+            console.print(f"figure: {path}")
+    words = outcome.summary().replace("grainlab resume RUN", f"grainlab resume {folder}")
+    head, *lines = words.splitlines()
+    console.print(f"[bold {'green' if outcome.as_asked else 'red'}]{head}[/]",
+                  highlight=False)
+    for line in lines:
+        console.print(line, highlight=False)
+    if not outcome.as_asked:
+        raise typer.Exit(code=EXIT_NOT_AS_ASKED)
+    return result, figures
 
 
 def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any],
@@ -133,10 +170,7 @@ def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any]
     console.print(f"run folder [bold]{out}[/] ({sample.n_particles} {shapes}, {kind}); "
                   f"Ctrl-C checkpoints, "
                   f"`grainlab resume {out}` continues")
-    result = run.run(progress=progress)
-    _summary(result)
-    for path in _figures(out, result):
-        console.print(f"figure: {path}")
+    finish_run(out, run, progress)
 
 
 def _as_typed(error: InputError, given: dict[str, Any], config_file: Path | None
@@ -330,18 +364,33 @@ def oedometer_command(
 @friendly_errors
 def resume_command(
     run: Path = typer.Argument(..., help="The run folder to continue."),
+    set_: list[str] = typer.Option(
+        None, "--set", metavar="SECTION.KEY=VALUE",
+        help="Change a setting for the rest of the run (repeatable), e.g. --set "
+             "solver.tolerance=1e-5. Can change: test.eps_q_max, test.axial_strain, "
+             "test.unload_strain (stages not ended yet), solver.inertia_number, "
+             "solver.compaction_inertia_number, solver.dt, solver.time_step_factor, "
+             "solver.compaction_time_step_factor, solver.tolerance, solver.max_iterations, "
+             "solver.compaction_tolerance, solver.compaction_max_iterations, "
+             "solver.overlap_recovery, solver.max_stage_steps, solver.at_max_stage_steps, "
+             "output.*; the other keys made what the run did and are refused. Keys edited "
+             "in RUN/config.toml count the same."),
+    restart: bool = typer.Option(
+        False, "--restart",
+        help="Start the run over from step 0 with its config.toml (and --set, any key), "
+             "after moving its results, snapshots, log and checkpoints to RUN/previous-N."),
     progress: bool = _PROGRESS,
 ) -> None:
-    """Continue a run from its last checkpoint (after Ctrl-C, SIGTERM, kill -9 or a crash):
-    results and snapshots are cut back to the checkpoint and the run goes on."""
+    """Continue a run from its last checkpoint (after Ctrl-C, SIGTERM, kill -9, a crash, a
+    blow-up or a stage stopped at max_stage_steps): results and snapshots are cut back to the
+    checkpoint and the run goes on. If checkpoint.h5 is damaged, from checkpoint.prev.h5 (the
+    one before). Without a usable checkpoint it stops and touches nothing (see --restart)."""
     from grainlab.lab.discrete_run import resume_run
 
-    discrete = resume_run(run)
-    console.print(f"resuming [bold]{run}[/] at step {discrete.test.simulation.step_index}")
-    result = discrete.run(progress=progress)
-    _summary(result)
-    for path in _figures(run, result):
-        console.print(f"figure: {path}")
+    discrete = resume_run(run, list(set_ or []), restart=restart)
+    console.print(f"{'restarting' if restart else 'resuming'} [bold]{run}[/] at step "
+                  f"{discrete.test.simulation.step_index}")
+    finish_run(run, discrete, progress)
 
 
 @friendly_errors
@@ -359,12 +408,3 @@ def vtk_command(
     for path in paths:
         console.print(f"wrote {path}")
 
-
-def print_summary(result) -> None:
-    """The end-of-run summary of a discrete run's result (as the run commands print it)."""
-    _summary(result)
-
-
-def write_figures(folder: Path, result) -> list[Path]:
-    """The figures of a discrete run's result written into ``folder`` (curves.png)."""
-    return _figures(folder, result)

@@ -4,27 +4,43 @@ Layout of a run folder::
 
     config.toml        the input (grainlab.lab.run_config.RunConfig)
     results.csv        the results table in the test-result format (rewritten at every
-                       checkpoint and at the end; results.h5 too at the end)
+                       checkpoint and at the end; results.h5 too at the end, with the
+                       outcome in its attributes)
     snapshots.h5       contact-network snapshots (grainlab.analysis snapshot files)
-    checkpoint.h5      the last checkpoint: sample, walls, solver memory, progress, rows
-    run.log            what happened, with times
+    checkpoint.h5      the last checkpoint: sample, walls, solver memory, progress, rows,
+                       config
+    checkpoint.prev.h5 the checkpoint before it
+    run.log            what happened, with times, and the outcome in words
     vtk/               ParaView files when output.vtk_every > 0 (particles, contacts, walls)
 
-Checkpoints are written to ``checkpoint.h5.tmp`` and renamed over ``checkpoint.h5``
-(atomic), every ``output.checkpoint_every`` steps, at the end of every stage and when the run
-is interrupted (Ctrl-C, SIGTERM). A run killed at any moment, even by SIGKILL, resumes from
-its last checkpoint (:func:`resume_run`, ``grainlab resume RUN``): the results table and the
-snapshot file are cut back to that checkpoint and the run goes on, so nothing but the steps
-since the checkpoint is lost. A run that blows up keeps its last good checkpoint and logs
-the diagnosis.
+Checkpoints (:mod:`grainlab.lab.run_checkpoint`: two kept, written atomically) are written
+every ``output.checkpoint_every`` steps, at the end of every stage, when the run ends or stops
+and when it is interrupted (Ctrl-C, SIGTERM). A run killed at any moment, even by SIGKILL,
+resumes from its last checkpoint (:func:`resume_run`, ``grainlab resume RUN``), or from the
+one before if the last is damaged (named, and kept as ``checkpoint.h5.damaged``): the results
+table and the snapshot file are cut back to that checkpoint and the run goes on, so nothing
+but the steps since the checkpoint is lost, and the run ends as it would have uninterrupted
+(bit for bit, whatever the number of threads). Without a checkpoint, or with none usable,
+resuming stops with a message and touches nothing; ``restart=True`` (``--restart``) starts
+over after moving the run's files to ``previous-N/``. A resumed run may change the keys of
+:data:`~grainlab.lab.run_config.CHANGEABLE_ON_RESUME`; the others are refused. A write that
+fails (a full disk) stops the run with one message, the last good checkpoint kept
+(:class:`~grainlab.lab.run_checkpoint.RunStorageError`). A run that blows up keeps its last
+good checkpoint and logs the diagnosis, with the settings it can be resumed with.
+
+When a run ends or stops, its outcome (:mod:`grainlab.lab.run_outcome`: every stage reached or
+not, the inertia bound held or not, capped solver steps) goes into the results' metadata
+(``outcome``; :meth:`RunOutcome.of_result <grainlab.lab.run_outcome.RunOutcome.of_result>`),
+the attributes of results.h5 (``outcome_status``, ``outcome_summary``) and run.log.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import logging
+import math
 import os
+import shutil
 import signal
 import time
 from collections.abc import Callable
@@ -39,41 +55,69 @@ from grainlab.analysis.snapshot_files import append_snapshot
 from grainlab.engine.discrete_sample import DiscreteSample
 from grainlab.engine.sample_measures import PAIR_TYPE_NAMES
 from grainlab.engine.simulation import SimulationBlowUp
-from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.engine.wall_box import WallBox
 from grainlab.errors import GrainlabError, InputError
+from grainlab.lab.box_thickness import BOX_MIN_DIAMETERS
 from grainlab.lab.discrete_test import DiscreteTest
-from grainlab.lab.run_config import RunConfig
+from grainlab.lab.run_checkpoint import (
+    CHECKPOINT,
+    DAMAGED_SUFFIX,
+    LIBRARY_FIELDS,
+    PREVIOUS_CHECKPOINT,
+    STATE_FIELDS,
+    CheckpointContents,
+    load_checkpoint,
+    read_checkpoint,
+    set_damaged_aside,
+    storage_error,
+    write_checkpoint,
+)
+from grainlab.lab.run_config import CHANGEABLE_ON_RESUME, RunConfig, parse_assignments
+from grainlab.lab.run_outcome import RunOutcome
+from grainlab.lab.wall_stages import QuasiStaticCriteria, wall_stages
 from grainlab.prep.loose_sample import loose_sample
 from grainlab.result.test_result import TestResult
+
+__all__ = ["CHECKPOINT", "PREVIOUS_CHECKPOINT", "DiscreteRun", "RunCannotGoOn",
+           "RunInterrupted", "read_checkpoint", "resume_run", "start_run"]
 
 CONFIG = "config.toml"
 RESULTS = "results.csv"
 RESULTS_H5 = "results.h5"
 SNAPSHOTS = "snapshots.h5"
-CHECKPOINT = "checkpoint.h5"
 LOG = "run.log"
-CHECKPOINT_FORMAT = "grainlab.discrete_checkpoint"
-CHECKPOINT_VERSION = 1
-
-_STATE_FIELDS = ("positions", "orientations", "velocities", "angular_velocities", "masses",
-                 "inertias", "shape_ids")
-_LIBRARY_FIELDS = tuple(f.name for f in dataclasses.fields(ShapeLibrary))
-"""Every array of the shape library (member spheres and polyhedron vertices, faces, edges)."""
+RUN_FILES = (CHECKPOINT, PREVIOUS_CHECKPOINT, CHECKPOINT + DAMAGED_SUFFIX, RESULTS, RESULTS_H5,
+             SNAPSHOTS, LOG, "curves.png", "vtk", "vtk-checkpoint")
+"""What ``--restart`` moves aside (config.toml stays, a copy goes with them)."""
 
 
 class RunInterrupted(GrainlabError, KeyboardInterrupt):
     """The run was interrupted by a signal; its checkpoint is on disk."""
 
 
+class RunCannotGoOn(GrainlabError):
+    """A run stopped for a reason that its settings still have (the message says which to
+    change)."""
+
+
+class _LogFile(logging.FileHandler):
+    """run.log; a failed write (a full disk) is dropped, so that the error that stops the run
+    stays the one message."""
+
+    def handleError(self, record: logging.LogRecord) -> None:
+        pass
+
+
 def _logger(folder: Path) -> logging.Logger:
+    """The run's logger, writing to a freshly opened run.log (a restart moves the old one)."""
     logger = logging.getLogger(f"grainlab.run.{folder.resolve()}")
-    if not logger.handlers:
-        handler = logging.FileHandler(folder / LOG)
-        handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
-        logger.addHandler(handler)
-        logger.setLevel(logging.INFO)
-        logger.propagate = False
+    for handler in list(logger.handlers):
+        logger.removeHandler(handler)
+        handler.close()
+    handler = _LogFile(folder / LOG)
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+    logger.propagate = False
     return logger
 
 
@@ -104,6 +148,9 @@ class DiscreteRun:
         self.log = _logger(folder)
         self.last_checkpoint_step = -1
         self.resumed = False
+        self.notes: list[str] = []
+        """What the user should know about this run besides its outcome (e.g. a damaged
+        checkpoint passed over)."""
         self._vtk = None
         test.on_snapshot = self._write_snapshot
         test.on_stage_end = self._stage_ended
@@ -139,8 +186,18 @@ class DiscreteRun:
         self._vtk.add_state(sim.time, self.test.sample.state, contacts=contacts,
                             walls=BoxWalls.from_wall_box(self.test.sample.box))
 
+    @property
+    def outcome(self) -> RunOutcome:
+        """The run so far judged against what was asked (:mod:`grainlab.lab.run_outcome`)."""
+        outcome = self.test.run_outcome()
+        if self.notes:
+            outcome = RunOutcome(outcome.stages, outcome.finished, outcome.steps,
+                                 outcome.stopped, tuple(self.notes))
+        return outcome
+
     def result(self) -> TestResult:
-        """The results so far in the test-result format."""
+        """The results so far in the test-result format; ``metadata["outcome"]`` is
+        :meth:`RunOutcome.to_dict <grainlab.lab.run_outcome.RunOutcome.to_dict>`."""
         test = self.test
         table = pd.DataFrame(test.rows)
         return TestResult.create(
@@ -149,51 +206,67 @@ class DiscreteRun:
                        "stages": [s.to_dict() for s in test.stages]},
             parameters={"settings": test.settings.to_dict(),
                         "config": self.config.model_dump()},
-            outcome={**test.outcome, "finished": test.finished,
-                     "unconverged_steps": test.simulation.unconverged_steps,
-                     "steps": test.simulation.step_index},
+            outcome=_plain(self.outcome.to_dict()),
             dimension=3, title=f"{test.path.name} on a discrete sample")
 
     def write_results(self, final: bool = False) -> None:
-        """Rewrite results.csv (and results.h5 when ``final``)."""
+        """Rewrite results.csv (and results.h5, with the outcome in its attributes, when
+        ``final``), each through a temporary file renamed over it: a failed write raises
+        :class:`~grainlab.lab.run_checkpoint.RunStorageError` and keeps the previous file."""
         if not self.test.rows:
             return
         result = self.result()
-        result.to_csv(self.folder / RESULTS)
+        targets = [(RESULTS, result.to_csv)]
         if final:
-            result.to_hdf5(self.folder / RESULTS_H5)
+            targets.append((RESULTS_H5, lambda path: self._results_h5(result, path)))
+        for name, write in targets:
+            path = self.folder / name
+            tmp = path.with_name(path.name + ".tmp")
+            try:
+                write(tmp)
+                os.replace(tmp, path)
+            except OSError as error:
+                tmp.unlink(missing_ok=True)
+                raise storage_error(error, str(path), self._kept()) from None
+
+    def _results_h5(self, result: TestResult, path: Path) -> None:
+        result.to_hdf5(path)
+        outcome = result.metadata["outcome"]
+        with h5py.File(path, "a") as handle:
+            handle.attrs["outcome_status"] = outcome["status"]
+            handle.attrs["outcome_as_asked"] = bool(outcome["as_asked"])
+            handle.attrs["outcome_summary"] = outcome["summary"]
+
+    def _kept(self) -> str:
+        if self.last_checkpoint_step < 0:
+            return f"No checkpoint of this run is on disk yet ({self.folder})."
+        return (f"The last good checkpoint (step {self.last_checkpoint_step}) is kept in "
+                f"{self.folder / CHECKPOINT}.")
+
+    def _checkpoint_contents(self) -> CheckpointContents:
+        test = self.test
+        return CheckpointContents(
+            groups={"state": {n: getattr(test.sample.state, n) for n in STATE_FIELDS},
+                    "library": {n: getattr(test.sample.library, n) for n in LIBRARY_FIELDS},
+                    "box": test.sample.box.to_arrays(),
+                    "warm_start": test.solver.warm_start_arrays()},
+            group_attrs={"state": {"density": test.sample.state.density}},
+            attrs={"rng_state": json.dumps(test.solver.rng_state),
+                   "progress": json.dumps(_plain(test.progress_arrays())),
+                   "outcome": json.dumps(_plain(test.outcome)),
+                   "description": json.dumps(_plain(test.sample.description)),
+                   "config": json.dumps(self.config.model_dump())},
+            datasets={"rows": json.dumps(_plain(test.rows))})  # a dataset: no 64 kB limit
 
     def checkpoint(self) -> Path:
-        """Write the checkpoint atomically (module docstring); returns its path."""
+        """Write a checkpoint (module docstring), then results.csv; returns its path."""
         test = self.test
-        path = self.folder / CHECKPOINT
-        tmp = path.with_name(path.name + ".tmp")
-        with h5py.File(tmp, "w") as handle:
-            handle.attrs["format"] = CHECKPOINT_FORMAT
-            handle.attrs["format_version"] = CHECKPOINT_VERSION
-            state = handle.create_group("state")
-            for name in _STATE_FIELDS:
-                state[name] = getattr(test.sample.state, name)
-            state.attrs["density"] = test.sample.state.density
-            library = handle.create_group("library")
-            for name in _LIBRARY_FIELDS:
-                library[name] = getattr(test.sample.library, name)
-            box = handle.create_group("box")
-            for name, array in test.sample.box.to_arrays().items():
-                box[name] = array
-            warm = handle.create_group("warm_start")
-            for name, array in test.solver.warm_start_arrays().items():
-                warm[name] = array
-            handle.attrs["rng_state"] = json.dumps(test.solver.rng_state)
-            handle.attrs["progress"] = json.dumps(_plain(test.progress_arrays()))
-            handle.attrs["outcome"] = json.dumps(_plain(test.outcome))
-            handle.attrs["description"] = json.dumps(_plain(test.sample.description))
-            handle["rows"] = json.dumps(_plain(test.rows))  # a dataset: no 64 kB limit
-        with open(tmp, "rb") as f:
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-        self.write_results()
+        # a second checkpoint at the same step (a stage's end, then the run's) replaces the
+        # first, so that checkpoint.prev.h5 stays an earlier step
+        path = write_checkpoint(self.folder, self._checkpoint_contents(), kept=self._kept(),
+                                rotate=test.simulation.step_index != self.last_checkpoint_step)
         self.last_checkpoint_step = test.simulation.step_index
+        self.write_results()
         self.log.info("checkpoint at step %d (t = %.6g s, %d rows, %d snapshots)",
                       test.simulation.step_index, test.simulation.time, len(test.rows),
                       test.n_snapshots)
@@ -201,9 +274,10 @@ class DiscreteRun:
 
     # -- running ------------------------------------------------------------------------------
     def run(self, progress: bool = False, max_steps: int | None = None) -> TestResult:
-        """Run to the end (or ``max_steps`` more steps). Ctrl-C / SIGTERM let the current step
-        finish, checkpoint and raise :class:`RunInterrupted`; a blow-up is logged and
-        re-raised with the last good checkpoint kept."""
+        """Run to the end, or until the test halts in a stage (its outcome says why), or
+        ``max_steps`` more steps. Ctrl-C / SIGTERM let the current step finish, checkpoint and
+        raise :class:`RunInterrupted`; a blow-up is logged and re-raised with its diagnosis
+        and the last good checkpoint kept."""
         test = self.test
         interrupted: list[int] = []
 
@@ -225,7 +299,7 @@ class DiscreteRun:
         try:
             if bar is not None:
                 bar.start()
-            while not test.finished and not interrupted:
+            while not test.finished and not test.halted and not interrupted:
                 test.run(max_steps)
                 if interrupted:
                     raise KeyboardInterrupt
@@ -241,25 +315,57 @@ class DiscreteRun:
                 f"run interrupted at step {test.simulation.step_index}; checkpoint written, "
                 f"resume with: grainlab resume {self.folder}") from None
         except SimulationBlowUp as error:
-            self.log.error("blow-up: %s (last good checkpoint: step %d)", error,
-                           self.last_checkpoint_step)
-            raise
+            diagnosed = SimulationBlowUp(self._blow_up_diagnosis(error))
+            self.log.error("blow-up: %s", diagnosed)
+            raise diagnosed from None
         finally:
             if bar is not None:
                 bar.stop()
             for signum, handler in previous.items():
                 signal.signal(signum, handler)
         elapsed = time.perf_counter() - start
-        if test.finished:
-            for stage in test.outcome["stages"][-1:]:
-                self.log.info("stage %s ended: %s", stage["name"], stage["reason"])
+        if test.finished or test.halted:
+            if test.finished:
+                for stage in test.outcome["stages"][-1:]:
+                    self.log.info("stage %s ended: %s", stage["name"], stage["reason"])
+            else:
+                self.log.warning("stage %s stopped: %s", test.halted["stage"],
+                                 test.halted["reason"])
             self.checkpoint()
             self.write_results(final=True)
             if self._vtk is not None:
                 self._vtk.close()
-            self.log.info("run finished at step %d in %.1f s of this session",
+            self.log.info("run %s at step %d in %.1f s of this session",
+                          "finished" if test.finished else "stopped",
                           test.simulation.step_index, elapsed)
+            outcome = self.outcome
+            (self.log.info if outcome.as_asked else self.log.warning)("%s", outcome.summary())
         return self.result()
+
+    def _blow_up_diagnosis(self, error: SimulationBlowUp) -> str:
+        """The blow-up's message, with the box's thickness where the box is thinner than a
+        few particles (then no time step helps), and how to resume with other settings."""
+        test, folder = self.test, self.folder
+        text = str(error)
+        lengths = test.sample.box.lengths
+        ratios = lengths / test.largest_diameter
+        a = int(np.argmin(ratios))
+        if ratios[a] < BOX_MIN_DIAMETERS:
+            text += (f" The box is only {lengths[a] * 1e3:.3g} mm along {'xyz'[a]}, "
+                     f"{ratios[a]:.2f} largest particle diameters (d_max = "
+                     f"{test.largest_diameter * 1e3:.3g} mm): squeezed into one or two layers "
+                     "the particles lock, and a smaller time step or tolerance will not help; "
+                     "ask a smaller strain or use more particles.")
+        s = test.settings
+        if self.last_checkpoint_step < 0:
+            return text + (" No checkpoint was written: edit config.toml and start over "
+                           f"with `grainlab resume {folder} --restart`.")
+        return text + (
+            f" The last good checkpoint is at step {self.last_checkpoint_step}; resume it with "
+            f"other settings, e.g. `grainlab resume {folder} --set "
+            f"solver.time_step_factor={s.time_step_factor / 2:g} --set "
+            f"solver.tolerance={s.tolerance / 10:g}` (keys that can change on resume: "
+            + ", ".join(CHANGEABLE_ON_RESUME) + ").")
 
 
 class _Every:
@@ -292,24 +398,46 @@ class _ProgressBar:
         self.task = self.progress.add_task("starting", total=1.0, info="")
 
     def update(self, test: DiscreteTest, row: dict) -> None:
-        stage = test.stage
-        if stage is None or self.task is None:
+        if test.stage is None or self.task is None:
             return
-        if stage.moving_axes:
-            stop = [c.limit for c in stage.stop if c.quantity == "eps_q"]
-            done = row["eps_q"] / stop[0] if stop else max(
-                abs(np.log(test.stage_start_lengths[a] / test.sample.box.lengths[a]))
-                / abs(stage.targets[a]) for a in stage.moving_axes)
-        else:
-            done = min(1.0, row["packing_fraction"] / 0.64)
-        info = (f"step {row['step']}  q/p {row['q_over_trace']:.3f}  "
-                f"packing fraction {row['packing_fraction']:.4f}  z {row['z']:.2f}  "
-                f"I {row['inertia_number']:.1e}")
-        self.progress.update(self.task, completed=min(done, 1.0), description=stage.name,
+        done, info = progress_fields(test, row)
+        self.progress.update(self.task, completed=done, description=test.stage.name,
                              info=info)
 
     def stop(self) -> None:
         self.progress.stop()
+
+
+def progress_fields(test: DiscreteTest, row: dict) -> tuple[float, str]:
+    """(fraction done in [0, 1], text) of the progress bar at a record. A stage with a
+    strain-controlled axis: its strain against its target. A compaction: half the mean wall
+    stress against its target, half the unbalanced force ratio against its quasi-static
+    bound on a log scale (1 to the bound), the text showing both and the kinetic energy ratio
+    with their targets, so that a compaction that does not settle is seen stuck at its
+    numbers, not at a percentage."""
+    stage = test.stage
+    steps = f"step {row['step']} ({row['step'] - test.stage_start_step} of <= " \
+            f"{test.settings.max_stage_steps} in the stage)"
+    if stage.moving_axes:
+        stop = [c.limit for c in stage.stop if c.quantity == "eps_q"]
+        done = row["eps_q"] / stop[0] if stop else max(
+            abs(np.log(test.stage_start_lengths[a] / test.sample.box.lengths[a]))
+            / abs(stage.targets[a]) for a in stage.moving_axes)
+        return min(max(done, 0.0), 1.0), (
+            f"{steps}  q/p {row['q_over_trace']:.3f}  packing fraction "
+            f"{row['packing_fraction']:.4f}  z {row['z']:.2f}  I {row['inertia_number']:.1e} (<= "
+            f"{test.settings.inertia_number:g})")
+    criteria: QuasiStaticCriteria = test.settings.quasi_static
+    targets = [stage.targets[a] for a in stage.stress_axes if math.isfinite(stage.targets[a])]
+    wall_p = (row["wall_sigma_xx"] + row["wall_sigma_yy"] + row["wall_sigma_zz"]) / 3.0
+    loaded = min(1.0, max(wall_p / np.mean(targets), 0.0)) if targets else 1.0
+    ratio, bound = row["unbalanced_force_ratio"], criteria.unbalanced_force
+    settled = min(1.0, max(math.log(ratio) / math.log(bound), 0.0)) \
+        if ratio > 0.0 and math.isfinite(ratio) else 0.0
+    info = (f"{steps}  unbalanced force {ratio:.3g} (-> <= {bound:g})  kinetic energy "
+            f"{row['kinetic_energy_ratio']:.2g} (-> <= {criteria.kinetic_energy:g})  "
+            f"p {row['p']:.4g} Pa  packing fraction {row['packing_fraction']:.4f}")
+    return 0.5 * loaded + 0.5 * settled, info
 
 
 def _plain(value: Any) -> Any:
@@ -330,20 +458,30 @@ def _plain(value: Any) -> Any:
 
 def start_run(folder: str | Path, config: RunConfig, *, overwrite: bool = False
               ) -> DiscreteRun:
-    """Build the sample and the test, then create the run folder (refusing to replace a run
-    unless ``overwrite``) and write the config. An input rejected while building leaves the
-    folder as it was: no new folder, the old run (if any) untouched."""
+    """Build the sample and the test, refusing targets that would flatten the box
+    (:meth:`~grainlab.lab.discrete_test.DiscreteTest.predicted_flattening`); then create the
+    run folder (refusing to replace a run unless ``overwrite``) and write the config."""
     folder = Path(folder)
-    holds_run = (folder / CHECKPOINT).exists() or (folder / CONFIG).exists()
-    if holds_run and not overwrite:
-        raise InputError("run folder", str(folder),
-                         "a new folder (this one holds a run: `grainlab resume` it, or "
-                         "pass --overwrite)")
-    sample = build_sample(config)
-    test = DiscreteTest(sample, config.load_path(), config.settings())
-    if holds_run:
-        for name in (CHECKPOINT, RESULTS, RESULTS_H5, SNAPSHOTS, LOG):
+    if (folder / CHECKPOINT).exists() or (folder / CONFIG).exists():
+        if not overwrite:
+            raise InputError("run folder", str(folder),
+                             "a new folder (this one holds a run: `grainlab resume` it, or "
+                             "pass --overwrite)")
+    test = _new_test(config)
+    if overwrite:
+        for name in (CHECKPOINT, PREVIOUS_CHECKPOINT, RESULTS, RESULTS_H5, SNAPSHOTS, LOG):
             (folder / name).unlink(missing_ok=True)
+    return _create(folder, config, test)
+
+
+def _new_test(config: RunConfig) -> DiscreteTest:
+    """The sample and the test of ``config``, its targets checked against the box."""
+    test = DiscreteTest(build_sample(config), config.load_path(), config.settings())
+    _refuse_flattening(test, config)
+    return test
+
+
+def _create(folder: Path, config: RunConfig, test: DiscreteTest) -> DiscreteRun:
     folder.mkdir(parents=True, exist_ok=True)
     config.write(folder / CONFIG)
     run = DiscreteRun(folder, config, test)
@@ -352,39 +490,71 @@ def start_run(folder: str | Path, config: RunConfig, *, overwrite: bool = False
     return run
 
 
-def read_checkpoint(path: Path) -> dict[str, Any]:
-    """Everything a checkpoint holds: ``library``, ``state``, ``box`` (objects),
-    ``warm_start`` (arrays), ``rng_state``, ``progress``, ``outcome``, ``description``,
-    ``rows`` (plain data)."""
-    with h5py.File(path, "r") as handle:
-        if handle.attrs.get("format") != CHECKPOINT_FORMAT:
-            raise InputError("checkpoint", str(path), f"a {CHECKPOINT_FORMAT} file")
-        saved: dict[str, Any] = {
-            "library": ShapeLibrary(**{n: handle["library"][n][()] for n in _LIBRARY_FIELDS
-                                       if n in handle["library"]}),
-            "state": BodyState(**{n: handle["state"][n][()] for n in _STATE_FIELDS},
-                               density=float(handle["state"].attrs["density"])),
-            "box": WallBox.from_arrays({k: v[()] for k, v in handle["box"].items()}),
-            "warm_start": {k: v[()] for k, v in handle["warm_start"].items()},
-            "rows": json.loads(handle["rows"][()]),
-        }
-        for name in ("rng_state", "progress", "outcome", "description"):
-            saved[name] = json.loads(handle.attrs[name])
-    return saved
+_TARGET_KEYS = {"eps_q": "test.eps_q_max", "eps_zz": "test.axial_strain"}
 
 
-def resume_run(folder: str | Path) -> DiscreteRun:
-    """Rebuild a run from its folder's config and last checkpoint (module docstring)."""
+def _refuse_flattening(test: DiscreteTest, config: RunConfig) -> None:
+    """An :class:`InputError` naming the config key of the first target that would flatten
+    the box (:meth:`~grainlab.lab.discrete_test.DiscreteTest.predicted_flattening`)."""
+    for flat in test.predicted_flattening():
+        key = _TARGET_KEYS.get(flat.quantity, f"stage {flat.stage!r} target")
+        raise InputError(key, flat.asked, (
+            f"at most about {flat.largest:.3g} for this sample: {flat.words()} ("
+            f"{config.sample.n_particles} particles); "
+            f"{flat.advice()}"))
+
+
+def _move_aside(folder: Path) -> Path:
+    """Move the run's files (:data:`RUN_FILES`) and a copy of config.toml to
+    ``folder/previous-N`` (N the first free number); returns that folder."""
+    n = 1
+    while (folder / f"previous-{n}").exists():
+        n += 1
+    aside = folder / f"previous-{n}"
+    aside.mkdir()
+    shutil.copy2(folder / CONFIG, aside / CONFIG)
+    for name in RUN_FILES:
+        if (folder / name).exists():
+            os.replace(folder / name, aside / name)
+    return aside
+
+
+def resume_run(folder: str | Path, changes: list[str] | dict | None = None, *,
+               restart: bool = False) -> DiscreteRun:
+    """Rebuild a run from its folder's config and last usable checkpoint (module docstring).
+
+    Parameters
+    ----------
+    folder:
+        The run folder.
+    changes:
+        Config keys to change, ``["solver.tolerance=1e-5"]`` or ``{"solver": {...}}``
+        (:data:`~grainlab.lab.run_config.CHANGEABLE_ON_RESUME`; keys edited in config.toml
+        count too). Refused keys raise :class:`InputError` naming them.
+    restart:
+        Start the run over from step 0 with its config (and ``changes``, any key), after
+        moving its files to ``folder/previous-N``. Without it, a folder without a usable
+        checkpoint raises :class:`~grainlab.lab.run_checkpoint.NoCheckpoint` or
+        :class:`~grainlab.lab.run_checkpoint.CheckpointDamaged` and is left as it is.
+    """
     folder = Path(folder)
     if not (folder / CONFIG).exists():
         raise InputError("run folder", str(folder), f"a run folder with a {CONFIG}")
-    config = RunConfig.read(folder / CONFIG)
-    path = folder / CHECKPOINT
-    if not path.exists():
-        run = start_run(folder, config, overwrite=True)
-        run.log.info("no checkpoint: started again from the beginning")
+    edited = RunConfig.read(folder / CONFIG)
+    if isinstance(changes, list):
+        changes = parse_assignments(changes)
+    config = edited.with_updates(changes) if changes else edited
+    if restart:
+        test = _new_test(config)  # refused before any file moves
+        aside = _move_aside(folder)
+        run = _create(folder, config, test)
+        run.log.info("started over from step 0; the previous run's files are in %s", aside)
+        run.notes.append(f"started over from step 0; the previous run's files are in {aside}")
         return run
-    saved = read_checkpoint(path)
+    loaded = load_checkpoint(folder)
+    saved = loaded.saved
+    started = RunConfig.model_validate(saved["config"]) if saved["config"] else edited
+    changed = config.changes_on_resume(started)
     box = saved["box"]
     sample = DiscreteSample(saved["library"], saved["state"], box, saved["description"])
     masses = box.masses.copy()
@@ -395,13 +565,59 @@ def resume_run(folder: str | Path) -> DiscreteRun:
     test.rows = saved["rows"]
     test.solver.restore_warm_start(saved["warm_start"])
     test.solver.rng_state = saved["rng_state"]
+    if any(key.startswith("test.") for key in changed):
+        _check_stages(test, started, changed)
+        _refuse_flattening(test, config)
+    test.apply_settings(started.settings())
+    why = test.resumable()
+    if why:
+        raise RunCannotGoOn(f"{folder} cannot go on: {why}.")
+    notes = []
+    if loaded.fell_back:
+        for path, damage in loaded.passed_over:
+            if damage == "missing":
+                notes.append(f"{path.name} is missing")
+            else:
+                aside = set_damaged_aside(path)
+                notes.append(f"{path.name} is damaged ({damage}); kept as {aside.name}")
+        notes.append(f"resumed from the previous checkpoint {loaded.path.name} (step "
+                     f"{test.simulation.step_index}): the steps since are run again")
+    if changed:
+        config.write(folder / CONFIG)
     _truncate_snapshots(folder / SNAPSHOTS, test.n_snapshots)
     run = DiscreteRun(folder, config, test)
+    run.notes += notes
     run.last_checkpoint_step = test.simulation.step_index
     run.resumed = True
+    if not test.finished:
+        (folder / RESULTS_H5).unlink(missing_ok=True)  # rewritten at the end
     run.write_results()
-    run.log.info("resumed from the checkpoint at step %d", test.simulation.step_index)
+    for note in notes:
+        run.log.warning("%s", note)
+    for key, (before, after) in changed.items():
+        run.log.info("changed on resume: %s = %r (was %r)", key, after, before)
+    run.log.info("resumed from %s at step %d", loaded.path.name, test.simulation.step_index)
     return run
+
+
+def _check_stages(test: DiscreteTest, started: RunConfig, changed: dict) -> None:
+    """Refuse target changes that touch a stage already ended (or the stage under way's
+    kind): an :class:`InputError` naming the key."""
+    key = next(k for k in changed if k.startswith("test."))
+    before = wall_stages(started.load_path())
+    after = test.stages
+    begun = test.stage_index + (1 if test.stage_started else 0)
+    for i in range(min(begun, len(before))):
+        ended = i < test.stage_index
+        same = i < len(after) and after[i].name == before[i].name and \
+            after[i].modes == before[i].modes and (not ended or after[i] == before[i])
+        if not same:
+            state = "has ended" if ended else "is under way"
+            raise InputError(key, changed[key][1], (
+                f"{changed[key][0]!r}: stage {before[i].name} {state} with it (a target can "
+                "change only for a stage not ended yet)"))
+    if test.finished and len(after) != len(before):
+        raise InputError(key, changed[key][1], f"{changed[key][0]!r}: the run has finished")
 
 
 def _truncate_snapshots(path: Path, keep: int) -> None:
@@ -423,10 +639,7 @@ def export_checkpoint_vtk(folder: str | Path, out: str | Path | None = None) -> 
     from grainlab.report.vtk_export import BoxWalls, ContactLines, write_vtk_frame
 
     folder = Path(folder)
-    path = folder / CHECKPOINT
-    if not path.exists():
-        raise InputError("run folder", str(folder), f"a run folder with a {CHECKPOINT}")
-    saved = read_checkpoint(path)
+    saved = load_checkpoint(folder).saved
     library, state, box = saved["library"], saved["state"], saved["box"]
     contacts = None
     snapshots = folder / SNAPSHOTS

@@ -46,8 +46,17 @@ Per stage:
 Strains are logarithmic, compression positive, from the reference box: the box at the end of
 the last stage without a strain-controlled axis (the consolidated sample), or the initial box
 before any. A stage without a strain-controlled axis ends when quasi-static
-(:class:`~grainlab.lab.wall_stages.QuasiStaticCriteria`) or after ``max_stage_steps``
-(then ``outcome`` says it did not settle).
+(:class:`~grainlab.lab.wall_stages.QuasiStaticCriteria`). A stage that reaches
+``max_stage_steps`` first did not reach its end: the test stops there (``halted``; the stage
+goes on when resumed with a larger cap), or with ``at_max_stage_steps = "next_stage"`` the
+next stage starts all the same; either way :meth:`DiscreteTest.run_outcome` says the stage was
+not reached (:mod:`grainlab.lab.run_outcome`).
+
+A box thinner than a few particles cannot hold a granular sample
+(:mod:`grainlab.lab.box_thickness`): a stage whose target would take the box below
+:func:`~grainlab.lab.box_thickness.box_limits` does not start, and a stage whose box gets there
+stops (``halted``), both with the diagnosis; :meth:`DiscreteTest.predicted_flattening` checks
+a whole path before a run.
 
 Stage ends do not wait for a record. After every step the walls alone decide (cheap: the box
 lengths give the strains): the strain target of each strain-controlled axis, stop criteria on
@@ -76,7 +85,7 @@ with a one-dimensional stage (:attr:`~grainlab.lab.wall_stages.WallStage.oedomet
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -88,7 +97,21 @@ from grainlab.engine.simulation import Periodic, Simulation
 from grainlab.engine.state import SHAPE_POLYHEDRON, ShapeLibrary
 from grainlab.engine.wall_box import WALL_NAMES
 from grainlab.errors import InputError
+from grainlab.lab.box_thickness import (
+    Flattening,
+    box_limits,
+    predicted_flattening,
+    stage_flattening,
+)
 from grainlab.lab.load_path import LoadPath, StopCriterion
+from grainlab.lab.run_outcome import (
+    BOX_TOO_THIN,
+    MAX_STAGE_STEPS,
+    REACHED,
+    UNFINISHED,
+    RunOutcome,
+    stage_outcome,
+)
 from grainlab.lab.wall_stages import AXES, QuasiStaticCriteria, WallStage, wall_stages
 from grainlab.prep.loose_sample import DiscreteSample
 
@@ -146,7 +169,10 @@ class DiscreteTestSettings:
     record_every, snapshot_every:
         Steps between results rows and between contact-network snapshots (0: none).
     max_stage_steps:
-        Cap on the steps of one stage (>= 1).
+        Cap on the steps of one stage (>= 1); reaching it, the stage did not reach its end.
+    at_max_stage_steps:
+        What a stage that reaches ``max_stage_steps`` does: ``"stop"`` the test there
+        (default; resumable with a larger cap) or start the ``"next_stage"`` all the same.
     wall_mass_factor:
         Mass of a stress-controlled wall / mass of the particles (> 0), when ``wall_servo``
         is False.
@@ -186,6 +212,7 @@ class DiscreteTestSettings:
     record_every: int = 10
     snapshot_every: int = 0
     max_stage_steps: int = 200_000
+    at_max_stage_steps: str = "stop"
     wall_mass_factor: float = 1.0
     wall_servo: bool = True
     quasi_static: QuasiStaticCriteria = field(default_factory=QuasiStaticCriteria)
@@ -203,6 +230,9 @@ class DiscreteTestSettings:
             at_least(name, getattr(self, name))
         if self.dt is not None:
             at_least("dt", self.dt)
+        if self.at_max_stage_steps not in ("stop", "next_stage"):
+            raise InputError("at_max_stage_steps", self.at_max_stage_steps,
+                             '"stop" or "next_stage"')
         if not 0.0 <= self.overlap_recovery <= 1.0:
             raise InputError("overlap_recovery", self.overlap_recovery, "a number in [0, 1]")
         for name, low in (("record_every", 1), ("snapshot_every", 0), ("max_stage_steps", 1),
@@ -255,7 +285,14 @@ class DiscreteTest:
         self.strain_rate = 0.0
         self.n_snapshots = 0
         self.finished = False
+        self.halted: dict[str, str] | None = None
+        """Why the test stopped before the end of its path (``stage``, ``ended`` of
+        :data:`~grainlab.lab.run_outcome.ENDINGS`, ``reason``); None while it may go on."""
         self.outcome: dict[str, Any] = {"stages": []}
+        self.stage_start_unconverged = 0
+        self.stage_wall_speed = 0.0
+        self.largest_diameter = float(2.0 * np.max(
+            sample.library.bounding_radius[sample.state.shape_ids]))
         s = self.settings
         self.adaptive_step = bool(np.any(sample.library.kind == SHAPE_POLYHEDRON))
         self.stage_dt = s.dt or 1.0
@@ -287,21 +324,23 @@ class DiscreteTest:
         return p
 
     def start_stage(self) -> None:
-        """Set the walls, friction, strain rate and time step of the current stage."""
+        """Set the walls, friction, strain rate and time step of the current stage; a stage
+        whose target would flatten the box does not start (the test halts, module
+        docstring)."""
         stage = self.stage
         assert stage is not None
         s = self.settings
-        sample, box = self.sample, self.sample.box
+        box = self.sample.box
         moving = stage.moving_axes
+        if moving:
+            flat = self._stage_flattening(stage, box.lengths, self.reference_lengths)
+            if flat:
+                self.halt(BOX_TOO_THIN, flat[0].words() + "; " + flat[0].advice())
+                return
         p_ref = self._confining(stage)
         inertia = s.inertia_number if moving else s.compaction_inertia_number
-        d_mean = sample.mean_diameter
-        self.strain_rate = inertia * math.sqrt(p_ref / sample.state.density) / d_mean
-        self.solver.friction = s.friction if moving else s.compaction_friction
-        self.solver.max_iterations = s.max_iterations if moving else \
-            s.compaction_max_iterations
-        self.solver.overlap_recovery = s.overlap_recovery if moving else 0.0
-        self.solver.tolerance = s.tolerance if moving else s.compaction_tolerance
+        self.strain_rate = inertia * math.sqrt(p_ref / self.sample.state.density) / \
+            self.sample.mean_diameter
         for a in range(3):
             mode, target = stage.modes[a], stage.targets[a]
             lower, upper = WALL_NAMES[2 * a], WALL_NAMES[2 * a + 1]
@@ -316,21 +355,35 @@ class DiscreteTest:
                 sigma = target if math.isfinite(target) else self._held_stress(a)
                 box.set_control(lower, "fixed")
                 box.set_control(upper, "stress", sigma)
-        v_max = self.strain_rate * float(box.lengths.max())  # the stage's wall speed [m/s]
+        self.stage_wall_speed = self.strain_rate * float(box.lengths.max())  # [m/s]
+        self.stage_start_step = self.simulation.step_index
+        self.stage_start_unconverged = self.simulation.unconverged_steps
+        self.stage_start_lengths = box.lengths.copy()
+        self._stage_numerics()
+        self.stage_started = True
+
+    def _stage_numerics(self) -> None:
+        """The solver settings, wall speed limits, time step and wall masses of the current
+        stage, from the settings and the stage's wall speed ``stage_wall_speed``."""
+        stage, s, box = self.stage, self.settings, self.sample.box
+        moving = stage.moving_axes
+        self.solver.friction = s.friction if moving else s.compaction_friction
+        self.solver.max_iterations = s.max_iterations if moving else \
+            s.compaction_max_iterations
+        self.solver.overlap_recovery = s.overlap_recovery if moving else 0.0
+        self.solver.tolerance = s.tolerance if moving else s.compaction_tolerance
+        v_max = self.stage_wall_speed
         box.set_max_speeds(v_max)
         # overlap recovery slower than the walls: beta |g| / h alone grows without bound as
         # the step shortens (spinning polyhedra), and then blows the sample apart
         self.solver.overlap_recovery_speed = RECOVERY_SPEED_FRACTION * v_max
         if s.dt is None:
-            d_min = time_step_length(sample.library)
+            d_min = time_step_length(self.sample.library)
             factor = s.time_step_factor if moving else s.compaction_time_step_factor
-            self.solver.dt = factor * d_min / v_max
+            self.stage_dt = factor * d_min / v_max
         else:  # the last step of the previous stage may have been cut short
-            self.solver.dt = s.dt
-        self.stage_dt = self.solver.dt
-        self.stage_start_step = self.simulation.step_index
-        self.stage_start_lengths = box.lengths.copy()
-        self.solver.dt = self._last_step(self.solver.dt)
+            self.stage_dt = s.dt
+        self.solver.dt = self._last_step(self.stage_dt)
         # stress walls: heavy enough that one step of driving force cannot take them past the
         # speed limit (h F / m_w <= v_max): otherwise the solver spends its sweeps trading the
         # driving impulse between the brake and the contacts
@@ -339,10 +392,73 @@ class DiscreteTest:
             box.set_masses(box.servo_masses(self.solver.dt))
         else:
             force = box.driving_forces()
-            masses = np.maximum(float(np.sum(sample.state.masses)) * s.wall_mass_factor,
+            masses = np.maximum(float(np.sum(self.sample.state.masses)) * s.wall_mass_factor,
                                 self.solver.dt * force / v_max)
             box.set_masses(masses)
-        self.stage_started = True
+
+    def apply_settings(self, previous: DiscreteTestSettings) -> None:
+        """Take up the current ``settings`` in a stage under way (a resumed run whose
+        settings changed from ``previous``): solver settings at once, a new bound on the
+        inertia number scales the strain rate and the walls' speeds, the time step follows.
+        Nothing changes when only the records and stage ends differ (a resumed run stays
+        identical)."""
+        same = {"record_every": 1, "snapshot_every": 0, "max_stage_steps": 1,
+                "at_max_stage_steps": "stop"}
+        if not self.stage_started or self.finished or \
+                replace(previous, **same) == replace(self.settings, **same):
+            return
+        moving = bool(self.stage.moving_axes)
+        s = self.settings
+        new, old = (s.inertia_number, previous.inertia_number) if moving else \
+            (s.compaction_inertia_number, previous.compaction_inertia_number)
+        self.strain_rate *= new / old
+        self.stage_wall_speed *= new / old
+        self._stage_numerics()
+
+    def halt(self, ended: str, reason: str) -> None:
+        """Stop the test in the current stage (not ended): ``ended`` of
+        :data:`~grainlab.lab.run_outcome.ENDINGS`, ``reason`` in words."""
+        self.halted = {"stage": self.stage.name, "ended": ended, "reason": reason}
+        self.simulation.request_stop()
+
+    def resumable(self) -> str:
+        """Why a halted test cannot go on with its current settings ("" when it can, and
+        then it is no longer halted)."""
+        if self.halted is None:
+            return ""
+        steps = self.simulation.step_index - self.stage_start_step
+        if self.halted["ended"] == MAX_STAGE_STEPS and steps < self.settings.max_stage_steps:
+            self.halted = None
+            return ""
+        if self.halted["ended"] == BOX_TOO_THIN and not self.stage_started:
+            self.halted = None  # the stage starts again and checks its (new) target
+            return ""
+        if self.halted["ended"] == MAX_STAGE_STEPS:
+            return (f"stage {self.halted['stage']} stopped at max_stage_steps = {steps}: "
+                    f"raise it to go on (--set solver.max_stage_steps={2 * steps})")
+        return f"stage {self.halted['stage']} stopped: {self.halted['reason']}"
+
+    # -- the box against its particles (lab.box_thickness) -----------------------------------
+    def box_limits(self, reference: np.ndarray) -> np.ndarray:
+        """(3,) smallest edges [m] allowed for a consolidated box of edges ``reference``."""
+        return box_limits(self.largest_diameter, reference)
+
+    def _stage_flattening(self, stage: WallStage, start: np.ndarray,
+                          reference: np.ndarray) -> list[Flattening]:
+        return stage_flattening(stage, start, reference, self.largest_diameter,
+                                self.sample.state.n_bodies)
+
+    def predicted_flattening(self) -> list[Flattening]:
+        """The stages from the current one whose targets would flatten the box
+        (:func:`~grainlab.lab.box_thickness.predicted_flattening`), from the box now (the
+        stage under way: from its start)."""
+        started = self.stage_started and self.stage is not None and self.stage.moving_axes
+        lengths = self.stage_start_lengths if started else self.sample.box.lengths
+        library, state = self.sample.library, self.sample.state
+        return predicted_flattening(self.stages[self.stage_index:], lengths,
+                                    self.reference_lengths,
+                                    float(np.sum(library.volume[state.shape_ids])),
+                                    self.largest_diameter, state.n_bodies)
 
     def _held_stress(self, axis: int) -> float:
         if not self.rows:
@@ -396,8 +512,9 @@ class DiscreteTest:
 
     def wall_end(self) -> tuple[bool, str]:
         """Whether the walls end the current stage now, and why (checked after every step):
-        a stop criterion on a strain column, every strain-controlled axis at its target,
-        ``max_stage_steps``."""
+        a stop criterion on a strain column, every strain-controlled axis at its target, a box
+        too thin for its particles (:data:`THIN_BOX`), ``max_stage_steps``
+        (:data:`MAX_STEPS_REASON`)."""
         stage = self.stage
         assert stage is not None
         strains = self.wall_strains()
@@ -408,9 +525,36 @@ class DiscreteTest:
             strained = self._stage_strains()
             if all(abs(strained[a]) >= abs(stage.targets[a]) for a in stage.moving_axes):
                 return True, "strain reached"
+            lengths = self.sample.box.lengths
+            limits = self.box_limits(self.reference_lengths)
+            thin = np.flatnonzero(lengths < limits)
+            if thin.size:
+                a = int(thin[0])
+                return True, (
+                    f"{THIN_BOX}: its {AXES[a]} edge is {lengths[a] * 1e3:.4g} mm, "
+                    f"{lengths[a] / self.largest_diameter:.2f} largest particle diameters "
+                    f"(d_max = {self.largest_diameter * 1e3:.4g} mm; smallest allowed "
+                    f"{limits[a] * 1e3:.4g} mm), at {strains['eps_q']:.4g} of eps_q: the "
+                    "particles are squeezed into one or two layers, where no time step or "
+                    "tolerance helps; ask a smaller strain or use more particles")
         if self.simulation.step_index - self.stage_start_step >= self.settings.max_stage_steps:
-            return True, "max_stage_steps reached"
+            return True, MAX_STEPS_REASON
         return False, ""
+
+    def close_stage(self, reason: str) -> None:
+        """End the current stage for ``reason`` (of :meth:`stage_done`): move on, or halt the
+        test where the stage did not reach its end (module docstring)."""
+        if reason.startswith(THIN_BOX):
+            self.halt(BOX_TOO_THIN, reason)
+        elif reason == MAX_STEPS_REASON:
+            what = "its target" if self.stage.moving_axes else "settling"
+            words = f"max_stage_steps ({self.settings.max_stage_steps}) hit before {what}"
+            if self.settings.at_max_stage_steps == "stop":
+                self.halt(MAX_STAGE_STEPS, words)
+            else:
+                self.end_stage(words, ended=MAX_STAGE_STEPS)
+        else:
+            self.end_stage(reason)
 
     def stage_done(self, row: dict[str, Any]) -> tuple[bool, str]:
         """Whether the current stage ends at this record, and why: any stop criterion,
@@ -458,14 +602,12 @@ class DiscreteTest:
                 cut = min(cut, fraction * dt)
         return cut
 
-    def end_stage(self, reason: str) -> None:
-        """Close the current stage and move to the next."""
+    def end_stage(self, reason: str, ended: str = REACHED) -> None:
+        """Close the current stage (``ended`` of :data:`~grainlab.lab.run_outcome.ENDINGS`)
+        and move to the next."""
         stage = self.stage
         assert stage is not None
-        self.outcome["stages"].append({
-            "name": stage.name, "reason": reason,
-            "steps": self.simulation.step_index - self.stage_start_step,
-            "end_step": self.simulation.step_index})
+        self.outcome["stages"].append(self._stage_record(reason, ended))
         if not stage.moving_axes:
             self.reference_lengths = self.sample.box.lengths.copy()
         self.stage_index += 1
@@ -479,6 +621,42 @@ class DiscreteTest:
             self.start_stage()  # before the next step: no step runs on the old controls
             if self.on_stage_end is not None:
                 self.on_stage_end(self)
+
+    def _stage_record(self, reason: str, ended: str) -> dict[str, Any]:
+        sim = self.simulation
+        return {"name": self.stage.name, "reason": reason,
+                "steps": sim.step_index - self.stage_start_step, "end_step": sim.step_index,
+                "start_step": self.stage_start_step, "ended": ended,
+                "capped_steps": sim.unconverged_steps - self.stage_start_unconverged,
+                "strain_controlled": bool(self.stage.moving_axes)}
+
+    def run_outcome(self) -> RunOutcome:
+        """The test so far judged against what was asked (:mod:`grainlab.lab.run_outcome`):
+        every ended stage, and the stage under way if the test stopped in it."""
+        records = list(self.outcome["stages"])
+        if not self.finished and self.stage is not None and self.stage_started:
+            halted = self.halted or {}
+            records.append(self._stage_record(
+                halted.get("reason", f"stopped at step {self.simulation.step_index}"),
+                halted.get("ended", UNFINISHED)))
+        elif self.halted is not None:  # halted before its stage started
+            records.append({"name": self.halted["stage"], "reason": self.halted["reason"],
+                            "steps": 0, "ended": self.halted["ended"],
+                            "strain_controlled": True})
+        stages = []
+        by_name = {stage.name: stage for stage in self.stages}
+        for record in records:
+            start = record.get("start_step", record.get("end_step", 0) - record["steps"])
+            end = record.get("end_step", self.simulation.step_index)
+            rows = [r for r in self.rows
+                    if r["stage"] == record["name"] and start < r["step"] <= end]
+            stage = by_name.get(record["name"])
+            targets = {AXES[a] * 2: stage.targets[a] for a in stage.stress_axes
+                       if math.isfinite(stage.targets[a])} if stage is not None else {}
+            stages.append(stage_outcome(record, rows, self.settings, targets))
+        return RunOutcome(stages=tuple(stages), finished=self.finished,
+                          steps=self.simulation.step_index,
+                          stopped=self.halted["reason"] if self.halted else "")
 
     # -- records ------------------------------------------------------------------------------
     def record(self) -> dict[str, Any]:
@@ -520,11 +698,14 @@ class DiscreteTest:
 
     # -- running ------------------------------------------------------------------------------
     def run(self, max_steps: int | None = None) -> bool:
-        """Run until the path is done (or ``max_steps`` more steps); True when done."""
-        if self.finished:
-            return True
+        """Run until the path is done, or halted (module docstring), or ``max_steps`` more
+        steps; True when done."""
+        if self.finished or self.halted:
+            return self.finished
         if not self.stage_started:
             self.start_stage()
+            if self.halted:
+                return False
         self.simulation.run(max_steps)
         return self.finished
 
@@ -537,7 +718,10 @@ class DiscreteTest:
             "stage_start_lengths": self.stage_start_lengths.copy(),
             "reference_lengths": self.reference_lengths.copy(),
             "strain_rate": self.strain_rate, "n_snapshots": self.n_snapshots,
-            "finished": self.finished, "dt": self.solver.dt, "stage_dt": self.stage_dt,
+            "finished": self.finished, "halted": self.halted,
+            "stage_start_unconverged": self.stage_start_unconverged,
+            "stage_wall_speed": self.stage_wall_speed,
+            "dt": self.solver.dt, "stage_dt": self.stage_dt,
             "alert": self.solver.alert,
             "alert_growths": self.solver.alert_growths,
             "friction": self.solver.friction, "max_iterations": self.solver.max_iterations,
@@ -560,6 +744,8 @@ class DiscreteTest:
         self.strain_rate = float(data["strain_rate"])
         self.n_snapshots = int(data["n_snapshots"])
         self.finished = bool(data["finished"])
+        self.halted = data.get("halted")
+        self.stage_start_unconverged = int(data.get("stage_start_unconverged", 0))
         self.solver.dt = float(data["dt"])
         self.stage_dt = float(data.get("stage_dt", data["dt"]))
         self.solver.alert = None if data["alert"] is None else float(data["alert"])
@@ -571,6 +757,8 @@ class DiscreteTest:
             self.solver.tolerance = float(data["tolerance"])
         if "overlap_recovery_speed" in data:
             self.solver.overlap_recovery_speed = float(data["overlap_recovery_speed"])
+        self.stage_wall_speed = float(data.get(
+            "stage_wall_speed", self.solver.overlap_recovery_speed / RECOVERY_SPEED_FRACTION))
         self.simulation.step_index = int(data["step_index"])
         self.simulation.time = float(data["time"])
         self.simulation.unconverged_steps = int(data["unconverged_steps"])
@@ -588,15 +776,17 @@ class _StageControl:
 
     def act(self, simulation: Simulation) -> None:
         test = self.test
-        if test.finished:
+        if test.finished or test.halted:
             return
         if not test.stage_started:
             test.start_stage()
+            if test.halted:
+                return
         else:
             done, reason = test.wall_end()
             if done:
                 test.record()  # the state the stage ends in is a row
-                test.end_stage(reason)  # and the next stage's walls and step are set
+                test.close_stage(reason)  # and the next stage's walls and step are set
                 return
         test.drive()
 
@@ -613,15 +803,19 @@ class _Recorder:
 
     def act(self, simulation: Simulation) -> None:
         test = self.test
-        if test.finished or not test.stage_started:
+        if test.finished or test.halted or not test.stage_started:
             return
         if test.rows and test.rows[-1]["step"] == simulation.step_index:
             return
         row = test.record()
         done, reason = test.stage_done(row)
         if done:
-            test.end_stage(reason)
+            test.close_stage(reason)
 
+
+
+MAX_STEPS_REASON = "max_stage_steps reached"
+THIN_BOX = "box too thin for its particles"
 
 
 def _stop_reason(criterion: StopCriterion) -> str:

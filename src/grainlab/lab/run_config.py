@@ -10,9 +10,15 @@ that names it::
                (triaxial), axial_strain and unload_strain (oedometer)
     [solver]   friction, compaction_friction, inertia_number, compaction_inertia_number, dt
                [s] (0: automatic), time_step_factor, compaction_time_step_factor, theta,
-               tolerance, max_iterations, sweep, max_stage_steps, wall_mass_factor, wall_servo,
-               seed
+               tolerance, max_iterations, sweep, max_stage_steps, at_max_stage_steps ("stop" |
+               "next_stage"), wall_mass_factor, wall_servo, seed
     [output]   record_every, snapshot_every, checkpoint_every, vtk_every (steps; 0: never)
+
+A resumed run may change the keys of :data:`CHANGEABLE_ON_RESUME` (in ``config.toml`` or with
+``grainlab resume RUN --set solver.tolerance=1e-5``; :func:`parse_assignments`): how the rest
+of the run is solved and written, and the targets of stages not ended yet. Every other key
+made what the run already did (the sample, friction, the solver's scheme, the seeds) and is
+refused with a message naming it (:meth:`RunConfig.changes_on_resume`).
 
 >>> config = RunConfig.model_validate({"sample": {"n_particles": 50}})
 >>> config.sample.n_particles, config.test.kind
@@ -48,6 +54,18 @@ UNITS = {"sample.d_min": "m", "sample.density": "kg/m^3", "test.sigma0": "Pa",
 
 _FACES_NOTE = ("even: n_f = 2 n_v - 4; Table I of Azéma, Radjaï & Dubois 2013: 8, 20, 30, "
                "46, 96, 176, 596")
+
+CHANGEABLE_ON_RESUME = (
+    "test.eps_q_max", "test.axial_strain", "test.unload_strain",
+    "solver.inertia_number", "solver.compaction_inertia_number", "solver.dt",
+    "solver.time_step_factor", "solver.compaction_time_step_factor", "solver.tolerance",
+    "solver.max_iterations", "solver.compaction_tolerance", "solver.compaction_max_iterations",
+    "solver.overlap_recovery", "solver.max_stage_steps", "solver.at_max_stage_steps",
+    "output.record_every", "output.snapshot_every", "output.checkpoint_every",
+    "output.vtk_every",
+)
+"""Keys a resumed run may change (module docstring): they take effect from the resumed step
+on, in the stage under way too (a target only in a stage not ended yet)."""
 
 
 class _Section(BaseModel):
@@ -111,6 +129,7 @@ class SolverConfig(_Section):
     max_iterations: int = Field(400, ge=1)
     sweep: Literal["coloured", "serial"] = "coloured"
     max_stage_steps: int = Field(200_000, ge=1)
+    at_max_stage_steps: Literal["stop", "next_stage"] = "stop"
     wall_mass_factor: float = Field(1.0, gt=0)
     wall_servo: bool = True
     seed: int = Field(0, ge=0, le=MAX_SEED)
@@ -184,6 +203,21 @@ class RunConfig(_Section):
             data.setdefault(section, {}).update(values)
         return RunConfig.model_validate(data)
 
+    def changes_on_resume(self, started: RunConfig) -> dict[str, tuple[Any, Any]]:
+        """The keys changed from ``started`` (the config the run was last checkpointed with)
+        as ``{"section.key": (old, new)}``; an :class:`InputError` names the first key that
+        may not change (:data:`CHANGEABLE_ON_RESUME`)."""
+        old, new = _flat(started.model_dump()), _flat(self.model_dump())
+        changed = {k: (old[k], new[k]) for k in new if old.get(k) != new[k]}
+        for key, (before, after) in changed.items():
+            if key not in CHANGEABLE_ON_RESUME:
+                raise InputError(key, after, (
+                    f"{before!r}, the value the run was started with: it made what the run has "
+                    "done already, so it cannot change on resume (start a new run, or "
+                    "`grainlab resume RUN --restart` to start this one over); keys that can "
+                    "change: " + ", ".join(CHANGEABLE_ON_RESUME)))
+        return changed
+
     # -- what the config means ----------------------------------------------------------------
     def load_path(self) -> LoadPath:
         """The lab load path of the test (presets of :mod:`grainlab.lab.presets`)."""
@@ -223,11 +257,38 @@ class RunConfig(_Section):
             tolerance=s.tolerance,
             max_iterations=s.max_iterations, sweep=s.sweep,
             record_every=self.output.record_every, snapshot_every=self.output.snapshot_every,
-            max_stage_steps=s.max_stage_steps, wall_mass_factor=s.wall_mass_factor,
+            max_stage_steps=s.max_stage_steps, at_max_stage_steps=s.at_max_stage_steps,
+            wall_mass_factor=s.wall_mass_factor,
             wall_servo=s.wall_servo,
             seed=s.seed, overlap_recovery=s.overlap_recovery,
             compaction_max_iterations=s.compaction_max_iterations,
             compaction_tolerance=s.compaction_tolerance)
+
+
+def _flat(data: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    return {f"{section}.{key}": value for section, values in data.items()
+            for key, value in values.items()}
+
+
+def parse_assignments(assignments: list[str]) -> dict[str, dict[str, Any]]:
+    """``["solver.tolerance=1e-5", "test.eps_q_max=0.3"]`` as ``{section: {key: value}}``,
+    each value read as a TOML value (a bare word as text).
+
+    >>> parse_assignments(["solver.tolerance=1e-5", "solver.sweep=serial"])
+    {'solver': {'tolerance': 1e-05, 'sweep': 'serial'}}
+    """
+    out: dict[str, dict[str, Any]] = {}
+    for text in assignments:
+        key, sep, value = text.partition("=")
+        section, dot, name = key.strip().partition(".")
+        if not sep or not dot or not name:
+            raise InputError("--set", text, "section.key=value, e.g. solver.tolerance=1e-5")
+        try:
+            parsed = tomllib.loads(f"v = {value.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            parsed = value.strip()
+        out.setdefault(section, {})[name] = parsed
+    return out
 
 
 def _renamed(stages, name: str):

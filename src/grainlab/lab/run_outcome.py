@@ -1,0 +1,309 @@
+"""What a discrete run did, judged against what was asked, in words and as data.
+
+A run is *as asked* when it finished every stage of its load path and each stage
+
+* reached its end: a stage without a strain-controlled axis (compaction) settled
+  (quasi-static); a stage with one reached its strain target or stop criterion, not
+  ``max_stage_steps``, and not a box too thin for its particles
+  (:data:`~grainlab.lab.discrete_test.BOX_MIN_DIAMETERS`);
+* held the bound on the inertia number (stages with a strain-controlled axis only: a
+  compaction starts from a loose gas, whose end the quasi-static criteria judge). The bound
+  sets the strain rate; the recorded I is that of the fastest wall, and the stress-controlled
+  walls may move outwards at 4 times the bound's speed, so single records above the bound are
+  not a loading faster than asked. The bound is *exceeded* when the median of I over the
+  stage's records is above :data:`INERTIA_MEDIAN_FACTOR` (2) times the bound, or their 90th
+  percentile above :data:`INERTIA_QUANTILE_FACTOR` (4) times it. Measured: 30 spheres at a
+  bound of 1e-3, median 1.7e-3 and 90th percentile 2.5e-3 (held); at a bound of 1, median 3.7
+  (exceeded: p fell from 1e4 to ~1.5e3 Pa, the sample flew apart);
+* kept a contact network: median coordination z >= :data:`MIN_COORDINATION` (1) over its
+  records (stages with a strain-controlled axis). Quasi-static samples keep z of 2-3 (30
+  spheres, rattlers included) to 4-6; below 1 most particles touch nothing: a granular gas
+  (z median 0.07 in the run at a bound of 1).
+
+Steps whose solver ended at its iteration cap (``max_iterations``, not converged) are counted
+per stage and reported; they are not a failure by themselves (the NLGS residual stalls near
+1e-5 relative in sheared packings, docs/discrete_engine.md).
+
+The command line exits with :data:`EXIT_NOT_AS_ASKED` (3) when a run ran but its outcome is not
+as asked, 2 on bad input or when a run cannot go on, 0 otherwise.
+
+>>> stage = StageOutcome(name="shear", ended=REACHED, reason="strain reached", steps=100,
+...                      capped_steps=5, max_iterations=400, inertia_bound=1e-3,
+...                      inertia_median=1.2e-3, inertia_q90=2e-3, inertia_max=3e-3,
+...                      z_median=4.1)
+>>> stage.inertia_held, stage.problems()
+(True, [])
+>>> RunOutcome(stages=(stage,), finished=True, steps=100).status
+'as asked'
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+REACHED = "reached"
+MAX_STAGE_STEPS = "max_stage_steps"
+BOX_TOO_THIN = "box too thin"
+UNFINISHED = "unfinished"
+ENDINGS = (REACHED, MAX_STAGE_STEPS, BOX_TOO_THIN, UNFINISHED)
+"""How a stage ended: its target reached; ``max_stage_steps`` hit first; stopped because the
+box became too thin for its particles; not ended (the run was stopped in it)."""
+
+INERTIA_MEDIAN_FACTOR = 2.0
+INERTIA_QUANTILE_FACTOR = 4.0
+INERTIA_QUANTILE = 0.9
+MIN_COORDINATION = 1.0
+EXIT_NOT_AS_ASKED = 3
+
+
+def _fmt(value: float) -> str:
+    return f"{value:.3g}" if math.isfinite(value) else "n/a"
+
+
+@dataclass(frozen=True)
+class StageOutcome:
+    """One stage judged (module docstring).
+
+    Attributes
+    ----------
+    name, ended, reason:
+        Stage name; how it ended (:data:`ENDINGS`); its end in words.
+    steps, capped_steps, max_iterations:
+        Steps of the stage, those ended at the solver's cap, the cap [sweeps].
+    start_step, end_step:
+        The run's step before the stage's first and at its last (-1: unknown).
+    inertia_bound:
+        The bound on I asked [-]; None in stages without a strain-controlled axis (not
+        judged).
+    inertia_median, inertia_q90, inertia_max, z_median:
+        Over the stage's records (NaN without records).
+    unsettled:
+        For a stage without a strain-controlled axis that did not settle: each quasi-static
+        criterion that its last record missed, in words.
+    """
+
+    name: str
+    ended: str
+    reason: str
+    steps: int
+    capped_steps: int = 0
+    max_iterations: int = 0
+    inertia_bound: float | None = None
+    inertia_median: float = math.nan
+    inertia_q90: float = math.nan
+    inertia_max: float = math.nan
+    z_median: float = math.nan
+    unsettled: tuple[str, ...] = ()
+    start_step: int = -1
+    end_step: int = -1
+
+    @property
+    def inertia_held(self) -> bool | None:
+        """Whether the bound on I held (None where not judged or without records)."""
+        if self.inertia_bound is None or not math.isfinite(self.inertia_median):
+            return None
+        return (self.inertia_median <= INERTIA_MEDIAN_FACTOR * self.inertia_bound
+                and self.inertia_q90 <= INERTIA_QUANTILE_FACTOR * self.inertia_bound)
+
+    @property
+    def solid(self) -> bool | None:
+        """Whether the sample kept a contact network (None where not judged)."""
+        if self.inertia_bound is None or not math.isfinite(self.z_median):
+            return None
+        return self.z_median >= MIN_COORDINATION
+
+    def problems(self) -> list[str]:
+        """Why this stage is not as asked, with what to do (empty when it is)."""
+        out = []
+        if self.ended == MAX_STAGE_STEPS:
+            what = "settling" if self.inertia_bound is None else "its target"
+            out.append(f"stage {self.name}: max_stage_steps ({self.steps}) hit before {what}; "
+                       f"continue it with `grainlab resume RUN --set "
+                       f"solver.max_stage_steps={2 * self.steps}`")
+        elif self.ended == BOX_TOO_THIN:
+            out.append(f"stage {self.name}: {self.reason}")
+        elif self.ended == UNFINISHED:
+            out.append(f"stage {self.name}: not finished ({self.reason})")
+        if self.inertia_held is False:
+            out.append(
+                f"stage {self.name}: inertia number above its bound {self.inertia_bound:g} "
+                f"(median {_fmt(self.inertia_median)} = "
+                f"{self.inertia_median / self.inertia_bound:.3g} x the bound, largest "
+                f"{_fmt(self.inertia_max)}): the loading was faster than asked; lower "
+                "solver.inertia_number")
+        if self.solid is False:
+            out.append(f"stage {self.name}: the sample lost its contact network (median z "
+                       f"{_fmt(self.z_median)} < {MIN_COORDINATION:g}): a granular gas, not a "
+                       "quasi-static test; lower solver.inertia_number")
+        return out
+
+    def words(self) -> str:
+        """The stage in one line."""
+        if self.ended == REACHED:
+            text = f"{self.name}: reached ({self.reason}) in {self.steps} steps"
+        elif self.ended == MAX_STAGE_STEPS:
+            text = f"{self.name}: NOT reached: {self.reason}"
+            if self.unsettled:
+                text += f" ({'; '.join(self.unsettled)})"
+        elif self.ended == BOX_TOO_THIN:
+            text = f"{self.name}: NOT reached: {self.reason}"
+        else:
+            text = f"{self.name}: not finished after {self.steps} steps ({self.reason})"
+        held = self.inertia_held
+        if held is not None:
+            ratio = self.inertia_max / self.inertia_bound
+            text += (f"; inertia number {'held' if held else 'EXCEEDED'} its bound "
+                     f"{self.inertia_bound:g} (median {_fmt(self.inertia_median)}, largest "
+                     f"{_fmt(self.inertia_max)} = {ratio:.3g} x the bound)")
+        if self.solid is False:
+            text += f"; contact network LOST (median z {_fmt(self.z_median)})"
+        if self.steps:
+            share = 100.0 * self.capped_steps / self.steps
+            text += (f"; {self.capped_steps} of {self.steps} steps ({share:.0f} %) ended at the "
+                     f"solver's cap of {self.max_iterations} sweeps")
+        return text
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data (with the judgement)."""
+        data = asdict(self)
+        data["unsettled"] = list(self.unsettled)
+        data.update(inertia_held=self.inertia_held, solid=self.solid,
+                    problems=self.problems())
+        return data
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> StageOutcome:
+        """Inverse of :meth:`to_dict`."""
+        names = {f for f in cls.__dataclass_fields__}
+        values = {k: v for k, v in data.items() if k in names}
+        values["unsettled"] = tuple(values.get("unsettled", ()))
+        for key in ("inertia_median", "inertia_q90", "inertia_max", "z_median"):
+            if values.get(key) is None:
+                values[key] = math.nan
+        return cls(**values)
+
+
+@dataclass(frozen=True)
+class RunOutcome:
+    """A run judged (module docstring): its stages so far, whether it finished, and why it
+    stopped early if it did."""
+
+    stages: tuple[StageOutcome, ...]
+    finished: bool
+    steps: int
+    stopped: str = ""
+    notes: tuple[str, ...] = field(default=())
+
+    def problems(self) -> list[str]:
+        """Why the run is not as asked (empty when it is)."""
+        out = [p for stage in self.stages for p in stage.problems()]
+        if not self.finished and self.stopped and not any(
+                s.ended in (MAX_STAGE_STEPS, BOX_TOO_THIN) for s in self.stages):
+            out.append(self.stopped)
+        if not self.finished and not out:
+            out.append(f"the run stopped at step {self.steps} before the end of its load path")
+        return out
+
+    @property
+    def as_asked(self) -> bool:
+        """True when the run did what was asked (module docstring)."""
+        return self.finished and not self.problems()
+
+    @property
+    def status(self) -> str:
+        """"as asked", or "not as asked"."""
+        return "as asked" if self.as_asked else "not as asked"
+
+    @property
+    def capped_steps(self) -> int:
+        """Steps ended at the solver's iteration cap, all stages."""
+        return sum(s.capped_steps for s in self.stages)
+
+    def summary(self) -> str:
+        """The outcome in words: the verdict and why, then one line per stage."""
+        problems = self.problems()
+        head = "outcome: as asked" if not problems else "outcome: NOT as asked"
+        lines = [head, *(f"  why: {p}" for p in problems),
+                 *(f"  {s.words()}" for s in self.stages),
+                 *(f"  note: {n}" for n in self.notes)]
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data for results metadata: the verdict (``status``, ``as_asked``,
+        ``problems``, ``summary``), the stages (each with ``name``, ``reason``, ``steps``,
+        ``ended``...), ``finished``, ``steps``, ``unconverged_steps`` (capped, all stages)."""
+        return {"status": self.status, "as_asked": self.as_asked,
+                "problems": self.problems(), "summary": self.summary(),
+                "finished": self.finished, "steps": self.steps, "stopped": self.stopped,
+                "unconverged_steps": self.capped_steps, "notes": list(self.notes),
+                "stages": [s.to_dict() for s in self.stages]}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> RunOutcome:
+        """Inverse of :meth:`to_dict` (e.g. of ``result.metadata["outcome"]``)."""
+        return cls(stages=tuple(StageOutcome.from_dict(s) for s in data["stages"]),
+                   finished=bool(data["finished"]), steps=int(data["steps"]),
+                   stopped=str(data.get("stopped", "")), notes=tuple(data.get("notes", ())))
+
+    @classmethod
+    def of_result(cls, result) -> RunOutcome:
+        """The outcome of a discrete run's :class:`~grainlab.result.test_result.TestResult`."""
+        return cls.from_dict(result.metadata["outcome"])
+
+
+def _unsettled(row: dict[str, Any], criteria, targets: dict[str, float]) -> tuple[str, ...]:
+    """The quasi-static criteria that ``row`` misses, in words."""
+    out = []
+    missed = {axis: row.get(f"wall_sigma_{axis}", math.nan) for axis, target in targets.items()
+              if not abs(row.get(f"wall_sigma_{axis}", math.nan) - target)
+              <= criteria.stress_tolerance * target}
+    if missed:
+        out.append("wall stresses " + ", ".join(f"sigma_{a} {_fmt(v)}" for a, v in
+                                                 missed.items())
+                   + f" Pa for {', '.join(f'{targets[a]:g}' for a in missed)} Pa (target "
+                   f"within {100 * criteria.stress_tolerance:g} %)")
+    ratio = row.get("unbalanced_force_ratio", math.nan)
+    if not ratio <= criteria.unbalanced_force:
+        out.append(f"unbalanced force ratio {_fmt(ratio)} (target <= "
+                   f"{criteria.unbalanced_force:g})")
+    kinetic = row.get("kinetic_energy_ratio", math.nan)
+    if not kinetic <= criteria.kinetic_energy:
+        out.append(f"kinetic energy ratio {_fmt(kinetic)} (target <= "
+                   f"{criteria.kinetic_energy:g})")
+    return tuple(out)
+
+
+def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
+                  stress_targets: dict[str, float]) -> StageOutcome:
+    """Judge one stage from its record (``name``, ``reason``, ``steps``, ``ended``,
+    ``capped_steps``, ``strain_controlled``), its rows and the test's settings
+    (:class:`~grainlab.lab.discrete_test.DiscreteTestSettings`); ``stress_targets`` maps
+    ``"xx"``... to the stress-controlled axes' targets [Pa] (for the words of an unsettled
+    stage)."""
+    moving = bool(record.get("strain_controlled", False))
+    ended = record.get("ended", REACHED)
+    values: dict[str, Any] = {
+        "name": record["name"], "ended": ended, "reason": record["reason"],
+        "steps": int(record["steps"]), "capped_steps": int(record.get("capped_steps", 0)),
+        "start_step": int(record.get("start_step", -1)),
+        "end_step": int(record.get("end_step", -1)),
+        "max_iterations": int(settings.max_iterations if moving
+                              else settings.compaction_max_iterations)}
+    if moving:
+        inertia = np.array([r["inertia_number"] for r in rows], dtype=float)
+        inertia = inertia[np.isfinite(inertia)]
+        z = np.array([r["z"] for r in rows], dtype=float)
+        values["inertia_bound"] = float(settings.inertia_number)
+        if inertia.size:
+            values.update(inertia_median=float(np.median(inertia)),
+                          inertia_q90=float(np.quantile(inertia, INERTIA_QUANTILE)),
+                          inertia_max=float(np.max(inertia)))
+        if z.size:
+            values["z_median"] = float(np.median(z))
+    elif ended != REACHED and rows:
+        values["unsettled"] = _unsettled(rows[-1], settings.quasi_static, stress_targets)
+    return StageOutcome(**values)

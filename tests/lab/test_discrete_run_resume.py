@@ -1,0 +1,105 @@
+"""Resuming a discrete run with other settings: the keys that may change take effect at once
+(in config.toml or as ``--set``), the others are refused naming the key; a target that would
+flatten the box is refused, a box that gets too thin stops its stage with the diagnosis, and a
+blow-up says how to resume."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from grainlab.engine.simulation import SimulationBlowUp
+from grainlab.errors import InputError
+from grainlab.lab.discrete_run import resume_run, start_run
+from grainlab.lab.run_config import RunConfig
+from grainlab.lab.run_outcome import BOX_TOO_THIN
+
+TINY = {
+    "sample": {"n_particles": 30, "seed": 3},
+    "test": {"kind": "compaction"},
+    "solver": {"sweep": "serial"},
+    "output": {"record_every": 5, "checkpoint_every": 10},
+}
+
+SHEARING = {  # the compaction cut after 10 steps, so that a shear is under way at once
+    **TINY, "test": {"kind": "triaxial", "eps_q_max": 0.2},
+    "solver": {"sweep": "serial", "max_stage_steps": 10, "at_max_stage_steps": "next_stage"},
+}
+
+
+@pytest.fixture()
+def compacting(tmp_path):
+    folder = tmp_path / "run"
+    start_run(folder, RunConfig.model_validate(TINY)).run(max_steps=12)  # checkpoint at 10
+    return folder
+
+
+def test_settings_set_on_resume_take_effect_at_once(compacting):
+    run = resume_run(compacting, ["solver.compaction_tolerance=1e-6",
+                                  "solver.compaction_max_iterations=50"])
+    assert run.test.solver.tolerance == 1e-6 and run.test.solver.max_iterations == 50
+    assert RunConfig.read(compacting / "config.toml").solver.compaction_tolerance == 1e-6
+    assert "changed on resume: solver.compaction_tolerance" in \
+        (compacting / "run.log").read_text()
+
+
+def test_keys_edited_in_config_toml_take_effect_at_once(compacting):
+    path = compacting / "config.toml"
+    path.write_text(path.read_text().replace("compaction_max_iterations = 200",
+                                             "compaction_max_iterations = 60"))
+    assert resume_run(compacting).test.solver.max_iterations == 60
+
+
+def test_a_new_inertia_bound_scales_the_loading_speed(compacting):
+    before = resume_run(compacting)
+    rate, speeds = before.test.strain_rate, before.test.sample.box.max_speeds.copy()
+    after = resume_run(compacting, ["solver.compaction_inertia_number=0.02"])
+    assert after.test.strain_rate == pytest.approx(2.0 * rate, rel=1e-12)
+    np.testing.assert_allclose(after.test.sample.box.max_speeds, 2.0 * speeds, rtol=1e-12)
+
+
+@pytest.mark.parametrize(("assignment", "key"), [
+    ("sample.n_particles=31", "sample.n_particles"), ("solver.friction=0.5", "solver.friction"),
+    ("solver.sweep=coloured", "solver.sweep"), ("test.sigma0=2e4", "test.sigma0"),
+])
+def test_keys_that_made_the_run_are_refused_on_resume(compacting, assignment, key):
+    with pytest.raises(InputError) as error:
+        resume_run(compacting, [assignment])
+    assert error.value.field == key
+    assert "cannot change on resume" in str(error.value)
+    assert "solver.tolerance" in str(error.value)  # says which keys can
+
+
+def test_a_target_of_the_stage_under_way_can_change_unless_it_flattens_the_box(tmp_path):
+    folder = tmp_path / "run"
+    run = start_run(folder, RunConfig.model_validate(SHEARING))
+    run.run(max_steps=12)
+    assert run.test.stage.name == "shear" and run.test.stage_started
+    run.checkpoint()
+    assert resume_run(folder, ["test.eps_q_max=0.1"]).test.stages[1].stop[0].limit == 0.1
+    with pytest.raises(InputError, match="largest diameters") as error:
+        resume_run(folder, ["test.eps_q_max=1.5"])
+    assert error.value.field == "test.eps_q_max"
+
+
+def test_a_box_too_thin_stops_its_stage_with_the_diagnosis(tmp_path):
+    run = start_run(tmp_path / "run", RunConfig.model_validate(SHEARING))
+    run.run(max_steps=12)
+    test = run.test
+    lengths = test.sample.box.lengths
+    test.largest_diameter = float(lengths.max())  # 3 d_max > the box: the limit is 80 % of it
+    test.reference_lengths = lengths / 0.75
+    done, reason = test.wall_end()
+    assert done and "box too thin" in reason and "largest particle diameters" in reason
+    test.close_stage(reason)
+    assert test.halted["ended"] == BOX_TOO_THIN
+    assert "NOT reached: box too thin" in run.outcome.summary()
+
+
+def test_a_blow_up_in_a_thin_box_says_so_and_how_to_resume(compacting):
+    run = resume_run(compacting)
+    run.test.largest_diameter = float(run.test.sample.box.lengths.min()) / 1.4
+    said = run._blow_up_diagnosis(SimulationBlowUp("runaway overlap at step 12"))
+    assert "1.40 largest particle diameters" in said and "will not help" in said
+    assert f"grainlab resume {compacting} --set solver.time_step_factor=" in said
+    assert "last good checkpoint is at step 10" in said

@@ -1,0 +1,144 @@
+"""A discrete run states its outcome: each stage reached or not, the inertia bound held or
+not (median and 90th percentile against it), the contact network kept, steps at the solver's
+cap counted; in the result's metadata, results.h5 and run.log. A stage that hits
+max_stage_steps is not reached, and the run stops there."""
+
+from __future__ import annotations
+
+import math
+
+import h5py
+import pytest
+
+from grainlab.engine.simulation import Periodic
+from grainlab.lab.discrete_run import RESULTS_H5, progress_fields, resume_run, start_run
+from grainlab.lab.discrete_test import DiscreteTestSettings
+from grainlab.lab.run_config import RunConfig
+from grainlab.lab.run_outcome import (
+    MAX_STAGE_STEPS,
+    REACHED,
+    RunOutcome,
+    StageOutcome,
+    stage_outcome,
+)
+
+TINY = {
+    "sample": {"n_particles": 30, "seed": 3},
+    "test": {"kind": "compaction"},
+    "solver": {"sweep": "serial", "max_stage_steps": 20},
+    "output": {"record_every": 5, "checkpoint_every": 0},
+}
+
+SHEAR = {"name": "shear", "reason": "strain reached", "steps": 100, "strain_controlled": True}
+
+
+def _rows(inertia, z=4.0):
+    return [{"inertia_number": i, "z": z} for i in inertia]
+
+
+@pytest.mark.parametrize(("inertia", "held"), [
+    ([1e-3] * 10, True),
+    ([1.8e-3] * 9 + [3.9e-3], True),  # within a factor 2 typically, 4 at the 90th percentile
+    ([2.1e-3] * 10, False),  # the median above 2 x the bound
+    ([1e-3] * 8 + [4.5e-3] * 2, False),  # the 90th percentile above 4 x the bound
+])
+def test_the_inertia_bound_is_judged_on_the_median_and_the_90th_percentile(inertia, held):
+    stage = stage_outcome(SHEAR, _rows(inertia), DiscreteTestSettings(inertia_number=1e-3), {})
+    assert stage.inertia_held is held
+    assert stage.inertia_max == pytest.approx(max(inertia))
+    words = stage.words()
+    assert ("held its bound 0.001" if held else "EXCEEDED its bound 0.001") in words
+    assert f"largest {max(inertia):.3g}" in words
+    assert bool(stage.problems()) is not held
+
+
+def test_a_gas_is_not_a_quasi_static_test():
+    # the 30-sphere triaxial at a bound of 1: median I 3.7, z 0.07, p 1e4 -> 1.5e3 Pa
+    stage = stage_outcome(SHEAR, _rows([3.7] * 5, z=0.07),
+                          DiscreteTestSettings(inertia_number=1.0), {})
+    assert stage.inertia_held is False and stage.solid is False
+    outcome = RunOutcome(stages=(stage,), finished=True, steps=100)
+    assert not outcome.as_asked and outcome.status == "not as asked"
+    assert "contact network" in outcome.summary() and "granular gas" in outcome.summary()
+
+
+def test_the_outcome_goes_through_plain_data():
+    stage = StageOutcome(name="compaction", ended=MAX_STAGE_STEPS, reason="max_stage_steps",
+                         steps=20, capped_steps=3, max_iterations=200,
+                         unsettled=("unbalanced force ratio 0.35 (target <= 0.01)",))
+    outcome = RunOutcome(stages=(stage,), finished=False, steps=20, stopped="stopped")
+    again = RunOutcome.from_dict(outcome.to_dict())
+    assert again == outcome and again.summary() == outcome.summary()
+    assert "3 of 20 steps (15 %) ended at the solver's cap of 200 sweeps" in outcome.summary()
+    assert "--set solver.max_stage_steps=40" in outcome.summary()
+
+
+class _Capped:
+    """Counts the steps whose solver stopped at its cap."""
+
+    name, trigger = "capped", Periodic(1)
+
+    def __init__(self) -> None:
+        self.count = 0
+
+    def act(self, simulation) -> None:
+        self.count += not simulation.last_report.converged
+
+
+def test_a_stage_at_max_stage_steps_stops_the_run_and_says_so(tmp_path):
+    folder = tmp_path / "run"
+    config = RunConfig.model_validate(TINY).with_updates(
+        {"solver": {"compaction_max_iterations": 3}})
+    run = start_run(folder, config)
+    capped = run.test.simulation.add(_Capped())
+    result = run.run()
+    assert run.test.halted["ended"] == MAX_STAGE_STEPS and not run.test.finished
+    assert run.test.simulation.step_index == 20  # stopped there, not moved on
+    outcome = RunOutcome.of_result(result)
+    stage, = outcome.stages
+    assert stage.ended == MAX_STAGE_STEPS and stage.steps == 20
+    assert 0 < capped.count == stage.capped_steps
+    assert any("unbalanced force ratio" in u for u in stage.unsettled)
+    assert not outcome.as_asked
+    with h5py.File(folder / RESULTS_H5) as handle:
+        assert handle.attrs["outcome_status"] == "not as asked"
+        assert "max_stage_steps (20) hit before settling" in handle.attrs["outcome_summary"]
+    assert "NOT as asked" in (folder / "run.log").read_text()
+    # a larger cap lets the stage go on from where it stopped
+    resumed = resume_run(folder, ["solver.max_stage_steps=30"])
+    assert resumed.test.halted is None
+    resumed.run()
+    assert resumed.test.simulation.step_index == 30 and resumed.test.halted is not None
+
+
+def test_next_stage_at_max_stage_steps_goes_on_but_not_as_asked(tmp_path):
+    config = RunConfig.model_validate(TINY).with_updates(
+        {"test": {"kind": "triaxial", "eps_q_max": 0.01},
+         "solver": {"max_stage_steps": 10, "at_max_stage_steps": "next_stage",
+                    "inertia_number": 0.01}})
+    run = start_run(tmp_path / "run", config)
+    run.run(max_steps=14)
+    compaction, = run.test.outcome["stages"]
+    assert compaction["ended"] == MAX_STAGE_STEPS and run.test.stage.name == "shear"
+    outcome = run.outcome
+    assert [s.ended for s in outcome.stages] == [MAX_STAGE_STEPS, "unfinished"]
+    assert not outcome.as_asked
+
+
+def test_the_progress_of_a_compaction_shows_its_settling(tmp_path):
+    run = start_run(tmp_path / "run", RunConfig.model_validate(TINY))
+    seen = []
+    run.test.on_record = lambda test, row: seen.append(progress_fields(test, row))
+    run.run(max_steps=15)
+    fractions = [f for f, _ in seen]
+    assert len(set(fractions)) == len(fractions)  # it moves at every record
+    _, info = seen[-1]
+    assert "unbalanced force" in info and "(-> <= 0.01)" in info and "kinetic energy" in info
+    assert "of <= 20 in the stage" in info
+
+
+def test_reached_stage_words():
+    stage = StageOutcome(name="compaction", ended=REACHED, reason="quasi-static", steps=460,
+                         capped_steps=62, max_iterations=200)
+    assert stage.words().startswith("compaction: reached (quasi-static) in 460 steps")
+    assert stage.inertia_held is None and math.isnan(stage.z_median)
