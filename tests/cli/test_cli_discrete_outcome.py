@@ -93,5 +93,5 @@ def test_a_target_that_flattens_the_box_is_refused_before_the_run(tmp_path):
                                  "--eps-q", "1.5", "--no-progress"])
     said = _said(result)
     assert result.exit_code == 2, result.output
-    assert "test.eps_q_max" in said and "largest diameter" in said
+    assert "--eps-q = 1.5" in said and "largest diameter" in said  # the flag as typed
     assert not (out / "checkpoint.h5").exists()

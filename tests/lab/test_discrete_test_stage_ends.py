@@ -114,3 +114,21 @@ def test_triaxial_ends_at_eps_q_within_a_step_with_a_coarse_record(tmp_path):
     # never short; past it by a small part of a step (the last step is cut to the crossing
     # the walls' speeds predict)
     assert 0.0 <= overshoot < 0.1 * increment
+
+
+def test_every_stage_ends_in_a_snapshot_whatever_the_snapshot_interval(oedometer_run):
+    """Snapshots on (every 500 steps by default) but the run far shorter: the state each of
+    the three stages ends in is still a snapshot, with its stage and step, so that
+    `grainlab analyse` of a short run has the compaction and the end to read."""
+    from grainlab.analysis.snapshot_files import read_snapshots
+
+    folder, result, _ = oedometer_run
+    table = result.table
+    states = [net.state for net in read_snapshots(folder / "snapshots.h5")]
+    ends = {name: int(_stage(table, name)["step"].iloc[-1])
+            for name in ("compaction", "loading", "unloading")}
+    assert ends["unloading"] - ends["compaction"] < 500  # loading, unloading: no periodic one
+    periodic = [s for s in states if int(s["step"]) % 500 == 0]
+    at_ends = [(s["stage"], int(s["step"])) for s in states if int(s["step"]) % 500]
+    assert at_ends == [(name, step) for name, step in ends.items() if step % 500]
+    assert len(states) == len(periodic) + len(at_ends) and len(at_ends) >= 2

@@ -142,3 +142,36 @@ def test_reached_stage_words():
                          capped_steps=62, max_iterations=200)
     assert stage.words().startswith("compaction: reached (quasi-static) in 460 steps")
     assert stage.inertia_held is None and math.isnan(stage.z_median)
+
+
+def test_the_progress_bar_estimates_the_time_left_in_each_stage(tmp_path):
+    from rich.progress import TimeRemainingColumn
+
+    from grainlab.lab.discrete_run import _ProgressBar
+
+    config = RunConfig.model_validate(TINY).with_updates(
+        {"test": {"kind": "triaxial", "eps_q_max": 0.01},
+         "solver": {"max_stage_steps": 10, "at_max_stage_steps": "next_stage",
+                    "inertia_number": 0.01}})
+    run = start_run(tmp_path / "run", config)
+    bar = _ProgressBar(run.test)
+    assert any(isinstance(c, TimeRemainingColumn) for c in bar.progress.columns)
+    stages = []
+
+    def update(test, row):
+        bar.update(test, row)
+        task = bar.progress.tasks[0]
+        stages.append((task.description, task.start_time))
+
+    bar.start()
+    run.test.on_record = update
+    try:
+        run.run(max_steps=16)
+    finally:
+        bar.stop()
+    names = [name for name, _ in stages]
+    assert names[0] == "compaction" and names[-1] == "shear"
+    # the bar (its clock, so its estimate of the time left) starts again with each stage
+    starts = {name: {start for n, start in stages if n == name} for name in set(names)}
+    assert len(starts["compaction"]) == 1 and len(starts["shear"]) == 1
+    assert starts["shear"] != starts["compaction"]

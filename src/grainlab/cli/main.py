@@ -6,7 +6,7 @@ import typer
 from rich.console import Console
 
 from grainlab._version import __version__
-from grainlab.cli import analyse, demo, discrete, microelement, packing2d
+from grainlab.cli import analyse, demo, discrete, microelement, packing2d, precompile
 
 app = typer.Typer(
     help=(
@@ -28,6 +28,7 @@ app.command("oedometer")(discrete.oedometer_command)
 app.command("resume")(discrete.resume_command)
 app.command("vtk")(discrete.vtk_command)
 app.command("demo")(demo.demo)
+app.command("compile")(precompile.compile_command)
 console = Console()
 
 

@@ -383,15 +383,25 @@ class _Every:
 
 
 class _ProgressBar:
-    """A rich progress bar over the stages (strain or quasi-static state)."""
+    """A rich progress bar per stage (strain or quasi-static state), with the time spent and
+    the time left in the stage as its progress so far predicts (the bar restarts with each
+    stage, so that the estimate is the stage's own)."""
 
     def __init__(self, test: DiscreteTest) -> None:
-        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+        from rich.progress import (
+            BarColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
 
         self.test = test
         self.progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
-                                 TextColumn("{task.fields[info]}"), TimeElapsedColumn())
+                                 TextColumn("{task.fields[info]}"), TimeElapsedColumn(),
+                                 TextColumn("left"), TimeRemainingColumn())
         self.task = None
+        self.stage_name: str | None = None
 
     def start(self) -> None:
         self.progress.start()
@@ -400,6 +410,9 @@ class _ProgressBar:
     def update(self, test: DiscreteTest, row: dict) -> None:
         if test.stage is None or self.task is None:
             return
+        if test.stage.name != self.stage_name:
+            self.stage_name = test.stage.name
+            self.progress.reset(self.task, total=1.0, completed=0.0)
         done, info = progress_fields(test, row)
         self.progress.update(self.task, completed=done, description=test.stage.name,
                              info=info)

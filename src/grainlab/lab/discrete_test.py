@@ -4,7 +4,8 @@
 into wall controls (:mod:`grainlab.lab.wall_stages`) and runs them on a
 :class:`~grainlab.engine.simulation.Simulation` through two operations: the stage control
 (walls driven, stage ends decided) and the recorder (one results row every ``record_every``
-steps, a contact-network snapshot every ``snapshot_every``). Everything it needs to go on
+steps, a contact-network snapshot every ``snapshot_every`` and of the state each stage ends
+in, so that a short run has its compaction and its end to analyse). Everything it needs to go on
 is plain data (:meth:`DiscreteTest.progress_arrays`), so a run can checkpoint and resume.
 
 Per stage:
@@ -167,7 +168,8 @@ class DiscreteTestSettings:
     theta, tolerance, max_iterations, sweep:
         Solver settings (:class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`).
     record_every, snapshot_every:
-        Steps between results rows and between contact-network snapshots (0: none).
+        Steps between results rows and between contact-network snapshots (0: none; with
+        snapshots on, the state each stage ends in is one too).
     max_stage_steps:
         Cap on the steps of one stage (>= 1); reaching it, the stage did not reach its end.
     at_max_stage_steps:
@@ -284,6 +286,7 @@ class DiscreteTest:
         self.reference_lengths = sample.box.lengths.copy()
         self.strain_rate = 0.0
         self.n_snapshots = 0
+        self._unsnapped: tuple[Any, dict[str, Any]] | None = None
         self.finished = False
         self.halted: dict[str, str] | None = None
         """Why the test stopped before the end of its path (``stage``, ``ended`` of
@@ -607,6 +610,10 @@ class DiscreteTest:
         and move to the next."""
         stage = self.stage
         assert stage is not None
+        unsnapped = self._unsnapped
+        if unsnapped is not None and unsnapped[1]["step"] == self.simulation.step_index:
+            self._snapshot(*unsnapped)  # every stage's end state is a snapshot
+        self._unsnapped = None
         self.outcome["stages"].append(self._stage_record(reason, ended))
         if not stage.moving_axes:
             self.reference_lengths = self.sample.box.lengths.copy()
@@ -686,15 +693,21 @@ class DiscreteTest:
             full["K0"] = _k0(row)
         self.rows.append(full)
         every = self.settings.snapshot_every
+        self._unsnapped = None
         if every and sim.step_index % every == 0:
-            network.state.update({k: v for k, v in full.items() if k != "stage"})
-            network.state["stage"] = full["stage"]
-            self.n_snapshots += 1
-            if self.on_snapshot is not None:
-                self.on_snapshot(self, network)
+            self._snapshot(network, full)
+        elif every:
+            self._unsnapped = (network, full)  # snapshotted if the stage ends on this row
         if self.on_record is not None:
             self.on_record(self, full)
         return full
+
+    def _snapshot(self, network, full: dict[str, Any]) -> None:
+        network.state.update({k: v for k, v in full.items() if k != "stage"})
+        network.state["stage"] = full["stage"]
+        self.n_snapshots += 1
+        if self.on_snapshot is not None:
+            self.on_snapshot(self, network)
 
     # -- running ------------------------------------------------------------------------------
     def run(self, max_steps: int | None = None) -> bool:
