@@ -12,6 +12,7 @@ models); ``--part all`` runs the three in turn. Nothing is kept but the compiled
 
 from __future__ import annotations
 
+import math
 import tempfile
 import time
 from pathlib import Path
@@ -76,6 +77,10 @@ def _theory_runs(folder: Path) -> None:
         run_rotated_stress_path,
     )
     from grainlab.micromech.micro_element import MicroElementModel
+    from grainlab.micromech.micro_element.distribution_kernels import (
+        distribute_parallel,
+        series_parallel,
+    )
     from grainlab.micromech.micro_element.structures import idealized_material
     from grainlab.prep.regular_packings import named_packing
 
@@ -83,10 +88,18 @@ def _theory_runs(folder: Path) -> None:
     run_rotated_stress_path(model, RotatedStressPath(alpha=np.radians(30.0)))
     law = SpringContactLaw(normal_stiffness=1e5, shear_stiffness=1e5,
                            friction_angle=np.radians(25))
-    for distribution in ("none", "maxwellian"):
+    for distribution in ("homogeneous", "maxwellian"):
         element = MicroElementModel(idealized_material(seed=1), law, distribution=distribution)
         element.consolidate_isotropically(100e3)
         run_element_test(element, preset("oedometer", strain_final=0.001, n_steps=5))
+    # the threaded kernels of large structures (>= MIN_PARALLEL_ELEMENTS micro-elements), on
+    # a few elements: the compiled code depends on the array types only
+    n, eye = 3, np.eye(6)
+    exp_v, term, total = np.empty((n, 6, 6)), np.empty(n), np.empty(n)
+    coefficients = np.array([(-1.0) ** i / math.factorial(i) for i in range(9)])
+    series_parallel(np.zeros((n, 6, 6)), coefficients, 3, 0.5, 1, exp_v, term, total)
+    distribute_parallel(eye, exp_v, np.full(n, 1.0 / n), np.zeros((n, 6, 6)),
+                        np.empty((n, 6, 6)), np.empty((1, 6, 6)))
 
 
 _WORK = {"discrete": _discrete_runs, "polyhedra": _polyhedra_runs, "theories": _theory_runs}
