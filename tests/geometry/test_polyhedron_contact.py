@@ -5,10 +5,10 @@ walls, spheres, the pruned kernels against their exhaustive twins."""
 
 import numpy as np
 import pytest
+from polyhedron_arrays import body_arrays
 from scipy.optimize import nnls
 
 from grainlab.engine.narrow_phase import POLYHEDRON_CONTACT_TYPE_NAMES, NarrowPhase
-from grainlab.engine.polyhedron_narrow_phase import world_polyhedra
 from grainlab.engine.quaternion import quat_multiply, quat_to_matrices
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.geometry.polyhedron import from_vertices, random_polyhedron
@@ -36,26 +36,9 @@ def _random_quats(rng, n):
     return q / np.linalg.norm(q, axis=1)[:, None]
 
 
-def _body_arrays(lib, state):
-    """Function n -> the kernels' world-frame arrays of polyhedron body n (and its centre)."""
-    _, bvs, wv, bfs, wn, wo = world_polyhedra(state, lib)
-
-    def arrays(n):
-        s = state.shape_ids[n]
-        f0, fc = lib.face_start[s], lib.face_count[s]
-        e0, ec = lib.edge_start[s], lib.edge_count[s]
-        v0, vc = lib.vertex_start[s], lib.vertex_count[s]
-        return (wv[bvs[n]:bvs[n + 1]], wn[bfs[n]:bfs[n + 1]], wo[bfs[n]:bfs[n + 1]],
-                lib.face_vertex_start[f0:f0 + fc + 1], lib.face_vertices, lib.edges[e0:e0 + ec],
-                lib.edge_faces[e0:e0 + ec], lib.vertex_neighbour_start[v0:v0 + vc + 1],
-                lib.vertex_neighbours, state.positions[n])
-
-    return arrays
-
-
 def _signed_distance(lib, state, i, j, alert):
     """The kernel's signed distance and normal of bodies i, j (all polyhedra)."""
-    arrays = _body_arrays(lib, state)
+    arrays = body_arrays(lib, state)
     out = np.zeros(3)
     g, found = signed_distance(*arrays(i), *arrays(j), alert, out)
     return g, found, out
@@ -157,7 +140,7 @@ def test_pruned_kernels_agree_with_their_exhaustive_twins(n_faces, n_poses, dist
     counts = np.zeros(5, dtype=int)
     for pose in range(n_poses):
         _, lib, state = _random_pair(rng, n_faces, distances)
-        arrays = _body_arrays(lib, state)
+        arrays = body_arrays(lib, state)
         a, b = arrays(0), arrays(1)
         alert = (0.02, 0.2)[pose % 2]
         fast, slow = np.zeros(3), np.zeros(3)
@@ -275,7 +258,7 @@ def test_separated_pair_holds_a_point_at_its_distance_along_its_normal(n_faces):
     checked = 0
     for _ in range(400):
         _, lib, state = _random_pair(rng, n_faces, (0.75, 1.0) if n_faces == 30 else (0.6, 1.0))
-        arrays = _body_arrays(lib, state)
+        arrays = body_arrays(lib, state)
         a, b = arrays(0), arrays(1)
         alert = 0.1
         normal = np.zeros(3)
@@ -489,7 +472,7 @@ def test_every_buried_vertex_is_a_manifold_point_however_deep():
     checked = 0
     for _ in range(400):
         _, lib, state = _random_pair(rng, 8, (0.45, 0.75))
-        arrays = _body_arrays(lib, state)
+        arrays = body_arrays(lib, state)
         a, b = arrays(0), arrays(1)
         alert = 0.01
         normal = np.zeros(3)

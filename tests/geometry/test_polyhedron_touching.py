@@ -15,11 +15,11 @@ pruned signed distance equal to its exhaustive twin."""
 
 import numpy as np
 import pytest
+from polyhedron_arrays import body_arrays
 from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
 from grainlab.engine.narrow_phase import NarrowPhase
-from grainlab.engine.polyhedron_narrow_phase import world_polyhedra
 from grainlab.engine.quaternion import quat_to_matrices
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.geometry.polyhedron import from_vertices, random_polyhedron
@@ -278,30 +278,13 @@ def _moved_state(scene, rng, scale, swap):
     return lib, state, turn, shift
 
 
-def _body_arrays(lib, state):
-    """Function n -> the kernels' world-frame arrays of polyhedron body n (and its centre)."""
-    _, bvs, wv, bfs, wn, wo = world_polyhedra(state, lib)
-
-    def arrays(n):
-        s = state.shape_ids[n]
-        f0, fc = lib.face_start[s], lib.face_count[s]
-        e0, ec = lib.edge_start[s], lib.edge_count[s]
-        v0, vc = lib.vertex_start[s], lib.vertex_count[s]
-        return (wv[bvs[n]:bvs[n + 1]], wn[bfs[n]:bfs[n + 1]], wo[bfs[n]:bfs[n + 1]],
-                lib.face_vertex_start[f0:f0 + fc + 1], lib.face_vertices, lib.edges[e0:e0 + ec],
-                lib.edge_faces[e0:e0 + ec], lib.vertex_neighbour_start[v0:v0 + vc + 1],
-                lib.vertex_neighbours, state.positions[n])
-
-    return arrays
-
-
 def _check_touching(scene, lib, state, turn, shift, swap, alert, scale):
     """The contact of the moved scene at ``alert`` [m] (module docstring); returns the number
     of touching points."""
     kind, region = scene[6], scene[7]
     tol = 1e-12 * scale
     normal = turn[:, 2] * (-1.0 if swap else 1.0)
-    arrays = _body_arrays(lib, state)
+    arrays = body_arrays(lib, state)
     fast, slow = np.zeros(3), np.zeros(3)
     g, found = signed_distance(*arrays(0), *arrays(1), alert, fast)
     g_slow, found_slow = signed_distance_exhaustive(*arrays(0), *arrays(1), alert, slow)

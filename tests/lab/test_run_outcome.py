@@ -29,6 +29,14 @@ TINY = {
     "output": {"record_every": 5, "checkpoint_every": 0},
 }
 
+def _short_triaxial() -> RunConfig:
+    """TINY as a triaxial test whose compaction is cut at 10 steps and goes on to the shear."""
+    return RunConfig.model_validate(TINY).with_updates(
+        {"test": {"kind": "triaxial", "eps_q_max": 0.01},
+         "solver": {"max_stage_steps": 10, "at_max_stage_steps": "next_stage",
+                    "inertia_number": 0.01}})
+
+
 SHEAR = {"name": "shear", "reason": "strain reached", "steps": 100, "strain_controlled": True}
 
 
@@ -112,10 +120,7 @@ def test_a_stage_at_max_stage_steps_stops_the_run_and_says_so(tmp_path):
 
 
 def test_next_stage_at_max_stage_steps_goes_on_but_not_as_asked(tmp_path):
-    config = RunConfig.model_validate(TINY).with_updates(
-        {"test": {"kind": "triaxial", "eps_q_max": 0.01},
-         "solver": {"max_stage_steps": 10, "at_max_stage_steps": "next_stage",
-                    "inertia_number": 0.01}})
+    config = _short_triaxial()
     run = start_run(tmp_path / "run", config)
     run.run(max_steps=14)
     compaction, = run.test.outcome["stages"]
@@ -149,10 +154,7 @@ def test_the_progress_bar_estimates_the_time_left_in_each_stage(tmp_path):
 
     from grainlab.lab.discrete_run import _ProgressBar
 
-    config = RunConfig.model_validate(TINY).with_updates(
-        {"test": {"kind": "triaxial", "eps_q_max": 0.01},
-         "solver": {"max_stage_steps": 10, "at_max_stage_steps": "next_stage",
-                    "inertia_number": 0.01}})
+    config = _short_triaxial()
     run = start_run(tmp_path / "run", config)
     bar = _ProgressBar(run.test)
     assert any(isinstance(c, TimeRemainingColumn) for c in bar.progress.columns)
