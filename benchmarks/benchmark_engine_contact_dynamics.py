@@ -133,7 +133,8 @@ def run(library, state0, box0, sweep: str, threads: int) -> dict:
     for _ in range(warm_up):
         step.step(state, library, box)
     clock = _Clock()
-    broad, narrow = step._phases(library)
+    phases = step._phases(library)
+    broad, narrow = phases.broad, phases.narrow
     with mock.patch.object(cd, "nlgs_kernel", clock.wrap("kernel", cd.nlgs_kernel)), \
             mock.patch.object(nlgs_parallel, "nlgs_coloured_kernel",
                               clock.wrap("kernel", nlgs_parallel.nlgs_coloured_kernel)), \

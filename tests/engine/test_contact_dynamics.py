@@ -23,6 +23,8 @@ R = 0.5
 DT = 1e-3
 TOL = 1e-5
 FLOOR = ([[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]])
+NO_CELL = (np.zeros((0, 3)), np.zeros((3, 3)), np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0),
+           np.zeros((0, 2)))  # no contacts, no periodic cell
 
 
 def spheres(positions, radius=R):
@@ -208,8 +210,9 @@ def test_kernel_with_no_contacts_returns_free_velocities():
     iterations = nlgs_kernel(
         empty_i, empty_i, np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
         np.ones(1), np.eye(3)[None], v_free, w_free, np.zeros((0, 3)), np.zeros(0), np.zeros(0),
-        np.zeros(0), np.zeros(0), np.zeros(0), DT, empty_i, TOL, 10, np.zeros((0, 3)),
-        velocities, spins, np.zeros(0), np.zeros((0, 3, 3)), residuals,
+        np.zeros(0), np.zeros(0), np.zeros(0), DT, *NO_CELL, empty_i, TOL, 10,
+        np.zeros((0, 3)), velocities, spins, np.zeros(0), np.zeros(0), np.zeros((3, 3)),
+        np.zeros((0, 3, 3)), residuals,
     )
     assert iterations == 0
     np.testing.assert_array_equal(velocities, v_free)

@@ -236,9 +236,11 @@ def test_kernel_with_no_contacts_returns_free_velocities():
     iterations = nlgs_parallel.nlgs_coloured_kernel(
         empty_i, empty_i, np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
         np.ones(1), np.eye(3)[None], v_free, w_free, np.zeros((0, 3)), np.zeros(0), np.zeros(0),
-        np.zeros(0), np.zeros(0), np.zeros(0), DT, empty_i, np.zeros(2, dtype=np.int64), 0,
-        1e-5, 10,
-        np.zeros((0, 3)), velocities, spins, np.zeros(0), np.zeros((0, 3, 3)), residuals,
+        np.zeros(0), np.zeros(0), np.zeros(0), DT, np.zeros((0, 3)), np.zeros((3, 3)),
+        np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0), np.zeros((0, 2)), empty_i,
+        np.zeros(2, dtype=np.int64), 0, 1e-5, 10,
+        np.zeros((0, 3)), velocities, spins, np.zeros(0), np.zeros(0), np.zeros((3, 3)),
+        np.zeros((0, 3, 3)), residuals,
     )
     assert iterations == 0
     np.testing.assert_array_equal(velocities, v_free)

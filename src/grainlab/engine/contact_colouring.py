@@ -52,9 +52,12 @@ _SERIAL = -1  # colour code of a contact in the serial group
 
 
 @njit(cache=True)
-def colour_contacts_kernel(body_i, body_j, wall_inv_mass, n_bodies, colour, order, offsets):
+def colour_contacts_kernel(body_i, body_j, wall_inv_mass, serial, n_bodies, colour, order,
+                           offsets):
     """Greedy colouring (module docstring) of contacts (``body_i``, ``body_j``) (C,) among
-    ``n_bodies`` bodies; ``wall_inv_mass`` (W,) [1/kg] marks mobile walls (> 0).
+    ``n_bodies`` bodies; ``wall_inv_mass`` (W,) [1/kg] marks mobile walls (> 0); contacts
+    with ``serial[k]`` (C,) bool go to the serial group too (those with an image in a
+    periodic cell whose rate is solved with the contacts: they all share the cell).
 
     Outputs: ``colour`` (C,) int64, the colour of each contact (-1: serial group);
     ``order`` (C,) int64 and ``offsets`` (at least G + 2,) int64 (module docstring).
@@ -66,7 +69,7 @@ def colour_contacts_kernel(body_i, body_j, wall_inv_mass, n_bodies, colour, orde
     n_pending = 0
     for k in range(n_contacts):
         i = body_i[k]
-        if i < 0 and wall_inv_mass[-1 - i] > 0.0:
+        if serial[k] or (i < 0 and wall_inv_mass[-1 - i] > 0.0):
             colour[k] = _SERIAL
         else:
             pending[n_pending] = k
@@ -138,22 +141,25 @@ class ContactColouring:
         return self.order[self.offsets[c]:self.offsets[c + 1]]
 
 
-def colour_contacts(body_i, body_j, wall_inv_mass, n_bodies: int | None = None
-                    ) -> ContactColouring:
+def colour_contacts(body_i, body_j, wall_inv_mass, n_bodies: int | None = None,
+                    serial=None) -> ContactColouring:
     """Greedy colouring of the contacts (``body_i``, ``body_j``) (C,); ``wall_inv_mass`` (W,)
     [1/kg] (> 0: mobile wall, its contacts go to the serial group); ``n_bodies`` defaults to
-    1 + the largest body index."""
+    1 + the largest body index; ``serial`` (C,) bool (None: none) puts more contacts in the
+    serial group."""
     bi = np.ascontiguousarray(body_i, dtype=np.int64)
     bj = np.ascontiguousarray(body_j, dtype=np.int64)
     walls = np.ascontiguousarray(wall_inv_mass, dtype=np.float64).reshape(-1)
     if n_bodies is None:
         n_bodies = int(max(bi.max(initial=-1), bj.max(initial=-1))) + 1
     n_contacts = bi.shape[0]
+    serial = np.zeros(n_contacts, dtype=np.bool_) if serial is None else \
+        np.ascontiguousarray(serial, dtype=np.bool_)
     colour = np.empty(n_contacts, dtype=np.int64)
     order = np.empty(n_contacts, dtype=np.int64)
     offsets = np.empty(n_contacts + 2, dtype=np.int64)  # G <= C
-    n_colours = int(colour_contacts_kernel(bi, bj, walls, int(n_bodies), colour, order,
-                                           offsets))
+    n_colours = int(colour_contacts_kernel(bi, bj, walls, serial, int(n_bodies), colour,
+                                           order, offsets))
     return ContactColouring(order=order, offsets=offsets[: n_colours + 2].copy(),
                             n_colours=n_colours, colour=colour)
 

@@ -94,13 +94,12 @@ import numpy as np
 from numba import get_num_threads, njit
 
 from grainlab._validate import at_least
-from grainlab.engine.broad_phase import CellListBroadPhase
+from grainlab.engine.boundary import Boundary, BoundaryMotion, DetectionPhases, FixedPlanes
 from grainlab.engine.contact_colouring import colour_contacts
 from grainlab.engine.gyroscopic import gyroscopic_spins
-from grainlab.engine.narrow_phase import Contacts, NarrowPhase
+from grainlab.engine.narrow_phase import Contacts
 from grainlab.engine.quaternion import quat_to_matrices
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.engine.wall_box import WallBox
 from grainlab.errors import ConvergenceError, InputError
 
 _TINY = 1e-300
@@ -186,9 +185,11 @@ def local_solve(w, un, ut, us, mu, pn, pt, ps):
 
 @njit(inline="always")
 def _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j, velocities, spins,
-                       wall_normals, wall_speeds):
+                       wall_normals, wall_speeds, images, cell_rate):
     """Local (n, t, s) velocity of body j relative to body i at contact k [m/s]; a wall
-    (body_i = -1 - w) moves with the speed ``wall_speeds[w]`` along its normal."""
+    (body_i = -1 - w) moves with the speed ``wall_speeds[w]`` along its normal; in a periodic
+    cell body j may be its image translated by h m_k (``images[k]`` = m_k), which moves with
+    the cell: its velocity is v_j + hdot m_k, ``cell_rate`` = hdot (3, 3) [m/s]."""
     ux, uy, uz = 0.0, 0.0, 0.0
     j = body_j[k]
     if j >= 0:
@@ -197,6 +198,11 @@ def _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j, velocities, spins
         ux += velocities[j, 0] + wy * rz - wz * ry
         uy += velocities[j, 1] + wz * rx - wx * rz
         uz += velocities[j, 2] + wx * ry - wy * rx
+        mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
+        if mx != 0.0 or my != 0.0 or mz != 0.0:
+            ux += cell_rate[0, 0] * mx + cell_rate[0, 1] * my + cell_rate[0, 2] * mz
+            uy += cell_rate[1, 0] * mx + cell_rate[1, 1] * my + cell_rate[1, 2] * mz
+            uz += cell_rate[2, 0] * mx + cell_rate[2, 1] * my + cell_rate[2, 2] * mz
     i = body_i[k]
     if i >= 0:
         wx, wy, wz = spins[i, 0], spins[i, 1], spins[i, 2]
@@ -216,12 +222,17 @@ def _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j, velocities, spins
 
 @njit(inline="always")
 def _apply(k, dn, dt_, ds, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-           velocities, spins, wall_normals, wall_inv_mass, wall_speeds):
+           velocities, spins, wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
+           cell_inv_mass, cell_dofs, cell_rate):
     """Add the local impulse change (dn, dt_, ds) of contact k to its two bodies (a wall
-    moves only along its normal, with inverse mass ``wall_inv_mass[w]``, 0 if driven)."""
+    moves only along its normal, with inverse mass ``wall_inv_mass[w]``, 0 if driven); a
+    contact with an image (``images[k]`` = m_k != 0) also drives the periodic cell's free
+    degrees of freedom e_d (:func:`_apply_to_cell`)."""
     px = frame[k, 0, 0] * dn + frame[k, 1, 0] * dt_ + frame[k, 2, 0] * ds
     py = frame[k, 0, 1] * dn + frame[k, 1, 1] * dt_ + frame[k, 2, 1] * ds
     pz = frame[k, 0, 2] * dn + frame[k, 1, 2] * dt_ + frame[k, 2, 2] * ds
+    if cell_inv_mass.shape[0] > 0:
+        _apply_to_cell(k, px, py, pz, images, cell_basis, cell_inv_mass, cell_dofs, cell_rate)
     for side in range(2):
         b = body_j[k] if side == 0 else body_i[k]
         if b < 0:
@@ -246,6 +257,59 @@ def _apply(k, dn, dt_, ds, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_in
 
 
 @njit(inline="always")
+def _apply_to_cell(k, px, py, pz, images, cell_basis, cell_inv_mass, cell_dofs, cell_rate):
+    """The cell's share of a world impulse change (px, py, pz) [N s] on the image of body j
+    at contact k: each free degree of freedom e_d (hdot = hdot_fixed + sum_d e_d H_d, H_d =
+    ``cell_basis[d]`` (3, 3) [m]) changes by kappa_d (H_d m_k) . P, kappa_d =
+    ``cell_inv_mass[d]`` [1/(N s^2)] (:mod:`grainlab.engine.periodic_boundary`), and hdot
+    with it."""
+    mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
+    if mx == 0.0 and my == 0.0 and mz == 0.0:
+        return
+    for d in range(cell_inv_mass.shape[0]):
+        if cell_inv_mass[d] > 0.0:
+            h = cell_basis[d]
+            gx = h[0, 0] * mx + h[0, 1] * my + h[0, 2] * mz
+            gy = h[1, 0] * mx + h[1, 1] * my + h[1, 2] * mz
+            gz = h[2, 0] * mx + h[2, 1] * my + h[2, 2] * mz
+            delta = cell_inv_mass[d] * (px * gx + py * gy + pz * gz)
+            cell_dofs[d] += delta
+            for a in range(3):
+                for b in range(3):
+                    cell_rate[a, b] += delta * h[a, b]
+
+
+@njit(inline="always")
+def brake_cell(cell_basis, cell_inv_mass, cell_bounds, brakes, cell_dofs, cell_rate):
+    """Bounds lo_d <= e_d <= hi_d (``cell_bounds`` (D, 2)) on the cell's free degrees of
+    freedom, solved in the sweep like :func:`brake_walls`: a brake impulse with the exact local
+    solution, kept from sweep to sweep so that it lets go when the contacts hold the cell."""
+    for d in range(cell_dofs.shape[0]):
+        inv = cell_inv_mass[d]
+        if inv > 0.0:
+            free = cell_dofs[d] + brakes[d] * inv
+            held = min(max(free, cell_bounds[d, 0]), cell_bounds[d, 1])
+            brakes[d] = (free - held) / inv
+            delta = held - cell_dofs[d]
+            cell_dofs[d] = held
+            if delta != 0.0:
+                for a in range(3):
+                    for b in range(3):
+                        cell_rate[a, b] += delta * cell_basis[d, a, b]
+
+
+@njit(inline="always")
+def start_cell(cell_fixed, cell_basis, cell_free, cell_dofs, cell_rate):
+    """hdot = hdot_fixed + sum_d e_d H_d with the free values e_d = ``cell_free[d]``."""
+    cell_rate[:, :] = cell_fixed
+    for d in range(cell_free.shape[0]):
+        cell_dofs[d] = cell_free[d]
+        for a in range(3):
+            for b in range(3):
+                cell_rate[a, b] += cell_free[d] * cell_basis[d, a, b]
+
+
+@njit(inline="always")
 def brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds):
     """Speed limits of the mobile walls, -OUTWARD_SPEED_FACTOR s_max <= s_w <= s_max, solved
     in the Gauss-Seidel sweep: a brake impulse B_w [N s] (positive outward), the exact local
@@ -264,13 +328,15 @@ def brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds):
 @njit(inline="always")
 def update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                     wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
-                    wall_speeds, delassus):
+                    wall_speeds, delassus, images, cell_basis, cell_inv_mass, cell_dofs,
+                    cell_rate):
     """One Gauss-Seidel update (serial and coloured sweeps): local solve of contact k
     against the current body velocities; applies the impulse change to its bodies and
     returns its squared norm [N^2 s^2]."""
     w = delassus[k]
     un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
-                                    velocities, spins, wall_normals, wall_speeds)
+                                    velocities, spins, wall_normals, wall_speeds, images,
+                                    cell_rate)
     p0, p1, p2 = impulses[k, 0], impulses[k, 1], impulses[k, 2]
     # free (P_k = 0) corrected velocity
     fn = un + shift[k] - (w[0, 0] * p0 + w[0, 1] * p1 + w[0, 2] * p2)
@@ -280,21 +346,24 @@ def update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia
     d0, d1, d2 = q0 - p0, q1 - p1, q2 - p2
     impulses[k, 0], impulses[k, 1], impulses[k, 2] = q0, q1, q2
     _apply(k, d0, d1, d2, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-           velocities, spins, wall_normals, wall_inv_mass, wall_speeds)
+           velocities, spins, wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
+           cell_inv_mass, cell_dofs, cell_rate)
     return d0 * d0 + d1 * d1 + d2 * d2
 
 
 @njit(inline="always")
 def skipped_update(k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                    wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
-                   wall_speeds, delassus, open_sweeps):
+                   wall_speeds, delassus, open_sweeps, images, cell_basis, cell_inv_mass,
+                   cell_dofs, cell_rate):
     """:func:`update_contact` unless contact k has been open (P = 0) at its last ``skip``
     visits (then it is left alone and 0 returned); ``open_sweeps[k]`` counts those visits."""
     if open_sweeps[k] >= skip:
         return 0.0
     change = update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                             wall_normals, wall_inv_mass, mu, shift, impulses, velocities,
-                            spins, wall_speeds, delassus)
+                            spins, wall_speeds, delassus, images, cell_basis, cell_inv_mass,
+                            cell_dofs, cell_rate)
     if impulses[k, 0] == 0.0:
         open_sweeps[k] += 1
     else:
@@ -309,9 +378,11 @@ def skipped_update(k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_i
 
 @njit(cache=True)
 def delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, wall_normals,
-                    wall_inv_mass, out):
+                    wall_inv_mass, images, cell_basis, cell_inv_mass, out):
     """Local Delassus blocks W_aa (C, 3, 3) [1/kg] = F (K_i + K_j) F^T (module docstring);
-    a wall w contributes K = wall_inv_mass[w] n_w n_w^T."""
+    a wall w contributes K = wall_inv_mass[w] n_w n_w^T, and the free degrees of freedom of
+    a periodic cell K = sum_d kappa_d g_d g_d^T at a contact with an image m_k (g_d =
+    H_d m_k, :func:`_apply_to_cell`)."""
     k_world = np.empty((3, 3))
     skew = np.empty((3, 3))
     for k in range(body_i.shape[0]):
@@ -333,6 +404,23 @@ def delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, 
             k_world -= skew @ inv_inertia[b] @ skew
             for d in range(3):
                 k_world[d, d] += inv_mass[b]
+        mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
+        if mx != 0.0 or my != 0.0 or mz != 0.0:
+            for c in range(cell_inv_mass.shape[0]):
+                h = cell_basis[c]
+                gx = h[0, 0] * mx + h[0, 1] * my + h[0, 2] * mz
+                gy = h[1, 0] * mx + h[1, 1] * my + h[1, 2] * mz
+                gz = h[2, 0] * mx + h[2, 1] * my + h[2, 2] * mz
+                kappa = cell_inv_mass[c]
+                k_world[0, 0] += kappa * gx * gx
+                k_world[0, 1] += kappa * gx * gy
+                k_world[0, 2] += kappa * gx * gz
+                k_world[1, 0] += kappa * gy * gx
+                k_world[1, 1] += kappa * gy * gy
+                k_world[1, 2] += kappa * gy * gz
+                k_world[2, 0] += kappa * gz * gx
+                k_world[2, 1] += kappa * gz * gy
+                k_world[2, 2] += kappa * gz * gz
         w = frame[k] @ k_world @ frame[k].T
         for d in (1, 2):
             w[d, d] = max(w[d, d], _WTT_CLAMP * w[0, 0])
@@ -343,8 +431,9 @@ def delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, 
 def nlgs_kernel(
     body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
     wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
-    mu, gap, dt, order, tolerance, max_iterations,
-    impulses, velocities, spins, wall_speeds, delassus, residuals,
+    mu, gap, dt, images, cell_fixed, cell_basis, cell_inv_mass, cell_free, cell_bounds,
+    order, tolerance, max_iterations,
+    impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus, residuals,
 ):
     """Frictional unilateral contact problem on impulses by nonlinear Gauss-Seidel.
 
@@ -356,11 +445,18 @@ def nlgs_kernel(
     ``wall_inv_mass`` (W,) [1/kg] (0: driven), free normal speeds ``wall_free_speeds`` (W,)
     [m/s] and speed limits ``wall_max_speeds`` (W,) [m/s] (inf: none; :func:`brake_walls`);
     friction ``mu`` (C,); ``gap`` (C,) [m] at the detection
-    configuration; time step ``dt`` [s]; visiting ``order`` (C,) (a permutation).
+    configuration; time step ``dt`` [s]; periodic cell (D = 0 free degrees of freedom and
+    zero images in a wall box): image vectors ``images`` (C, 3) (float; body j's image is
+    translated by h m_k and moves with v_j + hdot m_k), the prescribed part of hdot
+    ``cell_fixed`` (3, 3) [m/s], per free degree of freedom d its direction ``cell_basis``
+    (D, 3, 3) [m], inverse mass ``cell_inv_mass`` (D,), free value ``cell_free`` (D,) and
+    bounds ``cell_bounds`` (D, 2) (:mod:`grainlab.engine.periodic_boundary`); visiting
+    ``order`` (C,) (a permutation).
 
     Outputs: ``impulses`` (C, 3) local (P_n, P_t, P_s) [N s] (in: warm start; out: solution);
     ``velocities``, ``spins`` (N, 3) end-of-step velocities; ``wall_speeds`` (W,) end-of-step
-    wall normal speeds; ``delassus`` (C, 3, 3);
+    wall normal speeds; ``cell_dofs`` (D,) end-of-step free degrees of freedom and
+    ``cell_rate`` (3, 3) the cell's hdot [m/s]; ``delassus`` (C, 3, 3);
     ``residuals`` (2,) = (relative change, natural-map residual) of the last sweep.
     Returns the number of sweeps done (``max_iterations`` when not converged).
     """
@@ -369,25 +465,30 @@ def nlgs_kernel(
     spins[:, :] = free_spins
     wall_speeds[:] = wall_free_speeds
     brakes = np.zeros(wall_speeds.shape[0])
+    cell_brakes = np.zeros(cell_dofs.shape[0])
+    start_cell(cell_fixed, cell_basis, cell_free, cell_dofs, cell_rate)
+    free_rate = cell_rate.copy()
     residuals[0] = 0.0
     residuals[1] = 0.0
     if n_contacts == 0:
         brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
+        brake_cell(cell_basis, cell_inv_mass, cell_bounds, cell_brakes, cell_dofs, cell_rate)
         return 0
     delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, wall_normals,
-                    wall_inv_mass, delassus)
+                    wall_inv_mass, images, cell_basis, cell_inv_mass, delassus)
     shift = np.empty(n_contacts)
     free_norm2 = 0.0
     for k in range(n_contacts):
         shift[k] = gap[k] / dt
         un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
                                         free_velocities, free_spins, wall_normals,
-                                        wall_free_speeds)
+                                        wall_free_speeds, images, free_rate)
         free_norm2 += (un + shift[k]) ** 2 + ut * ut + us * us
     for k in range(n_contacts):  # warm start
         _apply(k, impulses[k, 0], impulses[k, 1], impulses[k, 2], body_i, body_j, frame,
                arm_i, arm_j, inv_mass, inv_inertia, velocities, spins, wall_normals,
-               wall_inv_mass, wall_speeds)
+               wall_inv_mass, wall_speeds, images, cell_basis, cell_inv_mass, cell_dofs,
+               cell_rate)
     iterations = 0
     open_sweeps = np.zeros(n_contacts, dtype=np.int64)
     full = True  # visit every contact (SKIP_OPEN, SKIP_REVISIT)
@@ -401,9 +502,11 @@ def nlgs_kernel(
             change2 += skipped_update(
                 k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                 wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
-                wall_speeds, delassus, open_sweeps)
+                wall_speeds, delassus, open_sweeps, images, cell_basis, cell_inv_mass,
+                cell_dofs, cell_rate)
             sweep_p2 += impulses[k, 0] ** 2 + impulses[k, 1] ** 2 + impulses[k, 2] ** 2
         brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
+        brake_cell(cell_basis, cell_inv_mass, cell_bounds, cell_brakes, cell_dofs, cell_rate)
         full = iterations % SKIP_REVISIT == 0
         change = 0.0 if change2 == 0.0 else math.sqrt(change2 / max(sweep_p2, _TINY))
         residuals[0] = change
@@ -413,7 +516,8 @@ def nlgs_kernel(
         p_norm2, wp_norm2, u_norm2, res2 = 0.0, 0.0, 0.0, 0.0
         for k in range(n_contacts):
             un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
-                                            velocities, spins, wall_normals, wall_speeds)
+                                            velocities, spins, wall_normals, wall_speeds,
+                                            images, cell_rate)
             un += shift[k]
             wk = delassus[k, 0, 0]
             pn, pt, ps = wk * impulses[k, 0], wk * impulses[k, 1], wk * impulses[k, 2]
@@ -445,8 +549,10 @@ class StepReport:
     ``n_contacts``; NLGS ``iterations`` (sweeps), ``converged``, ``change`` and ``residual``
     (module docstring); ``max_overlap`` [m] = max(0, -min gap) at the detection
     configuration; the ``contacts`` detected, their ``frames`` (C, 3, 3) (rows n, t, s),
-    ``impulses`` (C, 3) local (P_n, P_t, P_s) [N s] and end-of-step relative velocities
-    ``relative_velocity`` (C, 3) local [m/s] (U, without the gap correction).
+    ``impulses`` (C, 3) local (P_n, P_t, P_s) [N s], end-of-step relative velocities
+    ``relative_velocity`` (C, 3) local [m/s] (U, without the gap correction) and, in a
+    periodic cell, the ``images`` (C, 3) of body j (contact k is with body j translated by
+    h m_k).
     """
 
     n_contacts: int
@@ -459,6 +565,14 @@ class StepReport:
     frames: np.ndarray
     impulses: np.ndarray
     relative_velocity: np.ndarray
+    images: np.ndarray | None = None
+
+    @property
+    def image_vectors(self) -> np.ndarray:
+        """(C, 3) image vectors m_k (zeros outside a periodic cell)."""
+        if self.images is None:
+            return np.zeros((self.n_contacts, 3))
+        return self.images
 
 
 def contact_frames(normals: np.ndarray) -> np.ndarray:
@@ -566,24 +680,21 @@ class ContactDynamicsStep:
         self._warm_keys = np.zeros(0, dtype=np.int64)
         self._warm_forces = np.zeros((0, 3))
         self.alert_growths = 0
-        self._broad: CellListBroadPhase | None = None
-        self._narrow: NarrowPhase | None = None
+        self._detection: DetectionPhases | None = None
 
-    def _phases(self, library: ShapeLibrary, travel: float = 0.0
-                ) -> tuple[CellListBroadPhase, NarrowPhase]:
+    def _phases(self, library: ShapeLibrary, travel: float = 0.0) -> DetectionPhases:
         """Broad and narrow phases; the alert distance grows (never shrinks) to 1.5 x
         ``travel`` [m] when bodies may close a gap larger than it within one step (so that no
         contact can be missed: tunnelling)."""
-        if self._narrow is not None and travel > self._narrow.alert:
-            self._narrow = None
+        if self._detection is not None and travel > self._detection.alert:
+            self._detection = None
             self.alert = 1.5 * travel
             self.alert_growths += 1
-        if self._narrow is None:
+        if self._detection is None:
             alert = self.alert if self.alert is not None else \
                 0.1 * _smallest_radius(library)
-            self._broad = CellListBroadPhase(alert=alert)
-            self._narrow = NarrowPhase(alert=alert)
-        return self._broad, self._narrow
+            self._detection = DetectionPhases.with_alert(alert)
+        return self._detection
 
     def _free_spins(self, state: BodyState, rotations: np.ndarray) -> np.ndarray:
         omega = np.array(state.angular_velocities, dtype=np.float64)
@@ -591,42 +702,31 @@ class ContactDynamicsStep:
             return omega
         return gyroscopic_spins(omega, rotations, state.inertias, self.dt)
 
+    def _boundary(self, walls) -> Boundary:
+        if walls is None or isinstance(walls, tuple | list):
+            if walls is None:
+                return FixedPlanes()
+            return FixedPlanes(walls[0], walls[1], self.friction)
+        return walls
+
     def step(self, state: BodyState, library: ShapeLibrary, walls=None) -> StepReport:
         """Advance ``state`` in place by one step.
 
-        ``walls`` is None, a :class:`~grainlab.engine.wall_box.WallBox` (moving, driven walls;
-        advanced in place, reactions recorded, per-wall friction) or (points (W, 3) [m],
-        normals (W, 3)) of fixed planes with normals pointing into the bodies' region (friction
-        ``self.friction``)."""
+        ``walls`` is the boundary (:mod:`grainlab.engine.boundary`): a
+        :class:`~grainlab.engine.wall_box.WallBox` (moving, driven walls; advanced in place,
+        reactions recorded, per-wall friction), a periodic cell
+        (:class:`~grainlab.engine.periodic_boundary.PeriodicCell`), None (open space) or
+        (points (W, 3) [m], normals (W, 3)) of fixed planes with normals pointing into the
+        bodies' region (friction ``self.friction``)."""
         h, theta = self.dt, self.theta
-        box = walls if isinstance(walls, WallBox) else None
-        wall_speed = 0.0
-        if box is not None:
-            wall_points, wall_normals = box.planes((1.0 - theta) * h)
-            wall_inv_mass = box.inverse_masses()
-            wall_free = box.free_speeds(h)
-            wall_max = np.ascontiguousarray(box.max_speeds, dtype=np.float64)
-            wall_friction = box.friction
-            moving = np.minimum(np.abs(wall_free), wall_max)
-            wall_speed = float(max(np.max(np.abs(box.speeds)), np.max(moving)))
-        elif walls is not None:
-            wall_points = np.asarray(walls[0], dtype=np.float64).reshape(-1, 3)
-            wall_normals = np.asarray(walls[1], dtype=np.float64).reshape(-1, 3)
-            n_walls = wall_points.shape[0]
-            wall_inv_mass, wall_free = np.zeros(n_walls), np.zeros(n_walls)
-            wall_max = np.full(n_walls, np.inf)
-            wall_friction = np.full(n_walls, self.friction)
-        else:
-            wall_points = wall_normals = None
-            wall_inv_mass, wall_free, wall_friction = np.zeros(0), np.zeros(0), np.zeros(0)
-            wall_max = np.zeros(0)
+        boundary = self._boundary(walls)
+        bounds = boundary.constraints(h, theta)
         # largest approach within the step: two bodies (or a body and a wall) closing in
         speed = float(np.sqrt(np.max(np.sum(state.velocities**2, axis=1)))) \
             if state.n_bodies else 0.0
-        broad, narrow = self._phases(library, h * (2.0 * speed + wall_speed
-                                                   + float(np.linalg.norm(self.gravity)) * h))
-        kernel_normals = np.zeros((0, 3)) if wall_normals is None else \
-            np.ascontiguousarray(wall_normals)
+        phases = self._phases(library, h * (2.0 * speed + bounds.speed
+                                            + float(np.linalg.norm(self.gravity)) * h))
+        kernel_normals = np.ascontiguousarray(bounds.wall_normals, dtype=np.float64)
         n_bodies = state.n_bodies
         rotations = quat_to_matrices(state.orientations)
         # free velocities and detection configuration q_m
@@ -635,18 +735,21 @@ class ContactDynamicsStep:
         x_m = state.positions + (1.0 - theta) * h * state.velocities
         q_m = rotate_quaternions(state.orientations, (1.0 - theta) * h * state.angular_velocities)
         predicted = replace(state, positions=x_m, orientations=q_m)
-        bounding = library.bounding_radius[state.shape_ids]
-        pad = float(bounding.max()) + broad.alert + 1e-9
-        lo, hi = x_m.min(axis=0) - pad, x_m.max(axis=0) + pad
-        pairs = broad.find_pairs(x_m, bounding, lo, hi)
-        contacts = narrow.detect(predicted, library, pairs, wall_points, wall_normals)
+        if np.any(bounds.affine_change != 0.0):  # a periodic cell whose rate changed
+            centre = np.average(x_m, axis=0, weights=state.masses)
+            free_v += (x_m - centre) @ bounds.affine_change.T
+        contacts, images = boundary.detect(predicted, library, phases, bounds)
         n_contacts = contacts.n_contacts
+        images = np.ascontiguousarray(images, dtype=np.float64)
         # local frames, arms, masses and world inverse inertia at q_m
         frames = contact_frames(contacts.normal)
         arm_i = np.zeros((n_contacts, 3))
         inner = contacts.body_i >= 0
         arm_i[inner] = contacts.point[inner] - x_m[contacts.body_i[inner]]
         arm_j = np.ascontiguousarray(contacts.point - x_m[contacts.body_j])
+        crossing = np.any(images != 0.0, axis=1)
+        if np.any(crossing):  # the arm of j reaches from its image: x_j + h_m m_k
+            arm_j[crossing] -= images[crossing] @ bounds.cell_matrix.T
         inv_mass = 1.0 / state.masses
         r_m = quat_to_matrices(q_m)
         inv_inertia = np.ascontiguousarray(
@@ -662,41 +765,53 @@ class ContactDynamicsStep:
         mu = np.full(n_contacts, self.friction)
         on_wall = ~inner
         if np.any(on_wall):
-            mu[on_wall] = wall_friction[-1 - contacts.body_i[on_wall]]
+            mu[on_wall] = bounds.wall_friction[-1 - contacts.body_i[on_wall]]
         velocities = np.empty((n_bodies, 3))
         spins = np.empty((n_bodies, 3))
-        wall_speeds = np.empty(wall_free.shape[0])
+        wall_speeds = np.empty(bounds.n_walls)
+        n_cell = bounds.cell_inv_mass.shape[0]
+        cell_dofs = np.empty(n_cell)
+        cell_rate = np.empty((3, 3))
         delassus = np.empty((n_contacts, 3, 3))
         residuals = np.zeros(2)
         # gap term g* [m] of the law U_n + g*/h >= 0: max(0, g) + max(beta min(0, g), -v_r h)
         gap_term = np.maximum(contacts.gap, 0.0) + np.maximum(
             self.overlap_recovery * np.minimum(contacts.gap, 0.0),
             -self.overlap_recovery_speed * h)
-        kernel_inv_mass = np.ascontiguousarray(wall_inv_mass, dtype=np.float64)
+        kernel_inv_mass = np.ascontiguousarray(bounds.wall_inv_mass, dtype=np.float64)
+        walls_in = (kernel_normals, kernel_inv_mass,
+                    np.ascontiguousarray(bounds.wall_free, dtype=np.float64),
+                    np.ascontiguousarray(bounds.wall_max, dtype=np.float64))
+        cell_in = (images, np.ascontiguousarray(bounds.cell_fixed, dtype=np.float64),
+                   np.ascontiguousarray(bounds.cell_basis, dtype=np.float64),
+                   np.ascontiguousarray(bounds.cell_inv_mass, dtype=np.float64),
+                   np.ascontiguousarray(bounds.cell_free, dtype=np.float64),
+                   np.ascontiguousarray(bounds.cell_bounds, dtype=np.float64))
         if self.sweep == "serial":
             order = self._rng.permutation(n_contacts).astype(np.int64)
             iterations = nlgs_kernel(
                 contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
-                inv_mass, inv_inertia, free_v, free_w, kernel_normals,
-                kernel_inv_mass, np.ascontiguousarray(wall_free), wall_max, mu,
-                gap_term, h, order, self.tolerance, self.max_iterations,
-                impulses, velocities, spins, wall_speeds, delassus, residuals,
+                inv_mass, inv_inertia, free_v, free_w, *walls_in, mu, gap_term, h, *cell_in,
+                order, self.tolerance, self.max_iterations,
+                impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus,
+                residuals,
             )
         else:
             # imported here: nlgs_parallel reuses this module's scalar laws
             from grainlab.engine.nlgs_parallel import nlgs_coloured_kernel, parallel_colours
 
+            serial = crossing if bounds.has_free_cell else None
             colouring = colour_contacts(contacts.body_i, contacts.body_j, kernel_inv_mass,
-                                        n_bodies)
+                                        n_bodies, serial=serial)
             n_parallel = parallel_colours(colouring.offsets, colouring.n_colours,
                                           get_num_threads())
             iterations = nlgs_coloured_kernel(
                 contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
-                inv_mass, inv_inertia, free_v, free_w, kernel_normals,
-                kernel_inv_mass, np.ascontiguousarray(wall_free), wall_max, mu,
-                gap_term, h, colouring.order, colouring.offsets, n_parallel,
-                self.tolerance, self.max_iterations,
-                impulses, velocities, spins, wall_speeds, delassus, residuals,
+                inv_mass, inv_inertia, free_v, free_w, *walls_in, mu, gap_term, h, *cell_in,
+                colouring.order, colouring.offsets, n_parallel, self.tolerance,
+                self.max_iterations,
+                impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus,
+                residuals,
             )
         change, residual = float(residuals[0]), float(residuals[1])
         converged = n_contacts == 0 or (change <= self.tolerance and residual <= self.tolerance)
@@ -711,26 +826,27 @@ class ContactDynamicsStep:
         self._warm_keys = keys[order_keys]
         self._warm_forces = forces[order_keys]
         relative = _relative_velocities(contacts, frames, arm_i, arm_j, velocities, spins)
-        if box is not None or wall_normals is not None:
-            if np.any(on_wall):
-                relative[on_wall] -= wall_speeds[-1 - contacts.body_i[on_wall], None] * \
-                    np.einsum("cij,cj->ci", frames[on_wall],
-                              kernel_normals[-1 - contacts.body_i[on_wall]])
+        if np.any(crossing):
+            relative[crossing] += np.einsum("cij,cj->ci", frames[crossing],
+                                            images[crossing] @ cell_rate.T)
+        if bounds.n_walls and np.any(on_wall):
+            relative[on_wall] -= wall_speeds[-1 - contacts.body_i[on_wall], None] * \
+                np.einsum("cij,cj->ci", frames[on_wall],
+                          kernel_normals[-1 - contacts.body_i[on_wall]])
         # end-of-step configuration
         state.velocities[:] = velocities
         state.angular_velocities[:] = spins
         state.positions[:] = x_m + theta * h * velocities
         state.orientations[:] = rotate_quaternions(q_m, theta * h * spins)
-        if box is not None:
-            reactions = np.zeros(6)
-            if np.any(on_wall):
-                np.add.at(reactions, -1 - contacts.body_i[on_wall], impulses[on_wall, 0] / h)
-            box.finish_step(wall_speeds, (1.0 - theta) * h, theta * h, reactions)
+        boundary.finish_step(BoundaryMotion(
+            dt=h, theta=theta, wall_speeds=wall_speeds, wall_reactions=np.zeros(0),
+            cell_dofs=cell_dofs, cell_rate=cell_rate, contacts=contacts, images=images,
+            impulses=impulses, forces=forces))
         max_overlap = float(max(0.0, -contacts.gap.min())) if n_contacts else 0.0
         return StepReport(
             n_contacts=n_contacts, iterations=int(iterations), converged=bool(converged),
             change=change, residual=residual, max_overlap=max_overlap, contacts=contacts,
-            frames=frames, impulses=impulses, relative_velocity=relative,
+            frames=frames, impulses=impulses, relative_velocity=relative, images=images,
         )
 
     def warm_start_arrays(self) -> dict[str, np.ndarray]:

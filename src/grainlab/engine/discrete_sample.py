@@ -1,5 +1,6 @@
 """The discrete sample a simulation advances: the static shape library, the changing body
-state and the walls (STYLE.md 1). :mod:`grainlab.prep` makes samples; the engine and the lab
+state and its boundary -- the wall box or the periodic cell (STYLE.md 1;
+:mod:`grainlab.engine.boundary`). :mod:`grainlab.prep` makes samples; the engine and the lab
 run them.
 """
 
@@ -9,20 +10,32 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from grainlab.engine.boundary import Boundary
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
 
 
 @dataclass
 class DiscreteSample:
-    """Particles and their box: the static ``library``, the changing ``state`` and the walls
-    ``box`` (:class:`~grainlab.engine.wall_box.WallBox`); ``description`` is plain data
+    """Particles and their boundary: the static ``library``, the changing ``state`` and the
+    ``boundary`` (:class:`~grainlab.engine.wall_box.WallBox` or
+    :class:`~grainlab.engine.periodic_boundary.PeriodicCell`); ``description`` is plain data
     (shape, sizes, seed) for the results' metadata."""
 
     library: ShapeLibrary
     state: BodyState
-    box: WallBox
+    boundary: Boundary
     description: dict
+
+    @property
+    def box(self) -> WallBox:
+        """The wall box (the boundary, when it is one)."""
+        return self.boundary
+
+    @property
+    def periodic(self) -> bool:
+        """Whether the sample fills a periodic cell."""
+        return not isinstance(self.boundary, WallBox)
 
     @property
     def mean_diameter(self) -> float:

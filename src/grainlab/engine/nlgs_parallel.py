@@ -41,11 +41,14 @@ reproducible across thread counts.
 >>> order, offsets = np.array([0, 1]), np.array([0, 1, 2, 2])  # colours {0}, {1}, no serial
 >>> out = np.zeros((2, 3)), np.empty((2, 3)), np.empty((2, 3)), np.zeros(1)
 >>> delassus, residuals = np.empty((2, 3, 3)), np.zeros(2)
+>>> no_cell = (np.zeros((2, 3)), np.zeros((3, 3)), np.zeros((0, 3, 3)), np.zeros(0),
+...            np.zeros(0), np.zeros((0, 2)))                       # wall box: no cell
+>>> cell_out = np.zeros(0), np.zeros((3, 3))
 >>> sweeps = nlgs_coloured_kernel(
 ...     body, other, frame, arm_i, arm_j, np.ones(2), inv_inertia, v_free, np.zeros((2, 3)),
 ...     np.array([[0.0, 0, 1]]), np.zeros(1), np.zeros(1), np.full(1, np.inf),
-...     np.full(2, 0.4), np.zeros(2), 1e-3,
-...     order, offsets, 2, 1e-10, 100, *out, delassus, residuals)
+...     np.full(2, 0.4), np.zeros(2), 1e-3, *no_cell,
+...     order, offsets, 2, 1e-10, 100, *out[:3], out[3], *cell_out, delassus, residuals)
 >>> bool(np.abs(out[1]).max() < 1e-9), out[0][:, 0].round(6).tolist()   # at rest: P_n = 2mv, mv
 (True, [0.02, 0.01])
 """
@@ -62,10 +65,12 @@ from grainlab.engine.contact_dynamics import (
     SKIP_REVISIT,
     _apply,
     _relative_velocity,
+    brake_cell,
     brake_walls,
     delassus_kernel,
     project_cone,
     skipped_update,
+    start_cell,
 )
 
 _TINY = 1e-300  # as in contact_dynamics
@@ -83,7 +88,7 @@ work of ~2500 contacts at ~65 ns each; 8192 keeps the launches below ~20 % of a 
 
 @njit(inline="always")
 def _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_spins,
-                wall_normals, wall_free_speeds, gap, dt, shift, partial):
+                wall_normals, wall_free_speeds, images, free_rate, gap, dt, shift, partial):
     """Gap shifts max(0, g) / h [m/s] of the contacts of block b, and their ||U'_free||^2
     [m^2/s^2] into ``partial[b, 0]``."""
     n_contacts = body_i.shape[0]
@@ -94,7 +99,7 @@ def _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_sp
         shift[k] = gap[k] / dt
         un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
                                         free_velocities, free_spins, wall_normals,
-                                        wall_free_speeds)
+                                        wall_free_speeds, images, free_rate)
         free2 += (un + shift[k]) ** 2 + ut * ut + us * us
     partial[b, 0] = free2
 
@@ -115,7 +120,7 @@ def _change_block(b, impulses, delta2, partial):
 
 @njit(inline="always")
 def _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins, wall_normals,
-                 wall_speeds, mu, shift, impulses, delassus, partial):
+                 wall_speeds, images, cell_rate, mu, shift, impulses, delassus, partial):
     """Sums over the contacts of block b of the check pass (as in ``nlgs_kernel``):
     ``partial[b, :3]`` = (||w P||^2, ||U'||^2, ||natural-map residual||^2) [m^2/s^2]."""
     n_contacts = body_i.shape[0]
@@ -124,7 +129,8 @@ def _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins, wall
     wp_norm2, u_norm2, res2 = 0.0, 0.0, 0.0
     for k in range(lo, hi):
         un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
-                                        velocities, spins, wall_normals, wall_speeds)
+                                        velocities, spins, wall_normals, wall_speeds, images,
+                                        cell_rate)
         un += shift[k]
         wk = delassus[k, 0, 0]
         pn, pt, ps = wk * impulses[k, 0], wk * impulses[k, 1], wk * impulses[k, 2]
@@ -147,9 +153,10 @@ def _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins, wall
 def _coloured_sweeps(
     body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
     wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
-    mu, gap, dt, colour_offsets, n_parallel, tolerance, max_iterations,
-    impulses, velocities, spins, wall_speeds, delassus, residuals, shift, delta2, partial,
-    brakes, open_sweeps,
+    mu, gap, dt, images, cell_basis, cell_inv_mass, cell_bounds, free_rate,
+    colour_offsets, n_parallel, tolerance, max_iterations,
+    impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus, residuals, shift,
+    delta2, partial, brakes, cell_brakes, open_sweeps,
 ):
     """Warm start, sweeps and checks of :func:`nlgs_coloured_kernel` on contacts already in
     group order (group g = contacts ``colour_offsets[g] .. colour_offsets[g + 1] - 1``, the
@@ -169,11 +176,13 @@ def _coloured_sweeps(
     if parallel:
         for b in prange(n_blocks):
             _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_spins,
-                        wall_normals, wall_free_speeds, gap, dt, shift, partial)
+                        wall_normals, wall_free_speeds, images, free_rate, gap, dt, shift,
+                        partial)
     else:
         for b in range(n_blocks):
             _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_spins,
-                        wall_normals, wall_free_speeds, gap, dt, shift, partial)
+                        wall_normals, wall_free_speeds, images, free_rate, gap, dt, shift,
+                        partial)
     free_norm2 = 0.0
     for b in range(n_blocks):
         free_norm2 += partial[b, 0]
@@ -183,12 +192,14 @@ def _coloured_sweeps(
             for k in prange(lo, hi):
                 _apply(k, impulses[k, 0], impulses[k, 1], impulses[k, 2], body_i, body_j,
                        frame, arm_i, arm_j, inv_mass, inv_inertia, velocities, spins,
-                       wall_normals, wall_inv_mass, wall_speeds)
+                       wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
+                       cell_inv_mass, cell_dofs, cell_rate)
         else:
             for k in range(lo, hi):
                 _apply(k, impulses[k, 0], impulses[k, 1], impulses[k, 2], body_i, body_j,
                        frame, arm_i, arm_j, inv_mass, inv_inertia, velocities, spins,
-                       wall_normals, wall_inv_mass, wall_speeds)
+                       wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
+                       cell_inv_mass, cell_dofs, cell_rate)
     iterations = 0
     full = True  # the first sweep, every SKIP_REVISIT-th and the one after a failed check
     while iterations < max_iterations:
@@ -201,15 +212,18 @@ def _coloured_sweeps(
                     delta2[k] = skipped_update(
                         k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                         wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
-                        wall_speeds, delassus, open_sweeps)
+                        wall_speeds, delassus, open_sweeps, images, cell_basis, cell_inv_mass,
+                        cell_dofs, cell_rate)
             else:
                 for k in range(lo, hi):
                     delta2[k] = skipped_update(
                         k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                         wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
-                        wall_speeds, delassus, open_sweeps)
+                        wall_speeds, delassus, open_sweeps, images, cell_basis, cell_inv_mass,
+                        cell_dofs, cell_rate)
         full = iterations % SKIP_REVISIT == 0
         brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
+        brake_cell(cell_basis, cell_inv_mass, cell_bounds, cell_brakes, cell_dofs, cell_rate)
         # relative change of the sweep: sums per block of _BLOCK contacts, then in block order
         if parallel:
             for b in prange(n_blocks):
@@ -229,11 +243,13 @@ def _coloured_sweeps(
         if parallel:
             for b in prange(n_blocks):
                 _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins,
-                             wall_normals, wall_speeds, mu, shift, impulses, delassus, partial)
+                             wall_normals, wall_speeds, images, cell_rate, mu, shift,
+                             impulses, delassus, partial)
         else:
             for b in range(n_blocks):
                 _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins,
-                             wall_normals, wall_speeds, mu, shift, impulses, delassus, partial)
+                             wall_normals, wall_speeds, images, cell_rate, mu, shift,
+                             impulses, delassus, partial)
         wp_norm2, u_norm2, res2 = 0.0, 0.0, 0.0
         for b in range(n_blocks):
             wp_norm2 += partial[b, 0]
@@ -252,8 +268,9 @@ def _coloured_sweeps(
 def nlgs_coloured_kernel(
     body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
     wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
-    mu, gap, dt, colour_order, colour_offsets, n_parallel_colours, tolerance, max_iterations,
-    impulses, velocities, spins, wall_speeds, delassus, residuals,
+    mu, gap, dt, images, cell_fixed, cell_basis, cell_inv_mass, cell_free, cell_bounds,
+    colour_order, colour_offsets, n_parallel_colours, tolerance, max_iterations,
+    impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus, residuals,
 ):
     """Frictional unilateral contact problem on impulses by coloured (parallel) nonlinear
     Gauss-Seidel.
@@ -265,7 +282,8 @@ def nlgs_coloured_kernel(
     the groups are visited in order, the first ``n_parallel_colours`` each with ``prange``,
     the others in a plain loop (results do not depend on ``n_parallel_colours``; see
     :func:`parallel_colours`). Contacts of a parallel group must not share a body >= 0 nor
-    a mobile wall (the kernel does not check: a conflict would race).
+    a mobile wall, nor (with free cell degrees of freedom) have an image (the kernel does not
+    check: a conflict would race).
 
     Outputs: ``impulses`` (C, 3) local (P_n, P_t, P_s) [N s] (in: warm start; out: solution);
     ``velocities``, ``spins`` (N, 3) end-of-step velocities [m/s], [rad/s]; ``wall_speeds``
@@ -280,8 +298,12 @@ def nlgs_coloured_kernel(
     residuals[0] = 0.0
     residuals[1] = 0.0
     brakes = np.zeros(wall_speeds.shape[0])
+    cell_brakes = np.zeros(cell_dofs.shape[0])
+    start_cell(cell_fixed, cell_basis, cell_free, cell_dofs, cell_rate)
+    free_rate = cell_rate.copy()
     if n_contacts == 0:
         brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
+        brake_cell(cell_basis, cell_inv_mass, cell_bounds, cell_brakes, cell_dofs, cell_rate)
         return 0
     # gather the contacts into colour order (row m holds contact colour_order[m])
     c_body_i = np.empty(n_contacts, dtype=np.int64)
@@ -291,6 +313,7 @@ def nlgs_coloured_kernel(
     c_arm_j = np.empty((n_contacts, 3))
     c_mu = np.empty(n_contacts)
     c_gap = np.empty(n_contacts)
+    c_images = np.empty((n_contacts, 3))
     c_impulses = np.empty((n_contacts, 3))
     c_delassus = np.empty((n_contacts, 3, 3))
     for m in prange(n_contacts):
@@ -302,6 +325,7 @@ def nlgs_coloured_kernel(
         for a in range(3):
             c_arm_i[m, a] = arm_i[k, a]
             c_arm_j[m, a] = arm_j[k, a]
+            c_images[m, a] = images[k, a]
             c_impulses[m, a] = impulses[k, a]
             for b in range(3):
                 c_frame[m, a, b] = frame[k, a, b]
@@ -311,14 +335,15 @@ def nlgs_coloured_kernel(
         hi = min(lo + _BLOCK, n_contacts)
         delassus_kernel(c_body_i[lo:hi], c_body_j[lo:hi], c_frame[lo:hi], c_arm_i[lo:hi],
                         c_arm_j[lo:hi], inv_mass, inv_inertia, wall_normals, wall_inv_mass,
-                        c_delassus[lo:hi])
+                        c_images[lo:hi], cell_basis, cell_inv_mass, c_delassus[lo:hi])
     iterations = _coloured_sweeps(
         c_body_i, c_body_j, c_frame, c_arm_i, c_arm_j, inv_mass, inv_inertia, free_velocities,
         free_spins, wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
-        c_mu, c_gap, dt, colour_offsets, n_parallel_colours, tolerance, max_iterations,
-        c_impulses, velocities, spins, wall_speeds, c_delassus, residuals,
+        c_mu, c_gap, dt, c_images, cell_basis, cell_inv_mass, cell_bounds, free_rate,
+        colour_offsets, n_parallel_colours, tolerance, max_iterations,
+        c_impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, c_delassus, residuals,
         np.empty(n_contacts), np.zeros(n_contacts), np.zeros((n_blocks, 3)), brakes,
-        np.zeros(n_contacts, dtype=np.int64))
+        cell_brakes, np.zeros(n_contacts, dtype=np.int64))
     for m in prange(n_contacts):  # scatter back (a permutation: each row written once)
         k = colour_order[m]
         for a in range(3):

@@ -152,7 +152,7 @@ class Simulation:
         sample = self.sample
         self._check_finite()
         self._previous_velocities = sample.state.velocities.copy()
-        report = self.solver.step(sample.state, sample.library, sample.box)
+        report = self.solver.step(sample.state, sample.library, sample.boundary)
         self.step_index += 1
         self.time += self.solver.dt
         self.last_report = report
@@ -179,11 +179,13 @@ class Simulation:
         return done
 
     def _check_finite(self) -> None:
-        state, box = self.sample.state, self.sample.box
+        state, boundary = self.sample.state, self.sample.boundary
         where = f"at step {self.step_index} (t = {self.time:.6g} s)"
-        for name, array in (("positions", state.positions), ("velocities", state.velocities),
-                            ("angular velocities", state.angular_velocities),
-                            ("wall coordinates", box.coordinates)):
+        checked = [("positions", state.positions), ("velocities", state.velocities),
+                   ("angular velocities", state.angular_velocities)]
+        for name, array in boundary.health_arrays().items():
+            checked.append((name, array))
+        for name, array in checked:
             if not np.all(np.isfinite(array)):
                 rows = np.flatnonzero(~np.all(np.isfinite(array.reshape(len(array), -1)),
                                               axis=1))

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from grainlab.engine.boundary import BoundaryConstraints, BoundaryMotion, detect_in_space
 from grainlab.errors import InputError
 
 WALL_NAMES = ("x-", "x+", "y-", "y+", "z-", "z+")
@@ -233,8 +234,8 @@ class WallBox:
             raise InputError("max_speed", max_speed, "one number or six, > 0 m/s (inf: none)")
         self.max_speeds = values
 
-    def finish_step(self, speeds: np.ndarray, predicted: float, advance: float,
-                    reactions: np.ndarray) -> None:
+    def move(self, speeds: np.ndarray, predicted: float, advance: float,
+             reactions: np.ndarray) -> None:
         """End a step: move the walls by ``predicted`` [s] at their old speeds (to where
         :meth:`planes` put them for detection) and then by ``advance`` [s] at the end-of-step
         ``speeds`` (6,) [m/s]; record ``reactions`` (6,) [N]."""
@@ -251,6 +252,41 @@ class WallBox:
         """(3,) normal stresses [Pa] on x, y, z: mean of the two walls' R_w / A_w."""
         per_wall = self.reactions / self.face_areas
         return 0.5 * (per_wall[0::2] + per_wall[1::2])
+
+    # -- the boundary protocol (grainlab.engine.boundary) ---------------------------------------
+    def constraints(self, dt: float, theta: float) -> BoundaryConstraints:
+        """The walls over a step of ``dt`` [s]: planes where they are at the detection
+        configuration (moved by (1 - theta) dt at their speeds), inverse masses, free speeds,
+        speed limits, friction; ``speed`` the fastest a wall may move."""
+        points, normals = self.planes((1.0 - theta) * dt)
+        free = self.free_speeds(dt)
+        wall_max = np.ascontiguousarray(self.max_speeds, dtype=np.float64)
+        moving = np.minimum(np.abs(free), wall_max)
+        return BoundaryConstraints(
+            wall_points=points, wall_normals=normals, wall_inv_mass=self.inverse_masses(),
+            wall_free=free, wall_max=wall_max, wall_friction=self.friction,
+            speed=float(max(np.max(np.abs(self.speeds)), np.max(moving))))
+
+    def health_arrays(self) -> dict[str, np.ndarray]:
+        """Arrays that must stay finite (the simulation's health check)."""
+        return {"wall coordinates": self.coordinates}
+
+    def detect(self, predicted, library, phases, constraints):
+        """Contacts between the bodies and with the six walls (images all zero)."""
+        return detect_in_space(predicted, library, phases, constraints.wall_points,
+                               constraints.wall_normals)
+
+    def finish_step(self, motion: BoundaryMotion) -> None:
+        """Move the walls to the end of the step (:meth:`move`) and record the reactions:
+        the normal impulses of each wall's contacts / dt."""
+        contacts = motion.contacts
+        reactions = np.zeros(6)
+        on_wall = contacts.body_i < 0
+        if np.any(on_wall):
+            np.add.at(reactions, -1 - contacts.body_i[on_wall],
+                      motion.impulses[on_wall, 0] / motion.dt)
+        self.move(motion.wall_speeds, (1.0 - motion.theta) * motion.dt,
+                  motion.theta * motion.dt, reactions)
 
     # -- persistence -------------------------------------------------------------------------
     def to_arrays(self) -> dict[str, np.ndarray]:
