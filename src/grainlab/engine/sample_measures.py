@@ -299,19 +299,86 @@ def sample_measures(report: StepReport, state: BodyState, library: ShapeLibrary,
     figures) and the contact network it was computed from."""
     volume = box.volume
     stress = contact_stress(report, state, volume, dt)
+    wall = box.wall_stress
+    extra = {f"wall_sigma_{label}": float(value)
+             for label, value in zip(("xx", "yy", "zz"), wall, strict=True)}
+    strains = box_strains(initial_lengths, box.lengths)
+    rate = float(np.max(np.abs(box.speeds[0::2] + box.speeds[1::2]) / box.lengths))
+    return _measures(report, state, library, volume, stress, extra, strains, rate, dt,
+                     friction, core=(box.lower, box.upper))
+
+
+def cell_strains(deformation: np.ndarray) -> dict[str, float]:
+    """The strain columns of a periodic cell deformed by F (3, 3) from its reference:
+    logarithmic (Hencky) strain eps = -ln(F F^T)/2, compression positive, normal
+    components, engineering shears gamma = 2 eps_ab, eps_vol and eps_q [-] (for a
+    box-shaped F the same as :func:`box_strains`)."""
+    f = np.asarray(deformation, dtype=np.float64)
+    values, vectors = np.linalg.eigh(f @ f.T)
+    strain = -0.5 * (vectors * np.log(values)) @ vectors.T
+    row = {f"eps_{label}": float(strain[a, a]) for a, label in enumerate(("xx", "yy", "zz"))}
+    for label, (a, b) in (("yz", (1, 2)), ("xz", (0, 2)), ("xy", (0, 1))):
+        row[f"gamma_{label}"] = float(2.0 * strain[a, b])
+    row.update(strain_invariants(strain))
+    return row
+
+
+def cell_stress(report: StepReport, state: BodyState, matrix: np.ndarray, rate: np.ndarray,
+                dt: float) -> np.ndarray:
+    """(3, 3) stress [Pa] of a sample in a periodic cell h = ``matrix`` [m] deforming at
+    hdot = ``rate`` [m/s], compression positive: the contacts' (1/V) sum l (x) f with the
+    branch vectors l = x_j + h m_k - x_i through the images, plus the kinetic term
+    (1/V) sum m v' (x) v' of the velocities v' relative to the mean field hdot h^-1 (x - x_c)
+    (x_c the centre of mass); symmetrised."""
+    volume = float(np.linalg.det(matrix))
+    contacts = report.contacts
+    moment = np.zeros((3, 3))
+    if contacts.n_contacts:
+        f = world_forces(report, dt)
+        x = state.positions
+        branch = x[contacts.body_j] + report.image_vectors @ np.asarray(matrix).T \
+            - x[contacts.body_i]
+        moment += np.einsum("ci,cj->ij", branch, f)
+    centre = np.average(state.positions, axis=0, weights=state.masses)
+    mean_field = (state.positions - centre) @ (np.asarray(rate) @ np.linalg.inv(matrix)).T
+    fluctuation = state.velocities - mean_field
+    moment += np.einsum("n,ni,nj->ij", state.masses, fluctuation, fluctuation)
+    moment /= volume
+    return 0.5 * (moment + moment.T)
+
+
+def cell_measures(report: StepReport, state: BodyState, library: ShapeLibrary, cell,
+                  dt: float, friction: float) -> tuple[dict[str, float], ContactNetwork]:
+    """One results row of a sample in a periodic cell
+    (:class:`~grainlab.engine.periodic_boundary.PeriodicCell`): the columns of
+    :func:`sample_measures` with the stress of :func:`cell_stress`, the strains of
+    :func:`cell_strains` and the inertia number from the cell's largest strain rate (the
+    largest eigenvalue magnitude of the symmetric velocity gradient); every particle is core
+    (no walls)."""
+    stress = cell_stress(report, state, cell.matrix, cell.rate, dt)
+    strains = cell_strains(cell.deformation_gradient())
+    gradient = cell.gradient
+    rate = float(np.max(np.abs(np.linalg.eigvalsh(0.5 * (gradient + gradient.T)))))
+    extra = {f"cell_sigma_{label}": float(cell.boundary_stress[a, b]) for label, (a, b) in
+             zip(("xx", "yy", "zz", "yz", "xz", "xy"),
+                 ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)), strict=True)}
+    return _measures(report, state, library, cell.volume, stress, extra, strains, rate, dt,
+                     friction, core=None)
+
+
+def _measures(report, state, library, volume, stress, extra, strains, rate, dt, friction,
+              core) -> tuple[dict[str, float], ContactNetwork]:
+    """The row shared by the wall box and the periodic cell."""
     row: dict[str, float] = {}
     for label, (i, j) in zip(("xx", "yy", "zz", "yz", "xz", "xy"),
                              ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)), strict=True):
         row[f"sigma_{label}"] = float(stress[i, j])
-    wall = box.wall_stress
-    for label, value in zip(("xx", "yy", "zz"), wall, strict=True):
-        row[f"wall_sigma_{label}"] = float(value)
+    row.update(extra)
     row.update(stress_invariants(stress))
-    row.update(box_strains(initial_lengths, box.lengths))
-    rates = np.abs(box.speeds[0::2] + box.speeds[1::2]) / box.lengths
+    row.update(strains)
     mean_d = float(2.0 * np.mean(library.bounding_radius[state.shape_ids]))
     p = row["p"]
-    row["inertia_number"] = float(np.max(rates) * mean_d * np.sqrt(state.density / p)) \
+    row["inertia_number"] = float(rate * mean_d * np.sqrt(state.density / p)) \
         if p > 0.0 else float("nan")
     network, solver_points = _contact_network(report, state, library, volume, dt, friction)
     connectivity = Connectivity().compute(network)
@@ -323,7 +390,10 @@ def sample_measures(report: StepReport, state: BodyState, library: ShapeLibrary,
     row["rattler_fraction"] = float(connectivity.rattler_fraction)
     if network.pair_types is not None and network.type_names == PAIR_TYPE_NAMES:
         row.update(polyhedron_connectivity(network, connectivity, solver_points))
-    row.update(core_connectivity(network, box.lower, box.upper, mean_d))
+    if core is not None:
+        row.update(core_connectivity(network, core[0], core[1], mean_d))
+    else:
+        row["z_core"], row["z_c_core"] = row["z"], row["z_c"]
     row["z_mechanical"] = mechanical_coordination(report, state.n_bodies,
                                                   4 if friction == 0.0 else 2)
     row["n_contacts"] = float(report.n_contacts)

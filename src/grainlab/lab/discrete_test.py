@@ -273,7 +273,7 @@ class DiscreteTest:
         self.sample = sample
         self.path = path
         self.settings = settings or DiscreteTestSettings()
-        self.stages: list[WallStage] = wall_stages(path)
+        self.stages: list[WallStage] = self.load_stages(path)
         self.reports_k0 = any(stage.oedometric for stage in self.stages)
         self.on_record = on_record
         self.on_snapshot = on_snapshot
@@ -308,6 +308,10 @@ class DiscreteTest:
         self.simulation.add(_StageControl(self))
         self.simulation.add(_Recorder(self, Periodic(s.record_every)))
 
+    def load_stages(self, path: LoadPath) -> list[WallStage]:
+        """The path's stages as this test's boundary runs them (walls here)."""
+        return wall_stages(path)
+
     # -- stage logic --------------------------------------------------------------------------
     @property
     def stage(self) -> WallStage | None:
@@ -319,6 +323,10 @@ class DiscreteTest:
                   if math.isfinite(stage.targets[a])]
         if values:
             return max(values)
+        return self._confining_from_rows(stage)
+
+    def _confining_from_rows(self, stage) -> float:
+        """The mean stress of the last record [Pa] (a stage without a stress target)."""
         p = self.rows[-1]["p"] if self.rows else math.nan
         if not (math.isfinite(p) and p > 0.0):
             raise InputError(f"stage {stage.name!r}", "no stress reference",
@@ -671,9 +679,7 @@ class DiscreteTest:
         sim = self.simulation
         report = sim.last_report
         assert report is not None
-        row, network = sample_measures(report, self.sample.state, self.sample.library,
-                                       self.sample.box, self.reference_lengths,
-                                       self.solver.dt, self.solver.friction)
+        row, network = self.measures()
         net = np.linalg.norm(sim.net_forces(), axis=1)
         normal_forces = report.impulses[:, 0] / self.solver.dt
         loaded = normal_forces[normal_forces > 0.0]
@@ -701,6 +707,13 @@ class DiscreteTest:
         if self.on_record is not None:
             self.on_record(self, full)
         return full
+
+    def measures(self):
+        """The results row and contact network of the sample now
+        (:func:`~grainlab.engine.sample_measures.sample_measures`)."""
+        return sample_measures(self.simulation.last_report, self.sample.state,
+                               self.sample.library, self.sample.box, self.reference_lengths,
+                               self.solver.dt, self.solver.friction)
 
     def _snapshot(self, network, full: dict[str, Any]) -> None:
         network.state.update({k: v for k, v in full.items() if k != "stage"})

@@ -64,6 +64,18 @@ COLUMNS: dict[str, Column] = _columns(
     ("wall_sigma_xx", "Pa", "wall reaction over the face area, x walls (discrete samples)"),
     ("wall_sigma_yy", "Pa", "wall reaction over the face area, y walls (discrete samples)"),
     ("wall_sigma_zz", "Pa", "wall reaction over the face area, z walls (discrete samples)"),
+    ("cell_sigma_xx", "Pa", "stress xx the contacts with images carry across the "
+                             "periodic cell's faces"),
+    ("cell_sigma_yy", "Pa", "stress yy the contacts with images carry across the "
+                             "periodic cell's faces"),
+    ("cell_sigma_zz", "Pa", "stress zz the contacts with images carry across the "
+                             "periodic cell's faces"),
+    ("cell_sigma_yz", "Pa", "stress yz the contacts with images carry across the "
+                             "periodic cell's faces"),
+    ("cell_sigma_xz", "Pa", "stress xz the contacts with images carry across the "
+                             "periodic cell's faces"),
+    ("cell_sigma_xy", "Pa", "stress xy the contacts with images carry across the "
+                             "periodic cell's faces"),
     ("sigma_1", "Pa", "major principal stress"),
     ("sigma_2", "Pa", "intermediate principal stress (3D only)"),
     ("sigma_3", "Pa", "minor principal stress"),

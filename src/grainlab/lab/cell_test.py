@@ -1,0 +1,254 @@
+"""A load path run on a discrete sample in a periodic deformable cell
+(:mod:`grainlab.engine.periodic_boundary`, :mod:`grainlab.lab.cell_stages`).
+
+:class:`CellTest` is a :class:`~grainlab.lab.discrete_test.DiscreteTest` whose boundary is
+the cell: the same settings, records, snapshots, stage ends, outcome and checkpoints, with
+the stage controls of the cell instead of walls:
+
+* the largest strain rate e_max of a stage comes from the bound on the inertia number at the
+  stage's reference stress (the largest compressive stress target, else the mean stress
+  reached), as in the wall box; the time step is ``time_step_factor`` x d_min / (e_max L),
+  L the cell's largest width (the speed at which the cell's faces move, as the walls');
+* every step the cell gets the prescribed velocity gradient and the stress-controlled
+  directions and targets of the stage at its progress lambda (:class:`~grainlab.lab.
+  cell_stages.CellStage`); the servo is the cell's (gain, bounds: :mod:`grainlab.engine.
+  periodic_boundary`);
+* a strain-driven stage ends when lambda reaches its steps (the last time step cut to land
+  on it); a stress-driven stage with end targets ends once quasi-static: the generalised
+  stresses the cell's image contacts carry within ``quasi_static.stress_tolerance`` x the
+  reference stress of their targets, the contact stress's p within the same of the
+  boundary's, and the unbalanced force and kinetic energy criteria; a stepped one moves on
+  each time its targets are met and ends at its last;
+* strains are the Hencky strains of the cell's deformation gradient from the reference cell
+  (the cell at the end of the last stress-driven stage), compression positive
+  (:func:`~grainlab.engine.sample_measures.cell_strains`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from grainlab.engine.sample_measures import cell_measures
+from grainlab.lab.cell_stages import CellStage, cell_stages
+from grainlab.lab.discrete_test import (
+    MAX_STEPS_REASON,
+    RECOVERY_SPEED_FRACTION,
+    TARGET_MARGIN,
+    DiscreteTest,
+    _stop_reason,
+    time_step_length,
+)
+from grainlab.lab.load_path import LoadPath
+
+
+class CellTest(DiscreteTest):
+    """A load path on a discrete sample in a periodic cell (module docstring)."""
+
+    def __init__(self, sample, path: LoadPath, settings=None, **callbacks) -> None:
+        self.progress = 0.0
+        self.reference_stress = 1.0
+        self.stage_start_stress = np.zeros(6)
+        super().__init__(sample, path, settings, **callbacks)
+
+    def load_stages(self, path: LoadPath) -> list[CellStage]:
+        """The path's stages as cell controls (refuses what rigid grains cannot follow)."""
+        return cell_stages(path)
+
+    # -- stage logic -----------------------------------------------------------------------------
+    def _confining(self, stage: CellStage) -> float:
+        start = self._generalised_stress(stage, 0.0)
+        goals = stage.targets(start, float(stage.n_steps))[stage.stress_controlled]
+        normal = [g for g in goals if g > 0.0]
+        if normal:
+            return float(max(normal))
+        return super()._confining_from_rows(stage)
+
+    def _generalised_stress(self, stage: CellStage, progress: float) -> np.ndarray:
+        """c = B sigma of the last recorded contact stress (zeros before any record)."""
+        if not self.rows:
+            return np.zeros(6)
+        row = self.rows[-1]
+        sigma = np.array([[row["sigma_xx"], row["sigma_xy"], row["sigma_xz"]],
+                          [row["sigma_xy"], row["sigma_yy"], row["sigma_yz"]],
+                          [row["sigma_xz"], row["sigma_yz"], row["sigma_zz"]]])
+        return stage.conjugate(sigma, progress)
+
+    def start_stage(self) -> None:
+        """Set the cell's control, friction, strain rate and time step of the current
+        stage."""
+        stage = self.stage
+        assert stage is not None
+        s = self.settings
+        cell = self.sample.boundary
+        p_ref = self._confining(stage)
+        inertia = s.inertia_number if stage.moving_axes else s.compaction_inertia_number
+        self.strain_rate = inertia * math.sqrt(p_ref / self.sample.state.density) / \
+            self.sample.mean_diameter
+        self.reference_stress = p_ref
+        self.stage_start_stress = self._generalised_stress(stage, 0.0)
+        self.progress = 0.0
+        self.stage_wall_speed = self.strain_rate * float(cell.widths.max())  # [m/s]
+        self.stage_start_step = self.simulation.step_index
+        self.stage_start_unconverged = self.simulation.unconverged_steps
+        self.stage_start_lengths = cell.widths.copy()
+        self._stage_numerics()
+        self._control()
+        self.stage_started = True
+
+    def _stage_numerics(self) -> None:
+        stage, s = self.stage, self.settings
+        moving = stage.moving_axes
+        self.solver.friction = s.friction if moving else s.compaction_friction
+        self.solver.max_iterations = s.max_iterations if moving else \
+            s.compaction_max_iterations
+        self.solver.overlap_recovery = s.overlap_recovery if moving else 0.0
+        self.solver.tolerance = s.tolerance if moving else s.compaction_tolerance
+        v_max = self.stage_wall_speed
+        self.solver.overlap_recovery_speed = RECOVERY_SPEED_FRACTION * v_max
+        if s.dt is None:
+            factor = s.time_step_factor if moving else s.compaction_time_step_factor
+            self.stage_dt = factor * time_step_length(self.sample.library) / v_max
+        else:
+            self.stage_dt = s.dt
+        self.solver.dt = self._last_step(self.stage_dt)
+
+    def _rate(self) -> float:
+        stage = self.stage
+        return stage.progress_rate(self.strain_rate) if stage.strain_driven else 0.0
+
+    def _control(self) -> None:
+        """The cell's control at the progress the coming step ends at."""
+        stage = self.stage
+        rate = self._rate()
+        ahead = min(self.progress + rate * self.solver.dt, float(stage.n_steps)) \
+            if stage.strain_driven else self.progress
+        middle = 0.5 * (self.progress + ahead)
+        fixed, directions = stage.gradients(middle, rate)
+        goals = stage.targets(self.stage_start_stress, ahead if stage.strain_driven
+                              else self._stepped_target())[stage.stress_controlled]
+        self.sample.boundary.set_control(fixed, directions, goals, self.reference_stress,
+                                         self.strain_rate)
+
+    def _stepped_target(self) -> float:
+        """The step whose targets a stress-driven stage aims at now."""
+        return min(math.floor(self.progress) + 1.0, float(self.stage.n_steps))
+
+    def drive(self) -> None:
+        """Advance the stage's progress by the step just done, then set the cell for the
+        next step (its length cut to land on the end of a strain-driven stage)."""
+        stage = self.stage
+        if stage is None:
+            return
+        if stage.strain_driven:
+            self.progress = min(self.progress + self._rate() * self.solver.dt,
+                                float(stage.n_steps))
+        elif stage.stage.stress_mode != "target" and self._targets_met():
+            self.progress = self._stepped_target()
+        dt = self.stage_dt
+        if self.adaptive_step and self.settings.dt is None:
+            dt = min(dt, self._particle_speed_step())
+        self.solver.dt = self._last_step(dt)
+        self._control()
+
+    def _targets_met(self) -> bool:
+        """Whether the image contacts carry the current targets (within the quasi-static
+        stress tolerance of the reference stress)."""
+        cell = self.sample.boundary
+        measured = cell.conjugate_stress(cell.boundary_stress)
+        tolerance = self.settings.quasi_static.stress_tolerance * self.reference_stress
+        return bool(np.all(np.abs(measured - cell.targets) <= tolerance))
+
+    def _last_step(self, dt: float) -> float:
+        stage = self.stage
+        if stage is None or not stage.strain_driven:
+            return dt
+        rate = self._rate()
+        left = float(stage.n_steps) - self.progress + TARGET_MARGIN
+        return min(dt, left / rate) if left / rate > 0.0 else dt
+
+    def wall_end(self) -> tuple[bool, str]:
+        """Whether the stage ends now: a stop criterion on a strain column, the end of a
+        strain-driven or stepped stage, ``max_stage_steps``."""
+        stage = self.stage
+        assert stage is not None
+        strains = self.wall_strains()
+        for criterion in stage.stop:
+            if criterion.quantity in strains and criterion.met(strains):
+                return True, _stop_reason(criterion)
+        if stage.strain_driven and self.progress >= stage.n_steps:
+            return True, "strain reached"
+        if not stage.strain_driven and stage.stage.stress_mode != "target" \
+                and self.progress >= stage.n_steps and self._targets_met():
+            return True, "stress path done"
+        if self.simulation.step_index - self.stage_start_step >= self.settings.max_stage_steps:
+            return True, MAX_STEPS_REASON
+        return False, ""
+
+    def stage_done(self, row: dict[str, Any]) -> tuple[bool, str]:
+        stage = self.stage
+        assert stage is not None
+        for criterion in stage.stop:
+            if criterion.met(row):
+                return True, _stop_reason(criterion)
+        done, reason = self.wall_end()
+        if done:
+            return done, reason
+        if not stage.strain_driven and stage.stage.stress_mode == "target" \
+                and self._quasi_static(row):
+            return True, "quasi-static"
+        return False, ""
+
+    def _quasi_static(self, row: dict[str, Any]) -> bool:
+        criteria = self.settings.quasi_static
+        if not self._targets_met():
+            return False
+        cell_p = (row["cell_sigma_xx"] + row["cell_sigma_yy"] + row["cell_sigma_zz"]) / 3.0
+        if not cell_p > 0 or abs(row["p"] - cell_p) > criteria.stress_tolerance * cell_p:
+            return False
+        return (row["unbalanced_force_ratio"] <= criteria.unbalanced_force
+                and row["kinetic_energy_ratio"] <= criteria.kinetic_energy)
+
+    def end_stage(self, reason: str, ended: str = "reached") -> None:
+        if self.stage is not None and not self.stage.moving_axes:
+            self.sample.boundary.set_reference()
+        super().end_stage(reason, ended)
+
+    # -- strains and records ---------------------------------------------------------------------
+    def wall_strains(self, lengths: np.ndarray | None = None) -> dict[str, float]:
+        """The strain columns of the cell now (Hencky, from the reference cell)."""
+        from grainlab.engine.sample_measures import cell_strains
+
+        return cell_strains(self.sample.boundary.deformation_gradient())
+
+    def _stage_strains(self) -> np.ndarray:
+        return np.zeros(3)
+
+    def box_limits(self, reference: np.ndarray) -> np.ndarray:
+        """No walls: the cell's thickness is checked at each detection."""
+        return np.zeros(3)
+
+    def predicted_flattening(self) -> list:
+        """No walls to flatten (the detection refuses a cell thinner than three
+        interaction ranges)."""
+        return []
+
+    def measures(self):
+        """The row and network of the cell now."""
+        report = self.simulation.last_report
+        return cell_measures(report, self.sample.state, self.sample.library,
+                             self.sample.boundary, self.solver.dt, self.solver.friction)
+
+    def progress_arrays(self) -> dict[str, Any]:
+        data = super().progress_arrays()
+        data.update({"progress": self.progress, "reference_stress": self.reference_stress,
+                     "stage_start_stress": self.stage_start_stress.copy()})
+        return data
+
+    def restore_progress(self, data: dict[str, Any]) -> None:
+        super().restore_progress(data)
+        self.progress = float(data["progress"])
+        self.reference_stress = float(data["reference_stress"])
+        self.stage_start_stress = np.asarray(data["stage_start_stress"], dtype=float)
