@@ -109,7 +109,7 @@ def _servo_run(library, state, matrix, steps=8, rotation=None, origin=None, move
 
 def test_results_do_not_depend_on_origin_primary_image_or_rotation():
     library, state, matrix = lattice_sample(seed=3)
-    stress, cell, report = _servo_run(library, state, matrix)
+    stress, _, report = _servo_run(library, state, matrix)
     assert report.n_contacts > 0 and np.any(report.image_vectors != 0)
     scale = np.abs(stress).max()
     assert scale > 0

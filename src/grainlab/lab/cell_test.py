@@ -35,7 +35,9 @@ from grainlab.engine.sample_measures import cell_measures
 from grainlab.lab.cell_stages import CellStage, cell_stages
 from grainlab.lab.discrete_test import (
     MAX_STEPS_REASON,
+    THIN_BOX,
     RECOVERY_SPEED_FRACTION,
+    SHORTEST_CUT,
     TARGET_MARGIN,
     DiscreteTest,
     _stop_reason,
@@ -44,11 +46,16 @@ from grainlab.lab.discrete_test import (
 from grainlab.lab.load_path import LoadPath
 
 
+THIN_CELL_MARGIN = 1.05
+"""A stage stops when a width of the cell is within 5 % of the detection's limit."""
+
+
 class CellTest(DiscreteTest):
     """A load path on a discrete sample in a periodic cell (module docstring)."""
 
     def __init__(self, sample, path: LoadPath, settings=None, **callbacks) -> None:
         self.progress = 0.0
+        self.progress_step = 0
         self.reference_stress = 1.0
         self.stage_start_stress = np.zeros(6)
         super().__init__(sample, path, settings, **callbacks)
@@ -90,6 +97,7 @@ class CellTest(DiscreteTest):
         self.reference_stress = p_ref
         self.stage_start_stress = self._generalised_stress(stage, 0.0)
         self.progress = 0.0
+        self.progress_step = self.simulation.step_index
         self.stage_wall_speed = self.strain_rate * float(cell.widths.max())  # [m/s]
         self.stage_start_step = self.simulation.step_index
         self.stage_start_unconverged = self.simulation.unconverged_steps
@@ -142,16 +150,26 @@ class CellTest(DiscreteTest):
         stage = self.stage
         if stage is None:
             return
-        if stage.strain_driven:
-            self.progress = min(self.progress + self._rate() * self.solver.dt,
-                                float(stage.n_steps))
-        elif stage.stage.stress_mode != "target" and self._targets_met():
-            self.progress = self._stepped_target()
+        self._advance()
         dt = self.stage_dt
         if self.adaptive_step and self.settings.dt is None:
             dt = min(dt, self._particle_speed_step())
         self.solver.dt = self._last_step(dt)
         self._control()
+
+    def _advance(self) -> None:
+        """Move the stage's progress on by the steps done since it last moved (once per
+        step, whoever asks first: the stage end checks or the drive)."""
+        step = self.simulation.step_index
+        if step == self.progress_step:
+            return
+        self.progress_step = step
+        stage = self.stage
+        if stage.strain_driven:
+            self.progress = min(self.progress + self._rate() * self.solver.dt,
+                                float(stage.n_steps))
+        elif stage.stage.stress_mode != "target" and self._targets_met():
+            self.progress = self._stepped_target()
 
     def _targets_met(self) -> bool:
         """Whether the image contacts carry the current targets (within the quasi-static
@@ -166,14 +184,17 @@ class CellTest(DiscreteTest):
         if stage is None or not stage.strain_driven:
             return dt
         rate = self._rate()
-        left = float(stage.n_steps) - self.progress + TARGET_MARGIN
-        return min(dt, left / rate) if left / rate > 0.0 else dt
+        cut = (float(stage.n_steps) - self.progress + TARGET_MARGIN) / rate
+        # a step within SHORTEST_CUT of the end finishes the stage (no sliver of a step,
+        # whose forces P / dt would be meaningless)
+        return cut if 0.0 < cut <= dt * (1.0 + SHORTEST_CUT) else dt
 
     def wall_end(self) -> tuple[bool, str]:
         """Whether the stage ends now: a stop criterion on a strain column, the end of a
         strain-driven or stepped stage, ``max_stage_steps``."""
         stage = self.stage
         assert stage is not None
+        self._advance()
         strains = self.wall_strains()
         for criterion in stage.stop:
             if criterion.quantity in strains and criterion.met(strains):
@@ -183,9 +204,29 @@ class CellTest(DiscreteTest):
         if not stage.strain_driven and stage.stage.stress_mode != "target" \
                 and self.progress >= stage.n_steps and self._targets_met():
             return True, "stress path done"
+        thin = self._thin_cell()
+        if thin:
+            return True, thin
         if self.simulation.step_index - self.stage_start_step >= self.settings.max_stage_steps:
             return True, MAX_STEPS_REASON
         return False, ""
+
+    def _thin_cell(self) -> str:
+        """The diagnosis when the cell is about to get thinner than the detection allows
+        (three interaction ranges 2 r_max + alert, with :data:`THIN_CELL_MARGIN`), else
+        ""."""
+        cell = self.sample.boundary
+        alert = self.solver.alert or 0.0
+        limit = THIN_CELL_MARGIN * 3.0 * (self.largest_diameter + alert)
+        widths = cell.widths
+        axis = int(np.argmin(widths))
+        if widths[axis] >= limit:
+            return ""
+        return (f"{THIN_BOX}: the periodic cell is {widths[axis] * 1e3:.4g} mm across its "
+                f"faces along axis {axis}, {widths[axis] / self.largest_diameter:.2f} largest "
+                f"particle diameters (at least {limit * 1e3:.4g} mm: three interaction ranges, "
+                "so that no pair touches through two images); use more particles or a cell "
+                "longer along that axis (sample aspect)")
 
     def stage_done(self, row: dict[str, Any]) -> tuple[bool, str]:
         stage = self.stage
@@ -243,12 +284,14 @@ class CellTest(DiscreteTest):
 
     def progress_arrays(self) -> dict[str, Any]:
         data = super().progress_arrays()
-        data.update({"progress": self.progress, "reference_stress": self.reference_stress,
+        data.update({"progress": self.progress, "progress_step": self.progress_step,
+                     "reference_stress": self.reference_stress,
                      "stage_start_stress": self.stage_start_stress.copy()})
         return data
 
     def restore_progress(self, data: dict[str, Any]) -> None:
         super().restore_progress(data)
         self.progress = float(data["progress"])
+        self.progress_step = int(data["progress_step"])
         self.reference_stress = float(data["reference_stress"])
         self.stage_start_stress = np.asarray(data["stage_start_stress"], dtype=float)

@@ -41,6 +41,7 @@ import numpy as np
 from grainlab._validate import at_least
 from grainlab._validate import seed as check_seed
 from grainlab.engine.discrete_sample import DiscreteSample
+from grainlab.engine.periodic_boundary import PeriodicCell
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
 from grainlab.errors import InputError
@@ -181,9 +182,10 @@ def loose_sample(
     size_ratio: float = 2.0, eta: float = 0.4, n_faces: int = 30, templates: int = 0,
     density: float = 2600.0,
     packing_fraction: float = 0.2, aspect: tuple[float, float, float] = (1.0, 1.0, 1.0),
-    wall_friction: float = 0.0, seed: int = 0,
+    wall_friction: float = 0.0, seed: int = 0, boundary: str = "walls",
 ) -> DiscreteSample:
-    """A loose random sample in a box of fixed walls (module docstring).
+    """A loose random sample in a box of fixed walls or in a periodic cell (module
+    docstring).
 
     Parameters
     ----------
@@ -208,6 +210,10 @@ def loose_sample(
         Fraction of the box filled by the bounding spheres, in (0, 0.35].
     aspect:
         Box side ratios (x, y, z).
+    boundary:
+        ``"walls"`` (a box of six fixed walls, :class:`~grainlab.engine.wall_box.WallBox`)
+        or ``"periodic"`` (a periodic cell of the same box,
+        :class:`~grainlab.engine.periodic_boundary.PeriodicCell`).
     wall_friction:
         Coulomb coefficient of the walls (seed 002: 0).
     seed:
@@ -266,6 +272,13 @@ def loose_sample(
     box = WallBox(np.zeros(3), side, friction=at_least("wall_friction", wall_friction,
                                                          strict=False))
     box.set_masses(float(np.sum(state.masses)))
+    if boundary == "periodic":
+        # the centres lie at least a radius inside every face: no overlap across the faces
+        box = PeriodicCell(np.diag(side))
+    elif boundary != "walls":
+        raise InputError("boundary", boundary, '"walls" or "periodic"')
+    if boundary == "periodic":
+        description["boundary"] = boundary
     description.update({"n_particles": int(n_particles), "d_min": d_min,
                         "d_max": ratio * d_min, "density": density,
                         "initial_packing_fraction": phi, "seed": int(seed)})
