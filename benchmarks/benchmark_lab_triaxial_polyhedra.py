@@ -38,7 +38,7 @@ def polyhedra_run(n: int, faces: int, eps_q: float, templates: int, max_iteratio
         "sample": {"shape": "polyhedron", "n_particles": n, "n_faces": faces,
                    "templates": templates, "seed": seed},
         "test": {"kind": "triaxial", "eps_q_max": eps_q},
-        "solver": {"max_iterations": max_iterations},
+        "solver": {"shear": {"max_iterations": max_iterations}},
         "output": {"checkpoint_every": 0}})
     start = time.perf_counter()
     run = start_run(folder, config, overwrite=True)

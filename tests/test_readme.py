@@ -31,8 +31,8 @@ SMALLER = (
 )
 """(pattern, replacement) making a README command small."""
 
-FAST_POLYHEDRA = {"solver": {"compaction_inertia_number": 0.05,
-                             "compaction_time_step_factor": 0.02}}
+FAST_POLYHEDRA = {"solver": {"compaction": {"inertia_number": 0.05,
+                                            "time_step_factor": 0.02}}}
 """A quicker compaction for the polyhedra commands (a test setting, passed with --config)."""
 
 

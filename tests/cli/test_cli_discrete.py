@@ -6,6 +6,8 @@ import pytest
 from typer.testing import CliRunner
 
 from grainlab.cli.main import app
+from grainlab.lab.run_config import RunConfig
+from grainlab.lab.stage_numerics import SHEAR
 from grainlab.result.test_result import read_test_result
 
 runner = CliRunner()
@@ -72,3 +74,22 @@ def test_bad_input_is_one_message_naming_the_field(tmp_path, arguments, field):
                            if arguments[0] != "resume" else arguments)
     assert result.exit_code == 2, result.output
     assert field in result.output and "Traceback" not in result.output
+
+
+def test_the_solver_options_set_the_numerics_of_the_stages_the_command_runs(tmp_path):
+    out = tmp_path / "compaction"
+    result = runner.invoke(app, ["compaction", "-n", "8", "--seed", "1", "--tolerance", "2e-4",
+                                 "--sweep", "serial", "--out", str(out), "--no-progress"])
+    assert result.exit_code == 0, result.output
+    solver = RunConfig.read(out / "config.toml").solver
+    assert solver.compaction.tolerance == 2e-4 and solver.shear.tolerance == SHEAR.tolerance
+    texts = {}
+    for command in ("triaxial", "compaction", "resume"):
+        shown = runner.invoke(app, [command, "--help"], env={"COLUMNS": "200"}).output
+        texts[command] = " ".join(shown.replace("│", " ").split())
+    for key in ("solver.shear.friction", "solver.shear.tolerance", "solver.shear.inertia_number",
+                "solver.shear.max_iterations", "solver.compaction.tolerance"):
+        assert key in texts["triaxial"], key
+    assert "(solver.compaction.tolerance)" in texts["compaction"]
+    assert "solver.shear.tolerance=1e-5" in texts["resume"]
+    assert "solver.compaction.KEY and solver.shear.KEY" in texts["resume"]

@@ -15,8 +15,8 @@ runner = CliRunner()
 def test_polyhedron_triaxial_from_the_command_line(tmp_path):
     out = tmp_path / "poly"
     # a faster compaction than the defaults (a few seconds in all)
-    RunConfig.model_validate({"solver": {"compaction_inertia_number": 0.05,
-                                         "compaction_time_step_factor": 0.02}}
+    RunConfig.model_validate({"solver": {"compaction": {"inertia_number": 0.05,
+                                                        "time_step_factor": 0.02}}}
                              ).write(tmp_path / "fast.toml")
     result = runner.invoke(app, [
         "triaxial", "--out", str(out), "--config", str(tmp_path / "fast.toml"), "--shape",

@@ -140,7 +140,7 @@ def test_a_read_only_folder_is_named(tmp_path):
 @pytest.mark.parametrize("arguments, named, absent", [
     (["--seed", "-1"], ("--seed", "-1"), ("ValueError",)),
     (["--sigma0", "inf"], ("--sigma0", "Pa"), ("p_final",)),
-    (["--mu", "inf"], ("--mu",), ("solver.friction", "friction =")),
+    (["--mu", "inf"], ("--mu",), ("solver.shear.friction", "friction =")),
     (["--size-ratio", "inf"], ("--size-ratio", ">= 1"), ("> 0",)),
     (["-n", "2"], ("--n-particles", "2"), ("packing_fraction =", "'too high'")),
     (["--shape", "polyhedron", "--faces", "100000"], ("--faces", "1000"), ()),
@@ -150,11 +150,16 @@ def test_discrete_options_are_named_as_typed(tmp_path, arguments, named, absent)
             absent=absent)
 
 
-def test_a_value_from_the_config_file_is_named_by_its_key(tmp_path):
+@pytest.mark.parametrize("text, key", [
+    ("[solver.shear]\nfriction = -1.0\n", "solver.shear.friction"),
+    ("[solver.compaction]\ninertia_number = 2.0\n", "solver.compaction.inertia_number"),
+    ("[solver]\nfriction = -1.0\n", "solver.friction"),  # the earlier layout, as written
+])
+def test_a_value_from_the_config_file_is_named_by_its_key(tmp_path, text, key):
     config = tmp_path / "c.toml"
-    config.write_text("[solver]\nfriction = -1.0\n")
+    config.write_text(text)
     refused("triaxial", "--config", config, "--out", tmp_path / "run",
-            named=("solver.friction", str(config)))
+            named=(f"{key} (in {config})",))
 
 
 @pytest.mark.parametrize("arguments, named", [

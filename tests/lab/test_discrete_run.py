@@ -33,8 +33,8 @@ SMALL = {
     # no overlap recovery and a compaction solved as tightly as the shear: on 40 particles the
     # recovery's push makes the lateral walls' reactions fluctuate by ~10 % from record to
     # record (1 % without), which the wall-stress checks below would confuse with control
-    "solver": {"compaction_inertia_number": 0.05, "inertia_number": 0.01, "sweep": "serial",
-               "overlap_recovery": 0.0, "compaction_max_iterations": 400},
+    "solver": {"sweep": "serial", "compaction": {"inertia_number": 0.05, "max_iterations": 400},
+               "shear": {"inertia_number": 0.01, "overlap_recovery": 0.0}},
     "output": {"record_every": 20, "checkpoint_every": 100, "snapshot_every": 100},
 }
 
@@ -116,8 +116,8 @@ def test_unknown_key_and_bad_values_name_the_field(tmp_path):
     (tmp_path / "bad.toml").write_text("[sample]\nn_particle = 10\n")
     with pytest.raises(InputError, match=r"sample\.n_particle"):
         RunConfig.read(tmp_path / "bad.toml")
-    with pytest.raises(InputError, match=r"solver\.friction"):
-        RunConfig.model_validate({"solver": {"friction": -0.1}})
+    with pytest.raises(InputError, match=r"solver\.shear\.friction"):
+        RunConfig.model_validate({"solver": {"shear": {"friction": -0.1}}})
     with pytest.raises(InputError, match=r"sample\.d_min"):
         RunConfig.model_validate({"sample": {"d_min": -1e-3}})
 

@@ -20,8 +20,9 @@ TINY = {
     "sample": {"shape": "polyhedron", "n_faces": 30, "templates": 3, "n_particles": 8,
                "seed": 2},
     "test": {"kind": "triaxial", "eps_q_max": 0.01},
-    "solver": {"compaction_inertia_number": 0.05, "inertia_number": 0.01, "sweep": "serial",
-               "compaction_time_step_factor": 0.02},
+    "solver": {"sweep": "serial",
+               "compaction": {"inertia_number": 0.05, "time_step_factor": 0.02},
+               "shear": {"inertia_number": 0.01}},
     "output": {"record_every": 10, "checkpoint_every": 0},
 }
 

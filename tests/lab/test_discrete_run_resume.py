@@ -5,14 +5,19 @@ blow-up says how to resume."""
 
 from __future__ import annotations
 
+import json
+
+import h5py
 import numpy as np
 import pytest
+import tomli_w
 
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.errors import InputError
 from grainlab.lab.discrete_run import resume_run, start_run
-from grainlab.lab.run_config import RunConfig
+from grainlab.lab.run_config import EARLIER_SOLVER_KEYS, RunConfig
 from grainlab.lab.run_outcome import BOX_TOO_THIN
+from grainlab.lab.stage_numerics import COMPACTION
 
 TINY = {
     "sample": {"n_particles": 30, "seed": 3},
@@ -27,6 +32,20 @@ SHEARING = {  # the compaction cut after 10 steps, so that a shear is under way 
 }
 
 
+def earlier_layout(config: dict) -> dict:
+    """A config (current layout, plain data) as the earlier layout spelt it: the per-stage
+    keys flat in [solver], compaction without overlap recovery."""
+    solver = dict(config["solver"])
+    for kind in ("compaction", "shear"):
+        table = solver.pop(kind)
+        if kind == "compaction":
+            assert table.pop("overlap_recovery") == 0.0
+        for key, value in table.items():
+            old = next(o for o, n in EARLIER_SOLVER_KEYS.items() if n == f"{kind}.{key}")
+            solver[old] = value
+    return {**config, "solver": solver}
+
+
 @pytest.fixture()
 def compacting(tmp_path):
     folder = tmp_path / "run"
@@ -35,31 +54,63 @@ def compacting(tmp_path):
 
 
 def test_settings_set_on_resume_take_effect_at_once(compacting):
-    run = resume_run(compacting, ["solver.compaction_tolerance=1e-6",
-                                  "solver.compaction_max_iterations=50"])
+    run = resume_run(compacting, ["solver.compaction.tolerance=1e-6",
+                                  "solver.compaction.max_iterations=50"])
     assert run.test.solver.tolerance == 1e-6 and run.test.solver.max_iterations == 50
-    assert RunConfig.read(compacting / "config.toml").solver.compaction_tolerance == 1e-6
-    assert "changed on resume: solver.compaction_tolerance" in \
+    assert RunConfig.read(compacting / "config.toml").solver.compaction.tolerance == 1e-6
+    assert "changed on resume: solver.compaction.tolerance" in \
         (compacting / "run.log").read_text()
+
+
+def test_the_other_kind_of_stage_keeps_its_settings_until_it_starts(compacting):
+    run = resume_run(compacting, ["solver.shear.tolerance=1e-5"])
+    assert run.test.settings.shear.tolerance == 1e-5
+    assert run.test.solver.tolerance == COMPACTION.tolerance  # still compacting
+    assert RunConfig.read(compacting / "config.toml").solver.shear.tolerance == 1e-5
 
 
 def test_keys_edited_in_config_toml_take_effect_at_once(compacting):
     path = compacting / "config.toml"
-    path.write_text(path.read_text().replace("compaction_max_iterations = 200",
-                                             "compaction_max_iterations = 60"))
+    text = path.read_text()
+    assert "[solver.compaction]" in text and text.count("max_iterations = 200") == 1
+    path.write_text(text.replace("max_iterations = 200", "max_iterations = 60"))
     assert resume_run(compacting).test.solver.max_iterations == 60
+
+
+def test_a_run_of_the_earlier_config_layout_resumes(compacting):
+    """config.toml and the checkpoint's config as runs wrote them before [solver.compaction]
+    and [solver.shear]: read as the same config, nothing counted as changed."""
+    config = RunConfig.read(compacting / "config.toml").model_dump()
+    earlier = earlier_layout(config)
+    assert "shear" not in earlier["solver"] and earlier["solver"]["compaction_tolerance"] == 1e-4
+    (compacting / "config.toml").write_text(tomli_w.dumps(earlier))
+    with h5py.File(compacting / "checkpoint.h5", "a") as handle:
+        handle.attrs["config"] = json.dumps(earlier)
+    run = resume_run(compacting, ["solver.shear.tolerance=1e-5"])
+    assert run.config == RunConfig.model_validate(config).with_updates(
+        {"solver": {"shear": {"tolerance": 1e-5}}})
+    log = (compacting / "run.log").read_text()
+    assert "changed on resume: solver.shear.tolerance" in log
+    assert log.count("changed on resume") == 1
+    assert "[solver.shear]" in (compacting / "config.toml").read_text()  # rewritten, new layout
+    step = run.test.simulation.step_index
+    run.run(max_steps=2)  # and goes on
+    assert run.test.simulation.step_index == step + 2
 
 
 def test_a_new_inertia_bound_scales_the_loading_speed(compacting):
     before = resume_run(compacting)
     rate, speeds = before.test.strain_rate, before.test.sample.box.max_speeds.copy()
-    after = resume_run(compacting, ["solver.compaction_inertia_number=0.02"])
+    after = resume_run(compacting, ["solver.compaction.inertia_number=0.02"])
     assert after.test.strain_rate == pytest.approx(2.0 * rate, rel=1e-12)
     np.testing.assert_allclose(after.test.sample.box.max_speeds, 2.0 * speeds, rtol=1e-12)
 
 
 @pytest.mark.parametrize(("assignment", "key"), [
-    ("sample.n_particles=31", "sample.n_particles"), ("solver.friction=0.5", "solver.friction"),
+    ("sample.n_particles=31", "sample.n_particles"),
+    ("solver.shear.friction=0.5", "solver.shear.friction"),
+    ("solver.compaction.friction=0.1", "solver.compaction.friction"),
+    ("solver.friction=0.5", "solver.shear.friction"),  # the earlier name, read as the new
     ("solver.sweep=coloured", "solver.sweep"), ("test.sigma0=2e4", "test.sigma0"),
 ])
 def test_keys_that_made_the_run_are_refused_on_resume(compacting, assignment, key):
@@ -67,7 +118,7 @@ def test_keys_that_made_the_run_are_refused_on_resume(compacting, assignment, ke
         resume_run(compacting, [assignment])
     assert error.value.field == key
     assert "cannot change on resume" in str(error.value)
-    assert "solver.tolerance" in str(error.value)  # says which keys can
+    assert "solver.shear.tolerance" in str(error.value)  # says which keys can
 
 
 def test_a_target_of_the_stage_under_way_can_change_unless_it_flattens_the_box(tmp_path):
@@ -77,6 +128,8 @@ def test_a_target_of_the_stage_under_way_can_change_unless_it_flattens_the_box(t
     assert run.test.stage.name == "shear" and run.test.stage_started
     run.checkpoint()
     assert resume_run(folder, ["test.eps_q_max=0.1"]).test.stages[1].stop[0].limit == 0.1
+    resumed = resume_run(folder, ["solver.shear.tolerance=1e-5"])
+    assert resumed.test.solver.tolerance == 1e-5  # the shear under way takes it at once
     with pytest.raises(InputError, match="largest diameters") as error:
         resume_run(folder, ["test.eps_q_max=1.5"])
     assert error.value.field == "test.eps_q_max"
@@ -101,5 +154,5 @@ def test_a_blow_up_in_a_thin_box_says_so_and_how_to_resume(compacting):
     run.test.largest_diameter = float(run.test.sample.box.lengths.min()) / 1.4
     said = run._blow_up_diagnosis(SimulationBlowUp("runaway overlap at step 12"))
     assert "1.40 largest particle diameters" in said and "will not help" in said
-    assert f"grainlab resume {compacting} --set solver.time_step_factor=" in said
+    assert f"grainlab resume {compacting} --set solver.compaction.time_step_factor=" in said
     assert "last good checkpoint is at step 10" in said

@@ -24,8 +24,8 @@ OEDOMETER = {  # as small as tests/cli's oedometer; loading needs ~4 steps, unlo
 TRIAXIAL = {  # tests/lab/test_discrete_run.py's sample; the shear needs ~21 steps
     "sample": {"n_particles": 40, "seed": 4},
     "test": {"kind": "triaxial", "eps_q_max": 0.02},
-    "solver": {"compaction_inertia_number": 0.05, "inertia_number": 0.01, "sweep": "serial",
-               "overlap_recovery": 0.0, "compaction_max_iterations": 400},
+    "solver": {"sweep": "serial", "compaction": {"inertia_number": 0.05, "max_iterations": 400},
+               "shear": {"inertia_number": 0.01, "overlap_recovery": 0.0}},
     "output": {"record_every": 50, "checkpoint_every": 0},
 }
 

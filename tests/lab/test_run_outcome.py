@@ -6,6 +6,7 @@ max_stage_steps is not reached, and the run stops there."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import h5py
 import pytest
@@ -21,6 +22,7 @@ from grainlab.lab.run_outcome import (
     StageOutcome,
     stage_outcome,
 )
+from grainlab.lab.stage_numerics import SHEAR as SHEAR_NUMERICS
 
 TINY = {
     "sample": {"n_particles": 30, "seed": 3},
@@ -34,7 +36,7 @@ def _short_triaxial() -> RunConfig:
     return RunConfig.model_validate(TINY).with_updates(
         {"test": {"kind": "triaxial", "eps_q_max": 0.01},
          "solver": {"max_stage_steps": 10, "at_max_stage_steps": "next_stage",
-                    "inertia_number": 0.01}})
+                    "shear": {"inertia_number": 0.01}}})
 
 
 SHEAR = {"name": "shear", "reason": "strain reached", "steps": 100, "strain_controlled": True}
@@ -51,7 +53,8 @@ def _rows(inertia, z=4.0):
     ([1e-3] * 8 + [4.5e-3] * 2, False),  # the 90th percentile above 4 x the bound
 ])
 def test_the_inertia_bound_is_judged_on_the_median_and_the_90th_percentile(inertia, held):
-    stage = stage_outcome(SHEAR, _rows(inertia), DiscreteTestSettings(inertia_number=1e-3), {})
+    settings = DiscreteTestSettings(shear=replace(SHEAR_NUMERICS, inertia_number=1e-3))
+    stage = stage_outcome(SHEAR, _rows(inertia), settings, {})
     assert stage.inertia_held is held
     assert stage.inertia_max == pytest.approx(max(inertia))
     words = stage.words()
@@ -63,7 +66,8 @@ def test_the_inertia_bound_is_judged_on_the_median_and_the_90th_percentile(inert
 def test_a_gas_is_not_a_quasi_static_test():
     # the 30-sphere triaxial at a bound of 1: median I 3.7, z 0.07, p 1e4 -> 1.5e3 Pa
     stage = stage_outcome(SHEAR, _rows([3.7] * 5, z=0.07),
-                          DiscreteTestSettings(inertia_number=1.0), {})
+                          DiscreteTestSettings(shear=replace(SHEAR_NUMERICS,
+                                                             inertia_number=1.0)), {})
     assert stage.inertia_held is False and stage.solid is False
     outcome = RunOutcome(stages=(stage,), finished=True, steps=100)
     assert not outcome.as_asked and outcome.status == "not as asked"
@@ -96,7 +100,7 @@ class _Capped:
 def test_a_stage_at_max_stage_steps_stops_the_run_and_says_so(tmp_path):
     folder = tmp_path / "run"
     config = RunConfig.model_validate(TINY).with_updates(
-        {"solver": {"compaction_max_iterations": 3}})
+        {"solver": {"compaction": {"max_iterations": 3}}})
     run = start_run(folder, config)
     capped = run.test.simulation.add(_Capped())
     result = run.run()

@@ -37,9 +37,9 @@ def discrete(tmp_path_factory) -> TestResult:
     config = RunConfig.model_validate({
         "sample": {"n_particles": 40, "seed": 4},
         "test": {"kind": "triaxial", "eps_q_max": 0.02},
-        "solver": {"compaction_inertia_number": 0.05, "inertia_number": 0.01,
-                   "sweep": "serial", "overlap_recovery": 0.0,
-                   "compaction_max_iterations": 400},
+        "solver": {"sweep": "serial",
+                   "compaction": {"inertia_number": 0.05, "max_iterations": 400},
+                   "shear": {"inertia_number": 0.01, "overlap_recovery": 0.0}},
         "output": {"record_every": 10, "checkpoint_every": 0, "snapshot_every": 0},
     })
     folder = tmp_path_factory.mktemp("run") / "triaxial"

@@ -4,13 +4,19 @@ the data, compaction snapshots not joined to the shear ones)."""
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from grainlab.report.microstructure_figures import anisotropy_evolution_figure
 from grainlab.report.run_curves import discrete_curves_figure, shear_from_its_start
 from grainlab.result.test_result import TestResult
 
+SOLVER = {"shear": {"friction": 0.4, "inertia_number": 1e-3}}
+EARLIER_SOLVER = {"friction": 0.4, "inertia_number": 1e-3}
+"""The [solver] table of a result's config, and as results written before [solver.shear]
+held it."""
 
-def _run_result() -> TestResult:
+
+def _run_result(solver=SOLVER) -> TestResult:
     """A discrete triaxial result as a run writes it: compaction rows (strains from the loose
     box) then shear rows (strains from the start of the shear)."""
     compaction = pd.DataFrame({"stage": "compaction", "time": [0.1, 0.2, 0.3],
@@ -21,8 +27,7 @@ def _run_result() -> TestResult:
                           "eps_q": [0.01, 0.02, 0.03], "eps_vol": [0.001, -0.002, -0.006],
                           "q_over_trace": [0.2, 0.28, 0.3],
                           "packing_fraction": [0.571, 0.569, 0.566]})
-    config = {"test": {"kind": "triaxial", "sigma0": 1e4},
-              "solver": {"friction": 0.4, "inertia_number": 1e-3}}
+    config = {"test": {"kind": "triaxial", "sigma0": 1e4}, "solver": solver}
     return TestResult.create(pd.concat([compaction, shear], ignore_index=True),
                              specimen={"shape": "sphere", "n_particles": 300, "seed": 1},
                              load_path={}, parameters={"config": config}, dimension=3)
@@ -36,8 +41,9 @@ def test_the_shear_starts_at_zero_strain_from_the_end_of_compaction():
     np.testing.assert_array_equal(shear["eps_q"].iloc[1:], [0.01, 0.02, 0.03])
 
 
-def test_curves_have_units_a_title_stating_the_run_and_no_legend():
-    figure = discrete_curves_figure(_run_result())
+@pytest.mark.parametrize("solver", [SOLVER, EARLIER_SOLVER])
+def test_curves_have_units_a_title_stating_the_run_and_no_legend(solver):
+    figure = discrete_curves_figure(_run_result(solver))
     axes = figure.axes
     assert len(axes) == 3
     for ax in axes:

@@ -95,7 +95,7 @@ def _simulation(folder: Path, particles: int, eps_q: float) -> list[tuple[Path, 
     config = RunConfig.model_validate({
         "sample": {"shape": "sphere", "n_particles": particles, "seed": 1},
         "test": {"kind": "triaxial", "sigma0": 1e4, "eps_q_max": eps_q},
-        "solver": {"friction": 0.4, "inertia_number": 1e-3},
+        "solver": {"shear": {"friction": 0.4, "inertia_number": 1e-3}},
         "output": {"record_every": 10, "snapshot_every": snapshot_every, "vtk_every": 0},
     })
     run = start_run(folder, config, overwrite=True)

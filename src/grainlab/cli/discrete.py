@@ -18,7 +18,7 @@ from rich.console import Console
 from grainlab.cli.errors import friendly_errors
 from grainlab.cli.inputs import input_file, output_folder
 from grainlab.errors import InputError
-from grainlab.lab.run_config import RunConfig
+from grainlab.lab.run_config import CHANGEABLE_STAGE_KEYS, RunConfig
 
 console = Console()
 
@@ -157,8 +157,11 @@ def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any]
     given = {key: value for key, value in options.items() if value is not None}
     overrides: dict[str, dict[str, Any]] = {"test": {"kind": kind}}
     for key, value in given.items():
-        section, name = _OPTIONS[key][1].split(".")
-        overrides.setdefault(section, {})[name] = value
+        *tables, name = _OPTIONS[key][1].split(".")
+        table = overrides
+        for part in tables:
+            table = table.setdefault(part, {})
+        table[name] = value
     try:
         config = config.with_updates(overrides)
         run = start_run(out, config, overwrite=overwrite)
@@ -176,7 +179,8 @@ def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any]
 def _as_typed(error: InputError, given: dict[str, Any], config_file: Path | None
               ) -> InputError:
     """``error`` naming what the user typed: the option (``--mu``) when the value came from
-    the command line, else the config key and its file (``solver.friction (in c.toml)``)."""
+    the command line, else the config key and its file (``solver.shear.friction (in
+    c.toml)``)."""
     field = error.field
     if field == "config":
         return InputError("--config", error.value, error.allowed)
@@ -197,10 +201,12 @@ _OPTIONS = {
     "eps_q": ("--eps-q", "test.eps_q_max"),
     "axial_strain": ("--axial-strain", "test.axial_strain"),
     "unload_strain": ("--unload-strain", "test.unload_strain"),
-    "mu": ("--mu", "solver.friction"), "inertia": ("--inertia", "solver.inertia_number"),
-    "dt": ("--dt", "solver.dt"), "tolerance": ("--tolerance", "solver.tolerance"),
+    "mu": ("--mu", "solver.shear.friction"),
+    "inertia": ("--inertia", "solver.shear.inertia_number"),
+    "dt": ("--dt", "solver.dt"), "tolerance": ("--tolerance", "solver.shear.tolerance"),
+    "compaction_tolerance": ("--tolerance", "solver.compaction.tolerance"),
     "sweep": ("--sweep", "solver.sweep"),
-    "max_iterations": ("--max-iterations", "solver.max_iterations"),
+    "max_iterations": ("--max-iterations", "solver.shear.max_iterations"),
     "record_every": ("--record-every", "output.record_every"),
     "snapshot_every": ("--snapshot-every", "output.snapshot_every"),
     "checkpoint_every": ("--checkpoint-every", "output.checkpoint_every"),
@@ -208,14 +214,29 @@ _OPTIONS = {
 }
 """Each command-line option (parameter name) as typed and the config key it sets."""
 
-_CONFIG_KEYS = {f"{section}.{key}" for section, model in RunConfig.model_fields.items()
-                for key in model.annotation.model_fields}
+
+
+def _config_keys(model: Any, prefix: str = "") -> set[str]:
+    """Every key of a config model, ``"solver.shear.friction"`` for those of a sub-table."""
+    keys = set()
+    for name, info in model.model_fields.items():
+        if hasattr(info.annotation, "model_fields"):
+            keys |= _config_keys(info.annotation, f"{prefix}{name}.")
+        else:
+            keys.add(f"{prefix}{name}")
+    return keys
+
+
+_CONFIG_KEYS = _config_keys(RunConfig)
 
 
 def _default(key: str) -> str:
     """``"[default: 1000]"`` for the config key ``"sample.n_particles"`` (its one default)."""
-    section, name = key.split(".")
-    value = RunConfig.model_fields[section].annotation.model_fields[name].default
+    model: Any = RunConfig
+    for name in key.split("."):
+        info = model.model_fields[name]
+        model = info.annotation
+    value = info.default
     shown = f"{value:g}" if isinstance(value, float) else str(value)
     return f"[default: {shown}]"
 
@@ -244,12 +265,13 @@ _TEMPLATES = _option("templates", "--templates", help="Polyhedra: 0 = every part
                      "random orientations (faster to build).")
 _RHO = _option("density", "--density", help="Particle density [kg/m^3].")
 _MU = _option("mu", "--mu", help="Friction coefficient between particles [-] while loading "
-              "(compaction is frictionless).")
+              "(solver.shear.friction; the compaction is frictionless unless "
+              "solver.compaction.friction says otherwise in --config).")
 _SIGMA0 = _option("sigma0", "--sigma0", help="Confining stress [Pa]: the compaction pressure, "
                   "then the lateral stress held while loading.")
 _INERTIA = _option("inertia", "--inertia", help="Largest inertia number I = (strain rate) x "
-                   "(mean diameter) x sqrt(density / p) [-] while loading; it sets the "
-                   "loading speed. "
+                   "(mean diameter) x sqrt(density / p) [-] while loading "
+                   "(solver.shear.inertia_number); it sets the loading speed. "
                    "I <= 1e-3 is quasi-static (a lab test); 1e-2 is 10 times faster and "
                    "slightly rate dependent.")
 _SEED = _option("seed", "--seed", help="Random seed of the sample (sizes, positions, "
@@ -257,18 +279,23 @@ _SEED = _option("seed", "--seed", help="Random seed of the sample (sizes, positi
                 "sample.")
 _DT = _option("dt", "--dt", help="Time step [s]; 0 = chosen from the particle sizes and the "
               "loading speed.")
-_TOL = _option("tolerance", "--tolerance", help="Convergence tolerance of the contact solver "
-               "(NLGS, see --sweep) [-]: the relative change of the contact forces between "
-               "two sweeps, and the relative residual, must fall below it each step; 1e-4 to "
-               "1e-3 is usual, smaller is more accurate and slower.")
+_TOLERANCE_TEXT = ("Convergence tolerance of the contact solver (NLGS, see --sweep) [-] {}: "
+                   "the relative change of the contact forces between two sweeps, and the "
+                   "relative residual, must fall below it each step; 1e-4 to 1e-3 is usual, "
+                   "smaller is more accurate and slower.")
+_TOL = _option("tolerance", "--tolerance", help=_TOLERANCE_TEXT.format(
+    "while loading (solver.shear.tolerance; the compaction's is solver.compaction.tolerance)"))
+_COMPACTION_TOL = _option("compaction_tolerance", "--tolerance", help=_TOLERANCE_TEXT.format(
+    "(solver.compaction.tolerance)"))
 _SWEEP = _option("sweep", "--sweep", help="How the contact solver visits the contacts. The "
                  "solver is NLGS (non-linear Gauss-Seidel): each step it sweeps over the "
                  "contacts, solving one contact at a time with the others held, until the "
                  "forces settle. coloured: in parallel, by groups of contacts that share no "
                  "particle; serial: one thread, in a random order.")
 _ITER = _option("max_iterations", "--max-iterations", help="Most NLGS sweeps per loading step "
-                "(100 to 1000 is usual); fewer is faster, with larger overlaps and unconverged "
-                "steps flagged in the results (docs/discrete_engine.md).")
+                "(solver.shear.max_iterations; 100 to 1000 is usual); fewer is faster, with "
+                "larger overlaps and unconverged steps flagged in the results "
+                "(docs/discrete_engine.md).")
 _RECORD = _option("record_every", "--record-every", help="Steps between results rows.")
 _SNAP = _option("snapshot_every", "--snapshot-every", help="Steps between contact-network "
                 "snapshots (for `grainlab analyse`; 0: none).")
@@ -282,6 +309,14 @@ _UNLOAD = _option("unload_strain", "--unload-strain", help="Vertical strain of u
                   "[-] (0: no unloading).")
 _CONFIG = typer.Option(None, "--config", help="A config.toml to start from (options given "
                                               "here override it).")
+_SET_HELP = (
+    "Change a setting for the rest of the run (repeatable), e.g. --set "
+    "solver.shear.tolerance=1e-5. Can change: test.eps_q_max, test.axial_strain, "
+    "test.unload_strain (stages not ended yet), solver.dt, solver.max_stage_steps, "
+    "solver.at_max_stage_steps, solver.compaction.KEY and solver.shear.KEY (the compaction's "
+    f"and the loading's numerics) for KEY one of {', '.join(CHANGEABLE_STAGE_KEYS)}, "
+    "output.*; the other keys (friction included) made what the run did and are refused. "
+    "Keys edited in RUN/config.toml count the same.")
 _OVERWRITE = typer.Option(False, "--overwrite", help="Replace a run already in OUT.")
 _PROGRESS = typer.Option(True, "--progress/--no-progress", help="Show a progress bar.")
 
@@ -317,10 +352,10 @@ def compaction_command(
     out: Path = _OUT, shape: str = _SHAPE, n: int = _N, d_min: float = _DMIN,
     size_ratio: float = _RATIO, eta: float = _ETA, faces: int = _FACES,
     templates: int = _TEMPLATES, density: float = _RHO,
-    sigma0: float = _SIGMA0, seed: int = _SEED, dt: float = _DT, tolerance: float = _TOL,
-    sweep: str = _SWEEP, record_every: int = _RECORD, snapshot_every: int = _SNAP,
-    checkpoint_every: int = _CKPT, vtk_every: int = _VTK, config: Path = _CONFIG,
-    overwrite: bool = _OVERWRITE, progress: bool = _PROGRESS,
+    sigma0: float = _SIGMA0, seed: int = _SEED, dt: float = _DT,
+    tolerance: float = _COMPACTION_TOL, sweep: str = _SWEEP, record_every: int = _RECORD,
+    snapshot_every: int = _SNAP, checkpoint_every: int = _CKPT, vtk_every: int = _VTK,
+    config: Path = _CONFIG, overwrite: bool = _OVERWRITE, progress: bool = _PROGRESS,
 ) -> None:
     """Isotropic compaction of a loose random sample to SIGMA0 (no gravity, no friction: the
     preparation of Azéma, Radjaï & Dubois 2013) until quasi-static; reports the packing
@@ -328,7 +363,7 @@ def compaction_command(
     _run("compaction", out, config, dict(
         shape=shape, n=n, d_min=d_min, size_ratio=size_ratio, eta=eta, faces=faces,
         templates=templates, density=density, sigma0=sigma0, seed=seed, dt=dt,
-        tolerance=tolerance, sweep=sweep, record_every=record_every,
+        compaction_tolerance=tolerance, sweep=sweep, record_every=record_every,
         snapshot_every=snapshot_every, checkpoint_every=checkpoint_every,
         vtk_every=vtk_every), overwrite, progress)
 
@@ -366,15 +401,7 @@ def resume_command(
     run: Path = typer.Argument(..., help="The run folder to continue."),
     set_: list[str] = typer.Option(
         None, "--set", metavar="SECTION.KEY=VALUE",
-        help="Change a setting for the rest of the run (repeatable), e.g. --set "
-             "solver.tolerance=1e-5. Can change: test.eps_q_max, test.axial_strain, "
-             "test.unload_strain (stages not ended yet), solver.inertia_number, "
-             "solver.compaction_inertia_number, solver.dt, solver.time_step_factor, "
-             "solver.compaction_time_step_factor, solver.tolerance, solver.max_iterations, "
-             "solver.compaction_tolerance, solver.compaction_max_iterations, "
-             "solver.overlap_recovery, solver.max_stage_steps, solver.at_max_stage_steps, "
-             "output.*; the other keys made what the run did and are refused. Keys edited "
-             "in RUN/config.toml count the same."),
+        help=_SET_HELP),
     restart: bool = typer.Option(
         False, "--restart",
         help="Start the run over from step 0 with its config.toml (and --set, any key), "

@@ -41,9 +41,10 @@ def _discrete_runs(folder: Path) -> None:
         config = RunConfig.model_validate({
             "sample": {"shape": shape, "n_particles": 24, "seed": 1},
             "test": {"kind": "triaxial", "eps_q_max": 0.002},
-            "solver": {"sweep": sweep, "inertia_number": 0.01,
-                       "compaction_inertia_number": 0.05, "max_stage_steps": 400,
-                       "at_max_stage_steps": "next_stage"},
+            "solver": {"sweep": sweep, "max_stage_steps": 400,
+                       "at_max_stage_steps": "next_stage",
+                       "compaction": {"inertia_number": 0.05},
+                       "shear": {"inertia_number": 0.01}},
             "output": {"record_every": 5, "snapshot_every": 50, "checkpoint_every": 0}})
         run = start_run(folder / f"run{k}", config)
         run.run()
@@ -59,9 +60,10 @@ def _polyhedra_runs(folder: Path) -> None:
         "sample": {"shape": "polyhedron", "n_particles": 8, "n_faces": 8, "templates": 2,
                    "seed": 1},
         "test": {"kind": "triaxial", "eps_q_max": 0.002},
-        "solver": {"sweep": "serial", "inertia_number": 0.01,
-                   "compaction_inertia_number": 0.05, "compaction_time_step_factor": 0.02,
-                   "max_stage_steps": 200, "at_max_stage_steps": "next_stage"},
+        "solver": {"sweep": "serial", "max_stage_steps": 200,
+                   "at_max_stage_steps": "next_stage",
+                   "compaction": {"inertia_number": 0.05, "time_step_factor": 0.02},
+                   "shear": {"inertia_number": 0.01}},
         "output": {"record_every": 5, "snapshot_every": 50, "checkpoint_every": 0}})
     start_run(folder / "poly", config).run()
 

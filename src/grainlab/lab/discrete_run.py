@@ -356,15 +356,15 @@ class DiscreteRun:
                      f"{test.largest_diameter * 1e3:.3g} mm): squeezed into one or two layers "
                      "the particles lock, and a smaller time step or tolerance will not help; "
                      "ask a smaller strain or use more particles.")
-        s = test.settings
         if self.last_checkpoint_step < 0:
             return text + (" No checkpoint was written: edit config.toml and start over "
                            f"with `grainlab resume {folder} --restart`.")
+        key, numerics = f"solver.{test.stage_kind}", test.stage_numerics
         return text + (
             f" The last good checkpoint is at step {self.last_checkpoint_step}; resume it with "
             f"other settings, e.g. `grainlab resume {folder} --set "
-            f"solver.time_step_factor={s.time_step_factor / 2:g} --set "
-            f"solver.tolerance={s.tolerance / 10:g}` (keys that can change on resume: "
+            f"{key}.time_step_factor={numerics.time_step_factor / 2:g} --set "
+            f"{key}.tolerance={numerics.tolerance / 10:g}` (keys that can change on resume: "
             + ", ".join(CHANGEABLE_ON_RESUME) + ").")
 
 
@@ -439,7 +439,7 @@ def progress_fields(test: DiscreteTest, row: dict) -> tuple[float, str]:
         return min(max(done, 0.0), 1.0), (
             f"{steps}  q/p {row['q_over_trace']:.3f}  packing fraction "
             f"{row['packing_fraction']:.4f}  z {row['z']:.2f}  I {row['inertia_number']:.1e} (<= "
-            f"{test.settings.inertia_number:g})")
+            f"{test.stage_numerics.inertia_number:g})")
     criteria: QuasiStaticCriteria = test.settings.quasi_static
     targets = [stage.targets[a] for a in stage.stress_axes if math.isfinite(stage.targets[a])]
     wall_p = (row["wall_sigma_xx"] + row["wall_sigma_yy"] + row["wall_sigma_zz"]) / 3.0
@@ -541,7 +541,7 @@ def resume_run(folder: str | Path, changes: list[str] | dict | None = None, *,
     folder:
         The run folder.
     changes:
-        Config keys to change, ``["solver.tolerance=1e-5"]`` or ``{"solver": {...}}``
+        Config keys to change, ``["solver.shear.tolerance=1e-5"]`` or ``{"solver": {...}}``
         (:data:`~grainlab.lab.run_config.CHANGEABLE_ON_RESUME`; keys edited in config.toml
         count too). Refused keys raise :class:`InputError` naming them.
     restart:

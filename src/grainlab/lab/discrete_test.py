@@ -8,22 +8,24 @@ steps, a contact-network snapshot every ``snapshot_every`` and of the state each
 in, so that a short run has its compaction and its end to analyse). Everything it needs to go on
 is plain data (:meth:`DiscreteTest.progress_arrays`), so a run can checkpoint and resume.
 
-Per stage:
+Per stage, with the numerics of its kind (:class:`~grainlab.lab.stage_numerics.StageNumerics`:
+``settings.compaction`` in stages without a strain-controlled axis, ``settings.shear``
+otherwise; :meth:`DiscreteTestSettings.numerics_for`):
 
-* interparticle friction: ``compaction_friction`` (default 0, seed 002) in stages without a
-  strain-controlled axis, ``friction`` otherwise;
+* interparticle friction (default 0 in compaction, seed 002; 0.4 in shear);
 * strain rate from the bound on the inertia number (:mod:`grainlab.lab.wall_stages`); the
   stress-controlled walls are speed-limited to the same rate (their inward free speed at most
-  eps_dot L), with ``compaction_inertia_number`` in stages without a strain-controlled axis;
-* time step h = ``time_step_factor`` (0.003) x d_min / v in shearing stages and
-  ``compaction_time_step_factor`` (0.01) x d_min / v in compaction, v the largest wall speed of the
-  stage, d_min the smallest member-sphere diameter or, for polyhedra, the smallest inscribed
-  diameter (twice the smallest distance from a centre of mass to a face plane;
-  :func:`time_step_length`) (research/cd_engines.md pitfall 6: v h <= 0.01-0.05 d_min), unless
-  ``dt`` is given. In triaxial shear the solver ends each step with small velocity violations (the
-  NLGS residual stalls near 1e-5 relative however many sweeps) and contact dynamics never pushes an
-  overlap back, so overlaps accumulate at a rate that falls faster than h: with 0.01 the largest
-  overlap reached 6-9 % of <d> at eps_q = 0.1 on 200 spheres, with 0.003 below 1 %;
+  eps_dot L);
+* time step h = ``time_step_factor`` x d_min / v (defaults 0.003 in shear, 0.01 in
+  compaction), v the largest wall speed of the stage, d_min the smallest member-sphere
+  diameter or, for polyhedra, the smallest inscribed diameter (twice the smallest distance from
+  a centre of mass to a face plane; :func:`time_step_length`) (research/cd_engines.md pitfall
+  6: v h <= 0.01-0.05 d_min), unless ``dt`` is given. In triaxial shear the solver ends each
+  step with small velocity violations (the NLGS residual stalls near 1e-5 relative however
+  many sweeps) and contact dynamics never pushes an overlap back, so overlaps accumulate at a
+  rate that falls faster than h: with 0.01 the largest overlap reached 6-9 % of <d> at
+  eps_q = 0.1 on 200 spheres, with 0.003 below 1 %;
+* NLGS tolerance, sweep cap and overlap recovery (0 in compaction by default);
 * with polyhedra, the step is also shortened, before every step, to
   factor x d_min / max_i (|v_i| + |omega_i| R_i) (R_i the circumscribed radius) whenever the
   particles move faster than the walls, and the solver adds the gyroscopic term. Particles
@@ -113,6 +115,13 @@ from grainlab.lab.run_outcome import (
     RunOutcome,
     stage_outcome,
 )
+from grainlab.lab.stage_numerics import (
+    COMPACTION,
+    SHEAR,
+    STAGE_KINDS,
+    StageNumerics,
+    stage_kind,
+)
 from grainlab.lab.wall_stages import AXES, QuasiStaticCriteria, WallStage, wall_stages
 from grainlab.prep.loose_sample import DiscreteSample
 
@@ -153,19 +162,22 @@ at 0.5 % overlaps)."""
 
 @dataclass(frozen=True)
 class DiscreteTestSettings:
-    """Numerical settings of a discrete test (module docstring for their roles).
+    """Numerical settings of a discrete test (module docstring for their roles): the
+    numerics of each kind of stage, and those of the whole run.
 
     Attributes
     ----------
-    friction, compaction_friction:
-        Interparticle Coulomb coefficients (>= 0) in shearing and in compaction stages.
-    inertia_number, compaction_inertia_number:
-        Bounds on I (> 0) that set the strain rate and the walls' speed limit.
+    compaction, shear:
+        :class:`~grainlab.lab.stage_numerics.StageNumerics` (friction, bound on the inertia
+        number, time step factor, NLGS tolerance and sweep cap, overlap recovery) of the
+        stages without and with a strain-controlled axis (:meth:`numerics_for`); defaults
+        :data:`~grainlab.lab.stage_numerics.COMPACTION` and
+        :data:`~grainlab.lab.stage_numerics.SHEAR`. The overlap recovery's separation speed
+        is capped at :data:`RECOVERY_SPEED_FRACTION` of the stage's wall speed
+        (``overlap_recovery_speed`` of the solver).
     dt:
-        Time step [s]; None: from ``time_step_factor``.
-    time_step_factor, compaction_time_step_factor:
-        v h / d_min (> 0) in stages with and without a strain-controlled axis.
-    theta, tolerance, max_iterations, sweep:
+        Time step [s]; None: from the stage's ``time_step_factor``.
+    theta, sweep:
         Solver settings (:class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`).
     record_every, snapshot_every:
         Steps between results rows and between contact-network snapshots (0: none; with
@@ -187,29 +199,12 @@ class DiscreteTestSettings:
         End criteria of stages without a strain-controlled axis.
     seed:
         Seed of the solver's visiting order.
-    overlap_recovery:
-        beta in [0, 1] of :class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep` in
-        stages with a strain-controlled axis (0: overlaps are never pushed back; compaction
-        always uses 0, since the recovery keeps a settling packing moving). The separation
-        speed it asks for is capped at :data:`RECOVERY_SPEED_FRACTION` of the stage's wall
-        speed (``overlap_recovery_speed`` of the solver).
-    compaction_max_iterations, compaction_tolerance:
-        NLGS sweep cap and tolerance in stages without a strain-controlled axis (compaction:
-        no friction, only its end state matters; ``max_iterations`` and ``tolerance`` apply
-        in the others). A looser tolerance there slows the settling: 2020 instead of 1040
-        steps on 1000 spheres at 1.666e-4.
     """
 
-    friction: float = 0.4
-    compaction_friction: float = 0.0
-    inertia_number: float = 1e-3
-    compaction_inertia_number: float = 1e-2
+    compaction: StageNumerics = COMPACTION
+    shear: StageNumerics = SHEAR
     dt: float | None = None
-    time_step_factor: float = 0.003
-    compaction_time_step_factor: float = 0.01
     theta: float = 0.5
-    tolerance: float = 1.666e-4
-    max_iterations: int = 400
     sweep: str = "coloured"
     record_every: int = 10
     snapshot_every: int = 0
@@ -219,33 +214,30 @@ class DiscreteTestSettings:
     wall_servo: bool = True
     quasi_static: QuasiStaticCriteria = field(default_factory=QuasiStaticCriteria)
     seed: int = 0
-    overlap_recovery: float = 0.05
-    compaction_max_iterations: int = 200
-    compaction_tolerance: float = 1e-4
 
     def __post_init__(self) -> None:
-        for name in ("friction", "compaction_friction"):
-            at_least(name, getattr(self, name), strict=False)
-        for name in ("inertia_number", "compaction_inertia_number", "time_step_factor",
-                     "compaction_time_step_factor",
-                     "tolerance", "compaction_tolerance", "wall_mass_factor"):
-            at_least(name, getattr(self, name))
+        for kind in STAGE_KINDS:
+            if not isinstance(getattr(self, kind), StageNumerics):
+                raise InputError(kind, getattr(self, kind), "a StageNumerics")
+        at_least("wall_mass_factor", self.wall_mass_factor)
         if self.dt is not None:
             at_least("dt", self.dt)
         if self.at_max_stage_steps not in ("stop", "next_stage"):
             raise InputError("at_max_stage_steps", self.at_max_stage_steps,
                              '"stop" or "next_stage"')
-        if not 0.0 <= self.overlap_recovery <= 1.0:
-            raise InputError("overlap_recovery", self.overlap_recovery, "a number in [0, 1]")
-        for name, low in (("record_every", 1), ("snapshot_every", 0), ("max_stage_steps", 1),
-                          ("max_iterations", 1), ("compaction_max_iterations", 1)):
+        for name, low in (("record_every", 1), ("snapshot_every", 0), ("max_stage_steps", 1)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | np.integer) \
                     or value < low:
                 raise InputError(name, value, f"an integer >= {low}")
 
+    def numerics_for(self, strain_controlled: bool) -> StageNumerics:
+        """The numerics of a stage with (True) or without a strain-controlled axis
+        (:func:`~grainlab.lab.stage_numerics.stage_kind`)."""
+        return getattr(self, stage_kind(strain_controlled))
+
     def to_dict(self) -> dict[str, Any]:
-        """Plain data."""
+        """Plain data (each kind of stage's numerics a nested dict)."""
         data = asdict(self)
         data["quasi_static"] = self.quasi_static.to_dict()
         return data
@@ -299,10 +291,11 @@ class DiscreteTest:
         s = self.settings
         self.adaptive_step = bool(np.any(sample.library.kind == SHAPE_POLYHEDRON))
         self.stage_dt = s.dt or 1.0
+        first = s.compaction  # each stage sets its own numerics when it starts
         self.solver = ContactDynamicsStep(
-            dt=s.dt or 1.0, theta=s.theta, tolerance=s.tolerance,
-            max_iterations=s.max_iterations, friction=s.compaction_friction,
-            sweep=s.sweep, seed=s.seed, overlap_recovery=s.overlap_recovery,
+            dt=s.dt or 1.0, theta=s.theta, tolerance=first.tolerance,
+            max_iterations=first.max_iterations, friction=first.friction,
+            sweep=s.sweep, seed=s.seed, overlap_recovery=first.overlap_recovery,
             gyroscopic=self.adaptive_step)
         self.simulation = Simulation(sample, self.solver)
         self.simulation.add(_StageControl(self))
@@ -317,6 +310,17 @@ class DiscreteTest:
     def stage(self) -> WallStage | None:
         """The current stage (None when finished)."""
         return None if self.stage_index >= len(self.stages) else self.stages[self.stage_index]
+
+    @property
+    def stage_kind(self) -> str:
+        """``"compaction"`` or ``"shear"``: the kind of the current stage
+        (:func:`~grainlab.lab.stage_numerics.stage_kind`), which names its numerics."""
+        return stage_kind(bool(self.stage.moving_axes))
+
+    @property
+    def stage_numerics(self) -> StageNumerics:
+        """The numerics of the current stage (:meth:`DiscreteTestSettings.numerics_for`)."""
+        return self.settings.numerics_for(bool(self.stage.moving_axes))
 
     def _confining(self, stage: WallStage) -> float:
         values = [stage.targets[a] for a in stage.stress_axes
@@ -340,18 +344,15 @@ class DiscreteTest:
         docstring)."""
         stage = self.stage
         assert stage is not None
-        s = self.settings
         box = self.sample.box
-        moving = stage.moving_axes
-        if moving:
+        if stage.moving_axes:
             flat = self._stage_flattening(stage, box.lengths, self.reference_lengths)
             if flat:
                 self.halt(BOX_TOO_THIN, flat[0].words() + "; " + flat[0].advice())
                 return
         p_ref = self._confining(stage)
-        inertia = s.inertia_number if moving else s.compaction_inertia_number
-        self.strain_rate = inertia * math.sqrt(p_ref / self.sample.state.density) / \
-            self.sample.mean_diameter
+        self.strain_rate = self.stage_numerics.inertia_number * \
+            math.sqrt(p_ref / self.sample.state.density) / self.sample.mean_diameter
         for a in range(3):
             mode, target = stage.modes[a], stage.targets[a]
             lower, upper = WALL_NAMES[2 * a], WALL_NAMES[2 * a + 1]
@@ -376,13 +377,11 @@ class DiscreteTest:
     def _stage_numerics(self) -> None:
         """The solver settings, wall speed limits, time step and wall masses of the current
         stage, from the settings and the stage's wall speed ``stage_wall_speed``."""
-        stage, s, box = self.stage, self.settings, self.sample.box
-        moving = stage.moving_axes
-        self.solver.friction = s.friction if moving else s.compaction_friction
-        self.solver.max_iterations = s.max_iterations if moving else \
-            s.compaction_max_iterations
-        self.solver.overlap_recovery = s.overlap_recovery if moving else 0.0
-        self.solver.tolerance = s.tolerance if moving else s.compaction_tolerance
+        s, box, numerics = self.settings, self.sample.box, self.stage_numerics
+        self.solver.friction = numerics.friction
+        self.solver.max_iterations = numerics.max_iterations
+        self.solver.overlap_recovery = numerics.overlap_recovery
+        self.solver.tolerance = numerics.tolerance
         v_max = self.stage_wall_speed
         box.set_max_speeds(v_max)
         # overlap recovery slower than the walls: beta |g| / h alone grows without bound as
@@ -390,8 +389,7 @@ class DiscreteTest:
         self.solver.overlap_recovery_speed = RECOVERY_SPEED_FRACTION * v_max
         if s.dt is None:
             d_min = time_step_length(self.sample.library)
-            factor = s.time_step_factor if moving else s.compaction_time_step_factor
-            self.stage_dt = factor * d_min / v_max
+            self.stage_dt = numerics.time_step_factor * d_min / v_max
         else:  # the last step of the previous stage may have been cut short
             self.stage_dt = s.dt
         self.solver.dt = self._last_step(self.stage_dt)
@@ -419,11 +417,10 @@ class DiscreteTest:
                 replace(previous, **same) == replace(self.settings, **same):
             return
         moving = bool(self.stage.moving_axes)
-        s = self.settings
-        new, old = (s.inertia_number, previous.inertia_number) if moving else \
-            (s.compaction_inertia_number, previous.compaction_inertia_number)
-        self.strain_rate *= new / old
-        self.stage_wall_speed *= new / old
+        ratio = self.stage_numerics.inertia_number / \
+            previous.numerics_for(moving).inertia_number
+        self.strain_rate *= ratio
+        self.stage_wall_speed *= ratio
         self._stage_numerics()
 
     def halt(self, ended: str, reason: str) -> None:
@@ -506,9 +503,7 @@ class DiscreteTest:
         fastest = float(reach.max()) if reach.size else 0.0
         if fastest <= 0.0:
             return math.inf
-        s = self.settings
-        factor = s.time_step_factor if self.stage.moving_axes else s.compaction_time_step_factor
-        return factor * time_step_length(library) / fastest
+        return self.stage_numerics.time_step_factor * time_step_length(library) / fastest
 
     # -- stage ends (module docstring) --------------------------------------------------------
     def wall_strains(self, lengths: np.ndarray | None = None) -> dict[str, float]:

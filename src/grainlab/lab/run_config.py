@@ -1,24 +1,33 @@
 """The input of a discrete run, as a TOML file a user can write and read (pydantic models).
 
-A run's ``config.toml`` has four tables; every key has a default, an unknown key is an error
-that names it::
+A run's ``config.toml`` has four tables, ``[solver]`` with a sub-table per kind of stage;
+every key has a default, an unknown key is an error that names it::
 
     [sample]   shape ("sphere" | "aggregate" | "polyhedron"), n_particles, d_min [m],
                size_ratio, eta (aggregates), n_faces and templates (polyhedra), density
                [kg/m^3], packing_fraction (loose start), wall_friction, seed
     [test]     kind ("compaction" | "triaxial" | "oedometer"), sigma0 [Pa], eps_q_max
                (triaxial), axial_strain and unload_strain (oedometer)
-    [solver]   friction, compaction_friction, inertia_number, compaction_inertia_number, dt
-               [s] (0: automatic), time_step_factor, compaction_time_step_factor, theta,
-               tolerance, max_iterations, sweep, max_stage_steps, at_max_stage_steps ("stop" |
-               "next_stage"), wall_mass_factor, wall_servo, seed
+    [solver]   dt [s] (0: automatic), theta, sweep, max_stage_steps, at_max_stage_steps
+               ("stop" | "next_stage"), wall_mass_factor, wall_servo, seed
+    [solver.compaction]   friction, inertia_number, time_step_factor, tolerance,
+    [solver.shear]        max_iterations, overlap_recovery
+               (:class:`~grainlab.lab.stage_numerics.StageNumerics`: compaction for the
+               stages without a strain-controlled axis, shear for the others; defaults
+               :data:`~grainlab.lab.stage_numerics.COMPACTION` and
+               :data:`~grainlab.lab.stage_numerics.SHEAR`)
     [output]   record_every, snapshot_every, checkpoint_every, vtk_every (steps; 0: never)
 
+A config of the earlier layout, with the per-stage keys flat in ``[solver]`` (``friction``,
+``compaction_friction``, ``tolerance``, ``compaction_tolerance``, ...: :data:`EARLIER_SOLVER_KEYS`),
+is read as the same config (:func:`current_layout`), so that runs made with it can be resumed;
+a key given in both layouts is refused.
+
 A resumed run may change the keys of :data:`CHANGEABLE_ON_RESUME` (in ``config.toml`` or with
-``grainlab resume RUN --set solver.tolerance=1e-5``; :func:`parse_assignments`): how the rest
-of the run is solved and written, and the targets of stages not ended yet. Every other key
-made what the run already did (the sample, friction, the solver's scheme, the seeds) and is
-refused with a message naming it (:meth:`RunConfig.changes_on_resume`).
+``grainlab resume RUN --set solver.shear.tolerance=1e-5``; :func:`parse_assignments`): how the
+rest of the run is solved and written, and the targets of stages not ended yet. Every other
+key made what the run already did (the sample, friction, the solver's scheme, the seeds) and
+is refused with a message naming it (:meth:`RunConfig.changes_on_resume`).
 
 >>> config = RunConfig.model_validate({"sample": {"n_particles": 50}})
 >>> config.sample.n_particles, config.test.kind
@@ -34,7 +43,7 @@ from __future__ import annotations
 
 import tomllib
 from pathlib import Path
-from typing import Any, Literal, get_args, get_origin
+from typing import Annotated, Any, Literal, get_args, get_origin
 
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
@@ -44,6 +53,7 @@ from grainlab.errors import InputError
 from grainlab.lab.discrete_test import DiscreteTestSettings
 from grainlab.lab.load_path import LoadPath, StopCriterion
 from grainlab.lab.presets import isotropic_compression, oedometer, triaxial_compression
+from grainlab.lab.stage_numerics import COMPACTION, SHEAR, STAGE_KINDS, StageNumerics
 from grainlab.prep.loose_sample import MAX_FACES
 
 TEST_KINDS = ("compaction", "triaxial", "oedometer")
@@ -55,18 +65,38 @@ UNITS = {"sample.d_min": "m", "sample.density": "kg/m^3", "test.sigma0": "Pa",
 _FACES_NOTE = ("even: n_f = 2 n_v - 4; Table I of Azéma, Radjaï & Dubois 2013: 8, 20, 30, "
                "46, 96, 176, 596")
 
+CHANGEABLE_STAGE_KEYS = ("inertia_number", "time_step_factor", "tolerance",
+                         "max_iterations", "overlap_recovery")
+"""The keys of ``[solver.compaction]`` and ``[solver.shear]`` a resumed run may change (all but
+the friction)."""
+
 CHANGEABLE_ON_RESUME = (
     "test.eps_q_max", "test.axial_strain", "test.unload_strain",
-    "solver.inertia_number", "solver.compaction_inertia_number", "solver.dt",
-    "solver.time_step_factor", "solver.compaction_time_step_factor", "solver.tolerance",
-    "solver.max_iterations", "solver.compaction_tolerance", "solver.compaction_max_iterations",
-    "solver.overlap_recovery", "solver.max_stage_steps", "solver.at_max_stage_steps",
+    "solver.dt", "solver.max_stage_steps", "solver.at_max_stage_steps",
+    *(f"solver.{kind}.{key}" for kind in STAGE_KINDS for key in CHANGEABLE_STAGE_KEYS),
     "output.record_every", "output.snapshot_every", "output.checkpoint_every",
     "output.vtk_every",
 )
 """Keys a resumed run may change (module docstring): they take effect from the resumed step
-on, in the stage under way too (a target only in a stage not ended yet)."""
+on, in the stage under way too (a target only in a stage not ended yet). Every per-stage key
+but the friction."""
 
+EARLIER_SOLVER_KEYS = {
+    "friction": "shear.friction", "compaction_friction": "compaction.friction",
+    "inertia_number": "shear.inertia_number",
+    "compaction_inertia_number": "compaction.inertia_number",
+    "time_step_factor": "shear.time_step_factor",
+    "compaction_time_step_factor": "compaction.time_step_factor",
+    "tolerance": "shear.tolerance", "compaction_tolerance": "compaction.tolerance",
+    "max_iterations": "shear.max_iterations",
+    "compaction_max_iterations": "compaction.max_iterations",
+    "overlap_recovery": "shear.overlap_recovery",
+}
+"""The per-stage keys of the earlier layout, flat in ``[solver]`` (compaction always ran
+without overlap recovery then), and the key of ``[solver]`` each is now."""
+
+_RUN_WIDE = DiscreteTestSettings()
+"""The defaults of the run-wide settings (one place: :class:`DiscreteTestSettings`)."""
 
 class _Section(BaseModel):
     model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
@@ -114,28 +144,60 @@ class TestConfig(_Section):
     unload_strain: float = Field(0.0, ge=0, le=1.0)
 
 
-class SolverConfig(_Section):
-    """Numerical settings (:class:`grainlab.lab.discrete_test.DiscreteTestSettings`)."""
+Friction = Annotated[float, Field(ge=0)]
+InertiaBound = Annotated[float, Field(gt=0, le=1.0)]
+TimeStepFactor = Annotated[float, Field(gt=0, le=0.5)]
+Tolerance = Annotated[float, Field(gt=0, lt=1)]
+SweepCap = Annotated[int, Field(ge=1)]
+OverlapRecovery = Annotated[float, Field(ge=0, le=1)]
 
-    friction: float = Field(0.4, ge=0)
-    compaction_friction: float = Field(0.0, ge=0)
-    inertia_number: float = Field(1e-3, gt=0, le=1.0)
-    compaction_inertia_number: float = Field(1e-2, gt=0, le=1.0)
+
+class _StageSection(_Section):
+    def numerics(self) -> StageNumerics:
+        """The :class:`~grainlab.lab.stage_numerics.StageNumerics` of this table."""
+        return StageNumerics(**self.model_dump())
+
+
+class CompactionConfig(_StageSection):
+    """``[solver.compaction]``: the numerics of stages without a strain-controlled axis
+    (:class:`~grainlab.lab.stage_numerics.StageNumerics`; defaults
+    :data:`~grainlab.lab.stage_numerics.COMPACTION`)."""
+
+    friction: Friction = COMPACTION.friction
+    inertia_number: InertiaBound = COMPACTION.inertia_number
+    time_step_factor: TimeStepFactor = COMPACTION.time_step_factor
+    tolerance: Tolerance = COMPACTION.tolerance
+    max_iterations: SweepCap = COMPACTION.max_iterations
+    overlap_recovery: OverlapRecovery = COMPACTION.overlap_recovery
+
+
+class ShearConfig(_StageSection):
+    """``[solver.shear]``: the numerics of stages with a strain-controlled axis (triaxial
+    shear, oedometer loading and unloading; :class:`~grainlab.lab.stage_numerics.StageNumerics`;
+    defaults :data:`~grainlab.lab.stage_numerics.SHEAR`)."""
+
+    friction: Friction = SHEAR.friction
+    inertia_number: InertiaBound = SHEAR.inertia_number
+    time_step_factor: TimeStepFactor = SHEAR.time_step_factor
+    tolerance: Tolerance = SHEAR.tolerance
+    max_iterations: SweepCap = SHEAR.max_iterations
+    overlap_recovery: OverlapRecovery = SHEAR.overlap_recovery
+
+
+class SolverConfig(_Section):
+    """Numerical settings (:class:`grainlab.lab.discrete_test.DiscreteTestSettings`): the
+    run-wide keys, and a table per kind of stage."""
+
     dt: float = Field(0.0, ge=0)
-    time_step_factor: float = Field(0.003, gt=0, le=0.5)
-    compaction_time_step_factor: float = Field(0.01, gt=0, le=0.5)
-    theta: float = Field(0.5, ge=0.5, le=1.0)
-    tolerance: float = Field(1.666e-4, gt=0, lt=1)
-    max_iterations: int = Field(400, ge=1)
-    sweep: Literal["coloured", "serial"] = "coloured"
-    max_stage_steps: int = Field(200_000, ge=1)
-    at_max_stage_steps: Literal["stop", "next_stage"] = "stop"
-    wall_mass_factor: float = Field(1.0, gt=0)
-    wall_servo: bool = True
-    seed: int = Field(0, ge=0, le=MAX_SEED)
-    overlap_recovery: float = Field(0.05, ge=0, le=1)
-    compaction_max_iterations: int = Field(200, ge=1)
-    compaction_tolerance: float = Field(1e-4, gt=0, lt=1)
+    theta: float = Field(_RUN_WIDE.theta, ge=0.5, le=1.0)
+    sweep: Literal["coloured", "serial"] = _RUN_WIDE.sweep
+    max_stage_steps: int = Field(_RUN_WIDE.max_stage_steps, ge=1)
+    at_max_stage_steps: Literal["stop", "next_stage"] = _RUN_WIDE.at_max_stage_steps
+    wall_mass_factor: float = Field(_RUN_WIDE.wall_mass_factor, gt=0)
+    wall_servo: bool = _RUN_WIDE.wall_servo
+    seed: int = Field(_RUN_WIDE.seed, ge=0, le=MAX_SEED)
+    compaction: CompactionConfig = Field(default_factory=CompactionConfig)
+    shear: ShearConfig = Field(default_factory=ShearConfig)
 
 
 class OutputConfig(_Section):
@@ -144,7 +206,7 @@ class OutputConfig(_Section):
     1000-sphere triaxial test to eps_q = 0.5), so that ``grainlab analyse RUN`` has
     something to read."""
 
-    record_every: int = Field(10, ge=1)
+    record_every: int = Field(_RUN_WIDE.record_every, ge=1)
     snapshot_every: int = Field(500, ge=0)
     checkpoint_every: int = Field(500, ge=0)
     vtk_every: int = Field(0, ge=0)
@@ -160,11 +222,13 @@ class RunConfig(_Section):
 
     @classmethod
     def model_validate(cls, obj: Any, **kwargs) -> RunConfig:  # type: ignore[override]
-        """Validate plain data; errors become :class:`InputError` naming the field."""
+        """Validate plain data (of the earlier layout too: :func:`current_layout`); errors
+        become :class:`InputError` naming the field as the data spells it."""
+        data, earlier = current_layout(obj)
         try:
-            return super().model_validate(obj, **kwargs)
+            return super().model_validate(data, **kwargs)
         except ValidationError as error:
-            raise _input_error(error) from None
+            raise _as_written(_input_error(error), earlier) from None
 
     @classmethod
     def read(cls, path: str | Path) -> RunConfig:
@@ -197,11 +261,14 @@ class RunConfig(_Section):
         return path
 
     def with_updates(self, updates: dict[str, dict[str, Any]]) -> RunConfig:
-        """A copy with some keys changed ({section: {key: value}}), validated."""
-        data = self.model_dump()
-        for section, values in updates.items():
-            data.setdefault(section, {}).update(values)
-        return RunConfig.model_validate(data)
+        """A copy with some keys changed (``{section: {key: value}}``, nested for the
+        sub-tables: ``{"solver": {"shear": {"tolerance": 1e-5}}}``; earlier-layout keys read
+        as in :func:`current_layout`), validated."""
+        updates, earlier = current_layout(updates)
+        try:
+            return RunConfig.model_validate(_merged(self.model_dump(), updates))
+        except InputError as error:
+            raise _as_written(error, earlier) from None
 
     def changes_on_resume(self, started: RunConfig) -> dict[str, tuple[Any, Any]]:
         """The keys changed from ``started`` (the config the run was last checkpointed with)
@@ -247,47 +314,103 @@ class RunConfig(_Section):
 
     def settings(self) -> DiscreteTestSettings:
         """The discrete test's numerical settings."""
-        s = self.solver
+        s, out = self.solver, self.output
         return DiscreteTestSettings(
-            friction=s.friction, compaction_friction=s.compaction_friction,
-            inertia_number=s.inertia_number,
-            compaction_inertia_number=s.compaction_inertia_number, dt=s.dt or None,
-            time_step_factor=s.time_step_factor,
-            compaction_time_step_factor=s.compaction_time_step_factor, theta=s.theta,
-            tolerance=s.tolerance,
-            max_iterations=s.max_iterations, sweep=s.sweep,
-            record_every=self.output.record_every, snapshot_every=self.output.snapshot_every,
-            max_stage_steps=s.max_stage_steps, at_max_stage_steps=s.at_max_stage_steps,
-            wall_mass_factor=s.wall_mass_factor,
-            wall_servo=s.wall_servo,
-            seed=s.seed, overlap_recovery=s.overlap_recovery,
-            compaction_max_iterations=s.compaction_max_iterations,
-            compaction_tolerance=s.compaction_tolerance)
+            compaction=s.compaction.numerics(), shear=s.shear.numerics(), dt=s.dt or None,
+            theta=s.theta, sweep=s.sweep, record_every=out.record_every,
+            snapshot_every=out.snapshot_every, max_stage_steps=s.max_stage_steps,
+            at_max_stage_steps=s.at_max_stage_steps, wall_mass_factor=s.wall_mass_factor,
+            wall_servo=s.wall_servo, seed=s.seed)
 
 
-def _flat(data: dict[str, dict[str, Any]]) -> dict[str, Any]:
-    return {f"{section}.{key}": value for section, values in data.items()
-            for key, value in values.items()}
+def current_layout(data: Any) -> tuple[Any, dict[str, str]]:
+    """``data`` (a config as plain data) with the keys of the earlier layout
+    (:data:`EARLIER_SOLVER_KEYS`: per-stage keys flat in ``[solver]``) moved into
+    ``[solver.compaction]`` and ``[solver.shear]``, and ``{new key: earlier key}`` of those
+    moved (``"solver.shear.friction": "solver.friction"``). ``data`` is not changed. A key
+    given in both layouts raises :class:`InputError` naming it.
+
+    >>> data, moved = current_layout({"solver": {"friction": 0.5, "compaction_tolerance": 1e-5}})
+    >>> data
+    {'solver': {'shear': {'friction': 0.5}, 'compaction': {'tolerance': 1e-05}}}
+    >>> moved["solver.shear.friction"]
+    'solver.friction'
+    """
+    if not isinstance(data, dict) or not isinstance(data.get("solver"), dict):
+        return data, {}
+    solver = dict(data["solver"])
+    moved: dict[str, str] = {}
+    for old, new in EARLIER_SOLVER_KEYS.items():
+        if old not in solver:
+            continue
+        kind, key = new.split(".")
+        table = solver.get(kind, {})
+        if not isinstance(table, dict):
+            continue  # pydantic names the table that is not one
+        if key in table:
+            raise InputError(f"solver.{old}", solver[old], (
+                f"one key, not both: solver.{old} is the earlier name of solver.{new} (given "
+                f"too, = {table[key]!r}); keep solver.{new} only"))
+        solver[kind] = {**table, key: solver.pop(old)}
+        moved[f"solver.{new}"] = f"solver.{old}"
+    return {**data, "solver": solver}, moved
+
+
+def _as_written(error: InputError, earlier: dict[str, str]) -> InputError:
+    """``error`` naming the key as the data spelt it (an earlier-layout key:
+    :func:`current_layout`)."""
+    if error.field not in earlier:
+        return error
+    return InputError(earlier[error.field], error.value,
+                      f"{error.allowed} (read as {error.field})")
+
+
+def _merged(data: dict[str, Any], updates: dict[str, Any]) -> dict[str, Any]:
+    """``data`` with ``updates`` written over it, table by table (nested tables too)."""
+    out = dict(data)
+    for key, value in updates.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = _merged(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def _flat(data: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """``{"solver.shear.tolerance": 1e-5, ...}`` of nested tables."""
+    out: dict[str, Any] = {}
+    for key, value in data.items():
+        if isinstance(value, dict):
+            out.update(_flat(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = value
+    return out
 
 
 def parse_assignments(assignments: list[str]) -> dict[str, dict[str, Any]]:
-    """``["solver.tolerance=1e-5", "test.eps_q_max=0.3"]`` as ``{section: {key: value}}``,
-    each value read as a TOML value (a bare word as text).
+    """``["solver.shear.tolerance=1e-5", "test.eps_q_max=0.3"]`` as ``{section: {key: value}}``
+    (nested for sub-tables), each value read as a TOML value (a bare word as text).
 
-    >>> parse_assignments(["solver.tolerance=1e-5", "solver.sweep=serial"])
-    {'solver': {'tolerance': 1e-05, 'sweep': 'serial'}}
+    >>> parse_assignments(["solver.shear.tolerance=1e-5", "solver.sweep=serial"])
+    {'solver': {'shear': {'tolerance': 1e-05}, 'sweep': 'serial'}}
     """
     out: dict[str, dict[str, Any]] = {}
     for text in assignments:
         key, sep, value = text.partition("=")
-        section, dot, name = key.strip().partition(".")
-        if not sep or not dot or not name:
-            raise InputError("--set", text, "section.key=value, e.g. solver.tolerance=1e-5")
+        names = [name.strip() for name in key.split(".")]
+        if not sep or len(names) < 2 or not all(names):
+            raise InputError("--set", text, "section.key=value, e.g. "
+                                            "solver.shear.tolerance=1e-5")
         try:
             parsed = tomllib.loads(f"v = {value.strip()}")["v"]
         except tomllib.TOMLDecodeError:
             parsed = value.strip()
-        out.setdefault(section, {})[name] = parsed
+        table: dict[str, Any] = out
+        for name in names[:-1]:
+            table = table.setdefault(name, {})
+            if not isinstance(table, dict):
+                raise InputError("--set", text, f"a key of a table ({name} was given a value)")
+        table[names[-1]] = parsed
     return out
 
 
@@ -310,7 +433,8 @@ def _input_error(error: ValidationError) -> InputError:
 
 
 def _field_info(loc: tuple) -> Any:
-    """The pydantic field at ``loc`` (section, key) of :class:`RunConfig`, or None."""
+    """The pydantic field at ``loc`` (section, key, or section, table, key) of
+    :class:`RunConfig`, or None."""
     model: Any = RunConfig
     info = None
     for name in loc:

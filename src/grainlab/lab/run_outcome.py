@@ -134,11 +134,11 @@ class StageOutcome:
                 f"(median {_fmt(self.inertia_median)} = "
                 f"{self.inertia_median / self.inertia_bound:.3g} x the bound, largest "
                 f"{_fmt(self.inertia_max)}): the loading was faster than asked; lower "
-                "solver.inertia_number")
+                "solver.shear.inertia_number")
         if self.solid is False:
             out.append(f"stage {self.name}: the sample lost its contact network (median z "
                        f"{_fmt(self.z_median)} < {MIN_COORDINATION:g}): a granular gas, not a "
-                       "quasi-static test; lower solver.inertia_number")
+                       "quasi-static test; lower solver.shear.inertia_number")
         return out
 
     def words(self) -> str:
@@ -285,19 +285,19 @@ def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
     ``"xx"``... to the stress-controlled axes' targets [Pa] (for the words of an unsettled
     stage)."""
     moving = bool(record.get("strain_controlled", False))
+    numerics = settings.numerics_for(moving)
     ended = record.get("ended", REACHED)
     values: dict[str, Any] = {
         "name": record["name"], "ended": ended, "reason": record["reason"],
         "steps": int(record["steps"]), "capped_steps": int(record.get("capped_steps", 0)),
         "start_step": int(record.get("start_step", -1)),
         "end_step": int(record.get("end_step", -1)),
-        "max_iterations": int(settings.max_iterations if moving
-                              else settings.compaction_max_iterations)}
+        "max_iterations": int(numerics.max_iterations)}
     if moving:
         inertia = np.array([r["inertia_number"] for r in rows], dtype=float)
         inertia = inertia[np.isfinite(inertia)]
         z = np.array([r["z"] for r in rows], dtype=float)
-        values["inertia_bound"] = float(settings.inertia_number)
+        values["inertia_bound"] = float(numerics.inertia_number)
         if inertia.size:
             values.update(inertia_median=float(np.median(inertia)),
                           inertia_q90=float(np.quantile(inertia, INERTIA_QUANTILE)),

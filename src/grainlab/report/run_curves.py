@@ -10,6 +10,7 @@ from __future__ import annotations
 import pandas as pd
 from matplotlib.figure import Figure
 
+from grainlab.lab.run_config import current_layout
 from grainlab.report.curves import new_figure_axes
 from grainlab.result.columns import unit_of
 from grainlab.result.test_result import TestResult
@@ -36,8 +37,9 @@ def run_title(result: TestResult) -> str:
     """One line stating the run: particles, test, stress, friction, inertia bound, seed."""
     meta = result.metadata
     specimen = meta.get("specimen", {})
-    config = meta.get("parameters", {}).get("config", {})
-    test, solver = config.get("test", {}), config.get("solver", {})
+    config, _ = current_layout(meta.get("parameters", {}).get("config", {}))
+    test = config.get("test", {})
+    shear = config.get("solver", {}).get("shear", {})
     shape = specimen.get("shape", "")
     if shape == "polyhedron" and specimen.get("n_faces"):
         shape = f"polyhedra of {specimen['n_faces']} faces"
@@ -47,10 +49,10 @@ def run_title(result: TestResult) -> str:
              str(test.get("kind", meta.get("title", "")))]
     if "sigma0" in test:
         parts.append(rf"$\sigma_0$ = {test['sigma0'] / 1e3:g} kPa")
-    if "friction" in solver:
-        parts.append(rf"$\mu$ = {solver['friction']:g}")
-    if "inertia_number" in solver:
-        parts.append(f"I ≤ {solver['inertia_number']:g}")
+    if "friction" in shear:
+        parts.append(rf"$\mu$ = {shear['friction']:g}")
+    if "inertia_number" in shear:
+        parts.append(f"I ≤ {shear['inertia_number']:g}")
     if "seed" in specimen:
         parts.append(f"seed {specimen['seed']}")
     return ", ".join(parts)

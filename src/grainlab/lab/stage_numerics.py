@@ -1,0 +1,115 @@
+"""How one kind of stage of a discrete test is solved: friction, loading speed, time step and
+NLGS settings (:class:`StageNumerics`), with the defaults of the two kinds.
+
+A discrete test (:mod:`grainlab.lab.discrete_test`) runs two kinds of stages, each with its
+own numerics (:func:`stage_kind` decides which a stage is):
+
+* ``compaction`` (:data:`COMPACTION`): no strain-controlled axis; the sample settles under
+  stress-controlled walls and only its end state matters (seed 002: frictionless, so that it
+  packs densely; the solver may be looser, and no overlap recovery, which keeps a settling
+  packing moving: 4270 instead of 850 steps on 200 spheres);
+* ``shear`` (:data:`SHEAR`): at least one strain-controlled axis (triaxial shear, oedometer
+  loading and unloading); the path is the result, so the loading is slower (I <= 1e-3,
+  quasi-static), the step shorter and the solver tighter.
+
+Their values are the lab tests' settings, measured on 200 to 1000 spheres
+(docs/discrete_engine.md, "Solver settings of the lab tests").
+
+>>> SHEAR.friction, COMPACTION.friction
+(0.4, 0.0)
+>>> from dataclasses import replace
+>>> replace(SHEAR, tolerance=1e-5).tolerance
+1e-05
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+from grainlab._validate import at_least
+from grainlab.errors import InputError
+
+StageKind = Literal["compaction", "shear"]
+
+STAGE_KINDS: tuple[StageKind, ...] = ("compaction", "shear")
+"""The kinds of stage, each with its :class:`StageNumerics`."""
+
+
+def stage_kind(strain_controlled: bool) -> StageKind:
+    """The kind of a stage: ``"shear"`` when one of its axes is strain-controlled (the walls
+    deform the sample at a prescribed rate), ``"compaction"`` when every axis is
+    stress-controlled or fixed (the sample settles under its stresses).
+
+    >>> stage_kind(True), stage_kind(False)
+    ('shear', 'compaction')
+    """
+    return "shear" if strain_controlled else "compaction"
+
+
+@dataclass(frozen=True)
+class StageNumerics:
+    """The numerics of one kind of stage (module docstring); frozen, validated.
+
+    Attributes
+    ----------
+    friction:
+        Interparticle Coulomb coefficient mu [-], >= 0.
+    inertia_number:
+        Bound on the inertia number I = eps_dot <d> sqrt(rho / p) [-], in (0, 1]: it sets
+        the strain rate eps_dot [1/s] of the strain-controlled walls and the speed limit of
+        the stress-controlled ones (:mod:`grainlab.lab.wall_stages`).
+    time_step_factor:
+        v h / d_min [-], in (0, 0.5]: the time step h [s] is this fraction of the smallest
+        length d_min [m] over the stage's wall speed v [m/s] (unless the test's ``dt`` is
+        given).
+    tolerance:
+        NLGS tolerance [-], in (0, 1): relative change of the contact impulses between two
+        sweeps and relative residual (:class:`~grainlab.engine.contact_dynamics.
+        ContactDynamicsStep`).
+    max_iterations:
+        Most NLGS sweeps per step, an integer >= 1.
+    overlap_recovery:
+        beta [-] in [0, 1]: the fraction of an overlap the solver asks to open per step
+        (0: overlaps are never pushed back).
+    """
+
+    friction: float
+    inertia_number: float
+    time_step_factor: float
+    tolerance: float
+    max_iterations: int
+    overlap_recovery: float
+
+    def __post_init__(self) -> None:
+        at_least("friction", self.friction, strict=False)
+        for name, high, closed in (("inertia_number", 1.0, "]"),
+                                   ("time_step_factor", 0.5, "]"), ("tolerance", 1.0, ")")):
+            value = at_least(name, getattr(self, name))
+            if value > high or (closed == ")" and value == high):
+                raise InputError(name, getattr(self, name),
+                                 f"a finite number in (0, {high:g}{closed}")
+        value = self.max_iterations
+        if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+            raise InputError("max_iterations", value, "an integer >= 1")
+        if not 0.0 <= self.overlap_recovery <= 1.0:
+            raise InputError("overlap_recovery", self.overlap_recovery, "a number in [0, 1]")
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data (the keys of a ``[solver.compaction]`` or ``[solver.shear]`` table)."""
+        return asdict(self)
+
+
+COMPACTION = StageNumerics(friction=0.0, inertia_number=1e-2, time_step_factor=0.01,
+                           tolerance=1e-4, max_iterations=200, overlap_recovery=0.0)
+"""Default numerics of compaction stages: frictionless (seed 002), I <= 1e-2, h = 0.01 d_min
+/ v, tolerance 1e-4 (a looser one slows the settling: 2020 instead of 1040 steps on 1000
+spheres at 1.666e-4), 200 sweeps, no overlap recovery."""
+
+SHEAR = StageNumerics(friction=0.4, inertia_number=1e-3, time_step_factor=0.003,
+                      tolerance=1.666e-4, max_iterations=400, overlap_recovery=0.05)
+"""Default numerics of shearing stages: mu = 0.4, I <= 1e-3 (quasi-static), h = 0.003 d_min
+/ v (with 0.01 the overlaps grew to 6-9 % of <d> at eps_q = 0.1 on 200 spheres, below 1 %
+with 0.003), tolerance 1.666e-4, 400 sweeps, overlap recovery beta = 0.05."""
