@@ -18,7 +18,7 @@ from rich.console import Console
 from grainlab.cli.errors import friendly_errors
 from grainlab.cli.inputs import input_file, output_folder
 from grainlab.errors import InputError
-from grainlab.lab.run_config import CHANGEABLE_STAGE_KEYS, RunConfig
+from grainlab.lab.run_config import CHANGEABLE_STAGE_KEYS, PERIODIC_ONLY, TEST_KINDS, RunConfig
 
 console = Console()
 
@@ -211,6 +211,12 @@ _OPTIONS = {
     "snapshot_every": ("--snapshot-every", "output.snapshot_every"),
     "checkpoint_every": ("--checkpoint-every", "output.checkpoint_every"),
     "vtk_every": ("--vtk-every", "output.vtk_every"),
+    "boundary": ("--boundary", "sample.boundary"),
+    "height_ratio": ("--height-ratio", "sample.height_ratio"),
+    "b": ("--b", "test.b"), "gamma": ("--gamma", "test.gamma_max"),
+    "q_ratio": ("--q-ratio", "test.q_ratio"),
+    "circle_points": ("--circle-points", "test.circle_points"),
+    "amplitude": ("--amplitude", "test.amplitude"), "cycles": ("--cycles", "test.n_cycles"),
 }
 """Each command-line option (parameter name) as typed and the config key it sets."""
 
@@ -307,6 +313,22 @@ _EPS_Q = _option("eps_q", "--eps-q", help="Deviatoric strain eps_q = eps_1 - eps
 _AXIAL = _option("axial_strain", "--axial-strain", help="Vertical strain of loading [-].")
 _UNLOAD = _option("unload_strain", "--unload-strain", help="Vertical strain of unloading "
                   "[-] (0: no unloading).")
+_BOUNDARY = _option("boundary", "--boundary", help="What holds the sample: walls (a box of "
+                    "six walls, as the seeds) or periodic (a periodic deformable cell: no "
+                    "walls, every stress and strain component controlled; needed to shear).")
+_HEIGHT = _option("height_ratio", "--height-ratio", help="Height / width of the loose "
+                  "start box (a taller periodic cell keeps room to compress along z).")
+_B = _option("b", "--b", help="true_triaxial: b = (sigma_2 - sigma_3) / (sigma_1 - sigma_3), "
+             "held with p = SIGMA0 (z major, x intermediate, y minor).")
+_GAMMA = _option("gamma", "--gamma", help="simple_shear: the shear strain gamma_xz at which "
+                 "the test ends [-].")
+_Q_RATIO = _option("q_ratio", "--q-ratio", help="circular: the deviator q = sqrt(3 J2) of "
+                   "the circle, over SIGMA0 [-].")
+_POINTS = _option("circle_points", "--circle-points", help="circular: stress targets on the "
+                  "full turn.")
+_AMPLITUDE = _option("amplitude", "--amplitude", help="cyclic_shear: gamma_xz between "
+                     "+-AMPLITUDE [-].")
+_CYCLES = _option("cycles", "--cycles", help="cyclic_shear: number of cycles.")
 _CONFIG = typer.Option(None, "--config", help="A config.toml to start from (options given "
                                               "here override it).")
 _SET_HELP = (
@@ -330,8 +352,8 @@ def triaxial_command(
     seed: int = _SEED, dt: float = _DT, tolerance: float = _TOL, sweep: str = _SWEEP,
     max_iterations: int = _ITER,
     record_every: int = _RECORD, snapshot_every: int = _SNAP, checkpoint_every: int = _CKPT,
-    vtk_every: int = _VTK, config: Path = _CONFIG, overwrite: bool = _OVERWRITE,
-    progress: bool = _PROGRESS,
+    vtk_every: int = _VTK, boundary: str = _BOUNDARY, config: Path = _CONFIG,
+    overwrite: bool = _OVERWRITE, progress: bool = _PROGRESS,
 ) -> None:
     """Triaxial compression of a discrete sample, as Azéma, Radjaï & Dubois 2013
     (polyhedra) and Azéma et al. 2013 (aggregates): a loose random sample, frictionless
@@ -344,7 +366,7 @@ def triaxial_command(
         eps_q=eps_q, seed=seed, dt=dt, tolerance=tolerance, sweep=sweep,
         max_iterations=max_iterations, record_every=record_every,
         snapshot_every=snapshot_every, checkpoint_every=checkpoint_every,
-        vtk_every=vtk_every), overwrite, progress)
+        vtk_every=vtk_every, boundary=boundary), overwrite, progress)
 
 
 @friendly_errors
@@ -355,7 +377,8 @@ def compaction_command(
     sigma0: float = _SIGMA0, seed: int = _SEED, dt: float = _DT,
     tolerance: float = _COMPACTION_TOL, sweep: str = _SWEEP, record_every: int = _RECORD,
     snapshot_every: int = _SNAP, checkpoint_every: int = _CKPT, vtk_every: int = _VTK,
-    config: Path = _CONFIG, overwrite: bool = _OVERWRITE, progress: bool = _PROGRESS,
+    boundary: str = _BOUNDARY, config: Path = _CONFIG, overwrite: bool = _OVERWRITE,
+    progress: bool = _PROGRESS,
 ) -> None:
     """Isotropic compaction of a loose random sample to SIGMA0 (no gravity, no friction: the
     preparation of Azéma, Radjaï & Dubois 2013) until quasi-static; reports the packing
@@ -365,7 +388,7 @@ def compaction_command(
         templates=templates, density=density, sigma0=sigma0, seed=seed, dt=dt,
         compaction_tolerance=tolerance, sweep=sweep, record_every=record_every,
         snapshot_every=snapshot_every, checkpoint_every=checkpoint_every,
-        vtk_every=vtk_every), overwrite, progress)
+        vtk_every=vtk_every, boundary=boundary), overwrite, progress)
 
 
 @friendly_errors
@@ -377,8 +400,8 @@ def oedometer_command(
     unload_strain: float = _UNLOAD,
     seed: int = _SEED, dt: float = _DT, tolerance: float = _TOL, sweep: str = _SWEEP,
     record_every: int = _RECORD, snapshot_every: int = _SNAP, checkpoint_every: int = _CKPT,
-    vtk_every: int = _VTK, config: Path = _CONFIG, overwrite: bool = _OVERWRITE,
-    progress: bool = _PROGRESS,
+    vtk_every: int = _VTK, boundary: str = _BOUNDARY, config: Path = _CONFIG,
+    overwrite: bool = _OVERWRITE, progress: bool = _PROGRESS,
 ) -> None:
     """Oedometer (1-D compression, lateral walls fixed) of a discrete sample after
     isotropic compaction to SIGMA0: loading by AXIAL_STRAIN, then unloading by UNLOAD_STRAIN
@@ -393,7 +416,47 @@ def oedometer_command(
         axial_strain=axial_strain, unload_strain=unload_strain, seed=seed, dt=dt,
         tolerance=tolerance, sweep=sweep, record_every=record_every,
         snapshot_every=snapshot_every, checkpoint_every=checkpoint_every,
-        vtk_every=vtk_every), overwrite, progress)
+        vtk_every=vtk_every, boundary=boundary), overwrite, progress)
+
+
+_KIND = typer.Argument(..., help="The lab test: " + ", ".join(TEST_KINDS) + ". "
+                       + ", ".join(PERIODIC_ONLY) + " need --boundary periodic.")
+
+
+@friendly_errors
+def lab_test_command(
+    kind: str = _KIND, out: Path = _OUT, boundary: str = _BOUNDARY,
+    shape: str = _SHAPE, n: int = _N, d_min: float = _DMIN, size_ratio: float = _RATIO,
+    eta: float = _ETA, faces: int = _FACES, templates: int = _TEMPLATES,
+    density: float = _RHO, height_ratio: float = _HEIGHT, mu: float = _MU,
+    sigma0: float = _SIGMA0, inertia: float = _INERTIA, eps_q: float = _EPS_Q,
+    axial_strain: float = _AXIAL, unload_strain: float = _UNLOAD, b: float = _B,
+    gamma: float = _GAMMA, q_ratio: float = _Q_RATIO, circle_points: int = _POINTS,
+    amplitude: float = _AMPLITUDE, cycles: int = _CYCLES,
+    seed: int = _SEED, dt: float = _DT, tolerance: float = _TOL, sweep: str = _SWEEP,
+    max_iterations: int = _ITER, record_every: int = _RECORD, snapshot_every: int = _SNAP,
+    checkpoint_every: int = _CKPT, vtk_every: int = _VTK, config: Path = _CONFIG,
+    overwrite: bool = _OVERWRITE, progress: bool = _PROGRESS,
+) -> None:
+    """Any lab test on a discrete sample: a loose random sample, frictionless isotropic
+    compaction to SIGMA0 until quasi-static, then KIND: triaxial (compression to EPS_Q at
+    lateral stress SIGMA0), extension, oedometer (walls only: rigid grains in a periodic cell
+    cannot follow it), true_triaxial (constant p and B to EPS_Q), simple_shear (gamma_xz to
+    GAMMA, sigma_zz held, eps_xx = eps_yy = 0), circular (a full turn on the octahedral plane
+    at q = Q_RATIO x SIGMA0), cyclic_shear (CYCLES of gamma_xz between +-AMPLITUDE), in a box
+    of walls or (--boundary periodic) a periodic cell whose six components follow the
+    test."""
+    if kind not in TEST_KINDS:
+        raise InputError("KIND", kind, "one of " + ", ".join(TEST_KINDS))
+    _run(kind, out, config, dict(
+        boundary=boundary, shape=shape, n=n, d_min=d_min, size_ratio=size_ratio, eta=eta,
+        faces=faces, templates=templates, density=density, height_ratio=height_ratio, mu=mu,
+        sigma0=sigma0, inertia=inertia, eps_q=eps_q, axial_strain=axial_strain,
+        unload_strain=unload_strain, b=b, gamma=gamma, q_ratio=q_ratio,
+        circle_points=circle_points, amplitude=amplitude, cycles=cycles, seed=seed, dt=dt,
+        tolerance=tolerance, sweep=sweep, max_iterations=max_iterations,
+        record_every=record_every, snapshot_every=snapshot_every,
+        checkpoint_every=checkpoint_every, vtk_every=vtk_every), overwrite, progress)
 
 
 @friendly_errors

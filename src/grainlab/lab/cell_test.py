@@ -35,16 +35,15 @@ from grainlab.engine.sample_measures import cell_measures
 from grainlab.lab.cell_stages import CellStage, cell_stages
 from grainlab.lab.discrete_test import (
     MAX_STEPS_REASON,
-    THIN_BOX,
     RECOVERY_SPEED_FRACTION,
     SHORTEST_CUT,
     TARGET_MARGIN,
+    THIN_BOX,
     DiscreteTest,
     _stop_reason,
     time_step_length,
 )
 from grainlab.lab.load_path import LoadPath
-
 
 THIN_CELL_MARGIN = 1.05
 """A stage stops when a width of the cell is within 5 % of the detection's limit."""
@@ -88,10 +87,9 @@ class CellTest(DiscreteTest):
         stage."""
         stage = self.stage
         assert stage is not None
-        s = self.settings
         cell = self.sample.boundary
         p_ref = self._confining(stage)
-        inertia = s.inertia_number if stage.moving_axes else s.compaction_inertia_number
+        inertia = self.stage_numerics.inertia_number
         self.strain_rate = inertia * math.sqrt(p_ref / self.sample.state.density) / \
             self.sample.mean_diameter
         self.reference_stress = p_ref
@@ -107,18 +105,16 @@ class CellTest(DiscreteTest):
         self.stage_started = True
 
     def _stage_numerics(self) -> None:
-        stage, s = self.stage, self.settings
-        moving = stage.moving_axes
-        self.solver.friction = s.friction if moving else s.compaction_friction
-        self.solver.max_iterations = s.max_iterations if moving else \
-            s.compaction_max_iterations
-        self.solver.overlap_recovery = s.overlap_recovery if moving else 0.0
-        self.solver.tolerance = s.tolerance if moving else s.compaction_tolerance
+        s, numerics = self.settings, self.stage_numerics
+        self.solver.friction = numerics.friction
+        self.solver.max_iterations = numerics.max_iterations
+        self.solver.overlap_recovery = numerics.overlap_recovery
+        self.solver.tolerance = numerics.tolerance
         v_max = self.stage_wall_speed
         self.solver.overlap_recovery_speed = RECOVERY_SPEED_FRACTION * v_max
         if s.dt is None:
-            factor = s.time_step_factor if moving else s.compaction_time_step_factor
-            self.stage_dt = factor * time_step_length(self.sample.library) / v_max
+            self.stage_dt = numerics.time_step_factor * time_step_length(
+                self.sample.library) / v_max
         else:
             self.stage_dt = s.dt
         self.solver.dt = self._last_step(self.stage_dt)

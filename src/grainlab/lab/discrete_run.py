@@ -57,6 +57,7 @@ from grainlab.engine.sample_measures import PAIR_TYPE_NAMES
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.errors import GrainlabError, InputError
 from grainlab.lab.box_thickness import BOX_MIN_DIAMETERS
+from grainlab.lab.cell_test import CellTest
 from grainlab.lab.discrete_test import DiscreteTest
 from grainlab.lab.run_checkpoint import (
     CHECKPOINT,
@@ -129,7 +130,8 @@ def build_sample(config: RunConfig) -> DiscreteSample:
                             size_ratio=s.size_ratio, eta=s.eta, n_faces=s.n_faces,
                             templates=s.templates, density=s.density,
                             packing_fraction=s.packing_fraction,
-                            wall_friction=s.wall_friction, seed=s.seed)
+                            aspect=(1.0, 1.0, s.height_ratio),
+                            wall_friction=s.wall_friction, seed=s.seed, boundary=s.boundary)
     except InputError as error:
         if error.field not in type(s).model_fields:
             raise
@@ -171,7 +173,7 @@ class DiscreteRun:
 
     def write_vtk(self) -> None:
         """Write one ParaView frame of the sample (particles, contacts, walls) to vtk/."""
-        from grainlab.report.vtk_export import BoxWalls, ContactLines, VtkSeries
+        from grainlab.report.vtk_export import ContactLines, VtkSeries
 
         sim = self.test.simulation
         if self._vtk is None:
@@ -184,7 +186,7 @@ class DiscreteRun:
                                                      self.test.solver.dt,
                                                      friction=self.test.solver.friction)
         self._vtk.add_state(sim.time, self.test.sample.state, contacts=contacts,
-                            walls=BoxWalls.from_wall_box(self.test.sample.box))
+                            walls=_walls(self.test.sample.boundary))
 
     @property
     def outcome(self) -> RunOutcome:
@@ -248,9 +250,10 @@ class DiscreteRun:
         return CheckpointContents(
             groups={"state": {n: getattr(test.sample.state, n) for n in STATE_FIELDS},
                     "library": {n: getattr(test.sample.library, n) for n in LIBRARY_FIELDS},
-                    "box": test.sample.box.to_arrays(),
+                    "box": test.sample.boundary.to_arrays(),
                     "warm_start": test.solver.warm_start_arrays()},
-            group_attrs={"state": {"density": test.sample.state.density}},
+            group_attrs={"state": {"density": test.sample.state.density},
+                         "box": {"kind": "periodic" if test.sample.periodic else "walls"}},
             attrs={"rng_state": json.dumps(test.solver.rng_state),
                    "progress": json.dumps(_plain(test.progress_arrays())),
                    "outcome": json.dumps(_plain(test.outcome)),
@@ -453,6 +456,14 @@ def progress_fields(test: DiscreteTest, row: dict) -> tuple[float, str]:
     return 0.5 * loaded + 0.5 * settled, info
 
 
+def _walls(boundary):
+    """The walls to draw (None for a periodic cell)."""
+    from grainlab.engine.wall_box import WallBox
+    from grainlab.report.vtk_export import BoxWalls
+
+    return BoxWalls.from_wall_box(boundary) if isinstance(boundary, WallBox) else None
+
+
 def _plain(value: Any) -> Any:
     if isinstance(value, dict):
         return {str(k): _plain(v) for k, v in value.items()}
@@ -487,9 +498,18 @@ def start_run(folder: str | Path, config: RunConfig, *, overwrite: bool = False
     return _create(folder, config, test)
 
 
+def test_for(sample: DiscreteSample, config: RunConfig) -> DiscreteTest:
+    """The lab test of ``config`` on ``sample``: in its box of walls
+    (:class:`~grainlab.lab.discrete_test.DiscreteTest`) or its periodic cell
+    (:class:`~grainlab.lab.cell_test.CellTest`)."""
+    kind = CellTest if sample.periodic else DiscreteTest
+    return kind(sample, config.load_path(), config.settings())
+
+
 def _new_test(config: RunConfig) -> DiscreteTest:
     """The sample and the test of ``config``, its targets checked against the box."""
-    test = DiscreteTest(build_sample(config), config.load_path(), config.settings())
+    config.load_path()  # a path the boundary cannot run is refused before the sample is made
+    test = test_for(build_sample(config), config)
     _refuse_flattening(test, config)
     return test
 
@@ -570,9 +590,10 @@ def resume_run(folder: str | Path, changes: list[str] | dict | None = None, *,
     changed = config.changes_on_resume(started)
     box = saved["box"]
     sample = DiscreteSample(saved["library"], saved["state"], box, saved["description"])
-    masses = box.masses.copy()
-    test = DiscreteTest(sample, config.load_path(), config.settings())
-    box.set_masses(masses)
+    masses = None if sample.periodic else box.masses.copy()
+    test = test_for(sample, config)
+    if masses is not None:
+        box.set_masses(masses)
     test.restore_progress(saved["progress"])
     test.outcome = saved["outcome"]
     test.rows = saved["rows"]
@@ -649,7 +670,7 @@ def export_checkpoint_vtk(folder: str | Path, out: str | Path | None = None) -> 
     """ParaView files of a run's last checkpoint (particles, walls) and of the contacts of
     its last snapshot (if any) in ``out`` (default RUN/vtk-checkpoint); returns the paths."""
     from grainlab.analysis.snapshot_files import count_snapshots, read_snapshot
-    from grainlab.report.vtk_export import BoxWalls, ContactLines, write_vtk_frame
+    from grainlab.report.vtk_export import ContactLines, write_vtk_frame
 
     folder = Path(folder)
     saved = load_checkpoint(folder).saved
@@ -670,6 +691,6 @@ def export_checkpoint_vtk(folder: str | Path, out: str | Path | None = None) -> 
     files = write_vtk_frame(out, 0, float(saved["progress"]["time"]), positions=state.positions,
                             orientations=state.orientations, shape_ids=state.shape_ids,
                             library=library, contacts=contacts,
-                            walls=BoxWalls.from_wall_box(box), velocities=state.velocities,
+                            walls=_walls(box), velocities=state.velocities,
                             angular_velocities=state.angular_velocities)
     return sorted(files.values())

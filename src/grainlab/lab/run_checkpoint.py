@@ -29,6 +29,7 @@ from typing import Any
 
 import h5py
 
+from grainlab.engine.periodic_boundary import PeriodicCell
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
 from grainlab.errors import GrainlabError
@@ -163,6 +164,15 @@ def _damage(error: BaseException) -> str:
     return f"unreadable ({type(error).__name__}: {text})"
 
 
+def _boundary(group) -> Any:
+    """The wall box or periodic cell saved in ``group`` (checkpoints before the periodic
+    cell hold a wall box)."""
+    arrays = {k: v[()] for k, v in group.items()}
+    if group.attrs.get("kind", "walls") == "periodic":
+        return PeriodicCell.from_arrays(arrays)
+    return WallBox.from_arrays(arrays)
+
+
 def read_checkpoint(path: str | Path) -> dict[str, Any]:
     """Everything a checkpoint holds: ``library``, ``state``, ``box`` (objects),
     ``warm_start`` (arrays), ``rng_state``, ``progress``, ``outcome``, ``description``,
@@ -178,7 +188,7 @@ def read_checkpoint(path: str | Path) -> dict[str, Any]:
                                            for n in LIBRARY_FIELDS if n in handle["library"]}),
                 "state": BodyState(**{n: handle["state"][n][()] for n in STATE_FIELDS},
                                    density=float(handle["state"].attrs["density"])),
-                "box": WallBox.from_arrays({k: v[()] for k, v in handle["box"].items()}),
+                "box": _boundary(handle["box"]),
                 "warm_start": {k: v[()] for k, v in handle["warm_start"].items()},
                 "rows": json.loads(handle["rows"][()]),
             }

@@ -5,9 +5,12 @@ every key has a default, an unknown key is an error that names it::
 
     [sample]   shape ("sphere" | "aggregate" | "polyhedron"), n_particles, d_min [m],
                size_ratio, eta (aggregates), n_faces and templates (polyhedra), density
-               [kg/m^3], packing_fraction (loose start), wall_friction, seed
-    [test]     kind ("compaction" | "triaxial" | "oedometer"), sigma0 [Pa], eps_q_max
-               (triaxial), axial_strain and unload_strain (oedometer)
+               [kg/m^3], packing_fraction (loose start), wall_friction, seed, boundary
+               ("walls" | "periodic"), height_ratio (the start box's height / width)
+    [test]     kind (:data:`TEST_KINDS`), sigma0 [Pa], eps_q_max (triaxial, extension,
+               true_triaxial), axial_strain and unload_strain (oedometer), b (true_triaxial),
+               gamma_max (simple_shear), q_ratio and circle_points (circular),
+               amplitude and n_cycles (cyclic_shear)
     [solver]   dt [s] (0: automatic), theta, sweep, max_stage_steps, at_max_stage_steps
                ("stop" | "next_stage"), wall_mass_factor, wall_servo, seed
     [solver.compaction]   friction, inertia_number, time_step_factor, tolerance,
@@ -51,12 +54,26 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from grainlab._validate import MAX_SEED
 from grainlab.errors import InputError
 from grainlab.lab.discrete_test import DiscreteTestSettings
-from grainlab.lab.load_path import LoadPath, StopCriterion
-from grainlab.lab.presets import isotropic_compression, oedometer, triaxial_compression
+from grainlab.lab.load_path import LoadPath, LoadStage, StopCriterion
+from grainlab.lab.presets import (
+    circular_octahedral,
+    cyclic_shear,
+    isotropic_compression,
+    oedometer,
+    triaxial_compression,
+    triaxial_extension,
+    true_triaxial,
+)
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR, STAGE_KINDS, StageNumerics
 from grainlab.prep.loose_sample import MAX_FACES
 
-TEST_KINDS = ("compaction", "triaxial", "oedometer")
+TEST_KINDS = ("compaction", "triaxial", "extension", "oedometer", "true_triaxial",
+              "simple_shear", "circular", "cyclic_shear")
+"""The lab tests of a discrete run: every one starts with an isotropic compaction to sigma0
+(:meth:`RunConfig.load_path`)."""
+PERIODIC_ONLY = ("true_triaxial", "simple_shear", "circular", "cyclic_shear")
+"""Tests that shear or control every principal stress: a periodic cell runs them, a box of
+walls (which moves only along its axes, one stress per axis) cannot."""
 
 UNITS = {"sample.d_min": "m", "sample.density": "kg/m^3", "test.sigma0": "Pa",
          "solver.dt": "s"}
@@ -121,6 +138,8 @@ class SampleConfig(_Section):
     packing_fraction: float = Field(0.3, gt=0, le=0.35)
     wall_friction: float = Field(0.0, ge=0)
     seed: int = Field(0, ge=0, le=MAX_SEED)
+    boundary: Literal["walls", "periodic"] = "walls"
+    height_ratio: float = Field(1.0, ge=0.25, le=4.0)
 
     @field_validator("n_faces")
     @classmethod
@@ -132,16 +151,27 @@ class SampleConfig(_Section):
 
 class TestConfig(_Section):
     """The lab test: isotropic compaction to sigma0, then (triaxial) compression at constant
-    lateral stress sigma0 to eps_q_max, or (oedometer) 1-D compression by axial_strain and
-    optional unloading by unload_strain."""
+    lateral stress sigma0 to eps_q_max, (extension) the same with the axial strain reversed,
+    (oedometer) 1-D compression by axial_strain and optional unloading by unload_strain,
+    (true_triaxial) constant p = sigma0 and constant b to eps_q_max, (simple_shear) gamma_xz
+    to gamma_max with sigma_zz held at sigma0 and eps_xx = eps_yy = 0, (circular) a full
+    turn on the octahedral plane at p = sigma0 and q = q_ratio sigma0 (circle_points
+    targets), (cyclic_shear) n_cycles of gamma_xz between +-amplitude with sigma_zz held."""
 
     __test__ = False
 
-    kind: Literal["compaction", "triaxial", "oedometer"] = "triaxial"
+    kind: Literal["compaction", "triaxial", "extension", "oedometer", "true_triaxial",
+                  "simple_shear", "circular", "cyclic_shear"] = "triaxial"
     sigma0: float = Field(1e4, gt=0)
     eps_q_max: float = Field(0.5, gt=0, le=2.0)
     axial_strain: float = Field(0.05, gt=0, le=1.0)
     unload_strain: float = Field(0.0, ge=0, le=1.0)
+    b: float = Field(0.5, ge=0, le=1)
+    gamma_max: float = Field(0.5, gt=0, le=10.0)
+    q_ratio: float = Field(0.3, gt=0, le=1.5)
+    circle_points: int = Field(36, ge=4, le=3600)
+    amplitude: float = Field(0.01, gt=0, le=1.0)
+    n_cycles: int = Field(2, ge=1, le=1000)
 
 
 Friction = Annotated[float, Field(ge=0)]
@@ -287,30 +317,21 @@ class RunConfig(_Section):
 
     # -- what the config means ----------------------------------------------------------------
     def load_path(self) -> LoadPath:
-        """The lab load path of the test (presets of :mod:`grainlab.lab.presets`)."""
+        """The lab load path of the test (presets of :mod:`grainlab.lab.presets`), after an
+        isotropic compaction to sigma0 (stage ``"compaction"``)."""
         t = self.test
-        compaction = isotropic_compression(p_final=t.sigma0, n_steps=1)
+        if t.kind in PERIODIC_ONLY and self.sample.boundary != "periodic":
+            raise InputError("sample.boundary", self.sample.boundary,
+                             f'"periodic" for test.kind = {t.kind!r}: a box of walls moves '
+                             "only along its axes and cannot shear")
+        compaction = _renamed(isotropic_compression(p_final=t.sigma0, n_steps=1).stages,
+                              "compaction")
         if t.kind == "compaction":
-            return LoadPath("isotropic_compaction", 3, _renamed(compaction.stages, "compaction"),
+            return LoadPath("isotropic_compaction", 3, compaction,
                             f"isotropic compaction to {t.sigma0:g} Pa")
-        if t.kind == "triaxial":
-            shear = triaxial_compression(confining=t.sigma0, axial_strain=t.eps_q_max,
-                                         n_steps=1, consolidation_steps=0)
-            stage = shear.stages[0]
-            stop = (StopCriterion("eps_q", t.eps_q_max, ends="stage"),)
-            stage = type(stage)(**{**stage.__dict__, "stop": stop})
-            return LoadPath("triaxial_compression", 3,
-                            (*_renamed(compaction.stages, "compaction"), stage),
-                            f"isotropic compaction to {t.sigma0:g} Pa, then triaxial "
-                            f"compression at lateral stress {t.sigma0:g} Pa to eps_q = "
-                            f"{t.eps_q_max:g}")
-        path = oedometer(strain_final=t.axial_strain, n_steps=1,
-                         unload_strain=t.unload_strain or None)
-        return LoadPath("oedometer", 3, (*_renamed(compaction.stages, "compaction"),
-                                         *path.stages),
-                        f"isotropic compaction to {t.sigma0:g} Pa, then 1-D compression by "
-                        f"{t.axial_strain:g}" + (f", unloading by {t.unload_strain:g}"
-                                                 if t.unload_strain else ""))
+        stages, name, what = _test_stages(t)
+        return LoadPath(name, 3, (*compaction, *stages),
+                        f"isotropic compaction to {t.sigma0:g} Pa, then {what}")
 
     def settings(self) -> DiscreteTestSettings:
         """The discrete test's numerical settings."""
@@ -412,6 +433,55 @@ def parse_assignments(assignments: list[str]) -> dict[str, dict[str, Any]]:
                 raise InputError("--set", text, f"a key of a table ({name} was given a value)")
         table[names[-1]] = parsed
     return out
+
+
+def _until_eps_q(stage, eps_q_max: float):
+    """``stage`` ended by eps_q >= ``eps_q_max`` (its own strain target set beyond it)."""
+    stop = (StopCriterion("eps_q", eps_q_max, ends="stage"),)
+    return type(stage)(**{**stage.__dict__, "stop": stop})
+
+
+def _test_stages(t: TestConfig) -> tuple[tuple, str, str]:
+    """The stages after the compaction, the path's name and what they do, in words."""
+    if t.kind in ("triaxial", "extension"):
+        preset = triaxial_compression if t.kind == "triaxial" else triaxial_extension
+        stage = preset(confining=t.sigma0, axial_strain=t.eps_q_max, n_steps=1,
+                       consolidation_steps=0).stages[0]
+        name = "triaxial_compression" if t.kind == "triaxial" else "triaxial_extension"
+        return ((_until_eps_q(stage, t.eps_q_max),), name,
+                f"triaxial {'compression' if t.kind == 'triaxial' else 'extension'} at "
+                f"lateral stress {t.sigma0:g} Pa to eps_q = {t.eps_q_max:g}")
+    if t.kind == "oedometer":
+        path = oedometer(strain_final=t.axial_strain, n_steps=1,
+                         unload_strain=t.unload_strain or None)
+        return (path.stages, "oedometer", f"1-D compression by {t.axial_strain:g}"
+                + (f", unloading by {t.unload_strain:g}" if t.unload_strain else ""))
+    if t.kind == "true_triaxial":
+        # the strain along the deviator direction goes beyond eps_q_max; eps_q ends it
+        stage = true_triaxial(p=t.sigma0, b=t.b, n_steps=1, strain=2.0 * t.eps_q_max,
+                              consolidation_steps=0).stages[0]
+        return ((_until_eps_q(stage, t.eps_q_max),), "true_triaxial",
+                f"true triaxial at p = {t.sigma0:g} Pa and b = {t.b:g} to eps_q = "
+                f"{t.eps_q_max:g}")
+    if t.kind == "simple_shear":
+        stage = LoadStage.from_components(
+            "shear", 1, 3, strain={"xx": 0.0, "yy": 0.0, "yz": 0.0, "xz": t.gamma_max,
+                                   "xy": 0.0},
+            stress={"zz": t.sigma0}, stress_mode="target")
+        return ((stage,), "simple_shear",
+                f"simple shear gamma_xz to {t.gamma_max:g} at sigma_zz = {t.sigma0:g} Pa")
+    if t.kind == "circular":
+        path = circular_octahedral(p=t.sigma0, radius_q=t.q_ratio * t.sigma0,
+                                   n_steps=t.circle_points, consolidation_steps=0,
+                                   approach_steps=1)
+        return (path.stages, "circular_octahedral",
+                f"a full turn on the octahedral plane at p = {t.sigma0:g} Pa, q = "
+                f"{t.q_ratio * t.sigma0:g} Pa")
+    path = cyclic_shear(amplitude=t.amplitude, n_cycles=t.n_cycles, steps_per_quarter=1,
+                        vertical_stress=t.sigma0, k0_consolidation_steps=0)
+    return (path.stages, "cyclic_shear",
+            f"{t.n_cycles} cycles of gamma_xz = +-{t.amplitude:g} at sigma_zz = "
+            f"{t.sigma0:g} Pa")
 
 
 def _renamed(stages, name: str):
