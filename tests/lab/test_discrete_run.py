@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from grainlab.errors import InputError
@@ -88,6 +89,24 @@ def test_triaxial_run_records_every_column_and_agrees_with_walls(finished_run):
         assert (folder / name).exists(), name
     again = read_test_result(folder / RESULTS)
     np.testing.assert_allclose(again.table["q_over_trace"], table["q_over_trace"])
+
+
+def test_the_wall_box_gives_the_results_it_gave_before(finished_run):
+    """Regression on a recorded run: the rows of SMALL recorded before the engine took a
+    pluggable boundary (tests/lab/data; the same on a generic processor,
+    NUMBA_CPU_NAME=generic, bit for bit)."""
+    _, result = finished_run
+    recorded = pd.read_csv(Path(__file__).parent / "data" / "wall_box_triaxial_40_spheres.csv")
+    table = result.table
+    assert list(table["stage"]) == list(recorded["stage"])
+    assert list(table["step"]) == list(recorded["step"])
+    for column in recorded.columns:
+        if column == "stage":
+            continue
+        np.testing.assert_allclose(table[column].to_numpy(dtype=float),
+                                   recorded[column].to_numpy(dtype=float), rtol=1e-9,
+                                   atol=1e-12 * float(np.nanmax(np.abs(recorded[column]))),
+                                   err_msg=column)
 
 
 def test_snapshots_feed_the_analysis_layer(finished_run):

@@ -30,13 +30,18 @@ Control. Each stage sets (:meth:`PeriodicCell.set_control`):
 A stress-controlled degree of freedom is an overdamped servo solved with the contacts, as
 the walls of :class:`~grainlab.engine.wall_box.WallBox` are:
 
-    e_d = G e_max (c*_d - c_d) / sigma_ref,          -4 e_max <= e_d <= e_max
+    e_d = G e_max (c*_d + J_d - c_d) / sigma_ref,          -4 e_max <= e_d <= e_max
 
 with G = :data:`SERVO_GAIN` (20), e_max [1/s] the stage's largest strain rate (from the bound
 on the inertia number) and sigma_ref [Pa] the stage's reference stress: the cell compresses
-at e_max when nothing holds it, and a component following a dilating sample at 0.4 e_max sits
-2 % of sigma_ref off its target. The bounds are symmetric (+-4 e_max) for a component whose
-target is not compressive. In the contact problem c_d is the stress the contacts with
+at e_max when nothing holds it. The proportional term alone leaves a lasting error where the
+component must move (a lateral stress following a dilating sample at 0.5 e_max would sit
+2.5 % of sigma_ref off its target); the integral term J_d takes it up, dJ_d/dt =
+(e_max / :data:`INTEGRAL_STRAIN`) (c*_d - c_d) with c_d the stress the image contacts carried
+over the last step, bounded by |J_d| <= 4 sigma_ref / G (what the largest outward rate needs),
+so that a stress-controlled component holds its target on average within a strain of about
+0.5 %. The bounds are symmetric (+-4 e_max) for a component whose target is not
+compressive. In the contact problem c_d is the stress the contacts with
 images transmit across the cell, c_d = -(1/V) sum_k G_d : (f_k (x) h m_k), which equals the
 stress from all contacts in static equilibrium; so e_d has the free value
 G e_max c*_d / sigma_ref and the inverse mass kappa_d = G e_max / (sigma_ref V dt) against
@@ -53,7 +58,7 @@ gradient F = h remap^-1 h_0^-1 stays continuous.
 
 >>> import numpy as np
 >>> cell = PeriodicCell(np.diag([1.0, 2.0, 4.0]))
->>> cell.volume, cell.widths.tolist()
+>>> round(cell.volume, 12), cell.widths.tolist()
 (8.0, [1.0, 2.0, 4.0])
 """
 
@@ -70,6 +75,8 @@ from grainlab.geometry.triclinic_cell import TriclinicCell
 SERVO_GAIN = 20.0
 """Gain G of the stress-controlled degrees of freedom (as the servo walls'): speed G e_max per
 unit relative stress error (c*_d - c_d) / sigma_ref."""
+INTEGRAL_STRAIN = 0.005
+"""Strain [-] over which the servo's integral term takes up a lasting stress error."""
 OUTWARD_RATE_FACTOR = 4.0
 """A stress-controlled degree of freedom expands at most this many times e_max."""
 MAX_SKEW = 0.5
@@ -177,6 +184,7 @@ class PeriodicCell:
         self.gain = float(gain)
         if not kept:
             self.dofs = np.zeros(directions.shape[0])
+            self.integral = np.zeros(directions.shape[0])
         outward = OUTWARD_RATE_FACTOR * self.max_rate
         inward = np.where(goals > 0.0, self.max_rate, outward)
         self.bounds = np.column_stack([np.full(goals.shape[0], -outward), inward])
@@ -198,7 +206,7 @@ class PeriodicCell:
         n = self.gradients.shape[0]
         basis = np.einsum("dab,bc->dac", self.gradients, h_m)
         scale = self.gain * self.max_rate / self.reference_stress if n else 0.0
-        free = scale * self.targets
+        free = scale * (self.targets + self.integral)
         inv_mass = np.full(n, scale / (volume * dt)) if n else np.zeros(0)
         reach = np.abs(self.fixed_gradient) + np.einsum(
             "d,dab->ab", np.abs(self.bounds).max(axis=1, initial=0.0) if n else np.zeros(0),
@@ -236,6 +244,12 @@ class PeriodicCell:
             self.boundary_stress = np.zeros((3, 3))
         self.rate = np.array(motion.cell_rate, dtype=np.float64)
         self.dofs = np.array(motion.cell_dofs, dtype=np.float64)
+        if self.targets.size:
+            error = self.targets - self.conjugate_stress(self.boundary_stress)
+            bound = OUTWARD_RATE_FACTOR / self.gain * self.reference_stress
+            self.integral = np.clip(
+                self.integral + motion.dt * self.max_rate / INTEGRAL_STRAIN * error,
+                -bound, bound)
         self.carried = predicted
         self.geometry = TriclinicCell(h_m + motion.theta * motion.dt * self.rate)
         self.remap_if_skewed()
@@ -267,6 +281,7 @@ class PeriodicCell:
             "reference": self.reference.copy(), "max_skew": np.array(self.max_skew),
             "fixed_gradient": self.fixed_gradient.copy(), "gradients": self.gradients.copy(),
             "targets": self.targets.copy(), "dofs": self.dofs.copy(),
+            "integral": self.integral.copy(),
             "servo": np.array([self.reference_stress, self.max_rate, self.gain]),
             "boundary_stress": self.boundary_stress.copy(),
             "n_remaps": np.array(self.n_remaps),
@@ -280,6 +295,7 @@ class PeriodicCell:
         cell.set_control(arrays["fixed_gradient"], arrays["gradients"], arrays["targets"],
                          float(servo[0]), float(servo[1]), float(servo[2]))
         cell.dofs = np.array(arrays["dofs"], dtype=np.float64)
+        cell.integral = np.array(arrays["integral"], dtype=np.float64)
         cell.rate = np.array(arrays["rate"], dtype=np.float64)
         cell.carried = np.array(arrays["carried"], dtype=np.float64)
         cell.remap = np.array(arrays["remap"], dtype=np.float64)

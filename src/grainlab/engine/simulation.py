@@ -1,7 +1,9 @@
 """A simulation owns its sample and an ordered, visible list of operations (STYLE.md 4).
 
-Each time step: the solver advances the sample (detection, contact problem, integration,
-walls), the step counter and clock move on, the health check runs, then every operation
+Each time step: the solver (:class:`~grainlab.engine.solver.Solver`; contact dynamics today)
+advances the sample through its boundary (:mod:`grainlab.engine.boundary`: the wall box or
+the periodic cell; detection, contact problem, integration, the boundary's motion), the step
+counter and clock move on, the health check runs, then every operation
 whose trigger fires on this step acts, in the order they were added. Operations are objects
 with a ``name``, a ``trigger`` (a callable on the step index, e.g. :class:`Periodic`) and an
 ``act(simulation)`` method: boundary control, recorders, snapshot and checkpoint writers,
@@ -44,8 +46,9 @@ from typing import Protocol
 
 import numpy as np
 
-from grainlab.engine.contact_dynamics import ContactDynamicsStep, StepReport
+from grainlab.engine.contact_dynamics import StepReport
 from grainlab.engine.discrete_sample import DiscreteSample
+from grainlab.engine.solver import Solver
 from grainlab.errors import GrainlabError, InputError
 
 
@@ -87,7 +90,8 @@ class Simulation:
     sample:
         The :class:`~grainlab.engine.discrete_sample.DiscreteSample` (library, state, box).
     solver:
-        The :class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`.
+        The :class:`~grainlab.engine.solver.Solver` (e.g.
+        :class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`).
     step_index, time:
         Steps done and simulated time [s].
     last_report:
@@ -97,7 +101,7 @@ class Simulation:
         convergence (module docstring).
     """
 
-    def __init__(self, sample: DiscreteSample, solver: ContactDynamicsStep, *,
+    def __init__(self, sample: DiscreteSample, solver: Solver, *,
                  max_overlap: float = 0.1, max_unconverged: int = 200,
                  divergence_factor: float = 100.0) -> None:
         self.sample = sample

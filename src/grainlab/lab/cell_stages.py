@@ -95,6 +95,10 @@ class CellStage:
     stress_axes: tuple[int, ...] = ()
     oedometric: bool = False
 
+    def to_dict(self) -> dict:
+        """Plain data: the lab stage's, with ``"boundary": "periodic"``."""
+        return {**self.stage.to_dict(), "boundary": "periodic"}
+
     def progress_rate(self, max_rate: float) -> float:
         """d lambda / dt [1/s] of a strain-driven stage: the fastest generalised strain rate
         equals ``max_rate`` [1/s]."""

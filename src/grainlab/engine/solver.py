@@ -1,0 +1,55 @@
+"""What a solver is to a simulation (STYLE.md 4): the seam between the pipeline of
+:class:`~grainlab.engine.simulation.Simulation` and the way contacts are solved.
+
+A solver advances a sample by one time step through its boundary
+(:mod:`grainlab.engine.boundary`): it asks the boundary for the step's constraints, predicts
+the configuration, has the boundary detect the contacts, solves them with its own law, moves
+the bodies and hands the boundary its motion (:meth:`~grainlab.engine.boundary.Boundary.
+finish_step`). It returns a :class:`~grainlab.engine.contact_dynamics.StepReport` (contacts,
+local frames, impulses over the step, relative velocities, images, the solve's convergence
+figures): everything the recorders, the analysis and the health check read. A solver whose
+steps have no iterations reports each step as converged in one.
+
+The first implementation is contact dynamics
+(:class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`). A new solver implements
+:class:`Solver` and every boundary, recorder, checkpoint and lab test runs with it; what it
+keeps from step to step (contact memory, random state) goes into checkpoints through
+:meth:`Solver.warm_start_arrays` / :meth:`Solver.restore_warm_start` and ``rng_state``.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+
+from grainlab.engine.boundary import Boundary
+from grainlab.engine.contact_dynamics import StepReport
+from grainlab.engine.state import BodyState, ShapeLibrary
+
+
+class Solver(Protocol):
+    """A time-stepping solver of a discrete sample (module docstring).
+
+    Attributes read by the simulation and the lab: ``dt`` [s] (the next step's length; the
+    lab may change it between steps), ``gravity`` (3,) [m/s^2], ``friction`` (interparticle
+    Coulomb coefficient), ``tolerance`` and ``max_iterations`` (of an iterative solve; the
+    health check names them when steps end unconverged), ``alert`` and ``alert_growths``
+    (its detection's alert distance), ``rng_state`` (plain data, checkpoints).
+    """
+
+    dt: float
+    gravity: np.ndarray
+    friction: float
+    tolerance: float
+    max_iterations: int
+
+    def step(self, state: BodyState, library: ShapeLibrary, walls: Boundary | None = None
+             ) -> StepReport:
+        """Advance ``state`` (and the boundary) by one step of ``dt``."""
+
+    def warm_start_arrays(self) -> dict[str, np.ndarray]:
+        """What the solver carries from step to step, as arrays (checkpoints)."""
+
+    def restore_warm_start(self, arrays: dict[str, np.ndarray]) -> None:
+        """Inverse of :meth:`warm_start_arrays`."""
