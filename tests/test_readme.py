@@ -86,9 +86,14 @@ def test_every_readme_command_runs_as_typed(tmp_path, monkeypatch):
                 arguments[arguments.index("-n") + 1] = "12"
             arguments += ["--config", "fast.toml", "--templates", "3"] \
                 if "--templates" not in arguments else ["--config", "fast.toml"]
+        if "periodic" in arguments:  # a periodic cell needs three interaction ranges across
+            arguments[arguments.index("-n") + 1] = "150"
+            arguments += ["--size-ratio", "1.2", "--inertia", "0.01"]
+            if arguments[0] == "test":
+                arguments += ["--gamma", "0.02"]
         if arguments[0] == "triaxial" and "--eps-q" not in arguments:
             arguments += ["--eps-q", "0.02"]  # the default 0.5 would flatten 24 particles
-        if arguments[0] in ("triaxial", "compaction", "oedometer", "resume"):
+        if arguments[0] in ("triaxial", "compaction", "oedometer", "resume", "test"):
             arguments.append("--no-progress")
         result = runner.invoke(app, arguments)
         assert result.exit_code == 0, f"{line}\n{result.output}"

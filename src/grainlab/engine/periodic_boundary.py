@@ -111,6 +111,9 @@ class PeriodicCell:
             raise InputError("max_skew", max_skew, "a number > 0 (inf: never re-map)")
         self.reference = self.matrix.copy()
         self.boundary_stress = np.zeros((3, 3))
+        self.step_strain = np.zeros((3, 3))
+        """Strain increment of the last step [-] (compression positive, small strain of the
+        step's deformation h_new h_old^-1)."""
         self.n_remaps = 0
         self.set_control(np.zeros((3, 3)))
         self._detection: PeriodicDetection | None = None
@@ -251,7 +254,10 @@ class PeriodicCell:
                 self.integral + motion.dt * self.max_rate / INTEGRAL_STRAIN * error,
                 -bound, bound)
         self.carried = predicted
+        before = self.matrix
         self.geometry = TriclinicCell(h_m + motion.theta * motion.dt * self.rate)
+        increment = self.matrix @ np.linalg.inv(before) - np.eye(3)
+        self.step_strain = -0.5 * (increment + increment.T)
         self.remap_if_skewed()
 
     def remap_if_skewed(self) -> bool:
@@ -284,7 +290,7 @@ class PeriodicCell:
             "integral": self.integral.copy(),
             "servo": np.array([self.reference_stress, self.max_rate, self.gain]),
             "boundary_stress": self.boundary_stress.copy(),
-            "n_remaps": np.array(self.n_remaps),
+            "n_remaps": np.array(self.n_remaps), "step_strain": self.step_strain.copy(),
         }
 
     @classmethod
@@ -302,4 +308,5 @@ class PeriodicCell:
         cell.reference = np.array(arrays["reference"], dtype=np.float64)
         cell.boundary_stress = np.array(arrays["boundary_stress"], dtype=np.float64)
         cell.n_remaps = int(arrays["n_remaps"])
+        cell.step_strain = np.array(arrays["step_strain"], dtype=np.float64)
         return cell

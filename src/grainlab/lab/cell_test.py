@@ -44,6 +44,7 @@ from grainlab.lab.discrete_test import (
     time_step_length,
 )
 from grainlab.lab.load_path import LoadPath
+from grainlab.lab.specimen import tensor_to_voigt
 
 THIN_CELL_MARGIN = 1.05
 """A stage stops when a width of the cell is within 5 % of the detection's limit."""
@@ -73,9 +74,11 @@ class CellTest(DiscreteTest):
         return super()._confining_from_rows(stage)
 
     def _generalised_stress(self, stage: CellStage, progress: float) -> np.ndarray:
-        """c = B sigma of the last recorded contact stress (zeros before any record)."""
+        """c = B sigma of the last recorded contact stress; before any record, of the stress
+        the cell's image contacts carried at the sample's last step (a sample loaded
+        elsewhere) -- zero for a sample that never moved."""
         if not self.rows:
-            return np.zeros(6)
+            return stage.conjugate(self.sample.boundary.boundary_stress, progress)
         row = self.rows[-1]
         sigma = np.array([[row["sigma_xx"], row["sigma_xy"], row["sigma_xz"]],
                           [row["sigma_xy"], row["sigma_yy"], row["sigma_yz"]],
@@ -162,10 +165,25 @@ class CellTest(DiscreteTest):
         self.progress_step = step
         stage = self.stage
         if stage.strain_driven:
-            self.progress = min(self.progress + self._rate() * self.solver.dt,
-                                float(stage.n_steps))
+            self.progress += self._step_progress()
+            # what is left would take less than SHORTEST_CUT of a step: done (no sliver of a
+            # step, whose forces P / dt mean nothing)
+            left = (stage.n_steps - self.progress) / self._rate()
+            if left < SHORTEST_CUT * self.stage_dt:
+                self.progress = float(stage.n_steps)
         elif stage.stage.stress_mode != "target" and self._targets_met():
             self.progress = self._stepped_target()
+
+    def _step_progress(self) -> float:
+        """The progress the last step made: the cell's strain increment in the stage's
+        generalised components, e = B^-T eps, projected on the stage's strain direction (the
+        cell moves its first half step at the previous step's rate, theta scheme, so this
+        is what it did, not what it was asked)."""
+        stage = self.stage
+        strain = tensor_to_voigt(self.sample.boundary.step_strain, engineering_shear=True)
+        generalised = np.linalg.inv(stage.control(self.progress)).T @ strain
+        direction = stage.strain_per_step
+        return float(generalised @ direction / (direction @ direction))
 
     def _targets_met(self) -> bool:
         """Whether the image contacts carry the current targets (within the quasi-static

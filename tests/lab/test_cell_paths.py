@@ -1,0 +1,107 @@
+"""The lab's load paths on one compacted periodic sample: extension, true triaxial at constant
+p and b, a circle on the octahedral plane, cyclic simple shear. Each path's own control is
+checked on what the periodic cell measures (the stress its image contacts carry)."""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from grainlab.lab.cell_test import CellTest
+from grainlab.lab.discrete_test import DiscreteTestSettings
+from grainlab.lab.load_path import LoadPath
+from grainlab.lab.presets import (
+    circular_octahedral,
+    cyclic_shear,
+    isotropic_compression,
+    triaxial_extension,
+    true_triaxial,
+)
+from grainlab.lab.stage_numerics import COMPACTION, SHEAR
+from grainlab.prep.loose_sample import loose_sample
+
+P = 1e4
+RECORD_TOLERANCE = 0.1
+"""The stress-controlled components at every record, relative: 150 particles at I = 1e-2 (the
+stress of one step fluctuates by several %, and more just after a reversal)."""
+MEAN_TOLERANCE = 0.02
+"""... and on average over a stage."""
+SETTINGS = DiscreteTestSettings(record_every=5,
+                                compaction=replace(COMPACTION, inertia_number=0.05),
+                                shear=replace(SHEAR, inertia_number=0.01))
+
+
+@pytest.fixture(scope="module")
+def compacted():
+    sample = loose_sample(n_particles=150, size_ratio=1.2, seed=4, boundary="periodic")
+    test = CellTest(sample, isotropic_compression(p_final=P, n_steps=1), SETTINGS)
+    assert test.run()
+    return sample
+
+
+def run(compacted, path: LoadPath):
+    sample = copy.deepcopy(compacted)
+    sample.boundary.set_reference()
+    test = CellTest(sample, path, SETTINGS)
+    assert test.run(max_steps=20_000), test.halted
+    return test
+
+
+def cell(row, axis: str) -> float:
+    return row[f"cell_sigma_{axis}"]
+
+
+def test_extension_shortens_z_at_held_lateral_stress(compacted):
+    test = run(compacted, triaxial_extension(confining=P, axial_strain=0.01, n_steps=10,
+                                             consolidation_steps=0))
+    last = test.rows[-1]
+    assert last["eps_zz"] == pytest.approx(-0.01, abs=2e-4)
+    for axis in ("xx", "yy"):
+        held = np.array([cell(row, axis) for row in test.rows])
+        np.testing.assert_allclose(held, P, rtol=RECORD_TOLERANCE)
+        assert held.mean() == pytest.approx(P, rel=MEAN_TOLERANCE)
+    assert last["sigma_zz"] < 0.9 * P  # z became the minor principal direction
+
+
+def test_true_triaxial_holds_p_and_b(compacted):
+    b = 0.5
+    test = run(compacted, true_triaxial(p=P, b=b, n_steps=10, strain=0.02,
+                                        consolidation_steps=0))
+    p_cell = np.array([(cell(r, "xx") + cell(r, "yy") + cell(r, "zz")) / 3.0
+                       for r in test.rows])
+    np.testing.assert_allclose(p_cell, P, rtol=RECORD_TOLERANCE)
+    assert p_cell.mean() == pytest.approx(P, rel=MEAN_TOLERANCE)
+    late = test.rows[len(test.rows) // 2:]
+    measured = [(cell(r, "xx") - cell(r, "yy")) / (cell(r, "zz") - cell(r, "yy")) for r in late]
+    assert np.mean(measured) == pytest.approx(b, abs=0.1)
+    assert test.rows[-1]["sigma_zz"] > test.rows[-1]["sigma_xx"] > test.rows[-1]["sigma_yy"]
+
+
+def test_circle_on_the_octahedral_plane(compacted):
+    q = 0.2 * P
+    test = run(compacted, circular_octahedral(p=P, radius_q=q, n_steps=6,
+                                              consolidation_steps=0, approach_steps=1))
+    circle = [r for r in test.rows if r["stage"] == "circle"]
+    assert test.outcome["stages"][-1]["reason"] == "stress path done"
+    for row in circle:
+        s = np.array([cell(row, a) for a in ("xx", "yy", "zz")])
+        assert s.mean() == pytest.approx(P, rel=RECORD_TOLERANCE)
+        deviator = math.sqrt(1.5 * np.sum((s - s.mean()) ** 2))
+        assert deviator == pytest.approx(q, rel=0.25)
+
+
+def test_cyclic_simple_shear_reaches_both_amplitudes(compacted):
+    amplitude = 0.005
+    test = run(compacted, cyclic_shear(amplitude=amplitude, n_cycles=1, steps_per_quarter=2,
+                                       vertical_stress=P, k0_consolidation_steps=0))
+    gamma = np.array([r["gamma_xz"] for r in test.rows])
+    assert gamma.max() == pytest.approx(amplitude, rel=0.05)
+    assert gamma.min() == pytest.approx(-amplitude, rel=0.05)
+    assert abs(gamma[-1]) < 0.1 * amplitude
+    vertical = np.array([cell(row, "zz") for row in test.rows])
+    np.testing.assert_allclose(vertical, P, rtol=RECORD_TOLERANCE)
+    assert vertical.mean() == pytest.approx(P, rel=MEAN_TOLERANCE)
