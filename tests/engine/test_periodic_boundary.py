@@ -11,7 +11,8 @@ import pytest
 
 from grainlab.engine.contact_dynamics import ContactDynamicsStep
 from grainlab.engine.periodic_boundary import PeriodicCell
-from grainlab.engine.sample_measures import cell_stress
+from grainlab.analysis.contact_stress import stress_from_network
+from grainlab.engine.sample_measures import cell_stress, contact_network
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 
@@ -177,6 +178,17 @@ def test_stress_servo_compresses_to_its_target_and_the_cell_carries_it():
     assert carried == pytest.approx(target, rel=0.05)
     stress = cell_stress(report, state, cell.matrix, cell.rate, step.dt)
     assert np.trace(stress) / 3.0 == pytest.approx(target, rel=0.1)
+    # the contact network's branch vectors reach through the images: its stress is the
+    # cell's stress from contacts (the kinetic term aside)
+    network = contact_network(report, state, library, cell.volume, step.dt, 0.0,
+                              cell_matrix=cell.matrix)
+    still = copy.deepcopy(state)
+    still.velocities[:] = 0.0
+    contacts_only = cell_stress(report, still, cell.matrix, np.zeros((3, 3)), step.dt)
+    full = stress_from_network(network)
+    np.testing.assert_allclose(0.5 * (full + full.T), contacts_only,
+                               atol=1e-9 * np.abs(contacts_only).max())
+    assert np.linalg.norm(network.pair_branches, axis=1).max() < 4 * R
 
 
 def test_bad_controls_are_refused_with_the_field():

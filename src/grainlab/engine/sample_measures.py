@@ -184,15 +184,19 @@ def _network_points(contacts: Contacts, rows: np.ndarray, forces: np.ndarray, n:
 
 def contact_network(report: StepReport, state: BodyState, library: ShapeLibrary,
                     volume: float, dt: float, friction: float,
-                    extra_state: dict[str, Any] | None = None) -> ContactNetwork:
-    """The particle-particle contact network of the step (module docstring)."""
-    network, _ = _contact_network(report, state, library, volume, dt, friction, extra_state)
+                    extra_state: dict[str, Any] | None = None,
+                    cell_matrix: np.ndarray | None = None) -> ContactNetwork:
+    """The particle-particle contact network of the step (module docstring); in a periodic
+    cell h = ``cell_matrix`` [m] the branch vectors reach through the images."""
+    network, _ = _contact_network(report, state, library, volume, dt, friction, extra_state,
+                                  cell_matrix)
     return network
 
 
 def _contact_network(report: StepReport, state: BodyState, library: ShapeLibrary,
                      volume: float, dt: float, friction: float,
-                     extra_state: dict[str, Any] | None = None
+                     extra_state: dict[str, Any] | None = None,
+                     cell_matrix: np.ndarray | None = None,
                      ) -> tuple[ContactNetwork, int]:
     """The network and the number of loaded solver points between particles."""
     contacts = report.contacts
@@ -206,6 +210,11 @@ def _contact_network(report: StepReport, state: BodyState, library: ShapeLibrary
         else np.zeros((0, 2), dtype=np.int64)
     branches = state.positions[pairs[:, 1]] - state.positions[pairs[:, 0]] if pairs.size \
         else np.zeros((0, 3))
+    if cell_matrix is not None and pairs.size:  # through the image of j: + h m
+        shifts = report.image_vectors[inner] @ np.asarray(cell_matrix).T
+        row_keys = contacts.body_i[inner].astype(np.int64) * n + contacts.body_j[inner]
+        order = np.argsort(row_keys, kind="stable")
+        branches = branches + shifts[order[np.searchsorted(row_keys[order], pair_keys)]]
     fn = np.einsum("ci,ci->c", forces, normals)
     ft = np.linalg.norm(forces - fn[:, None] * normals, axis=1)
     sliding = (ft >= friction * fn * (1.0 - _SLIDING)) & (fn > 0.0) if friction > 0.0 \
@@ -363,11 +372,11 @@ def cell_measures(report: StepReport, state: BodyState, library: ShapeLibrary, c
              zip(("xx", "yy", "zz", "yz", "xz", "xy"),
                  ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)), strict=True)}
     return _measures(report, state, library, cell.volume, stress, extra, strains, rate, dt,
-                     friction, core=None)
+                     friction, core=None, cell_matrix=cell.matrix)
 
 
 def _measures(report, state, library, volume, stress, extra, strains, rate, dt, friction,
-              core) -> tuple[dict[str, float], ContactNetwork]:
+              core, cell_matrix=None) -> tuple[dict[str, float], ContactNetwork]:
     """The row shared by the wall box and the periodic cell."""
     row: dict[str, float] = {}
     for label, (i, j) in zip(("xx", "yy", "zz", "yz", "xz", "xy"),
@@ -380,7 +389,8 @@ def _measures(report, state, library, volume, stress, extra, strains, rate, dt, 
     p = row["p"]
     row["inertia_number"] = float(rate * mean_d * np.sqrt(state.density / p)) \
         if p > 0.0 else float("nan")
-    network, solver_points = _contact_network(report, state, library, volume, dt, friction)
+    network, solver_points = _contact_network(report, state, library, volume, dt, friction,
+                                              cell_matrix=cell_matrix)
     connectivity = Connectivity().compute(network)
     row["packing_fraction"] = float(np.sum(library.volume[state.shape_ids]) / volume)
     row["z"] = float(connectivity.coordination_number)
