@@ -181,10 +181,11 @@ class DiscreteRun:
                                   continue_until=sim.time if self.resumed else None)
         contacts = None
         if sim.last_report is not None:
-            contacts = ContactLines.from_step_report(sim.last_report,
-                                                     self.test.sample.state.positions,
-                                                     self.test.solver.dt,
-                                                     friction=self.test.solver.friction)
+            sample = self.test.sample
+            contacts = ContactLines.from_step_report(
+                sim.last_report, sample.state.positions, self.test.solver.dt,
+                friction=self.test.solver.friction,
+                cell_matrix=sample.boundary.matrix if sample.periodic else None)
         self._vtk.add_state(sim.time, self.test.sample.state, contacts=contacts,
                             walls=_walls(self.test.sample.boundary))
 

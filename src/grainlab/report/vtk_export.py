@@ -359,7 +359,8 @@ class ContactLines:
 
     @classmethod
     def from_step_report(cls, report: StepReport, positions, dt: float,
-                         friction: float | np.ndarray | None = None) -> ContactLines:
+                         friction: float | np.ndarray | None = None,
+                         cell_matrix=None) -> ContactLines:
         """Contacts of a :class:`~grainlab.engine.contact_dynamics.StepReport`.
 
         Forces are the step's impulses over ``dt`` [s] (the mean force of the step) in the
@@ -367,7 +368,8 @@ class ContactLines:
         after the step), or the contact point and the body centre for wall contacts (``type``
         :data:`CONTACT_TYPE_WALL`, others :data:`CONTACT_TYPE_PARTICLE`). With ``friction``
         (mu, one value or (C,)), ``sliding`` marks the contacts that carry load on the
-        Coulomb cone, |f_T| >= (1 - 1e-6) mu f_n with f_n > 0.
+        Coulomb cone, |f_T| >= (1 - 1e-6) mu f_n with f_n > 0. In a periodic cell h =
+        ``cell_matrix`` [m] a line reaches the image of body j, x_j + h m.
         """
         try:
             step = float(dt)
@@ -400,8 +402,11 @@ class ContactLines:
             p_n = report.impulses[:, 0]
             p_t = np.hypot(report.impulses[:, 1], report.impulses[:, 2])
             sliding = (p_n > 0.0) & (p_t >= (1.0 - 1e-6) * mu * p_n)
+        end = x[contacts.body_j]
+        if cell_matrix is not None:
+            end = end + report.image_vectors @ np.asarray(cell_matrix, dtype=np.float64).T
         lines = cls(
-            start=start, end=x[contacts.body_j], force=force, normal=contacts.normal,
+            start=start, end=end, force=force, normal=contacts.normal,
             type=np.where(on_wall, CONTACT_TYPE_WALL, CONTACT_TYPE_PARTICLE), sliding=sliding,
             contact_type=contact_types(contacts),
         )
