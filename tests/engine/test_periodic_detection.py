@@ -20,7 +20,8 @@ from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron import random_polyhedron
 from grainlab.geometry.triclinic_cell import TriclinicCell
-from grainlab.prep.loose_sample import aggregate_library, random_orientations, scaled_polyhedron
+from grainlab.prep.loose_sample import random_orientations
+from grainlab.prep.sample_shapes import aggregate_library, scaled_polyhedron
 
 ALERT = 0.15
 KINDS = ("sphere", "aggregate", "polyhedron")

@@ -6,7 +6,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from grainlab.engine.state import SHAPE_POLYHEDRON, SHAPE_SPHERE, BodyState, ShapeLibrary
+from grainlab.engine.shape_kinds import POLYHEDRON, SPHERE
+from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron import from_vertices, random_polyhedron
 
@@ -48,7 +49,7 @@ def test_random_hull_polygons_cover_the_surface():
 def test_library_from_polyhedra_stores_the_boundary():
     shapes = [CUBE, TETRA, random_polyhedron(20, np.random.default_rng(0))]
     lib = ShapeLibrary.from_polyhedra(shapes)
-    assert lib.kind.tolist() == [SHAPE_POLYHEDRON] * 3
+    assert lib.kind.tolist() == [POLYHEDRON.code] * 3
     assert lib.sphere_count.tolist() == [0, 0, 0]
     for s, shape in enumerate(shapes):
         v0, f0, e0 = lib.vertex_start[s], lib.face_start[s], lib.edge_start[s]
@@ -85,8 +86,8 @@ def test_mixed_library_concatenates():
     spheres = ShapeLibrary.from_spheres([0.5, 1.0])
     polys = ShapeLibrary.from_polyhedra([CUBE, TETRA])
     lib = spheres.concatenate(polys).concatenate(ShapeLibrary.from_spheres([2.0]))
-    assert lib.kind.tolist() == [SHAPE_SPHERE, SHAPE_SPHERE, SHAPE_POLYHEDRON,
-                                 SHAPE_POLYHEDRON, SHAPE_SPHERE]
+    assert lib.kind.tolist() == [SPHERE.code, SPHERE.code, POLYHEDRON.code,
+                                 POLYHEDRON.code, SPHERE.code]
     assert lib.vertex_count.tolist() == [0, 0, 8, 4, 0]
     assert lib.vertex_start[3] == 8 and lib.face_start[3] == 6 and lib.edge_start[3] == 12
     np.testing.assert_array_equal(lib.face_vertex_start, polys.face_vertex_start)

@@ -7,10 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grainlab.engine.state import SHAPE_POLYHEDRON
+from grainlab.engine.shape_kinds import POLYHEDRON
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron import random_polyhedron
-from grainlab.prep.loose_sample import loose_sample, scaled_polyhedron
+from grainlab.prep.loose_sample import loose_sample
+from grainlab.prep.sample_shapes import scaled_polyhedron
 
 
 def shape_signatures(library) -> np.ndarray:
@@ -30,7 +31,7 @@ def test_every_particle_its_own_polyhedron(n_faces):
     sample = loose_sample(shape="polyhedron", n_particles=24, n_faces=n_faces, d_min=1e-3,
                           seed=5)
     library, state = sample.library, sample.state
-    assert np.all(library.kind == SHAPE_POLYHEDRON)
+    assert np.all(library.kind == POLYHEDRON.code)
     assert np.all(library.vertex_count == (n_faces + 4) // 2)
     assert np.all(library.face_count == n_faces)  # points in general position: triangles
     assert len(np.unique(shape_signatures(library), axis=0)) == 24

@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grainlab.engine.state import SHAPE_AGGREGATE, ShapeLibrary
+from grainlab.engine.shape_kinds import AGGREGATE
+from grainlab.engine.state import ShapeLibrary
 from grainlab.errors import InputError
 from grainlab.report.shape_drawing import (
     check_subdivisions,
@@ -37,7 +38,7 @@ def test_member_spheres_of_an_aggregate_in_the_body_frame():
     offsets = np.array([[0.5, 0.0, 0.0], [-0.5, 0.0, 0.0]])
     radii = np.array([0.4, 0.2])
     aggregate = ShapeLibrary(
-        kind=[SHAPE_AGGREGATE], sphere_start=[0], sphere_count=[2], sphere_offsets=offsets,
+        kind=[AGGREGATE.code], sphere_start=[0], sphere_count=[2], sphere_offsets=offsets,
         sphere_radii=radii, volume=[0.3], principal_inertia=[[0.01, 0.02, 0.02]],
         bounding_radius=[0.9])
     library = aggregate.concatenate(ShapeLibrary.from_spheres([1.0]))

@@ -12,7 +12,8 @@ import pytest
 
 from grainlab.engine.contact_dynamics import StepReport, contact_frames
 from grainlab.engine.narrow_phase import Contacts
-from grainlab.engine.state import SHAPE_AGGREGATE, BodyState, ShapeLibrary
+from grainlab.engine.shape_kinds import AGGREGATE
+from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
 from grainlab.errors import InputError
 from grainlab.report.shape_drawing import (
@@ -48,7 +49,7 @@ def rotation(axis, angle) -> tuple[np.ndarray, np.ndarray]:
 def sample_library() -> ShapeLibrary:
     """Shape 0: sphere r = 0.3; shape 1: three-sphere aggregate (OFFSETS, RADII)."""
     aggregate = ShapeLibrary(
-        kind=[SHAPE_AGGREGATE], sphere_start=[0], sphere_count=[3], sphere_offsets=OFFSETS,
+        kind=[AGGREGATE.code], sphere_start=[0], sphere_count=[3], sphere_offsets=OFFSETS,
         sphere_radii=RADII, volume=[0.2], principal_inertia=[[0.01, 0.02, 0.03]],
         bounding_radius=[0.7],
     )
@@ -154,7 +155,7 @@ def test_a_new_shape_kind_plugs_in_through_its_drawer(tmp_path, monkeypatch):
             member=np.zeros(4 * k), radius=np.full(4 * k, math.sqrt(3.0)),
             triangle_start=4 * np.arange(k + 1), triangles=np.tile(faces, (k, 1)))
 
-    monkeypatch.setitem(SHAPE_KIND_DRAWERS, SHAPE_AGGREGATE,
+    monkeypatch.setitem(SHAPE_KIND_DRAWERS, AGGREGATE.name,
                         ShapeKindDrawer(surface=surface, points=member_sphere_points))
     library, frame = sample_library(), sample_frame()
     files = write_vtk_frame(tmp_path, 0, 0.0, library=library, **frame_arguments(frame))

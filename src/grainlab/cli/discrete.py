@@ -19,6 +19,7 @@ from grainlab.cli.errors import friendly_errors
 from grainlab.cli.inputs import input_file, output_folder
 from grainlab.errors import InputError
 from grainlab.lab.run_config import CHANGEABLE_STAGE_KEYS, PERIODIC_ONLY, TEST_KINDS, RunConfig
+from grainlab.prep.sample_shapes import SAMPLE_SHAPES, particles_text
 
 console = Console()
 
@@ -168,8 +169,7 @@ def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any]
     except InputError as error:
         raise _as_typed(error, given, config_file) from None
     sample = config.sample
-    shapes = {"sphere": "spheres", "aggregate": "aggregates",
-              "polyhedron": f"polyhedra of {sample.n_faces} faces"}[sample.shape]
+    shapes = particles_text(sample.model_dump())
     console.print(f"run folder [bold]{out}[/] ({sample.n_particles} {shapes}, {kind}); "
                   f"Ctrl-C checkpoints, "
                   f"`grainlab resume {out}` continues")
@@ -253,9 +253,11 @@ def _option(parameter: str, *names: str, help: str) -> Any:
     return typer.Option(None, *names, help=f"{help} {_default(_OPTIONS[parameter][1])}")
 
 
-_SHAPE = _option("shape", "--shape", help="Particle shape: sphere; aggregate (4 overlapping "
-                 "spheres on a tetrahedron, Azéma et al. 2013); polyhedron (random convex "
-                 "polyhedra, Azéma, Radjaï & Dubois 2013).")
+SHAPE_HELP = "Particle shape: " + "; ".join(
+    f"{name} ({shape.description})" for name, shape in SAMPLE_SHAPES.items()) + "."
+"""The ``--shape`` help: every shape a sample can be made of
+(:data:`~grainlab.prep.sample_shapes.SAMPLE_SHAPES`), with what its particles are."""
+_SHAPE = _option("shape", "--shape", help=SHAPE_HELP)
 _N = _option("n", "-n", "--n-particles", help="Number of particles.")
 _DMIN = _option("d_min", "--d-min", help="Smallest particle diameter (of the circumscribed "
                 "sphere) [m].")

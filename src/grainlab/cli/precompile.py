@@ -4,9 +4,10 @@ grainlab's kernels are compiled by Numba on their first call and cached on disk 
 for every later process; on two cores the first discrete run spends one to two minutes
 compiling. This command runs tiny versions of every kind of work once, so that the compilation
 happens now, with a message, instead of inside a user's first test, and can be split over
-processes: ``--part discrete`` (contact dynamics of spheres and aggregates, sample measures,
-snapshots, microstructure analysis, ParaView export), ``--part polyhedra`` (polyhedra
-contact geometry and dynamics) and ``--part theories`` (the regular-packing and micro-element
+processes: ``--part discrete`` (contact dynamics of the sphere-based shape kinds, spheres and
+aggregates, sample measures, snapshots, microstructure analysis, ParaView export),
+``--part polyhedra`` (the kinds of the polyhedron family: contact geometry and dynamics;
+:data:`FAMILY_PARTS`) and ``--part theories`` (the regular-packing and micro-element
 models); ``--part all`` runs the three in turn. Nothing is kept but the compiled code.
 """
 
@@ -16,12 +17,22 @@ import math
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import typer
 from rich.console import Console
 
 from grainlab.cli.errors import friendly_errors
+from grainlab.engine.shape_kinds import (
+    AGGREGATE,
+    MEMBER_SPHERES,
+    POLYHEDRON,
+    POLYHEDRON_FEATURES,
+    SHAPE_KINDS,
+    SPHERE,
+    ShapeKind,
+)
 from grainlab.errors import InputError
 
 console = Console()
@@ -30,42 +41,63 @@ PARTS = ("discrete", "polyhedra", "theories")
 """The parts of the compilation (``--part``), each a set of tiny runs."""
 
 
+_SPHERE_BASED_RUN = {"sample": {"n_particles": 24, "seed": 1},
+                     "solver": {"max_stage_steps": 400,
+                                "compaction": {"inertia_number": 0.05}}}
+
+TINY_RUNS: dict[str, dict[str, Any]] = {
+    SPHERE.name: _SPHERE_BASED_RUN,
+    AGGREGATE.name: _SPHERE_BASED_RUN,
+    POLYHEDRON.name: {"sample": {"n_particles": 8, "n_faces": 8, "templates": 2, "seed": 1},
+                      "solver": {"max_stage_steps": 200,
+                                 "compaction": {"inertia_number": 0.05,
+                                                "time_step_factor": 0.02}}},
+}
+"""The tiny triaxial run that compiles the kernels of each shape kind
+(:data:`~grainlab.engine.shape_kinds.SHAPE_KINDS`), as config updates of :func:`_tiny_config`."""
+
+FAMILY_PARTS = {MEMBER_SPHERES: "discrete", POLYHEDRON_FEATURES: "polyhedra"}
+"""The part that compiles the kinds of each narrow-phase family."""
+
+
+def _tiny_config(kind: ShapeKind, sweep: str = "serial"):
+    from grainlab.lab.run_config import RunConfig
+
+    return RunConfig.model_validate({
+        "sample": {"shape": kind.name},
+        "test": {"kind": "triaxial", "eps_q_max": 0.002},
+        "solver": {"sweep": sweep, "at_max_stage_steps": "next_stage",
+                   "shear": {"inertia_number": 0.01}},
+        "output": {"record_every": 5, "snapshot_every": 50, "checkpoint_every": 0},
+    }).with_updates(TINY_RUNS[kind.name])
+
+
+def _kinds_of(part: str) -> tuple[ShapeKind, ...]:
+    return tuple(k for k in SHAPE_KINDS if FAMILY_PARTS[k.narrow_phase] == part)
+
+
 def _discrete_runs(folder: Path) -> None:
+    """Each sphere-based kind with the serial sweep, the first also with the coloured one;
+    then the analyses and the ParaView export of the first."""
     from grainlab.analysis.snapshot_files import read_snapshots
     from grainlab.analysis.trajectory import TrajectoryAnalysis
     from grainlab.lab.discrete_run import export_checkpoint_vtk, start_run
-    from grainlab.lab.run_config import RunConfig
 
-    for k, (shape, sweep) in enumerate((("sphere", "serial"), ("sphere", "coloured"),
-                                        ("aggregate", "serial"))):
-        config = RunConfig.model_validate({
-            "sample": {"shape": shape, "n_particles": 24, "seed": 1},
-            "test": {"kind": "triaxial", "eps_q_max": 0.002},
-            "solver": {"sweep": sweep, "max_stage_steps": 400,
-                       "at_max_stage_steps": "next_stage",
-                       "compaction": {"inertia_number": 0.05},
-                       "shear": {"inertia_number": 0.01}},
-            "output": {"record_every": 5, "snapshot_every": 50, "checkpoint_every": 0}})
-        run = start_run(folder / f"run{k}", config)
-        run.run()
-    TrajectoryAnalysis().run(read_snapshots(folder / "run0" / "snapshots.h5"))
-    export_checkpoint_vtk(folder / "run0", folder / "vtk")
+    kinds = _kinds_of("discrete")
+    runs = [(kind, "serial") for kind in kinds] + [(kinds[0], "coloured")]
+    for kind, sweep in runs:
+        start_run(folder / f"{kind.name}_{sweep}", _tiny_config(kind, sweep)).run()
+    first = folder / f"{kinds[0].name}_serial"
+    TrajectoryAnalysis().run(read_snapshots(first / "snapshots.h5"))
+    export_checkpoint_vtk(first, folder / "vtk")
 
 
 def _polyhedra_runs(folder: Path) -> None:
+    """Each kind of the polyhedron family."""
     from grainlab.lab.discrete_run import start_run
-    from grainlab.lab.run_config import RunConfig
 
-    config = RunConfig.model_validate({
-        "sample": {"shape": "polyhedron", "n_particles": 8, "n_faces": 8, "templates": 2,
-                   "seed": 1},
-        "test": {"kind": "triaxial", "eps_q_max": 0.002},
-        "solver": {"sweep": "serial", "max_stage_steps": 200,
-                   "at_max_stage_steps": "next_stage",
-                   "compaction": {"inertia_number": 0.05, "time_step_factor": 0.02},
-                   "shear": {"inertia_number": 0.01}},
-        "output": {"record_every": 5, "snapshot_every": 50, "checkpoint_every": 0}})
-    start_run(folder / "poly", config).run()
+    for kind in _kinds_of("polyhedra"):
+        start_run(folder / kind.name, _tiny_config(kind)).run()
 
 
 def _theory_runs(folder: Path) -> None:

@@ -99,6 +99,7 @@ from grainlab.engine.contact_colouring import colour_contacts
 from grainlab.engine.gyroscopic import gyroscopic_spins
 from grainlab.engine.narrow_phase import Contacts
 from grainlab.engine.quaternion import quat_to_matrices
+from grainlab.engine.shape_kinds import library_time_step_length
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import ConvergenceError, InputError
 
@@ -882,11 +883,10 @@ def _contact_keys(contacts: Contacts, n_bodies: int, library: ShapeLibrary) -> n
 
 
 def _smallest_radius(library: ShapeLibrary) -> float:
-    """Smallest member-sphere radius or polyhedron inradius about the centre of mass [m]."""
-    radii = [library.sphere_radii]
-    if library.face_offsets.size:
-        radii.append(np.abs(library.face_offsets))
-    return float(np.concatenate(radii).min())
+    """Smallest member-sphere radius or polyhedron inradius about the centre of mass [m]:
+    half the time-step length d_min of the library's shape kinds
+    (:func:`~grainlab.engine.shape_kinds.library_time_step_length`)."""
+    return 0.5 * library_time_step_length(library)
 
 
 def _relative_velocities(contacts, frames, arm_i, arm_j, velocities, spins) -> np.ndarray:

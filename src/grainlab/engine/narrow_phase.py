@@ -1,6 +1,9 @@
 """Narrow phase: contact points of candidate pairs and of walls, for sphere-based bodies here
 and for convex polyhedra through :mod:`grainlab.engine.polyhedron_narrow_phase` (Numba;
-STYLE.md 2, 3, 8; research/cd_engines.md 6.4).
+STYLE.md 2, 3, 8; research/cd_engines.md 6.4). The kernels a body goes through are those of
+its shape kind's narrow-phase family (:attr:`~grainlab.engine.shape_kinds.ShapeKind.narrow_phase`:
+member spheres here, polyhedron features there; a pair with a polyhedron goes through the
+polyhedron kernels).
 
 Spheres and aggregates are both lists of member spheres (:class:`~grainlab.engine.state.
 ShapeLibrary`), so one geometry serves all sphere-based shape pairs (sphere-sphere,

@@ -24,6 +24,7 @@ import numpy as np
 from numba import njit, prange
 
 from grainlab.engine.quaternion import rotate
+from grainlab.engine.shape_kinds import POLYHEDRON_FEATURES, family_mask
 from grainlab.geometry.polyhedron_contact import MAX_POINTS, signed_distance, sphere_contact
 from grainlab.geometry.polyhedron_manifold import pair_manifold, wall_manifold
 
@@ -214,13 +215,13 @@ def polyhedron_walls_kernel(
 
 
 def world_polyhedra(state, library):
-    """The polyhedron bodies' boundaries in the world frame: (is_poly (N,), body_vertex_start
+    """The boundaries of the bodies of the narrow-phase family
+    :data:`~grainlab.engine.shape_kinds.POLYHEDRON_FEATURES` in the world frame: (is_poly (N,)
+    (the bodies of that family), body_vertex_start
     (N + 1,), world_vertices (V_w, 3) [m], body_face_start (N + 1,), world_normals (F_w, 3),
     world_offsets (F_w,) [m])."""
-    from grainlab.engine.state import SHAPE_POLYHEDRON
-
     ids = state.shape_ids
-    is_poly = library.kind[ids] == SHAPE_POLYHEDRON
+    is_poly = family_mask(library.kind[ids], POLYHEDRON_FEATURES)
     body_vertex_start = np.zeros(state.n_bodies + 1, dtype=np.int64)
     np.cumsum(np.where(is_poly, library.vertex_count[ids], 0), out=body_vertex_start[1:])
     body_face_start = np.zeros(state.n_bodies + 1, dtype=np.int64)

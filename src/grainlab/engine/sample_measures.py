@@ -31,8 +31,10 @@ Inertia number I = max_a |d eps_a/dt| <d> sqrt(rho / p) with the walls' strain r
 
 The contact network (analysis layer) keeps the particle-particle contacts that carry a force
 (P_n > 0; the solver also sees open contacts within the alert distance): pairs grouped
-by particle pair, the aggregate pair classes of seed 003 Fig. 8, forces from the impulses
-(f = P / h) and sliding flags (|f_t| >= mu f_n (1 - 1e-6)).
+by particle pair, forces from the impulses (f = P / h) and sliding flags
+(|f_t| >= mu f_n (1 - 1e-6)). Its pairs are typed by the pair typing of the shape kinds
+present (:attr:`~grainlab.engine.shape_kinds.ShapeKind.pair_typing`): the polyhedron pair
+types below, else the aggregate pair classes of seed 003 Fig. 8, else not at all (spheres).
 
 Polyhedra (seed 002 §II.B): the several points of a polyhedron pair are solved as
 independent contacts, but "the net resultant of the calculated forces is attributed to the
@@ -66,7 +68,8 @@ from grainlab.analysis.connectivity import Connectivity
 from grainlab.analysis.contact_network import ContactNetwork
 from grainlab.engine.contact_dynamics import StepReport
 from grainlab.engine.narrow_phase import CONTACT_CLASS_NAMES, Contacts, classify_aggregate_pairs
-from grainlab.engine.state import SHAPE_AGGREGATE, SHAPE_POLYHEDRON, BodyState, ShapeLibrary
+from grainlab.engine.shape_kinds import FEATURE_TYPES, MEMBER_CLASSES, kinds_present
+from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
 from grainlab.result.invariants import strain_invariants, stress_invariants
 
@@ -220,11 +223,12 @@ def _contact_network(report: StepReport, state: BodyState, library: ShapeLibrary
     sliding = (ft >= friction * fn * (1.0 - _SLIDING)) & (fn > 0.0) if friction > 0.0 \
         else fn > 0.0
     pair_types, type_names, type_points = None, (), ()
-    if np.any(library.kind[state.shape_ids] == SHAPE_POLYHEDRON):
+    typings = {kind.pair_typing for kind in kinds_present(library.kind[state.shape_ids])}
+    if FEATURE_TYPES in typings:
         pair_types = np.zeros(pair_keys.shape[0], dtype=np.int64)
         pair_types[point_pairs.reshape(-1)] = codes
         type_names, type_points = PAIR_TYPE_NAMES, tuple(NOMINAL_POINTS.tolist())
-    elif np.any(library.kind[state.shape_ids] == SHAPE_AGGREGATE) and pairs.size:
+    elif MEMBER_CLASSES in typings and pairs.size:
         classified, codes, _ = classify_aggregate_pairs(bi, bj, contacts.member_i[inner],
                                                         contacts.member_j[inner])
         ckey = classified[:, 0] * n + classified[:, 1]

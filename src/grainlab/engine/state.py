@@ -1,16 +1,18 @@
 """Static shape library and changing body state, as structure-of-arrays (STYLE.md 1).
 
 :class:`ShapeLibrary` is the static model: one row per shape, frozen for a run. Every shape
-carries a ``kind`` code (:data:`SHAPE_SPHERE`, :data:`SHAPE_AGGREGATE`, :data:`SHAPE_POLYHEDRON`)
-and its mass properties per unit density. Sphere-based
+carries a ``kind`` code (a :class:`~grainlab.engine.shape_kinds.ShapeKind` of the registry
+:mod:`grainlab.engine.shape_kinds`) and its mass properties per unit density. Sphere-based
 shapes (spheres and aggregates) list their member spheres in concatenated arrays
 ``sphere_offsets`` (M, 3) [m] (body frame: origin at the centre of mass, axes along the
 principal axes) and ``sphere_radii`` (M,) [m]; shape s owns rows
 ``sphere_start[s] .. sphere_start[s] + sphere_count[s] - 1``. A sphere is a one-member shape
 with a zero offset, so the narrow phase treats spheres and aggregates alike.
 
-A convex polyhedron (seed 002) has no member sphere (``sphere_count`` 0); its boundary is
-stored in concatenated arrays, body frame, local vertex ids (0 .. vertex_count - 1):
+A convex polyhedron (seed 002; the kinds of the narrow-phase family
+:data:`~grainlab.engine.shape_kinds.POLYHEDRON_FEATURES`) has no member sphere
+(``sphere_count`` 0); its boundary is stored in concatenated arrays, body frame, local vertex
+ids (0 .. vertex_count - 1):
 
 - ``vertices`` (V, 3) [m], rows ``vertex_start[s] ..`` (``vertex_count[s]`` rows);
 - planar polygon faces, rows ``face_start[s] ..`` (``face_count[s]``) of ``face_normals``
@@ -50,17 +52,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from grainlab.engine.quaternion import quat_to_matrices
+from grainlab.engine.shape_kinds import (
+    AGGREGATE,
+    POLYHEDRON,
+    POLYHEDRON_FEATURES,
+    SPHERE,
+    family_mask,
+    shape_kind,
+)
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron import ConvexPolyhedron
 from grainlab.geometry.sphere_aggregate import SphereAggregate
-
-SHAPE_SPHERE = 0
-"""Shape kind code of a sphere (one member sphere at the centre)."""
-SHAPE_AGGREGATE = 1
-"""Shape kind code of a rigid aggregate of spheres."""
-SHAPE_POLYHEDRON = 2
-"""Shape kind code of a convex polyhedron (vertices, planar faces and edges; no member
-sphere)."""
 
 _UNIT_TOLERANCE = 1e-8  # |1 - |q|| accepted for a unit quaternion
 _PLANE_TOLERANCE = 1e-9  # relative: vertices may lie this far (x circumradius) outside a face
@@ -153,13 +155,12 @@ class ShapeLibrary:
             raise InputError("sphere_offsets", f"shape {self.sphere_offsets.shape}",
                              f"({n_members}, 3), one row per member radius")
         for s in range(n_shapes):
-            if self.kind[s] not in (SHAPE_SPHERE, SHAPE_AGGREGATE, SHAPE_POLYHEDRON):
-                raise InputError(f"kind[{s}]", int(self.kind[s]),
-                                 "SHAPE_SPHERE (0), SHAPE_AGGREGATE (1) or SHAPE_POLYHEDRON (2)")
+            kind = shape_kind(int(self.kind[s]), f"kind[{s}]")
             start, count = int(self.sphere_start[s]), int(self.sphere_count[s])
-            if self.kind[s] == SHAPE_POLYHEDRON:
+            if not kind.has_member_spheres:
                 if count != 0:
-                    raise InputError(f"sphere_count[{s}]", count, "0 for a polyhedron")
+                    raise InputError(f"sphere_count[{s}]", count,
+                                     f"0 for a {kind.name} (no member sphere)")
                 continue
             if count < 1 or start < 0 or start + count > n_members:
                 raise InputError(f"sphere_start[{s}]/sphere_count[{s}]", (start, count),
@@ -209,7 +210,7 @@ class ShapeLibrary:
             if starts[0] != 0 or starts[-1] != total or np.any(np.diff(starts) < 0):
                 raise InputError(name, starts.tolist(),
                                  f"non-decreasing CSR offsets from 0 to {total}")
-        for s in np.flatnonzero(self.kind == SHAPE_POLYHEDRON):
+        for s in np.flatnonzero(family_mask(self.kind, POLYHEDRON_FEATURES)):
             self._validate_polyhedron(int(s))
 
     def _validate_polyhedron(self, s: int) -> None:
@@ -277,7 +278,7 @@ class ShapeLibrary:
         volume = 4.0 / 3.0 * np.pi * r**3
         inertia = np.repeat((0.4 * volume * r * r)[:, None], 3, axis=1)
         return cls(
-            kind=np.full(n, SHAPE_SPHERE), sphere_start=np.arange(n),
+            kind=np.full(n, SPHERE.code), sphere_start=np.arange(n),
             sphere_count=np.ones(n, dtype=np.int64), sphere_offsets=np.zeros((n, 3)),
             sphere_radii=r, volume=volume, principal_inertia=inertia, bounding_radius=r,
         )
@@ -293,7 +294,7 @@ class ShapeLibrary:
         counts = np.array([agg.n_spheres for agg in aggregates], dtype=np.int64)
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
         return cls(
-            kind=np.full(len(aggregates), SHAPE_AGGREGATE), sphere_start=starts,
+            kind=np.full(len(aggregates), AGGREGATE.code), sphere_start=starts,
             sphere_count=counts,
             sphere_offsets=np.concatenate([agg.centres for agg in aggregates]),
             sphere_radii=np.concatenate([agg.radii for agg in aggregates]),
@@ -323,7 +324,7 @@ class ShapeLibrary:
         np.cumsum(face_sizes, out=face_vertex_start[1:])
         neighbour_start, neighbours = _vertex_neighbours(edges, vertex_count)
         return cls(
-            kind=np.full(n, SHAPE_POLYHEDRON), sphere_start=np.zeros(n, dtype=np.int64),
+            kind=np.full(n, POLYHEDRON.code), sphere_start=np.zeros(n, dtype=np.int64),
             sphere_count=np.zeros(n, dtype=np.int64), sphere_offsets=np.zeros((0, 3)),
             sphere_radii=np.zeros(0), volume=np.array([p.volume for p in polyhedra]),
             principal_inertia=np.array([p.principal_moments for p in polyhedra]),
@@ -383,7 +384,7 @@ class ShapeLibrary:
     def max_features(self) -> int:
         """Largest number of vertices + edges + faces of one polyhedron shape (0 without
         polyhedra): the range of the feature ids of polyhedron contacts."""
-        if not np.any(self.kind == SHAPE_POLYHEDRON):
+        if not np.any(family_mask(self.kind, POLYHEDRON_FEATURES)):
             return 0
         return int(np.max(self.vertex_count + self.edge_count + self.face_count))
 

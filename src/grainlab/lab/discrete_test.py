@@ -26,7 +26,8 @@ otherwise; :meth:`DiscreteTestSettings.numerics_for`):
   rate that falls faster than h: with 0.01 the largest overlap reached 6-9 % of <d> at
   eps_q = 0.1 on 200 spheres, with 0.003 below 1 %;
 * NLGS tolerance, sweep cap and overlap recovery (0 in compaction by default);
-* with polyhedra, the step is also shortened, before every step, to
+* with polyhedra (shape kinds that spin fast, :func:`spins_fast`), the step is also
+  shortened, before every step, to
   factor x d_min / max_i (|v_i| + |omega_i| R_i) (R_i the circumscribed radius) whenever the
   particles move faster than the walls, and the solver adds the gyroscopic term. Particles
   squeezed by converging walls move 2-10 times faster than the walls and spin at up to
@@ -96,8 +97,9 @@ import numpy as np
 from grainlab._validate import at_least
 from grainlab.engine.contact_dynamics import ContactDynamicsStep
 from grainlab.engine.sample_measures import box_strains, sample_measures
+from grainlab.engine.shape_kinds import kinds_present, library_time_step_length
 from grainlab.engine.simulation import Periodic, Simulation
-from grainlab.engine.state import SHAPE_POLYHEDRON, ShapeLibrary
+from grainlab.engine.state import ShapeLibrary
 from grainlab.engine.wall_box import WALL_NAMES
 from grainlab.errors import InputError
 from grainlab.lab.box_thickness import (
@@ -128,14 +130,18 @@ from grainlab.prep.loose_sample import DiscreteSample
 
 def time_step_length(library: ShapeLibrary) -> float:
     """The length d_min [m] that scales the automatic time step (module docstring): the
-    smallest member-sphere diameter of the sphere-based shapes and the smallest inscribed
-    diameter 2 min_f (n_f . v_f) of the polyhedra (face planes about the centre of mass)."""
-    lengths = []
-    if library.sphere_radii.size:
-        lengths.append(2.0 * float(np.min(library.sphere_radii)))
-    if np.any(library.kind == SHAPE_POLYHEDRON):
-        lengths.append(2.0 * float(np.min(library.face_offsets)))
-    return min(lengths)
+    smallest over the library's shape kinds of each kind's length
+    (:func:`~grainlab.engine.shape_kinds.library_time_step_length`): the smallest
+    member-sphere diameter of the sphere-based shapes and the smallest inscribed diameter
+    2 min_f (n_f . v_f) of the polyhedra (face planes about the centre of mass)."""
+    return library_time_step_length(library)
+
+
+def spins_fast(library: ShapeLibrary) -> bool:
+    """Whether a kind of the library spins fast
+    (:attr:`~grainlab.engine.shape_kinds.ShapeKind.spins_fast`: polyhedra): the step then
+    follows the particles' own speeds too, and free rotation has its gyroscopic term."""
+    return any(kind.spins_fast for kind in kinds_present(library.kind, "library.kind"))
 
 
 TARGET_MARGIN = 1e-12
@@ -289,7 +295,7 @@ class DiscreteTest:
         self.largest_diameter = float(2.0 * np.max(
             sample.library.bounding_radius[sample.state.shape_ids]))
         s = self.settings
-        self.adaptive_step = bool(np.any(sample.library.kind == SHAPE_POLYHEDRON))
+        self.adaptive_step = spins_fast(sample.library)
         self.stage_dt = s.dt or 1.0
         first = s.compaction  # each stage sets its own numerics when it starts
         self.solver = ContactDynamicsStep(

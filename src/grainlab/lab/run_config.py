@@ -3,7 +3,8 @@
 A run's ``config.toml`` has four tables, ``[solver]`` with a sub-table per kind of stage;
 every key has a default, an unknown key is an error that names it::
 
-    [sample]   shape ("sphere" | "aggregate" | "polyhedron"), n_particles, d_min [m],
+    [sample]   shape (a name of :data:`~grainlab.prep.sample_shapes.SAMPLE_SHAPES`:
+               "sphere" | "aggregate" | "polyhedron"), n_particles, d_min [m],
                size_ratio, eta (aggregates), n_faces and templates (polyhedra), density
                [kg/m^3], packing_fraction (loose start), wall_friction, seed, boundary
                ("walls" | "periodic"), height_ratio (the start box's height / width)
@@ -52,6 +53,7 @@ import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from grainlab._validate import MAX_SEED
+from grainlab.engine.shape_kinds import SPHERE
 from grainlab.errors import InputError
 from grainlab.lab.discrete_test import DiscreteTestSettings
 from grainlab.lab.load_path import LoadPath, LoadStage, StopCriterion
@@ -65,7 +67,7 @@ from grainlab.lab.presets import (
     true_triaxial,
 )
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR, STAGE_KINDS, StageNumerics
-from grainlab.prep.loose_sample import MAX_FACES
+from grainlab.prep.sample_shapes import MAX_FACES, sample_shape
 
 TEST_KINDS = ("compaction", "triaxial", "extension", "oedometer", "true_triaxial",
               "simple_shear", "circular", "cyclic_shear")
@@ -127,7 +129,7 @@ class SampleConfig(_Section):
     orientations) apply to polyhedra only, ``eta`` to aggregates only.
     """
 
-    shape: Literal["sphere", "aggregate", "polyhedron"] = "sphere"
+    shape: str = SPHERE.name
     n_particles: int = Field(1000, ge=1)
     d_min: float = Field(1e-3, gt=0)
     size_ratio: float = Field(2.0, ge=1)
@@ -140,6 +142,13 @@ class SampleConfig(_Section):
     seed: int = Field(0, ge=0, le=MAX_SEED)
     boundary: Literal["walls", "periodic"] = "walls"
     height_ratio: float = Field(1.0, ge=0.25, le=4.0)
+
+    @field_validator("shape", mode="before")
+    @classmethod
+    def _registered_shape(cls, value: Any) -> str:
+        """A shape a loose sample can be made of (the kinds of
+        :data:`~grainlab.prep.sample_shapes.SAMPLE_SHAPES`)."""
+        return sample_shape(value).kind.name
 
     @field_validator("n_faces")
     @classmethod
@@ -496,6 +505,9 @@ def _input_error(error: ValidationError) -> InputError:
     if kind == "extra_forbidden":
         return InputError(field, first.get("input"), "no such key: see the keys of "
                           "grainlab.lab.run_config (or `grainlab triaxial --help`)")
+    cause = first.get("ctx", {}).get("error")
+    if isinstance(cause, InputError):  # a validator that names what it allows
+        return InputError(field, first.get("input"), cause.allowed)
     info = _field_info(first["loc"])
     if info is None:
         return InputError(field, first.get("input"), first["msg"].lower())

@@ -11,6 +11,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from grainlab.lab.run_config import current_layout
+from grainlab.prep.sample_shapes import particles_text
 from grainlab.report.curves import new_figure_axes
 from grainlab.result.columns import unit_of
 from grainlab.result.test_result import TestResult
@@ -40,11 +41,7 @@ def run_title(result: TestResult) -> str:
     config, _ = current_layout(meta.get("parameters", {}).get("config", {}))
     test = config.get("test", {})
     shear = config.get("solver", {}).get("shear", {})
-    shape = specimen.get("shape", "")
-    if shape == "polyhedron" and specimen.get("n_faces"):
-        shape = f"polyhedra of {specimen['n_faces']} faces"
-    elif shape:
-        shape = {"sphere": "spheres", "aggregate": "aggregates"}.get(shape, shape)
+    shape = particles_text(specimen)
     parts = [f"{specimen.get('n_particles', '?')} {shape}".strip(),
              str(test.get("kind", meta.get("title", "")))]
     if "sigma0" in test:

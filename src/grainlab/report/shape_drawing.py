@@ -4,7 +4,8 @@
 A :class:`ShapeKindDrawer` turns the shapes of one kind of a
 :class:`~grainlab.engine.state.ShapeLibrary` into body-frame vertices and triangles
 (:class:`ShapeMeshes`, concatenated over shapes); writers only rotate and translate them,
-v_world = x + R(q) v_body. :data:`SHAPE_KIND_DRAWERS` maps each shape kind code to its drawer:
+v_world = x + R(q) v_body. :data:`SHAPE_KIND_DRAWERS` maps each shape kind of the registry
+(:mod:`grainlab.engine.shape_kinds`), by name, to its drawer:
 spheres and aggregates share :data:`MEMBER_SPHERES`, one icosphere per member sphere (centre
 c_body, radius r: vertices c_body + r u for the unit icosphere vertices u), or one point per
 member sphere. Convex polyhedra have their own drawer, :data:`POLYHEDRA`: their hull
@@ -35,7 +36,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from grainlab.engine.state import SHAPE_AGGREGATE, SHAPE_POLYHEDRON, SHAPE_SPHERE, ShapeLibrary
+from grainlab.engine.shape_kinds import AGGREGATE, POLYHEDRON, SPHERE, kinds_present
+from grainlab.engine.state import ShapeLibrary
 from grainlab.errors import InputError
 
 MAX_SUBDIVISIONS = 4
@@ -287,13 +289,13 @@ MEMBER_SPHERES = ShapeKindDrawer(surface=member_sphere_surfaces, points=member_s
 POLYHEDRA = ShapeKindDrawer(surface=polyhedron_surfaces, points=polyhedron_points)
 """Drawer of convex polyhedra (true faceted shapes)."""
 
-SHAPE_KIND_DRAWERS: dict[int, ShapeKindDrawer] = {
-    SHAPE_SPHERE: MEMBER_SPHERES,
-    SHAPE_AGGREGATE: MEMBER_SPHERES,
-    SHAPE_POLYHEDRON: POLYHEDRA,
+SHAPE_KIND_DRAWERS: dict[str, ShapeKindDrawer] = {
+    SPHERE.name: MEMBER_SPHERES,
+    AGGREGATE.name: MEMBER_SPHERES,
+    POLYHEDRON.name: POLYHEDRA,
 }
-"""Drawer of each shape kind code (:mod:`grainlab.engine.state`); add an entry for a new
-kind."""
+"""Drawer of each shape kind, by the name of its
+:class:`~grainlab.engine.shape_kinds.ShapeKind`; add an entry for a new kind."""
 
 
 def library_meshes(library: ShapeLibrary, subdivisions: int = 1,
@@ -305,17 +307,17 @@ def library_meshes(library: ShapeLibrary, subdivisions: int = 1,
     blocks = []
     vertex_counts = np.zeros(n_shapes, dtype=np.int64)
     triangle_counts = np.zeros(n_shapes, dtype=np.int64)
-    for kind in np.unique(library.kind):
-        drawer = SHAPE_KIND_DRAWERS.get(int(kind))
+    for kind in kinds_present(library.kind, "library.kind"):
+        drawer = SHAPE_KIND_DRAWERS.get(kind.name)
         if drawer is None:
-            raise InputError("library.kind", int(kind),
+            raise InputError("library.kind", kind.code,
                              "a shape kind with a drawer in SHAPE_KIND_DRAWERS "
-                             f"({sorted(SHAPE_KIND_DRAWERS)})")
-        shapes = np.flatnonzero(library.kind == kind)
+                             f"({', '.join(SHAPE_KIND_DRAWERS)})")
+        shapes = np.flatnonzero(library.kind == kind.code)
         block = drawer.points(library, shapes) if as_points else \
             drawer.surface(library, shapes, subdivisions)
         if block.vertex_start.shape != (shapes.shape[0] + 1,):
-            raise InputError(f"drawer of kind {int(kind)}", block.vertex_start.shape,
+            raise InputError(f"drawer of kind {kind.name!r}", block.vertex_start.shape,
                              f"({shapes.shape[0] + 1},) offsets, one block per shape")
         vertex_counts[shapes] = np.diff(block.vertex_start)
         triangle_counts[shapes] = np.diff(block.triangle_start)
