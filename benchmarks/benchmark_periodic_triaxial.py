@@ -16,9 +16,10 @@ fraction and coordination number z after compaction and at the end, peak q/p (th
 ``q_over_trace`` = (sigma_1 - sigma_3)/(3 p)) and the eps_q where it occurs, residual q/p =
 mean (+- standard deviation) over the rows with eps_q in the last 40 % of the strain, the
 mean lateral stress relative to sigma0 in shear (the stress-controlled components), the
-largest inertia number and overlap. Then the cost ratio periodic / walls. With ``--out``: a
-figure of q/p and eps_vol against eps_q, both boundaries (``periodic_triaxial.png``), and
-the rows of each run (``periodic.csv``, ``walls.csv``).
+largest inertia number and overlap, and p of the last row (the state the test ends in, after
+a last step cut to land on eps_q) over p of the row before. Then the cost ratio periodic /
+walls. With ``--out``: a figure of q/p and eps_vol against eps_q, both boundaries
+(``periodic_triaxial.png``), and the rows of each run (``periodic.csv``, ``walls.csv``).
 
 The tests are built from their run configs (:class:`grainlab.lab.run_config.RunConfig`) and
 run in memory (:func:`grainlab.lab.discrete_run.test_for`): no run folder, checkpoints or
@@ -142,6 +143,8 @@ def summary(run: dict[str, Any], sigma0: float) -> dict[str, Any]:
                 round(float(lateral.mean()), 4), round(float(lateral.min()), 4),
                 round(float(lateral.max()), 4)),
             "max inertia number in shear": shear["inertia_number"].max(),
+            "p of the last row / p of the row before": (
+                shear["p"].iloc[-1] / shear["p"].iloc[-2] if len(shear) > 1 else math.nan),
         })
     out["max overlap / <d>"] = table["max_overlap_over_d"].max()
     return out
@@ -150,6 +153,7 @@ def summary(run: dict[str, Any], sigma0: float) -> dict[str, Any]:
 def figure(runs: dict[str, dict[str, Any]], path: Path) -> Path:
     """q/p and eps_vol against eps_q, one curve per boundary."""
     fig, (ax_q, ax_v) = new_figure_axes(1, 2, figsize=(10, 3.8))
+    fig.subplots_adjust(wspace=0.3)
     for name, run in runs.items():
         shear = shear_rows(run["table"])
         ax_q.plot(shear["eps_q"], shear["q_over_trace"], label=name)
