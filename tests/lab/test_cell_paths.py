@@ -13,7 +13,7 @@ import pytest
 
 from grainlab.lab.cell_test import CellTest
 from grainlab.lab.discrete_test import DiscreteTestSettings
-from grainlab.lab.load_path import LoadPath
+from grainlab.lab.load_path import LoadPath, LoadStage, frame_rotation
 from grainlab.lab.presets import (
     circular_octahedral,
     cyclic_shear,
@@ -105,3 +105,26 @@ def test_cyclic_simple_shear_reaches_both_amplitudes(compacted):
     vertical = np.array([cell(row, "zz") for row in test.rows])
     np.testing.assert_allclose(vertical, P, rtol=RECORD_TOLERANCE)
     assert vertical.mean() == pytest.approx(P, rel=MEAN_TOLERANCE)
+
+
+def test_a_rotating_frame_carries_its_controls(compacted):
+    # compression along the frame's z while the frame turns by 30 degrees about y, the frame's
+    # lateral normal stresses at P and its shear stresses at 0: at the end, in the turned
+    # frame, the stress the cell carries is (P, P, > P) with no shear, and the strain
+    # increment along the turned z is the compression asked
+    turn = math.radians(30.0)
+    n = 10
+    stage = LoadStage.from_components(
+        "turning", n, 3, strain={"zz": 0.002},
+        stress={"xx": P, "yy": P, "yz": 0.0, "xz": 0.0, "xy": 0.0}, stress_mode="target",
+        rotation_axis="y", rotation_per_step=turn / n)
+    test = run(compacted, LoadPath("turning", 3, (stage,)))
+    frame = frame_rotation("y", turn, 3)
+    sigma = frame.T @ test.sample.boundary.boundary_stress @ frame
+    assert sigma[0, 0] == pytest.approx(P, rel=RECORD_TOLERANCE)
+    assert sigma[1, 1] == pytest.approx(P, rel=RECORD_TOLERANCE)
+    assert sigma[2, 2] > 1.2 * P
+    assert abs(sigma[0, 2]) < RECORD_TOLERANCE * P and abs(sigma[1, 2]) < RECORD_TOLERANCE * P
+    strain = frame.T @ test.sample.boundary.step_strain @ frame
+    assert strain[2, 2] > 0.0 and strain[2, 2] == pytest.approx(
+        abs(strain).max(), rel=1e-12)  # the turned z is compressed the most of any component
