@@ -54,7 +54,9 @@ lattice, h <- h M (M integer, det 1; :meth:`~grainlab.geometry.triclinic_cell.Tr
 reduced`): the periodic medium is the same, no particle moves, only the image vectors of
 the contacts change (m <- M^-1 m), so shear can go on without end without the cell getting
 thin. The re-maps are kept (``remap``, the product of the M) so that the deformation
-gradient F = h remap^-1 h_0^-1 stays continuous.
+gradient F = h remap^-1 h_0^-1 stays continuous. The strains a test records are the natural
+strains, the step strains summed (``strain``): what a stage controls, and the logarithmic
+strain of F on coaxial paths.
 
 >>> import numpy as np
 >>> cell = PeriodicCell(np.diag([1.0, 2.0, 4.0]))
@@ -112,8 +114,12 @@ class PeriodicCell:
         self.reference = self.matrix.copy()
         self.boundary_stress = np.zeros((3, 3))
         self.step_strain = np.zeros((3, 3))
-        """Strain increment of the last step [-] (compression positive, small strain of the
-        step's deformation h_new h_old^-1)."""
+        """Strain increment of the last step [-]: -sym((h_new - h_old) h_mid^-1), h_mid the
+        mean of the two cells (compression positive; second-order accurate in the step)."""
+        self.strain = np.zeros((3, 3))
+        """The step strains summed since the reference [-] (the natural strain, time integral
+        of the rate of deformation: the logarithmic strain on coaxial paths, gamma = int
+        gammadot dt in a simple shear)."""
         self.n_remaps = 0
         self.set_control(np.zeros((3, 3)))
         self._detection: PeriodicDetection | None = None
@@ -153,6 +159,7 @@ class PeriodicCell:
     def set_reference(self) -> None:
         """Strains are measured from the cell now."""
         self.reference = self.matrix @ np.linalg.inv(self.remap)
+        self.strain = np.zeros((3, 3))
 
     # -- control ---------------------------------------------------------------------------------
     def set_control(self, fixed_gradient, gradients=None, targets=None,
@@ -256,8 +263,9 @@ class PeriodicCell:
         self.carried = predicted
         before = self.matrix
         self.geometry = TriclinicCell(h_m + motion.theta * motion.dt * self.rate)
-        increment = self.matrix @ np.linalg.inv(before) - np.eye(3)
+        increment = (self.matrix - before) @ np.linalg.inv(0.5 * (self.matrix + before))
         self.step_strain = -0.5 * (increment + increment.T)
+        self.strain = self.strain + self.step_strain
         self.remap_if_skewed()
 
     def remap_if_skewed(self) -> bool:
@@ -291,6 +299,7 @@ class PeriodicCell:
             "servo": np.array([self.reference_stress, self.max_rate, self.gain]),
             "boundary_stress": self.boundary_stress.copy(),
             "n_remaps": np.array(self.n_remaps), "step_strain": self.step_strain.copy(),
+            "strain": self.strain.copy(),
         }
 
     @classmethod
@@ -309,4 +318,5 @@ class PeriodicCell:
         cell.boundary_stress = np.array(arrays["boundary_stress"], dtype=np.float64)
         cell.n_remaps = int(arrays["n_remaps"])
         cell.step_strain = np.array(arrays["step_strain"], dtype=np.float64)
+        cell.strain = np.array(arrays["strain"], dtype=np.float64)
         return cell

@@ -321,18 +321,16 @@ def sample_measures(report: StepReport, state: BodyState, library: ShapeLibrary,
                      friction, core=(box.lower, box.upper))
 
 
-def cell_strains(deformation: np.ndarray) -> dict[str, float]:
-    """The strain columns of a periodic cell deformed by F (3, 3) from its reference:
-    logarithmic (Hencky) strain eps = -ln(F F^T)/2, compression positive, normal
-    components, engineering shears gamma = 2 eps_ab, eps_vol and eps_q [-] (for a
-    box-shaped F the same as :func:`box_strains`)."""
-    f = np.asarray(deformation, dtype=np.float64)
-    values, vectors = np.linalg.eigh(f @ f.T)
-    strain = -0.5 * (vectors * np.log(values)) @ vectors.T
-    row = {f"eps_{label}": float(strain[a, a]) for a, label in enumerate(("xx", "yy", "zz"))}
+def cell_strains(strain: np.ndarray) -> dict[str, float]:
+    """The strain columns of a periodic cell from its natural strain (3, 3) [-]
+    (:attr:`~grainlab.engine.periodic_boundary.PeriodicCell.strain`, compression positive):
+    normal components, engineering shears gamma = 2 eps_ab, eps_vol and eps_q [-] (for a
+    box-shaped cell the same as :func:`box_strains`)."""
+    e = 0.5 * (np.asarray(strain, dtype=np.float64) + np.asarray(strain, dtype=np.float64).T)
+    row = {f"eps_{label}": float(e[a, a]) for a, label in enumerate(("xx", "yy", "zz"))}
     for label, (a, b) in (("yz", (1, 2)), ("xz", (0, 2)), ("xy", (0, 1))):
-        row[f"gamma_{label}"] = float(2.0 * strain[a, b])
-    row.update(strain_invariants(strain))
+        row[f"gamma_{label}"] = float(2.0 * e[a, b])
+    row.update(strain_invariants(e))
     return row
 
 
@@ -369,7 +367,7 @@ def cell_measures(report: StepReport, state: BodyState, library: ShapeLibrary, c
     largest eigenvalue magnitude of the symmetric velocity gradient); every particle is core
     (no walls)."""
     stress = cell_stress(report, state, cell.matrix, cell.rate, dt)
-    strains = cell_strains(cell.deformation_gradient())
+    strains = cell_strains(cell.strain)
     gradient = cell.gradient
     rate = float(np.max(np.abs(np.linalg.eigvalsh(0.5 * (gradient + gradient.T)))))
     extra = {f"cell_sigma_{label}": float(cell.boundary_stress[a, b]) for label, (a, b) in

@@ -19,9 +19,10 @@ the stage controls of the cell instead of walls:
   reference stress of their targets, the contact stress's p within the same of the
   boundary's, and the unbalanced force and kinetic energy criteria; a stepped one moves on
   each time its targets are met and ends at its last;
-* strains are the Hencky strains of the cell's deformation gradient from the reference cell
-  (the cell at the end of the last stress-driven stage), compression positive
-  (:func:`~grainlab.engine.sample_measures.cell_strains`).
+* strains are the cell's natural strains (its step strains summed) from the reference cell
+  (the cell at the end of the last stress-driven stage), compression positive: what the
+  stages control, the logarithmic strains on coaxial paths, gamma = int gammadot dt in a
+  simple shear (:func:`~grainlab.engine.sample_measures.cell_strains`).
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from grainlab.engine.sample_measures import cell_measures
+from grainlab.engine.sample_measures import cell_measures, cell_strains
 from grainlab.lab.cell_stages import CellStage, cell_stages
 from grainlab.lab.discrete_test import (
     MAX_STEPS_REASON,
@@ -273,10 +274,8 @@ class CellTest(DiscreteTest):
 
     # -- strains and records ---------------------------------------------------------------------
     def wall_strains(self, lengths: np.ndarray | None = None) -> dict[str, float]:
-        """The strain columns of the cell now (Hencky, from the reference cell)."""
-        from grainlab.engine.sample_measures import cell_strains
-
-        return cell_strains(self.sample.boundary.deformation_gradient())
+        """The strain columns of the cell now (natural strains, from the reference cell)."""
+        return cell_strains(self.sample.boundary.strain)
 
     def _stage_strains(self) -> np.ndarray:
         return np.zeros(3)
