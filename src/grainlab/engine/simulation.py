@@ -96,6 +96,9 @@ class Simulation:
         Steps done and simulated time [s].
     last_report:
         The solver's :class:`StepReport` of the last step (None before the first).
+    last_dt:
+        The length [s] of the last step (the solver's ``dt`` may already be set for the next
+        one when operations measure the last: forces are its impulses over ``last_dt``).
     unconverged_steps:
         Steps whose NLGS did not converge; ``unconverged_in_row``: consecutive ones far from
         convergence (module docstring).
@@ -117,6 +120,7 @@ class Simulation:
         self.operations: list[Operation] = []
         self._stop = False
         self._previous_velocities = sample.state.velocities.copy()
+        self.last_dt = solver.dt
 
     # -- operations ---------------------------------------------------------------------------
     def add(self, operation: Operation) -> Operation:
@@ -144,7 +148,7 @@ class Simulation:
         m (v_new - v_old) / h - m g (the unbalanced force)."""
         state = self.sample.state
         dv = state.velocities - self._previous_velocities
-        return state.masses[:, None] * (dv / self.solver.dt - self.solver.gravity[None, :])
+        return state.masses[:, None] * (dv / self.last_dt - self.solver.gravity[None, :])
 
     def request_stop(self) -> None:
         """Make :meth:`run` return after the current step's operations."""
@@ -156,9 +160,10 @@ class Simulation:
         sample = self.sample
         self._check_finite()
         self._previous_velocities = sample.state.velocities.copy()
+        self.last_dt = self.solver.dt
         report = self.solver.step(sample.state, sample.library, sample.boundary)
         self.step_index += 1
-        self.time += self.solver.dt
+        self.time += self.last_dt
         self.last_report = report
         if report.converged:
             self.unconverged_in_row = 0

@@ -201,7 +201,7 @@ class CellTest(DiscreteTest):
         rate = self._rate()
         cut = (float(stage.n_steps) - self.progress + TARGET_MARGIN) / rate
         # a step within SHORTEST_CUT of the end finishes the stage (no sliver of a step,
-        # whose forces P / dt would be meaningless)
+        # whose forces P / dt would mean nothing: discrete_test.SHORTEST_CUT)
         return cut if 0.0 < cut <= dt * (1.0 + SHORTEST_CUT) else dt
 
     def wall_end(self) -> tuple[bool, str]:
@@ -293,7 +293,8 @@ class CellTest(DiscreteTest):
         """The row and network of the cell now."""
         report = self.simulation.last_report
         return cell_measures(report, self.sample.state, self.sample.library,
-                             self.sample.boundary, self.solver.dt, self.solver.friction)
+                             self.sample.boundary, self.simulation.last_dt,
+                             self.solver.friction)
 
     def progress_arrays(self) -> dict[str, Any]:
         data = super().progress_arrays()

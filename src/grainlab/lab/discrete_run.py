@@ -183,7 +183,7 @@ class DiscreteRun:
         if sim.last_report is not None:
             sample = self.test.sample
             contacts = ContactLines.from_step_report(
-                sim.last_report, sample.state.positions, self.test.solver.dt,
+                sim.last_report, sample.state.positions, sim.last_dt,
                 friction=self.test.solver.friction,
                 cell_matrix=sample.boundary.matrix if sample.periodic else None)
         self._vtk.add_state(sim.time, self.test.sample.state, contacts=contacts,

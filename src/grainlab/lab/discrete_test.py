@@ -65,7 +65,9 @@ a whole path before a run.
 Stage ends do not wait for a record. After every step the walls alone decide (cheap: the box
 lengths give the strains): the strain target of each strain-controlled axis, stop criteria on
 strain columns (:data:`STRAIN_COLUMNS`: ``eps_q`` of the triaxial test) and
-``max_stage_steps``. The step that would carry a stage past a target is cut short:
+``max_stage_steps``. The step that would carry a stage past a target is cut short, and one
+that would leave less than :data:`SHORTEST_CUT` of a step to go is stretched by that much
+instead (no sliver of a step: its forces, impulses over its length, would mean nothing):
 
 * a strain-controlled axis moves at a prescribed wall speed, so its last step is cut to end
   on the target exactly (to round-off: :data:`TARGET_MARGIN` past it); an axis that reached
@@ -148,11 +150,16 @@ TARGET_MARGIN = 1e-12
 """Strain [-] by which the cut last step of a stage aims past its target, so that round-off
 cannot leave the target a hair short (and add a step of a few femtoseconds)."""
 
-SHORTEST_CUT = 0.01
-"""Shortest fraction of a step that a last step cut to a stop criterion may take. The
-crossing is predicted from the walls' speeds of the step before; where the stress-controlled
-walls then move less than predicted, the criterion is met one step later, and this bounds how
-short that step is (its overshoot is below this fraction of a step's increment)."""
+SHORTEST_CUT = 0.25
+"""Shortest fraction of a step that a last step may take; a target less than this fraction of
+a step beyond a full step is reached by stretching that step instead (by at most this
+fraction). The forces of a step are its impulses over its length, and contacts that still
+approach at a small speed carry impulses that do not shrink with the step: a last step cut
+to 1.3 % of the others made p of the final row 6 times that of the row before (1000
+spheres). A stop criterion's crossing is predicted from the walls' speeds of the step before;
+where the stress-controlled walls then move less than predicted, the criterion is met one
+step later, and this bounds how short that step is (its overshoot is below this fraction of
+a step's increment)."""
 
 STRAIN_COLUMNS = tuple(box_strains(np.ones(3), np.ones(3)))
 """The columns known from the walls alone (:func:`~grainlab.engine.sample_measures.box_strains`):
@@ -586,33 +593,34 @@ class DiscreteTest:
         return False, ""
 
     def _last_step(self, dt: float) -> float:
-        """``dt`` [s], or less where a step of ``dt`` would carry the stage past a target
-        (module docstring): the step that ends a strain-controlled axis on its target, the
-        predicted crossing of a stop criterion on a strain column (at least
-        :data:`SHORTEST_CUT` of ``dt``). Wall speeds as the coming step will have them."""
+        """``dt`` [s], or the step that ends the stage where a step of at most
+        (1 + :data:`SHORTEST_CUT`) ``dt`` reaches a target (module docstring): the step that
+        ends a strain-controlled axis on its target, the predicted crossing of a stop criterion
+        on a strain column (at least :data:`SHORTEST_CUT` of ``dt``). Wall speeds as the
+        coming step will have them."""
         stage, box = self.stage, self.sample.box
         lengths = box.lengths
         closing = box.speeds[0::2] + box.speeds[1::2]  # [m/s], > 0 shortens the axis
-        cut = dt
+        reach = dt * (1.0 + SHORTEST_CUT)  # a step may stretch this far to end the stage
+        cut = math.inf
         for a in stage.moving_axes:
             if closing[a] == 0.0:
                 continue
             target = stage.targets[a] + math.copysign(TARGET_MARGIN, stage.targets[a])
             travel = lengths[a] - self.stage_start_lengths[a] * math.exp(-target)
-            if 0.0 < travel / closing[a] < cut:
-                cut = travel / closing[a]
+            if 0.0 < travel / closing[a] <= reach:
+                cut = min(cut, travel / closing[a])  # cut short, or stretched: no sliver left
         criteria = [c for c in stage.stop if c.quantity in STRAIN_COLUMNS]
         if criteria:
-            now, after = self.wall_strains(), self.wall_strains(lengths - dt * closing)
+            now, after = self.wall_strains(), self.wall_strains(lengths - reach * closing)
             for criterion in criteria:
                 if criterion.met(now) or not criterion.met(after):
                     continue
                 start, end = _value(criterion, now), _value(criterion, after)
                 goal = criterion.limit + math.copysign(
                     TARGET_MARGIN, 1.0 if criterion.when == "above" else -1.0)
-                fraction = min(1.0, max(SHORTEST_CUT, (goal - start) / (end - start)))
-                cut = min(cut, fraction * dt)
-        return cut
+                cut = min(cut, max(SHORTEST_CUT * dt, (goal - start) / (end - start) * reach))
+        return dt if cut == math.inf else cut
 
     def end_stage(self, reason: str, ended: str = REACHED) -> None:
         """Close the current stage (``ended`` of :data:`~grainlab.lab.run_outcome.ENDINGS`)
@@ -682,7 +690,7 @@ class DiscreteTest:
         assert report is not None
         row, network = self.measures()
         net = np.linalg.norm(sim.net_forces(), axis=1)
-        normal_forces = report.impulses[:, 0] / self.solver.dt
+        normal_forces = report.impulses[:, 0] / sim.last_dt
         loaded = normal_forces[normal_forces > 0.0]
         mean_force = float(np.mean(loaded)) if loaded.size else math.nan
         row["unbalanced_force_ratio"] = float(np.mean(net) / mean_force) \
@@ -694,7 +702,7 @@ class DiscreteTest:
             if p > 0.0 else math.nan
         stage = self.stage
         full = {"stage": stage.name if stage else "end", "step": sim.step_index,
-                "time": sim.time, "dt": self.solver.dt, "friction": self.solver.friction}
+                "time": sim.time, "dt": sim.last_dt, "friction": self.solver.friction}
         full.update(row)
         if self.reports_k0:
             full["K0"] = _k0(row)
@@ -714,7 +722,7 @@ class DiscreteTest:
         (:func:`~grainlab.engine.sample_measures.sample_measures`)."""
         return sample_measures(self.simulation.last_report, self.sample.state,
                                self.sample.library, self.sample.box, self.reference_lengths,
-                               self.solver.dt, self.solver.friction)
+                               self.simulation.last_dt, self.solver.friction)
 
     def _snapshot(self, network, full: dict[str, Any]) -> None:
         network.state.update({k: v for k, v in full.items() if k != "stage"})
