@@ -113,6 +113,10 @@ class PeriodicCell:
             raise InputError("max_skew", max_skew, "a number > 0 (inf: never re-map)")
         self.reference = self.matrix.copy()
         self.boundary_stress = np.zeros((3, 3))
+        self.image_matrix = self.matrix.copy()
+        """The cell in whose lattice basis the last step's image vectors are given: the cell at
+        the end of that step before any re-map (the same lattice as ``matrix``; measures of the
+        step reach the images at x_j + image_matrix m)."""
         self.step_strain = np.zeros((3, 3))
         """Strain increment of the last step [-]: -sym((h_new - h_old) h_mid^-1), h_mid the
         mean of the two cells (compression positive; second-order accurate in the step)."""
@@ -263,6 +267,7 @@ class PeriodicCell:
         self.carried = predicted
         before = self.matrix
         self.geometry = TriclinicCell(h_m + motion.theta * motion.dt * self.rate)
+        self.image_matrix = self.matrix.copy()
         increment = (self.matrix - before) @ np.linalg.inv(0.5 * (self.matrix + before))
         self.step_strain = -0.5 * (increment + increment.T)
         self.strain = self.strain + self.step_strain
@@ -299,7 +304,7 @@ class PeriodicCell:
             "servo": np.array([self.reference_stress, self.max_rate, self.gain]),
             "boundary_stress": self.boundary_stress.copy(),
             "n_remaps": np.array(self.n_remaps), "step_strain": self.step_strain.copy(),
-            "strain": self.strain.copy(),
+            "strain": self.strain.copy(), "image_matrix": self.image_matrix.copy(),
         }
 
     @classmethod
@@ -319,4 +324,5 @@ class PeriodicCell:
         cell.n_remaps = int(arrays["n_remaps"])
         cell.step_strain = np.array(arrays["step_strain"], dtype=np.float64)
         cell.strain = np.array(arrays["strain"], dtype=np.float64)
+        cell.image_matrix = np.array(arrays["image_matrix"], dtype=np.float64)
         return cell

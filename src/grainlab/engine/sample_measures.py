@@ -335,20 +335,22 @@ def cell_strains(strain: np.ndarray) -> dict[str, float]:
 
 
 def cell_stress(report: StepReport, state: BodyState, matrix: np.ndarray, rate: np.ndarray,
-                dt: float) -> np.ndarray:
+                dt: float, image_matrix: np.ndarray | None = None) -> np.ndarray:
     """(3, 3) stress [Pa] of a sample in a periodic cell h = ``matrix`` [m] deforming at
     hdot = ``rate`` [m/s], compression positive: the contacts' (1/V) sum l (x) f with the
     branch vectors l = x_j + h m_k - x_i through the images, plus the kinetic term
     (1/V) sum m v' (x) v' of the velocities v' relative to the mean field hdot h^-1 (x - x_c)
-    (x_c the centre of mass); symmetrised."""
+    (x_c the centre of mass); symmetrised. The image vectors of the step are in the lattice
+    basis ``image_matrix`` (the cell before a re-map at the end of the step; default
+    ``matrix``)."""
     volume = float(np.linalg.det(matrix))
     contacts = report.contacts
     moment = np.zeros((3, 3))
     if contacts.n_contacts:
         f = world_forces(report, dt)
         x = state.positions
-        branch = x[contacts.body_j] + report.image_vectors @ np.asarray(matrix).T \
-            - x[contacts.body_i]
+        lattice = np.asarray(matrix if image_matrix is None else image_matrix)
+        branch = x[contacts.body_j] + report.image_vectors @ lattice.T - x[contacts.body_i]
         moment += np.einsum("ci,cj->ij", branch, f)
     centre = np.average(state.positions, axis=0, weights=state.masses)
     mean_field = (state.positions - centre) @ (np.asarray(rate) @ np.linalg.inv(matrix)).T
@@ -366,7 +368,7 @@ def cell_measures(report: StepReport, state: BodyState, library: ShapeLibrary, c
     :func:`cell_strains` and the inertia number from the cell's largest strain rate (the
     largest eigenvalue magnitude of the symmetric velocity gradient); every particle is core
     (no walls)."""
-    stress = cell_stress(report, state, cell.matrix, cell.rate, dt)
+    stress = cell_stress(report, state, cell.matrix, cell.rate, dt, cell.image_matrix)
     strains = cell_strains(cell.strain)
     gradient = cell.gradient
     rate = float(np.max(np.abs(np.linalg.eigvalsh(0.5 * (gradient + gradient.T)))))
@@ -374,7 +376,7 @@ def cell_measures(report: StepReport, state: BodyState, library: ShapeLibrary, c
              zip(("xx", "yy", "zz", "yz", "xz", "xy"),
                  ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)), strict=True)}
     return _measures(report, state, library, cell.volume, stress, extra, strains, rate, dt,
-                     friction, core=None, cell_matrix=cell.matrix)
+                     friction, core=None, cell_matrix=cell.image_matrix)
 
 
 def _measures(report, state, library, volume, stress, extra, strains, rate, dt, friction,

@@ -185,7 +185,7 @@ class DiscreteRun:
             contacts = ContactLines.from_step_report(
                 sim.last_report, sample.state.positions, sim.last_dt,
                 friction=self.test.solver.friction,
-                cell_matrix=sample.boundary.matrix if sample.periodic else None)
+                cell_matrix=sample.boundary.image_matrix if sample.periodic else None)
         self._vtk.add_state(sim.time, self.test.sample.state, contacts=contacts,
                             walls=_walls(self.test.sample.boundary))
 
