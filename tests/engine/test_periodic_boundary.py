@@ -202,22 +202,26 @@ def test_bad_controls_are_refused_with_the_field():
 
 
 def test_a_step_that_ends_in_a_re_map_measures_the_same_stress():
-    # the cell crosses the re-map threshold within the step: the step's images are in the
-    # lattice basis of the cell before the re-map (PeriodicCell.image_matrix)
-    library, state, matrix = lattice_sample(seed=6)
-    sheared = matrix.copy()
-    sheared[0, 2] = 0.4999 * matrix[2, 2]
-    state.positions[:] = state.positions @ (sheared @ np.linalg.inv(matrix)).T
+    # two spheres pressed together across the z faces of a sheared cell that crosses the
+    # re-map threshold within the step: the step's image vectors are in the lattice basis
+    # of the cell before the re-map (PeriodicCell.image_matrix)
+    side = 0.01
+    sheared = np.array([[side, 0.0, 0.499998 * side], [0.0, side, 0.0], [0.0, 0.0, side]])
+    below = np.array([0.003, 0.005, 0.0004])
+    above = below + sheared[:, 2] - np.array([0.0002, 0.0001, 2.0 * R - 0.0004])
     stresses = []
     for skew in (np.inf, 0.5):
+        library, state = spheres([below, above])
+        state.velocities[0] = [0.0, 0.0, -0.5]
+        state.velocities[1] = [0.0, 0.0, 0.5]
         cell = PeriodicCell(sheared, max_skew=skew)
-        cell.set_control(np.array([[0.0, 0.0, 500.0], [0, 0, 0], [0, 0, 0]]))
-        s = copy.deepcopy(state)
+        cell.set_control(np.array([[0.0, 0.0, 5.0], [0, 0, 0], [0, 0, 0]]))
         step = ContactDynamicsStep(dt=2e-6, friction=0.4, sweep="serial", tolerance=1e-12,
                                    max_iterations=5000)
-        report = step.step(s, library, cell)
+        report = step.step(state, library, cell)
         assert cell.n_remaps == (0 if skew == np.inf else 1)
-        assert report.n_contacts > 0 and np.any(report.image_vectors != 0)
-        stresses.append(cell_stress(report, s, cell.matrix, cell.rate, step.dt,
+        assert report.n_contacts == 1 and report.image_vectors[0, 2] != 0
+        assert report.impulses[0, 0] > 0.0
+        stresses.append(cell_stress(report, state, cell.matrix, cell.rate, step.dt,
                                     cell.image_matrix))
     np.testing.assert_allclose(stresses[1], stresses[0], atol=1e-9 * np.abs(stresses[0]).max())
