@@ -25,6 +25,7 @@ def test_simple_shear_in_a_periodic_cell(tmp_path):
     assert shear["gamma_xz"].abs().iloc[-1] >= 0.029
     assert shear["cell_sigma_zz"].iloc[-1] == pytest.approx(1e4, rel=0.05)
     assert (out / "curves.png").stat().st_size > 0
+    assert (out / "simple_shear.png").stat().st_size > 0  # seed 001 Figs. 4.15-4.16
     exported = runner.invoke(app, ["vtk", str(out), "--out", str(tmp_path / "vtk")])
     assert exported.exit_code == 0, exported.output
     assert (tmp_path / "vtk" / "particles_000000.vtu").exists()

@@ -43,7 +43,7 @@ def _test_config(result) -> dict:
 def _figures(folder: Path, result) -> list[Path]:
     """curves.png: K0 and sigma_zz against eps_zz by stage (oedometer), q/p, volumetric
     strain and packing fraction against eps_q (shear stages) or the packing fraction against
-    time (compaction)."""
+    time (compaction); and simple_shear.png for a simple shear (seed 001 Figs. 4.15-4.16)."""
     from grainlab.report.curves import save_figure
 
     if _test_config(result)["kind"] == "oedometer":
@@ -52,7 +52,14 @@ def _figures(folder: Path, result) -> list[Path]:
         return [save_figure(oedometer_stages_figure(result), folder / "curves.png", dpi=120)]
     from grainlab.report.run_curves import discrete_curves_figure
 
-    return [save_figure(discrete_curves_figure(result), folder / "curves.png", dpi=120)]
+    figures = [save_figure(discrete_curves_figure(result), folder / "curves.png", dpi=120)]
+    if _test_config(result)["kind"] == "simple_shear":
+        from grainlab.report.element_test_figures import simple_shear_figure
+
+        # tau/sigma_v, Hill's proposition, eq. 4.8 and the angles of seed 001 Fig. 4.16
+        figures.append(save_figure(simple_shear_figure(result), folder / "simple_shear.png",
+                                   dpi=120))
+    return figures
 
 
 def _type_fractions(row) -> str:
