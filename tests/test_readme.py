@@ -33,7 +33,8 @@ SMALLER = (
 
 FAST_POLYHEDRA = {"solver": {"compaction": {"inertia_number": 0.05,
                                             "time_step_factor": 0.02}}}
-"""A quicker compaction for the polyhedra commands (a test setting, passed with --config)."""
+"""A quicker compaction for the polyhedra and periodic-cell commands (a test setting, passed
+with --config)."""
 
 
 def _blocks(language: str) -> list[str]:
@@ -88,7 +89,7 @@ def test_every_readme_command_runs_as_typed(tmp_path, monkeypatch):
                 if "--templates" not in arguments else ["--config", "fast.toml"]
         if "periodic" in arguments:  # a periodic cell needs three interaction ranges across
             arguments[arguments.index("-n") + 1] = "150"
-            arguments += ["--size-ratio", "1.2", "--inertia", "0.01"]
+            arguments += ["--size-ratio", "1.2", "--inertia", "0.01", "--config", "fast.toml"]
             if arguments[0] == "test":
                 arguments += ["--gamma", "0.02"]
         if arguments[0] == "triaxial" and "--eps-q" not in arguments:
