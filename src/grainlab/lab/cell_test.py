@@ -243,19 +243,12 @@ class CellTest(DiscreteTest):
                 "so that no pair touches through two images); use more particles or a cell "
                 "longer along that axis (sample aspect)")
 
-    def stage_done(self, row: dict[str, Any]) -> tuple[bool, str]:
+    def settled(self, row: dict[str, Any]) -> bool:
+        """A stress-driven stage with end targets is quasi-static at ``row`` (module
+        docstring); stepped and strain-driven stages end otherwise."""
         stage = self.stage
-        assert stage is not None
-        for criterion in stage.stop:
-            if criterion.met(row):
-                return True, _stop_reason(criterion)
-        done, reason = self.wall_end()
-        if done:
-            return done, reason
-        if not stage.strain_driven and stage.stage.stress_mode == "target" \
-                and self._quasi_static(row):
-            return True, "quasi-static"
-        return False, ""
+        return not stage.strain_driven and stage.stage.stress_mode == "target" \
+            and self._quasi_static(row)
 
     def _quasi_static(self, row: dict[str, Any]) -> bool:
         criteria = self.settings.quasi_static

@@ -586,11 +586,18 @@ class DiscreteTest:
         done, reason = self.wall_end()
         if done:
             return done, reason
-        if not stage.moving_axes:
-            targets = {a: self.sample.box.controls[2 * a + 1].value for a in stage.stress_axes}
-            if self.settings.quasi_static.met(row, targets):
-                return True, "quasi-static"
+        if self.settled(row):
+            return True, "quasi-static"
         return False, ""
+
+    def settled(self, row: dict[str, Any]) -> bool:
+        """Whether a stage without a strain-controlled axis is quasi-static at ``row``
+        (:class:`~grainlab.lab.wall_stages.QuasiStaticCriteria` on the walls' stresses)."""
+        stage = self.stage
+        if stage.moving_axes:
+            return False
+        targets = {a: self.sample.box.controls[2 * a + 1].value for a in stage.stress_axes}
+        return self.settings.quasi_static.met(row, targets)
 
     def _last_step(self, dt: float) -> float:
         """``dt`` [s], or the step that ends the stage where a step of at most
