@@ -58,6 +58,10 @@ class BoundaryConstraints:
     that the particles' velocities take up before the step (v_i += A (x_i - x_c), x_c the
     centre of mass; zero but when a periodic cell's rate changed). ``speed`` [m/s]: the
     fastest the boundary may close a gap within the step (alert distance growth).
+    ``walls_overdamped``: the mobile walls are servos without inertia, whose speed at the
+    end of the step is ``wall_free`` - ``wall_inv_mass`` x (the impulse of their contacts),
+    with nothing carried from the step before (False: walls with mass, whose free speed
+    carries their speed).
     """
 
     wall_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
@@ -74,6 +78,7 @@ class BoundaryConstraints:
     cell_matrix: np.ndarray = field(default_factory=lambda: np.eye(3))
     affine_change: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
     speed: float = 0.0
+    walls_overdamped: bool = True
 
     @property
     def n_walls(self) -> int:
@@ -137,6 +142,17 @@ class Boundary(Protocol):
 
     def health_arrays(self) -> dict[str, np.ndarray]:
         """Named arrays that must stay finite (a simulation's health check)."""
+
+
+def as_boundary(walls, friction: float = 0.0) -> Boundary:
+    """A solver's ``walls`` argument as a boundary: a :class:`Boundary` as it is, None as
+    open space, (points (W, 3) [m], normals (W, 3)) as :class:`FixedPlanes` of Coulomb
+    coefficient ``friction``."""
+    if walls is None:
+        return FixedPlanes()
+    if isinstance(walls, tuple | list):
+        return FixedPlanes(walls[0], walls[1], friction)
+    return walls
 
 
 def detect_in_space(predicted: BodyState, library: ShapeLibrary, phases: DetectionPhases,

@@ -94,7 +94,7 @@ import numpy as np
 from numba import get_num_threads, njit
 
 from grainlab._validate import at_least
-from grainlab.engine.boundary import Boundary, BoundaryMotion, DetectionPhases, FixedPlanes
+from grainlab.engine.boundary import BoundaryMotion, DetectionPhases, as_boundary
 from grainlab.engine.contact_colouring import colour_contacts
 from grainlab.engine.gyroscopic import gyroscopic_spins
 from grainlab.engine.narrow_phase import Contacts
@@ -703,12 +703,6 @@ class ContactDynamicsStep:
             return omega
         return gyroscopic_spins(omega, rotations, state.inertias, self.dt)
 
-    def _boundary(self, walls) -> Boundary:
-        if walls is None or isinstance(walls, tuple | list):
-            if walls is None:
-                return FixedPlanes()
-            return FixedPlanes(walls[0], walls[1], self.friction)
-        return walls
 
     def step(self, state: BodyState, library: ShapeLibrary, walls=None) -> StepReport:
         """Advance ``state`` in place by one step.
@@ -720,7 +714,7 @@ class ContactDynamicsStep:
         (points (W, 3) [m], normals (W, 3)) of fixed planes with normals pointing into the
         bodies' region (friction ``self.friction``)."""
         h, theta = self.dt, self.theta
-        boundary = self._boundary(walls)
+        boundary = as_boundary(walls, self.friction)
         bounds = boundary.constraints(h, theta)
         # largest approach within the step: two bodies (or a body and a wall) closing in
         speed = float(np.sqrt(np.max(np.sum(state.velocities**2, axis=1)))) \
@@ -755,7 +749,7 @@ class ContactDynamicsStep:
         r_m = quat_to_matrices(q_m)
         inv_inertia = np.ascontiguousarray(
             np.einsum("nij,nj,nkj->nik", r_m, 1.0 / state.inertias, r_m))
-        keys = _contact_keys(contacts, n_bodies, library)
+        keys = contact_keys(contacts, n_bodies, library)
         impulses = np.zeros((n_contacts, 3))
         if self._warm_keys.size and n_contacts:
             where = np.searchsorted(self._warm_keys, keys)
@@ -869,7 +863,7 @@ class ContactDynamicsStep:
         self._rng.bit_generator.state = value
 
 
-def _contact_keys(contacts: Contacts, n_bodies: int, library: ShapeLibrary) -> np.ndarray:
+def contact_keys(contacts: Contacts, n_bodies: int, library: ShapeLibrary) -> np.ndarray:
     """One int64 key per contact (body_i, body_j, member_i, member_j): warm starts match the
     same member pair (polyhedra: feature pair) from step to step (walls: body_i = -1 - w,
     member_i = -1)."""

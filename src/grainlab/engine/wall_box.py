@@ -265,6 +265,7 @@ class WallBox:
         return BoundaryConstraints(
             wall_points=points, wall_normals=normals, wall_inv_mass=self.inverse_masses(),
             wall_free=free, wall_max=wall_max, wall_friction=self.friction,
+            walls_overdamped=bool(self.servo),
             speed=float(max(np.max(np.abs(self.speeds)), np.max(moving))))
 
     def health_arrays(self) -> dict[str, np.ndarray]:

@@ -1,0 +1,341 @@
+"""Soft (deformable) contact laws of the explicit DEM solver: linear spring-dashpot and
+Hertz-Mindlin, with Coulomb friction, optional rolling resistance (STYLE.md 3, 10).
+
+One contact between body i and body j (j's image in a periodic cell) with overlap
+delta = -g > 0 [m] (g the gap), unit normal n from i to j, effective radius
+R* = r_i r_j / (r_i + r_j) (a plane: R* = r_j) and effective mass m* = m_i m_j / (m_i + m_j)
+(a wall: m* = m_j). U = (U_n, U_T) is the velocity of j relative to i at the contact point
+(U_n > 0: separating). The force on j (minus on i) is F = F_n n + F_T with
+
+* **linear** (Cundall & Strack 1979; TRUBALL, YADE's default, seed 001 eq. 2.5 with constant
+  k_n, k_s): F_n = k_n delta - c_n U_n, tangential stiffness k_t = ``stiffness_ratio`` k_n,
+  damping c = 2 zeta sqrt(m* k), zeta the critical-damping ratio that gives the coefficient
+  of restitution e of an isolated contact (:func:`damping_ratio`);
+* **Hertz-Mindlin** (no-slip Mindlin tangential stiffness with history, as LIGGGHTS'
+  ``model hertz tangential history`` and YADE's ``MindlinPhys``): with
+  1/E* = (1 - nu_1^2) / E_1 + (1 - nu_2^2) / E_2 and 1/G* = (2 - nu_1) / G_1 + (2 - nu_2) / G_2
+  (G = E / (2 (1 + nu)); two grains of one material: E* = E / (2 (1 - nu^2)),
+  G* = E / (4 (2 - nu) (1 + nu)); a wall is of the grains' material, or rigid with
+  ``rigid_walls``: E* = E / (1 - nu^2), G* = E / (2 (2 - nu) (1 + nu))) and
+  a = sqrt(R* delta) [m]:
+  F_n = (4/3) E* sqrt(R*) delta^(3/2) - c_n U_n, tangent stiffnesses S_n = 2 E* a and
+  k_t = S_t = 8 G* a, damping c = -2 sqrt(5/6) beta sqrt(S m*) (the form of Tsuji, Tanaka &
+  Ishida 1992 as LIGGGHTS writes it: c grows as delta^(1/4) and the restitution e does not
+  depend on the impact speed), beta < 0 found for the e set (:func:`tsuji_beta`).
+
+The normal force is never attractive: F_n = max(0, F_n) (a dashpot cannot pull the grains
+together as they separate). The contact then ends before the overlap closes, so the damping
+of both laws is found from e for such a force (the textbook formulas, which assume a pull at
+the end, give e too high: 0.58 for 0.5 with linear springs); an isolated impact restitutes
+e as set. The tangential spring xi (3,) [m] is the elastic tangential
+displacement carried by the contact from the step it formed: each step it is turned with the
+contact frame (its normal part removed and its length kept, then turned about n by the mean
+spin of the two bodies about n; no spurious force under a rigid rotation of the pair), then
+increased by U_T dt; F_T = -k_t xi - c_t U_T and, when |F_T| > mu F_n, F_T is scaled back
+onto the Coulomb limit and xi set to the displacement that gives it (-(F_T + c_t U_T) / k_t).
+
+Rolling resistance (optional, mu_r > 0; the elastic-plastic spring of Iwashita & Oda 1998
+and Ai et al. 2011, LIGGGHTS' ``epsd2``): a moment M_r (3,) [N m] on j (minus on i) with
+rolling stiffness k_r = 2.25 k_n mu_r^2 R*^2 (k_n: the normal tangent stiffness),
+dM_r = -k_r (omega_j - omega_i)_T dt, |M_r| <= mu_r R* F_n.
+
+Stiffness number (Roux & Combe 2002; Agnolin & Roux 2007): the level of confining stress
+sigma0 [Pa] against the grains' stiffness, kappa = k_n / (sigma0 <d>) for linear springs and
+kappa = (E / ((1 - nu^2) sigma0))^(2/3) for Hertz. The mean overlap of a packing under sigma0
+is of order <d> / kappa: kappa >= 1e4 gives quasi-rigid grains, whose macroscopic response
+(q/p, packing fraction, fabric) no longer depends on kappa; at kappa = 1e3 the packing is a
+little denser and stiffer in its elastic range, below 1e2 the grains' deformation dominates.
+
+>>> law = SoftContactLaw.hertz_mindlin(young_modulus=1e9, poisson_ratio=0.25, restitution=0.5)
+>>> round(law.effective_young_modulus, 1), round(law.effective_shear_modulus, 1)
+(533333333.3, 114285714.3)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from functools import lru_cache
+
+import numpy as np
+from numba import njit
+
+from grainlab._validate import at_least, in_range, positive
+from grainlab.errors import InputError
+
+LINEAR = 0
+"""Code of the linear spring-dashpot law in :attr:`SoftContactLaw.code`."""
+HERTZ_MINDLIN = 1
+"""Code of the Hertz-Mindlin law."""
+LAW_NAMES = ("linear", "hertz_mindlin")
+"""Names of the law codes, in code order."""
+RAYLEIGH_FRACTION = 0.2
+"""Default time step of Hertz-Mindlin: this fraction of the Rayleigh time of the smallest
+grain (LIGGGHTS' and YADE's users' rule)."""
+COLLISION_FRACTION = 0.2
+"""Default time step of linear springs: this fraction of the collision time
+pi sqrt(m / (2 k)) of two of the lightest grains on the stiffer spring."""
+
+
+@njit(inline="always")
+def contact_law(code, params, overlap, r_eff, m_eff):
+    """Normal elastic force F_n,e [N], normal tangent stiffness S_n [N/m], tangential stiffness
+    k_t [N/m] and damping coefficients c_n, c_t [N s/m] of one contact with ``overlap``
+    delta > 0 [m], effective radius ``r_eff`` [m] and mass ``m_eff`` [kg] (module docstring;
+    ``params``: a row of :attr:`SoftContactLaw.params`)."""
+    if code == LINEAR:
+        k_n = params[0]
+        k_t = params[1] * k_n
+        zeta = params[2]
+        return (k_n * overlap, k_n, k_t, 2.0 * zeta * math.sqrt(m_eff * k_n),
+                2.0 * zeta * math.sqrt(m_eff * k_t))
+    e_star, g_star, beta = params[0], params[1], params[2]
+    a = math.sqrt(r_eff * overlap)
+    s_n = 2.0 * e_star * a
+    s_t = 8.0 * g_star * a
+    factor = -2.0 * math.sqrt(5.0 / 6.0) * beta
+    return (2.0 / 3.0 * s_n * overlap, s_n, s_t, factor * math.sqrt(s_n * m_eff),
+            factor * math.sqrt(s_t * m_eff))
+
+
+def linear_restitution(zeta: float) -> float:
+    """Coefficient of restitution of an isolated linear spring-dashpot contact of damping
+    ratio ``zeta`` whose force is never attractive: the contact ends when
+    k delta - c U_n reaches 0, at omega_d t* = pi - atan(2 zeta sqrt(1 - zeta^2) /
+    (1 - 2 zeta^2)), and e = -U_n(t*) / U_n(0) (Schwager & Poeschel 2007)."""
+    if zeta <= 0.0:
+        return 1.0
+    if zeta >= 1.0:
+        return 0.0
+    root = math.sqrt(1.0 - zeta * zeta)
+    phase = math.pi - math.atan2(2.0 * zeta * root, 1.0 - 2.0 * zeta * zeta)
+    # U_n(t) / U_n(0) = e^{-zeta w t} (cos(w_d t) - zeta / root sin(w_d t)), w_d t = phase
+    decay = math.exp(-zeta / root * phase)
+    return -decay * (math.cos(phase) - zeta / root * math.sin(phase))
+
+
+@njit(cache=True)
+def hertz_restitution(gamma: float) -> float:
+    """Coefficient of restitution of an isolated Hertz contact with the damping of the module
+    docstring, its force never attractive, in units where m* = 1, (4/3) E* sqrt(R*) = 1 and
+    the impact speed is 1 (e does not depend on the speed): x'' = -max(0, x^(3/2) +
+    gamma x^(1/4) x'), gamma = 2 sqrt(5/6) |beta| sqrt(3/2); RK4 until the force vanishes."""
+    h = 2e-4
+    x, v = 0.0, 1.0  # overlap and its rate
+
+    def acceleration(x, v):
+        if x <= 0.0:
+            return 0.0
+        return -max(0.0, x**1.5 + gamma * x**0.25 * v)
+
+    for _ in range(1_000_000):
+        k1x, k1v = v, acceleration(x, v)
+        k2x, k2v = v + 0.5 * h * k1v, acceleration(x + 0.5 * h * k1x, v + 0.5 * h * k1v)
+        k3x, k3v = v + 0.5 * h * k2v, acceleration(x + 0.5 * h * k2x, v + 0.5 * h * k2v)
+        k4x, k4v = v + h * k3v, acceleration(x + h * k3x, v + h * k3v)
+        x += h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x)
+        v += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v)
+        if v < 0.0 and (x <= 0.0 or x**1.5 + gamma * x**0.25 * v <= 0.0):
+            return -v
+    return -v
+
+
+def _bisect(function, target: float, low: float, high: float) -> float:
+    """The x in [low, high] where the decreasing ``function`` reaches ``target``."""
+    for _ in range(60):
+        middle = 0.5 * (low + high)
+        if function(middle) > target:
+            low = middle
+        else:
+            high = middle
+    return 0.5 * (low + high)
+
+
+@lru_cache(maxsize=64)
+def damping_ratio(restitution: float) -> float:
+    """zeta of the linear law giving ``restitution`` e (:func:`linear_restitution`; 0 for
+    e = 1): the spring-dashpot's zeta = -ln e / sqrt(pi^2 + ln^2 e) corrected for a force
+    that never pulls."""
+    if restitution >= 1.0:
+        return 0.0
+    return _bisect(linear_restitution, restitution, 0.0, 1.0)
+
+
+@lru_cache(maxsize=64)
+def tsuji_beta(restitution: float) -> float:
+    """beta (< 0) of the Hertz-Mindlin damping giving ``restitution`` e
+    (:func:`hertz_restitution`; 0 for e = 1). The Antypov & Elliott value
+    ln e / sqrt(ln^2 e + pi^2) is exact only with a force that may pull at the end of the
+    impact; with one that never pulls (here) it gives e too high (0.55 for 0.5)."""
+    if restitution >= 1.0:
+        return 0.0
+    scale = 2.0 * math.sqrt(5.0 / 6.0) * math.sqrt(1.5)
+    gamma = _bisect(lambda g: hertz_restitution(g), restitution, 0.0, 20.0)
+    return -gamma / scale
+
+
+@dataclass(frozen=True)
+class SoftContactLaw:
+    """Parameters of a soft contact law (module docstring). Build it with
+    :meth:`linear` or :meth:`hertz_mindlin` (material constants) or :meth:`from_kappa`
+    (the stiffness number).
+
+    Attributes
+    ----------
+    model:
+        ``"linear"`` or ``"hertz_mindlin"``.
+    normal_stiffness:
+        k_n [N/m] (linear).
+    stiffness_ratio:
+        k_t / k_n (linear), > 0.
+    young_modulus, poisson_ratio:
+        E [Pa] and nu (Hertz-Mindlin), nu in (-1, 0.5).
+    restitution:
+        Coefficient of restitution e of a normal impact, in (0, 1].
+    rolling_friction:
+        mu_r >= 0 (0: none), a length ratio: the moment limit is mu_r R* F_n.
+    local_damping:
+        alpha in [0, 1): the non-viscous damping of YADE and PFC, F <- F - alpha |F|
+        sign(v) per component of each body's net force and moment (0: none; it is not
+        physical and serves quasi-static runs only).
+    time_step_fraction:
+        The time step as a fraction of the Rayleigh time (Hertz-Mindlin) or of the collision
+        time pi sqrt(m / (2 k)) (linear) of the lightest grains, in (0, 1].
+    rigid_walls:
+        Hertz-Mindlin: walls infinitely stiff (default False: walls of the grains'
+        material). Linear springs: walls take the grains' k_n, k_t either way.
+    """
+
+    model: str
+    normal_stiffness: float = 0.0
+    stiffness_ratio: float = 0.5
+    young_modulus: float = 0.0
+    poisson_ratio: float = 0.25
+    restitution: float = 0.5
+    rolling_friction: float = 0.0
+    local_damping: float = 0.0
+    time_step_fraction: float = 0.2
+    rigid_walls: bool = False
+
+    def __post_init__(self) -> None:
+        if self.model not in LAW_NAMES:
+            raise InputError("model", self.model, " or ".join(f'"{n}"' for n in LAW_NAMES))
+        if self.model == "linear":
+            positive("normal_stiffness", self.normal_stiffness, "N/m")
+            positive("stiffness_ratio", self.stiffness_ratio)
+        else:
+            positive("young_modulus", self.young_modulus, "Pa")
+            in_range("poisson_ratio", self.poisson_ratio, -1.0, 0.5)
+        in_range("restitution", self.restitution, 0.0, 1.0, closed="(]")
+        at_least("rolling_friction", self.rolling_friction, strict=False)
+        in_range("local_damping", self.local_damping, 0.0, 1.0, closed="[)")
+        in_range("time_step_fraction", self.time_step_fraction, 0.0, 1.0, closed="(]")
+
+    # -- constructors --------------------------------------------------------------------------
+    @classmethod
+    def linear(cls, normal_stiffness: float, stiffness_ratio: float = 0.5,
+               restitution: float = 0.5, **options) -> SoftContactLaw:
+        """Linear springs k_n [N/m], k_t = ``stiffness_ratio`` k_n, with restitution e."""
+        return cls("linear", normal_stiffness=normal_stiffness,
+                   stiffness_ratio=stiffness_ratio, restitution=restitution,
+                   time_step_fraction=options.pop("time_step_fraction",
+                                                  COLLISION_FRACTION), **options)
+
+    @classmethod
+    def hertz_mindlin(cls, young_modulus: float, poisson_ratio: float = 0.25,
+                      restitution: float = 0.5, **options) -> SoftContactLaw:
+        """Hertz-Mindlin grains of Young's modulus E [Pa] and Poisson's ratio nu."""
+        return cls("hertz_mindlin", young_modulus=young_modulus,
+                   poisson_ratio=poisson_ratio, restitution=restitution,
+                   time_step_fraction=options.pop("time_step_fraction", RAYLEIGH_FRACTION),
+                   **options)
+
+    @classmethod
+    def from_kappa(cls, model: str, kappa: float, confining_stress: float,
+                   mean_diameter: float, **options) -> SoftContactLaw:
+        """The law whose stiffness number at ``confining_stress`` sigma0 [Pa] and
+        ``mean_diameter`` <d> [m] is ``kappa`` (module docstring): k_n = kappa sigma0 <d>
+        (linear) or E = (1 - nu^2) sigma0 kappa^(3/2) (Hertz-Mindlin)."""
+        kappa = positive("kappa", kappa)
+        sigma0 = positive("confining_stress", confining_stress, "Pa")
+        diameter = positive("mean_diameter", mean_diameter, "m")
+        if model == "linear":
+            return cls.linear(kappa * sigma0 * diameter, **options)
+        if model == "hertz_mindlin":
+            nu = options.pop("poisson_ratio", 0.25)
+            return cls.hertz_mindlin((1.0 - nu * nu) * sigma0 * kappa**1.5, nu, **options)
+        raise InputError("model", model, " or ".join(f'"{n}"' for n in LAW_NAMES))
+
+    # -- derived -------------------------------------------------------------------------------
+    @property
+    def code(self) -> int:
+        """:data:`LINEAR` or :data:`HERTZ_MINDLIN`."""
+        return LAW_NAMES.index(self.model)
+
+    @property
+    def effective_young_modulus(self) -> float:
+        """E* = E / (2 (1 - nu^2)) [Pa] of two grains of this material."""
+        return self.young_modulus / (2.0 * (1.0 - self.poisson_ratio**2))
+
+    @property
+    def effective_shear_modulus(self) -> float:
+        """G* = E / (4 (2 - nu) (1 + nu)) [Pa] of two grains of this material."""
+        nu = self.poisson_ratio
+        return self.young_modulus / (4.0 * (2.0 - nu) * (1.0 + nu))
+
+    @property
+    def params(self) -> np.ndarray:
+        """(2, 3) the compiled law's parameters, row 0 between grains and row 1 with a wall:
+        (k_n, k_t/k_n, zeta) or (E*, G*, beta)."""
+        if self.model == "linear":
+            row = [self.normal_stiffness, self.stiffness_ratio, damping_ratio(self.restitution)]
+            return np.array([row, row])
+        beta = tsuji_beta(self.restitution)
+        grains = [self.effective_young_modulus, self.effective_shear_modulus, beta]
+        wall = 2.0 if self.rigid_walls else 1.0
+        return np.array([grains, [wall * grains[0], wall * grains[1], beta]])
+
+    def kappa(self, confining_stress: float, mean_diameter: float) -> float:
+        """The stiffness number at sigma0 [Pa] and <d> [m] (module docstring)."""
+        if self.model == "linear":
+            return self.normal_stiffness / (confining_stress * mean_diameter)
+        modulus = self.young_modulus / (1.0 - self.poisson_ratio**2)
+        return (modulus / confining_stress) ** (2.0 / 3.0)
+
+    def rayleigh_time(self, radius: float, density: float) -> float:
+        """T_R = pi R sqrt(rho / G) / (0.1631 nu + 0.8766) [s] of a sphere of radius R [m]
+        and density rho [kg/m^3] (Hertz-Mindlin; G = E / (2 (1 + nu)))."""
+        nu = self.poisson_ratio
+        shear = self.young_modulus / (2.0 * (1.0 + nu))
+        return math.pi * radius * math.sqrt(density / shear) / (0.1631 * nu + 0.8766)
+
+    def time_step(self, lightest_mass: float, smallest_radius: float, density: float) -> float:
+        """The stable explicit time step [s]: :attr:`time_step_fraction` of the Rayleigh time
+        of the smallest grain (radius [m], density [kg/m^3]), or of the collision time
+        pi sqrt(m / (2 max(k_n, k_t))) of two grains of the lightest mass [kg] (0.2 of it is
+        0.44 sqrt(m / k): a grain held by a dozen damped springs stays stable)."""
+        if self.model == "hertz_mindlin":
+            return self.time_step_fraction * self.rayleigh_time(smallest_radius, density)
+        stiffest = self.normal_stiffness * max(1.0, self.stiffness_ratio)
+        return self.time_step_fraction * math.pi * math.sqrt(0.5 * lightest_mass / stiffest)
+
+    def describe(self) -> dict:
+        """Parameters as plain data (metadata, checkpoints)."""
+        return asdict(self)
+
+
+def hertz_impact(law: SoftContactLaw, effective_radius: float, effective_mass: float,
+                 speed: float, wall: bool = False) -> dict[str, float]:
+    """Closed form of an undamped Hertz normal impact at relative ``speed`` [m/s]: largest
+    overlap delta_max = (15 m* v^2 / (16 E* sqrt(R*)))^(2/5) [m], peak force
+    (4/3) E* sqrt(R*) delta_max^(3/2) [N] and contact duration
+    2.8683 (m*^2 / (R* E*^2 v))^(1/5) [s] (Johnson 1985, sec. 11.2); ``wall``: against a
+    wall (E* of :attr:`SoftContactLaw.params` row 1)."""
+    e_star = float(law.params[1 if wall else 0, 0])
+    delta = (15.0 * effective_mass * speed**2 / (16.0 * e_star * math.sqrt(effective_radius))
+             ) ** 0.4
+    return {
+        "max_overlap": delta,
+        "peak_force": 4.0 / 3.0 * e_star * math.sqrt(effective_radius) * delta**1.5,
+        "duration": 2.8683 * (effective_mass**2 / (effective_radius * e_star**2 * speed)) ** 0.2,
+    }

@@ -1,0 +1,321 @@
+"""The explicit soft-contact DEM step against closed forms and invariants: Hertz impacts (Chung
+& Ooi 2011, tests 1-2 and 4), restitution, an incline, energy, a resting column, a spring
+carried through a rigid rotation, relabelling, and the servo walls and cell (STYLE.md 11).
+
+Incline cases (gravity vertical, plane tilted by theta, friction mu): a sphere rolls without
+slipping (a = 5/7 g sin theta) if tan(theta) < 7 mu / 2 and otherwise slips with
+a = g (sin theta - mu cos theta); a flat three-sphere aggregate cannot roll: it sticks if
+tan(theta) < mu and otherwise slides with the same a.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from grainlab.contact.soft_contact_law import SoftContactLaw, hertz_impact
+from grainlab.engine.boundary import FixedPlanes
+from grainlab.engine.soft_contact import SoftContactStep
+from grainlab.engine.soft_contact_kernels import contact_forces_kernel
+from grainlab.engine.state import BodyState, ShapeLibrary
+from grainlab.engine.wall_box import WallBox
+from grainlab.errors import InputError
+from grainlab.geometry.sphere_aggregate import from_spheres
+
+G = 9.81
+
+
+def spheres(positions, radius, density):
+    library = ShapeLibrary.from_spheres([radius])
+    state = BodyState.from_library(library, [0] * len(positions), positions, density=density)
+    return library, state
+
+
+def impact(law, radius, density, speed, wall=False, steps_per_contact=400):
+    """Head-on impact of two spheres (each at ``speed`` [m/s] towards the other) or of one
+    sphere on a plane: (peak force [N], contact duration [s], largest overlap [m], rebound
+    ratio of the normal relative speed, solver step [s])."""
+    if wall:
+        library, state = spheres([[0.0, 0.0, radius * 1.001]], radius, density)
+        state.velocities[0] = [0.0, 0.0, -speed]
+        relative, m_eff = speed, float(state.masses[0])
+        walls = FixedPlanes([[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]])
+    else:
+        library, state = spheres([[0.0, 0.0, 0.0], [2.002 * radius, 0.0, 0.0]], radius, density)
+        state.velocities[0] = [speed, 0.0, 0.0]
+        state.velocities[1] = [-speed, 0.0, 0.0]
+        relative, m_eff = 2.0 * speed, 0.5 * float(state.masses[0])
+        walls = None
+    if law.model == "linear":  # sized by the undamped collision time
+        closed = {"duration": math.pi * math.sqrt(m_eff / law.normal_stiffness)}
+    else:
+        closed = hertz_impact(law, radius if wall else 0.5 * radius, m_eff, relative,
+                              wall=wall)
+    dt = closed["duration"] / steps_per_contact
+    solver = SoftContactStep(law, dt=dt, friction=0.0, substep=dt)
+    peak, touching, deepest, started = 0.0, 0, 0.0, False
+    for _ in range(3 * steps_per_contact):
+        report = solver.step(state, library, walls)
+        if report.n_contacts:
+            started = True
+            touching += 1
+            peak = max(peak, float(report.impulses[0, 0]) / dt)
+            deepest = max(deepest, float(-report.contacts.gap[0]))
+        elif started:
+            break
+    after = state.velocities[0, 2] if wall else state.velocities[1, 0] - state.velocities[0, 0]
+    return peak, touching * dt, deepest, float(after) / relative, dt, closed
+
+
+@pytest.mark.parametrize("material", [
+    # Chung & Ooi (2011) test 1: glass and limestone spheres, R = 0.010 m, 10 m/s each
+    (4.8e10, 0.20, 2800.0), (2.0e10, 0.25, 2500.0)])
+def test_two_sphere_hertz_impact_matches_closed_form(material):
+    young, nu, density = material
+    law = SoftContactLaw.hertz_mindlin(young, nu, restitution=1.0)
+    peak, duration, deepest, rebound, dt, closed = impact(law, 0.010, density, 10.0)
+    assert peak == pytest.approx(closed["peak_force"], rel=2e-3)
+    assert deepest == pytest.approx(closed["max_overlap"], rel=2e-3)
+    assert abs(duration - closed["duration"]) <= 2.0 * dt
+    assert rebound == pytest.approx(1.0, abs=1e-4)  # elastic: no energy lost
+
+
+@pytest.mark.parametrize("material", [
+    # Chung & Ooi (2011) test 2: a sphere (R = 0.1 m, 0.2 m/s) on a rigid plane
+    (7.0e10, 0.33, 2700.0), (4.0e10, 0.35, 1800.0)])
+def test_sphere_on_rigid_plane_hertz_impact_matches_closed_form(material):
+    young, nu, density = material
+    law = SoftContactLaw.hertz_mindlin(young, nu, restitution=1.0, rigid_walls=True)
+    peak, duration, deepest, rebound, dt, closed = impact(law, 0.1, density, 0.2, wall=True)
+    assert peak == pytest.approx(closed["peak_force"], rel=2e-3)
+    assert deepest == pytest.approx(closed["max_overlap"], rel=2e-3)
+    assert abs(duration - closed["duration"]) <= 2.0 * dt
+    assert rebound == pytest.approx(1.0, abs=1e-4)
+
+
+@pytest.mark.parametrize("model", ["linear", "hertz_mindlin"])
+@pytest.mark.parametrize("restitution", [0.3, 0.5, 0.9])
+def test_coefficient_of_restitution_is_as_set(model, restitution):
+    if model == "linear":
+        law = SoftContactLaw.linear(1e6, restitution=restitution)
+    else:
+        law = SoftContactLaw.hertz_mindlin(1e9, 0.25, restitution=restitution)
+    for speed in (0.1, 1.0):
+        *_, rebound, _, _ = impact(law, 0.005, 2600.0, speed)
+        assert rebound == pytest.approx(restitution, abs=0.02 * restitution + 0.005)
+
+
+def incline_run(theta, mu, library, positions, n_steps=200, dt=1e-3):
+    normal = np.array([-np.sin(theta), 0.0, np.cos(theta)])
+    state = BodyState.from_library(library, [0], positions, density=1000.0)
+    law = SoftContactLaw.linear(1e6, stiffness_ratio=0.5, restitution=0.2)
+    walls = FixedPlanes([[0.0, 0.0, 0.0]], [normal], friction=mu)
+    solver = SoftContactStep(law, dt=dt, gravity=(0.0, 0.0, -G), friction=mu)
+    for _ in range(100):  # settle on the plane
+        solver.step(state, library, walls)
+    downhill = -np.array([np.cos(theta), 0.0, np.sin(theta)])
+    v0 = float(state.velocities[0] @ downhill)
+    for _ in range(n_steps):
+        report = solver.step(state, library, walls)
+    return (float(state.velocities[0] @ downhill) - v0) / (n_steps * dt), state, report
+
+
+def sphere_on(theta, radius=0.05):
+    library = ShapeLibrary.from_spheres([radius])
+    normal = np.array([-np.sin(theta), 0.0, np.cos(theta)])
+    return library, [radius * normal * 0.999]
+
+
+def flat_triplet_on(theta, radius=0.02):
+    """Three touching spheres in a triangle lying flat on the plane (cannot roll)."""
+    c = np.array([[0.0, 0.0, 0.0], [2 * radius, 0.0, 0.0], [radius, np.sqrt(3) * radius, 0.0]])
+    library = ShapeLibrary.from_aggregates([from_spheres(c, [radius] * 3)])
+    offsets = library.sphere_offsets
+    plane_normal = np.cross(offsets[1] - offsets[0], offsets[2] - offsets[0])
+    plane_normal /= np.linalg.norm(plane_normal)
+    normal = np.array([-np.sin(theta), 0.0, np.cos(theta)])
+    return library, [radius * 0.999 * normal], plane_normal, normal
+
+
+def rotation_to(a, b):
+    """Unit quaternion (w first) turning unit vector a onto b."""
+    axis = np.cross(a, b)
+    s, c = np.linalg.norm(axis), float(a @ b)
+    if s < 1e-15:
+        return np.array([1.0, 0.0, 0.0, 0.0]) if c > 0 else np.array([0.0, 1.0, 0.0, 0.0])
+    angle = math.atan2(s, c)
+    return np.concatenate([[math.cos(angle / 2)], math.sin(angle / 2) * axis / s])
+
+
+def test_sphere_rolls_without_slipping_on_a_gentle_incline():
+    theta, mu = math.atan(0.5), 0.4  # tan = 0.5 < 7 mu / 2 = 1.4
+    library, positions = sphere_on(theta)
+    a, state, report = incline_run(theta, mu, library, positions)
+    assert a == pytest.approx(5.0 / 7.0 * G * math.sin(theta), rel=1e-2)
+    force = report.impulses[0] / 1e-3
+    assert np.linalg.norm(force[1:]) < mu * force[0]
+
+
+def test_sphere_slips_on_a_steep_incline_with_the_coulomb_acceleration():
+    theta, mu = math.pi / 4, 0.2  # tan = 1 > 7 mu / 2 = 0.7
+    library, positions = sphere_on(theta)
+    a, _, report = incline_run(theta, mu, library, positions)
+    assert a == pytest.approx(G * (math.sin(theta) - mu * math.cos(theta)), rel=1e-2)
+    force = report.impulses[0]
+    assert np.linalg.norm(force[1:]) == pytest.approx(mu * force[0], rel=1e-9)
+
+
+@pytest.mark.parametrize("tan_theta, mu, sliding", [(0.3, 0.4, False), (0.6, 0.3, True)])
+def test_flat_aggregate_sticks_below_mu_and_slides_above(tan_theta, mu, sliding):
+    theta = math.atan(tan_theta)
+    library, positions, plane_normal, normal = flat_triplet_on(theta)
+    state = BodyState.from_library(library, [0], positions, density=1000.0,
+                                   orientations=[rotation_to(plane_normal, normal)])
+    law = SoftContactLaw.linear(1e5, stiffness_ratio=0.5, restitution=0.2)
+    walls = FixedPlanes([[0.0, 0.0, 0.0]], [normal], friction=mu)
+    solver = SoftContactStep(law, dt=1e-3, gravity=(0.0, 0.0, -G), friction=mu)
+    for _ in range(200):
+        report = solver.step(state, library, walls)
+    assert report.n_contacts == 3
+    downhill = -np.array([np.cos(theta), 0.0, np.sin(theta)])
+    v0 = float(state.velocities[0] @ downhill)
+    for _ in range(200):
+        solver.step(state, library, walls)
+    a = (float(state.velocities[0] @ downhill) - v0) / 0.2
+    if sliding:
+        assert a == pytest.approx(G * (math.sin(theta) - mu * math.cos(theta)), rel=1e-2)
+    else:
+        assert abs(a) < 1e-3 * G
+        assert abs(float(state.velocities[0] @ downhill)) < 1e-4
+
+
+def test_energy_is_conserved_to_second_order_without_damping():
+    """Six spheres bouncing frictionless and elastic in a box of fixed planes: the energy
+    error falls four times when the step is halved (velocity Verlet)."""
+    rng = np.random.default_rng(3)
+    radius = 0.01
+    errors = []
+    for dt in (4e-5, 2e-5):
+        library, state = spheres([[0.02, 0.02, 0.02], [0.05, 0.02, 0.02], [0.02, 0.05, 0.02],
+                                  [0.05, 0.05, 0.05], [0.02, 0.02, 0.05], [0.05, 0.02, 0.05]],
+                                 radius, 2600.0)
+        state.velocities[:] = np.random.default_rng(3).normal(size=(6, 3))
+        k_n = 1e4
+        law = SoftContactLaw.linear(k_n, restitution=1.0)
+        box = WallBox([0.0, 0.0, 0.0], [0.07, 0.07, 0.07])
+        solver = SoftContactStep(law, dt=1e-3, friction=0.0, substep=dt)
+
+        def energy(report):
+            elastic = 0.5 * k_n * float(np.sum(report.contacts.gap ** 2))
+            return state.kinetic_energy() + elastic
+
+        e0 = state.kinetic_energy()
+        worst = 0.0
+        for _ in range(300):
+            report = solver.step(state, library, box)
+            worst = max(worst, abs(energy(report) - e0) / e0)
+        errors.append(worst)
+    del rng
+    assert errors[0] < 1e-3
+    assert 3.0 < errors[0] / errors[1] < 5.0
+
+
+def test_column_at_rest_under_gravity_bottom_reaction_is_the_weight():
+    n, radius = 5, 0.01
+    library, state = spheres([[0.0, 0.0, radius * (2 * k + 1)] for k in range(n)], radius,
+                             2600.0)
+    law = SoftContactLaw.linear(1e5, restitution=0.3, local_damping=0.3)
+    solver = SoftContactStep(law, dt=1e-3, gravity=(0.0, 0.0, -G))
+    floor = FixedPlanes([[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]])
+    for _ in range(1000):
+        report = solver.step(state, library, floor)
+    weight = float(np.sum(state.masses)) * G
+    on_floor = report.contacts.body_i < 0
+    assert report.n_contacts == n
+    assert report.impulses[on_floor, 0].sum() / 1e-3 == pytest.approx(weight, rel=1e-6)
+    # each sphere carries the ones above it
+    between = np.sort(report.impulses[~on_floor, 0] / 1e-3)
+    np.testing.assert_allclose(between, weight * np.arange(1, n) / n, rtol=1e-6)
+    assert np.abs(state.velocities).max() < 1e-8
+
+
+def turned_spring_force(n_steps):
+    """Two overlapping spheres with a loaded tangential spring, turned rigidly by 90 degrees in
+    ``n_steps`` steps about an axis with components along and across the normal: (force at
+    the start (3,), at the end (3,), the start force turned by the rotation (3,))."""
+    radius, overlap = 0.01, 1e-4
+    x0 = np.array([[0.0, 0.0, 0.0], [2 * radius - overlap, 0.0, 0.0]])
+    axis = np.array([0.3, 0.5, 0.8]) / np.linalg.norm([0.3, 0.5, 0.8])
+    omega = axis * (math.pi / 2)  # 90 degrees in 1 s
+    params = SoftContactLaw.linear(1e5).params
+    dt = 1.0 / n_steps
+    kx = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+
+    def rotation(t):
+        angle = math.pi / 2 * t
+        return np.eye(3) + math.sin(angle) * kx + (1 - math.cos(angle)) * kx @ kx
+
+    xi, roll = np.array([[0.0, 2e-5, 1e-5]]), np.zeros((1, 3))
+    outputs = [np.zeros((1, 3)) for _ in range(3)] + [np.zeros(1), np.zeros((1, 3)),
+                                                      np.zeros((1, 3)), np.zeros(1),
+                                                      np.zeros((1, 3))]
+    start = None
+    for step in range(n_steps + 1):
+        positions = x0 @ rotation(step * dt).T
+        contact_forces_kernel(
+            0.0 if step == 0 else dt, 0, params, 0.0, np.array([0]), np.array([1]),
+            np.zeros((1, 3)), np.zeros((1, 3)), np.array([radius]), np.array([radius]),
+            np.zeros((1, 3)), np.array([10.0]), np.array([1.0, 1.0]), positions,
+            np.array([[1.0, 0.0, 0.0, 0.0]] * 2), np.cross(omega, positions),
+            np.array([omega, omega]), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0),
+            np.zeros(0), np.eye(3), np.zeros((3, 3)), xi, roll, *outputs)
+        if start is None:
+            start = outputs[0][0].copy()
+    return start, outputs[0][0].copy(), rotation(1.0) @ start
+
+
+def test_tangential_spring_turns_with_a_rigid_rotation_of_the_pair():
+    """No spurious force: the force keeps its size exactly and turns with the pair, to first
+    order in the step (the error halves with the step)."""
+    errors = []
+    for n_steps in (1000, 2000):
+        start, end, expected = turned_spring_force(n_steps)
+        assert np.linalg.norm(start[1:]) > 1.0  # the spring was loaded
+        assert np.linalg.norm(end) == pytest.approx(np.linalg.norm(start), rel=1e-12)
+        errors.append(np.linalg.norm(end - expected) / np.linalg.norm(start))
+    assert errors[0] < 1e-3
+    assert 1.8 < errors[0] / errors[1] < 2.2
+
+
+def test_forces_do_not_depend_on_the_labelling_of_the_bodies():
+    rng = np.random.default_rng(5)
+    radius = 0.01
+    grid = np.stack(np.meshgrid(*[np.arange(3)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    positions = 0.0201 * grid[:27] + rng.uniform(0.0, 1e-5, size=(27, 3))
+    law = SoftContactLaw.hertz_mindlin(1e8, 0.3, restitution=0.5)
+    results = []
+    for order in (np.arange(27), rng.permutation(27)):
+        library, state = spheres(positions[order], radius, 2600.0)
+        state.velocities[:] = np.linspace(-0.1, 0.1, 81).reshape(27, 3)[order]
+        box = WallBox([-0.01, -0.01, -0.01], [0.06, 0.06, 0.06])
+        solver = SoftContactStep(law, dt=2e-5, gravity=(0.0, 0.0, -G), friction=0.4)
+        for _ in range(20):
+            solver.step(state, library, box)
+        back = np.empty(27, dtype=int)
+        back[order] = np.arange(27)
+        results.append((state.positions[back], state.velocities[back]))
+    np.testing.assert_allclose(results[0][0], results[1][0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(results[0][1], results[1][1], rtol=0, atol=1e-9)
+
+
+def test_polyhedra_are_refused_with_a_clear_message():
+    from grainlab.geometry.polyhedron import from_vertices
+
+    cube = from_vertices([[x, y, z] for x in (0, 0.01) for y in (0, 0.01) for z in (0, 0.01)])
+    library = ShapeLibrary.from_polyhedra([cube])
+    state = BodyState.from_library(library, [0], [[0.0, 0.0, 0.02]], density=2600.0)
+    solver = SoftContactStep(SoftContactLaw.linear(1e5), dt=1e-4)
+    with pytest.raises(InputError, match="polyhedra"):
+        solver.step(state, library)
