@@ -63,7 +63,7 @@ from grainlab.engine.boundary import BoundaryMotion, DetectionPhases, as_boundar
 from grainlab.engine.contact_dynamics import StepReport, contact_frames, contact_keys
 from grainlab.engine.narrow_phase import Contacts
 from grainlab.engine.simulation import SimulationBlowUp
-from grainlab.engine.soft_contact_kernels import substeps_kernel
+from grainlab.engine.soft_contact_kernels import servo_kernel, substeps_kernel
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 
@@ -124,6 +124,11 @@ class SoftContactStep:
         self.last_substeps = 0
         self._history_keys = np.zeros(0, dtype=np.int64)
         self._history = np.zeros((0, 6))
+        self._wall_load = np.zeros((0, 3))
+        """Per wall: mean reaction over the last step [N], stiffness [N/m], speed [m/s]."""
+        self._cell_load = np.zeros((0, 3))
+        """Per free degree of freedom of the cell: mean generalised force [N m], stiffness
+        [N m], rate [1/s] of the last step."""
         self._phases: DetectionPhases | None = None
 
     # -- Solver protocol ------------------------------------------------------------------------
@@ -147,13 +152,17 @@ class SoftContactStep:
         """Nothing to restore."""
 
     def warm_start_arrays(self) -> dict[str, np.ndarray]:
-        """The contacts' springs (keys, tangential displacement [m], rolling moment [N m])."""
-        return {"keys": self._history_keys.copy(), "history": self._history.copy()}
+        """The contacts' springs (keys, tangential displacement [m], rolling moment [N m])
+        and the boundary's loads of the last step (the servos' input)."""
+        return {"keys": self._history_keys.copy(), "history": self._history.copy(),
+                "wall_load": self._wall_load.copy(), "cell_load": self._cell_load.copy()}
 
     def restore_warm_start(self, arrays: dict[str, np.ndarray]) -> None:
         """Restore what :meth:`warm_start_arrays` saved."""
         self._history_keys = np.asarray(arrays["keys"], dtype=np.int64)
         self._history = np.asarray(arrays["history"], dtype=np.float64).reshape(-1, 6)
+        self._wall_load = np.asarray(arrays["wall_load"], dtype=np.float64).reshape(-1, 3)
+        self._cell_load = np.asarray(arrays["cell_load"], dtype=np.float64).reshape(-1, 3)
 
     # -- stepping ------------------------------------------------------------------------------
     def stable_substep(self, state: BodyState, library: ShapeLibrary) -> float:
@@ -186,19 +195,32 @@ class SoftContactStep:
             state.velocities += (state.positions - centre) @ bounds.affine_change.T
         n_walls, n_dofs = bounds.n_walls, bounds.cell_inv_mass.shape[0]
         run = _Run(state, library, bounds, n_walls, n_dofs)
+        rows = self._build_list(state, library, boundary, bounds, run)
+        if self._wall_load.shape[0] != n_walls or self._cell_load.shape[0] != n_dofs:
+            run.advance(self, rows, 0, h)  # the loads now: the servos' first input
+            self._wall_load = np.column_stack([run.wall_force, run.wall_stiffness,
+                                               np.zeros(n_walls)])
+            self._cell_load = np.column_stack([run.cell_force, run.cell_stiffness,
+                                               np.zeros(n_dofs)])
+        run.servo(self._wall_load, self._cell_load, macro)
         done = 0
         while done < n_sub:
-            rows = self._build_list(state, library, boundary, bounds, run)
-            done += run.advance(self, rows, n_sub - done, h, macro)
+            if done:
+                rows = self._build_list(state, library, boundary, bounds, run)
+            done += run.advance(self, rows, n_sub - done, h)
         self.n_substeps += n_sub
         self.last_substeps = n_sub
+        self._wall_load = np.column_stack([run.wall_impulse / macro, run.wall_stiffness,
+                                           run.wall_speed])
+        self._cell_load = np.column_stack([run.cell_impulse / macro, run.cell_stiffness,
+                                           run.cell_dofs])
         report = run.report(self, rows, macro, library)
         boundary.finish_step(BoundaryMotion(
-            dt=macro, theta=1.0, wall_speeds=run.wall_disp / macro, wall_reactions=np.zeros(0),
-            cell_dofs=run.dof_integral / macro, cell_rate=(run.cell_h - bounds.cell_matrix)
-            / macro, contacts=report.contacts, images=report.image_vectors,
-            impulses=report.impulses, forces=np.einsum("cji,cj->ci", report.frames,
-                                                        report.impulses) / macro))
+            dt=macro, theta=1.0, wall_speeds=run.wall_speed.copy(),
+            wall_reactions=run.wall_impulse / macro, cell_dofs=run.cell_dofs.copy(),
+            cell_rate=run.cell_rate.copy(), contacts=report.contacts,
+            images=report.image_vectors, impulses=report.impulses,
+            forces=np.einsum("cji,cj->ci", report.frames, report.impulses) / macro))
         return report
 
     def _detection(self, library: ShapeLibrary) -> DetectionPhases:
@@ -307,7 +329,8 @@ class _Run:
         self.cell_h = np.array(bounds.cell_matrix, dtype=np.float64)
         self.cell_dofs = np.array(bounds.cell_free, dtype=np.float64)
         self.cell_rate = np.array(bounds.cell_fixed, dtype=np.float64)
-        self.dof_integral = np.zeros(n_dofs)
+        self.wall_impulse = np.zeros(n_walls)
+        self.cell_impulse = np.zeros(n_dofs)
         self.body_force = np.zeros((state.n_bodies, 3))
         self.body_torque = np.zeros((state.n_bodies, 3))
         self.wall_force = np.zeros(n_walls)
@@ -316,13 +339,33 @@ class _Run:
         self.cell_stiffness = np.zeros(n_dofs)
         self.stats = np.zeros(1)
 
-    def advance(self, solver: SoftContactStep, rows: _Rows, n_steps: int, h: float,
-                macro: float) -> int:
-        """Up to ``n_steps`` sub-steps of ``h`` [s] on ``rows``; returns those done."""
+    def servo(self, wall_load: np.ndarray, cell_load: np.ndarray, macro: float) -> None:
+        """The walls' speeds and the cell's rate over the step (:func:`~grainlab.engine.
+        soft_contact_kernels.servo_kernel`) from the last step's mean loads, carried to the
+        step's start by its speeds (R + K s h / 2: the mean was at the last step's middle)."""
+        b, f64 = self.bounds, np.float64
+        wall_force = wall_load[:, 0] + wall_load[:, 1] * wall_load[:, 2] * 0.5 * macro
+        cell_force = cell_load[:, 0] - cell_load[:, 1] * cell_load[:, 2] * 0.5 * macro
+        servo_kernel(
+            macro, np.ascontiguousarray(b.wall_inv_mass, dtype=f64),
+            np.ascontiguousarray(b.wall_free, dtype=f64),
+            np.ascontiguousarray(b.wall_max, dtype=f64), np.ascontiguousarray(wall_force),
+            np.ascontiguousarray(wall_load[:, 1]),
+            np.ascontiguousarray(b.cell_fixed, dtype=f64),
+            np.ascontiguousarray(b.cell_basis, dtype=f64),
+            np.ascontiguousarray(b.cell_inv_mass, dtype=f64),
+            np.ascontiguousarray(b.cell_free, dtype=f64),
+            np.ascontiguousarray(b.cell_bounds, dtype=f64), np.ascontiguousarray(cell_force),
+            np.ascontiguousarray(cell_load[:, 1]), self.wall_speed, self.cell_dofs,
+            self.cell_rate)
+
+    def advance(self, solver: SoftContactStep, rows: _Rows, n_steps: int, h: float) -> int:
+        """Up to ``n_steps`` sub-steps of ``h`` [s] on ``rows`` (0: only the loads now);
+        returns those done."""
         state, bounds, law = self.state, self.bounds, solver.law
         f64 = np.float64
         done = substeps_kernel(
-            n_steps, h, macro, float(solver.skin), law.code, law.params,
+            n_steps, h, float(solver.skin), law.code, law.params,
             law.rolling_friction, law.local_damping, solver.gravity,
             rows.body_i, rows.body_j, rows.off_i, rows.off_j, rows.rad_i, rows.rad_j,
             rows.images, rows.mu, rows.adj_start, rows.adj_entry, rows.wall_rows,
@@ -330,21 +373,14 @@ class _Run:
             self.principal, self.isotropic, self.bounding,
             np.ascontiguousarray(bounds.wall_points, dtype=f64),
             np.ascontiguousarray(bounds.wall_normals, dtype=f64),
-            np.ascontiguousarray(bounds.wall_inv_mass, dtype=f64),
-            np.ascontiguousarray(bounds.wall_free, dtype=f64),
-            np.ascontiguousarray(bounds.wall_max, dtype=f64),
-            np.ascontiguousarray(bounds.cell_fixed, dtype=f64),
-            np.ascontiguousarray(bounds.cell_basis, dtype=f64),
-            np.ascontiguousarray(bounds.cell_inv_mass, dtype=f64),
-            np.ascontiguousarray(bounds.cell_free, dtype=f64),
-            np.ascontiguousarray(bounds.cell_bounds, dtype=f64),
-            self.wall_disp.copy(), self.cell_h.copy(),
+            np.ascontiguousarray(bounds.cell_basis, dtype=f64), self.wall_speed,
+            self.cell_rate, self.wall_disp.copy(), self.cell_h.copy(),
             state.positions, state.orientations, state.velocities, state.angular_velocities,
-            rows.xi, rows.roll, self.wall_disp, self.wall_speed, self.cell_h, self.cell_dofs,
-            self.cell_rate, self.dof_integral, np.zeros(state.n_bodies),
+            rows.xi, rows.roll, self.wall_disp, self.cell_h, np.zeros(state.n_bodies),
             rows.force, rows.torque_i, rows.torque_j, rows.gap, rows.normal, rows.point,
             rows.stiffness, rows.rel_vel, self.body_force, self.body_torque, self.wall_force,
-            self.wall_stiffness, self.cell_force, self.cell_stiffness, self.stats)
+            self.wall_stiffness, self.cell_force, self.cell_stiffness, self.wall_impulse,
+            self.cell_impulse, self.stats)
         smallest = float(np.min(rows.rad_j)) if rows.rad_j.size else math.inf
         if self.stats[0] > OVERLAP_LIMIT * smallest:
             raise SimulationBlowUp(

@@ -10,10 +10,15 @@ exact sphere-sphere or sphere-plane geometry of every row from the current confi
 the list stays valid while no two points have approached by more than the skin
 (:func:`substeps_kernel` stops early when they might have).
 
-Gather. The forces of the rows are written per row under ``prange`` and summed per body
-from a CSR list (``adj_start`` (N + 1,), ``adj_entry``: 2 k for the j side of row k,
-2 k + 1 for its i side), so no two threads write the same body and the sums do not depend on
-the thread count (always in the order of the list).
+Gather. The forces of the rows are written per row and summed per body from a CSR list
+(``adj_start`` (N + 1,), ``adj_entry``: 2 k for the j side of row k, 2 k + 1 for its i side),
+always in the order of the list.
+
+One thread. The kernels are serial: a sub-step of 1000 spheres lasts ~0.3 ms, and each
+parallel region of Numba's workqueue layer costs ~40 us to launch (five per sub-step), so
+that two threads ran slower than one up to 15 625 spheres here. The way to two cores is one
+parallel region per sub-step over spatial blocks of bodies, reading the last sub-step's
+positions and writing the next (double buffers, no race).
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from grainlab.contact.soft_contact_law import contact_law
 from grainlab.engine.quaternion import rotate
@@ -50,176 +55,169 @@ def _turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, dt):
     return f * hx, f * hy, f * hz
 
 
-@njit(cache=True)
-def _contact_row(k, step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i, rad_j,
-                 images, mu, inv_mass, positions, orientations, velocities, spins, wall_p0,
-                 wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi, roll,
-                 force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel):
-    """Geometry and force of row k (module docstring of
-    :mod:`grainlab.contact.soft_contact_law`); ``step`` [s] is the time since the last
-    evaluation (0: the force of the current springs, nothing carried forward). Writes the
-    row's outputs; the histories ``xi`` (C, 3) [m] and ``roll`` (C, 3) [N m] are updated."""
-    j = body_j[k]
-    i = body_i[k]
-    mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
-    qj = orientations[j]
-    ox, oy, oz = rotate(qj[0], qj[1], qj[2], qj[3], off_j[k, 0], off_j[k, 1], off_j[k, 2])
-    # the image of body j: x_j + h m
-    sx = cell_h[0, 0] * mx + cell_h[0, 1] * my + cell_h[0, 2] * mz
-    sy = cell_h[1, 0] * mx + cell_h[1, 1] * my + cell_h[1, 2] * mz
-    sz = cell_h[2, 0] * mx + cell_h[2, 1] * my + cell_h[2, 2] * mz
-    jx, jy, jz = positions[j, 0] + sx, positions[j, 1] + sy, positions[j, 2] + sz
-    bx, by, bz = jx + ox, jy + oy, jz + oz
-    rb = rad_j[k]
-    if i >= 0:
-        qi = orientations[i]
-        px_, py_, pz_ = rotate(qi[0], qi[1], qi[2], qi[3], off_i[k, 0], off_i[k, 1],
-                               off_i[k, 2])
-        ax, ay, az = positions[i, 0] + px_, positions[i, 1] + py_, positions[i, 2] + pz_
-        ra = rad_i[k]
-        dx, dy, dz = bx - ax, by - ay, bz - az
-        dist = math.sqrt(dx * dx + dy * dy + dz * dz)
-        if dist > 0.0:
-            nx, ny, nz = dx / dist, dy / dist, dz / dist
-        else:
-            nx, ny, nz = 0.0, 0.0, 1.0
-        g = dist - ra - rb
-        s = ra + 0.5 * g
-        cx, cy, cz = ax + s * nx, ay + s * ny, az + s * nz
-        r_eff = ra * rb / (ra + rb)
-        m_eff = 1.0 / (inv_mass[i] + inv_mass[j])
-    else:
-        w = -1 - i
-        nx, ny, nz = wall_n[w, 0], wall_n[w, 1], wall_n[w, 2]
-        d = wall_disp[w]
-        g = ((bx - wall_p0[w, 0] - d * nx) * nx + (by - wall_p0[w, 1] - d * ny) * ny
-             + (bz - wall_p0[w, 2] - d * nz) * nz - rb)
-        s = rb + 0.5 * g
-        cx, cy, cz = bx - s * nx, by - s * ny, bz - s * nz
-        r_eff = rb
-        m_eff = 1.0 / inv_mass[j]
-    gap[k] = g
-    normal[k, 0], normal[k, 1], normal[k, 2] = nx, ny, nz
-    point[k, 0], point[k, 1], point[k, 2] = cx, cy, cz
-    # relative velocity of j (image) with respect to i at the contact point
-    rjx, rjy, rjz = cx - jx, cy - jy, cz - jz
-    wjx, wjy, wjz = spins[j, 0], spins[j, 1], spins[j, 2]
-    ux = velocities[j, 0] + wjy * rjz - wjz * rjy
-    uy = velocities[j, 1] + wjz * rjx - wjx * rjz
-    uz = velocities[j, 2] + wjx * rjy - wjy * rjx
-    if mx != 0.0 or my != 0.0 or mz != 0.0:
-        ux += cell_rate[0, 0] * mx + cell_rate[0, 1] * my + cell_rate[0, 2] * mz
-        uy += cell_rate[1, 0] * mx + cell_rate[1, 1] * my + cell_rate[1, 2] * mz
-        uz += cell_rate[2, 0] * mx + cell_rate[2, 1] * my + cell_rate[2, 2] * mz
-    rix, riy, riz = 0.0, 0.0, 0.0
-    wix, wiy, wiz = 0.0, 0.0, 0.0
-    if i >= 0:
-        rix, riy, riz = cx - positions[i, 0], cy - positions[i, 1], cz - positions[i, 2]
-        wix, wiy, wiz = spins[i, 0], spins[i, 1], spins[i, 2]
-        ux -= velocities[i, 0] + wiy * riz - wiz * riy
-        uy -= velocities[i, 1] + wiz * rix - wix * riz
-        uz -= velocities[i, 2] + wix * riy - wiy * rix
-    else:
-        sw = wall_speed[-1 - i]
-        ux, uy, uz = ux - sw * nx, uy - sw * ny, uz - sw * nz
-    rel_vel[k, 0], rel_vel[k, 1], rel_vel[k, 2] = ux, uy, uz
-    if g >= 0.0:  # open: the springs are released
-        xi[k, 0], xi[k, 1], xi[k, 2] = 0.0, 0.0, 0.0
-        roll[k, 0], roll[k, 1], roll[k, 2] = 0.0, 0.0, 0.0
-        force[k, 0], force[k, 1], force[k, 2] = 0.0, 0.0, 0.0
-        torque_i[k, 0], torque_i[k, 1], torque_i[k, 2] = 0.0, 0.0, 0.0
-        torque_j[k, 0], torque_j[k, 1], torque_j[k, 2] = 0.0, 0.0, 0.0
-        stiffness[k] = 0.0
-        return
-    overlap = -g
-    un = ux * nx + uy * ny + uz * nz
-    utx, uty, utz = ux - un * nx, uy - un * ny, uz - un * nz
-    fne, s_n, k_t, c_n, c_t = contact_law(code, params[0 if i >= 0 else 1], overlap, r_eff,
-                                          m_eff)
-    fn = max(0.0, fne - c_n * un)
-    stiffness[k] = s_n
-    hx, hy, hz = xi[k, 0], xi[k, 1], xi[k, 2]
-    if step > 0.0:
-        spin_n = 0.5 * ((wix + wjx) * nx + (wiy + wjy) * ny + (wiz + wjz) * nz)
-        hx, hy, hz = _turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, step)
-        hx, hy, hz = hx + utx * step, hy + uty * step, hz + utz * step
-    ftx, fty, ftz = -k_t * hx - c_t * utx, -k_t * hy - c_t * uty, -k_t * hz - c_t * utz
-    ft = math.sqrt(ftx * ftx + fty * fty + ftz * ftz)
-    limit = mu[k] * fn
-    if ft > limit:
-        f = limit / ft
-        ftx, fty, ftz = f * ftx, f * fty, f * ftz
-        if k_t > 0.0:
-            hx, hy, hz = -(ftx + c_t * utx) / k_t, -(fty + c_t * uty) / k_t, \
-                -(ftz + c_t * utz) / k_t
-    xi[k, 0], xi[k, 1], xi[k, 2] = hx, hy, hz
-    fx, fy, fz = fn * nx + ftx, fn * ny + fty, fn * nz + ftz
-    force[k, 0], force[k, 1], force[k, 2] = fx, fy, fz
-    mjx, mjy, mjz = rjy * fz - rjz * fy, rjz * fx - rjx * fz, rjx * fy - rjy * fx
-    mix, miy, miz = -(riy * fz - riz * fy), -(riz * fx - rix * fz), -(rix * fy - riy * fx)
-    if rolling > 0.0:
-        k_r = 2.25 * s_n * rolling * rolling * r_eff * r_eff
-        ex, ey, ez = wjx - wix, wjy - wiy, wjz - wiz
-        en = ex * nx + ey * ny + ez * nz
-        ex, ey, ez = ex - en * nx, ey - en * ny, ez - en * nz
-        lx, ly, lz = roll[k, 0], roll[k, 1], roll[k, 2]
-        if step > 0.0:
-            spin_n = 0.5 * ((wix + wjx) * nx + (wiy + wjy) * ny + (wiz + wjz) * nz)
-            lx, ly, lz = _turn_with_frame(lx, ly, lz, nx, ny, nz, spin_n, step)
-            lx, ly, lz = lx - k_r * ex * step, ly - k_r * ey * step, lz - k_r * ez * step
-        moment = math.sqrt(lx * lx + ly * ly + lz * lz)
-        cap = rolling * r_eff * fn
-        if moment > cap:
-            f = cap / moment
-            lx, ly, lz = f * lx, f * ly, f * lz
-        roll[k, 0], roll[k, 1], roll[k, 2] = lx, ly, lz
-        mjx, mjy, mjz = mjx + lx, mjy + ly, mjz + lz
-        mix, miy, miz = mix - lx, miy - ly, miz - lz
-    torque_j[k, 0], torque_j[k, 1], torque_j[k, 2] = mjx, mjy, mjz
-    torque_i[k, 0], torque_i[k, 1], torque_i[k, 2] = mix, miy, miz
+@njit(inline="always")
+def _world_tensor(w, x, y, z, d0, d1, d2):
+    """R diag(d0, d1, d2) R^T as its six entries (xx, yy, zz, yz, xz, xy): a body-frame
+    diagonal tensor (principal moments of inertia [kg m^2] or their inverses) in the world
+    frame, R the rotation of the unit quaternion (w, x, y, z)."""
+    r00, r01, r02 = 1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)
+    r10, r11, r12 = 2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)
+    r20, r21, r22 = 2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)
+    return (r00 * r00 * d0 + r01 * r01 * d1 + r02 * r02 * d2,
+            r10 * r10 * d0 + r11 * r11 * d1 + r12 * r12 * d2,
+            r20 * r20 * d0 + r21 * r21 * d1 + r22 * r22 * d2,
+            r10 * r20 * d0 + r11 * r21 * d1 + r12 * r22 * d2,
+            r00 * r20 * d0 + r01 * r21 * d1 + r02 * r22 * d2,
+            r00 * r10 * d0 + r01 * r11 * d1 + r02 * r12 * d2)
 
 
 @njit(inline="always")
-def _world_tensor(q, diagonal, out):
-    """out (3, 3) = R diag(``diagonal``) R^T: a body-frame diagonal tensor (principal moments
-    of inertia [kg m^2] or their inverses) in the world frame, R the rotation of q."""
-    w, x, y, z = q[0], q[1], q[2], q[3]
-    r = np.empty((3, 3))
-    r[0, 0] = 1.0 - 2.0 * (y * y + z * z)
-    r[0, 1] = 2.0 * (x * y - w * z)
-    r[0, 2] = 2.0 * (x * z + w * y)
-    r[1, 0] = 2.0 * (x * y + w * z)
-    r[1, 1] = 1.0 - 2.0 * (x * x + z * z)
-    r[1, 2] = 2.0 * (y * z - w * x)
-    r[2, 0] = 2.0 * (x * z - w * y)
-    r[2, 1] = 2.0 * (y * z + w * x)
-    r[2, 2] = 1.0 - 2.0 * (x * x + y * y)
-    for a in range(3):
-        for b in range(3):
-            out[a, b] = (r[a, 0] * r[b, 0] * diagonal[0] + r[a, 1] * r[b, 1] * diagonal[1]
-                         + r[a, 2] * r[b, 2] * diagonal[2])
+def _apply_tensor(t, vx, vy, vz):
+    """The symmetric tensor t = (xx, yy, zz, yz, xz, xy) applied to (vx, vy, vz)."""
+    return (t[0] * vx + t[5] * vy + t[4] * vz, t[5] * vx + t[1] * vy + t[3] * vz,
+            t[4] * vx + t[3] * vy + t[2] * vz)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
                           rad_j, images, mu, inv_mass, positions, orientations, velocities,
                           spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate,
                           xi, roll, force, torque_i, torque_j, gap, normal, point, stiffness,
                           rel_vel):
-    """:func:`_contact_row` for every row of the list, in parallel."""
-    for k in prange(body_j.shape[0]):
-        _contact_row(k, step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
-                     rad_j, images, mu, inv_mass, positions, orientations, velocities, spins,
-                     wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi, roll,
-                     force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel)
+    """Geometry and force of every row k of the list, in parallel (module docstring of
+    :mod:`grainlab.contact.soft_contact_law`); ``step`` [s] is the time since the last
+    evaluation (0: the force of the current springs, nothing carried forward). Writes the
+    rows' outputs; the histories ``xi`` (C, 3) [m] and ``roll`` (C, 3) [N m] are updated."""
+    for k in range(body_j.shape[0]):
+        j = body_j[k]
+        i = body_i[k]
+        mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
+        ox, oy, oz = off_j[k, 0], off_j[k, 1], off_j[k, 2]
+        if ox != 0.0 or oy != 0.0 or oz != 0.0:  # a member off the centre (aggregates)
+            qj = orientations[j]
+            ox, oy, oz = rotate(qj[0], qj[1], qj[2], qj[3], ox, oy, oz)
+        # the image of body j: x_j + h m
+        sx = cell_h[0, 0] * mx + cell_h[0, 1] * my + cell_h[0, 2] * mz
+        sy = cell_h[1, 0] * mx + cell_h[1, 1] * my + cell_h[1, 2] * mz
+        sz = cell_h[2, 0] * mx + cell_h[2, 1] * my + cell_h[2, 2] * mz
+        jx, jy, jz = positions[j, 0] + sx, positions[j, 1] + sy, positions[j, 2] + sz
+        bx, by, bz = jx + ox, jy + oy, jz + oz
+        rb = rad_j[k]
+        if i >= 0:
+            px_, py_, pz_ = off_i[k, 0], off_i[k, 1], off_i[k, 2]
+            if px_ != 0.0 or py_ != 0.0 or pz_ != 0.0:
+                qi = orientations[i]
+                px_, py_, pz_ = rotate(qi[0], qi[1], qi[2], qi[3], px_, py_, pz_)
+            ax, ay, az = positions[i, 0] + px_, positions[i, 1] + py_, positions[i, 2] + pz_
+            ra = rad_i[k]
+            dx, dy, dz = bx - ax, by - ay, bz - az
+            dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if dist > 0.0:
+                nx, ny, nz = dx / dist, dy / dist, dz / dist
+            else:
+                nx, ny, nz = 0.0, 0.0, 1.0
+            g = dist - ra - rb
+            s = ra + 0.5 * g
+            cx, cy, cz = ax + s * nx, ay + s * ny, az + s * nz
+            r_eff = ra * rb / (ra + rb)
+            m_eff = 1.0 / (inv_mass[i] + inv_mass[j])
+        else:
+            w = -1 - i
+            nx, ny, nz = wall_n[w, 0], wall_n[w, 1], wall_n[w, 2]
+            d = wall_disp[w]
+            g = ((bx - wall_p0[w, 0] - d * nx) * nx + (by - wall_p0[w, 1] - d * ny) * ny
+                 + (bz - wall_p0[w, 2] - d * nz) * nz - rb)
+            s = rb + 0.5 * g
+            cx, cy, cz = bx - s * nx, by - s * ny, bz - s * nz
+            r_eff = rb
+            m_eff = 1.0 / inv_mass[j]
+        gap[k] = g
+        normal[k, 0], normal[k, 1], normal[k, 2] = nx, ny, nz
+        point[k, 0], point[k, 1], point[k, 2] = cx, cy, cz
+        # relative velocity of j (image) with respect to i at the contact point
+        rjx, rjy, rjz = cx - jx, cy - jy, cz - jz
+        wjx, wjy, wjz = spins[j, 0], spins[j, 1], spins[j, 2]
+        ux = velocities[j, 0] + wjy * rjz - wjz * rjy
+        uy = velocities[j, 1] + wjz * rjx - wjx * rjz
+        uz = velocities[j, 2] + wjx * rjy - wjy * rjx
+        if mx != 0.0 or my != 0.0 or mz != 0.0:
+            ux += cell_rate[0, 0] * mx + cell_rate[0, 1] * my + cell_rate[0, 2] * mz
+            uy += cell_rate[1, 0] * mx + cell_rate[1, 1] * my + cell_rate[1, 2] * mz
+            uz += cell_rate[2, 0] * mx + cell_rate[2, 1] * my + cell_rate[2, 2] * mz
+        rix, riy, riz = 0.0, 0.0, 0.0
+        wix, wiy, wiz = 0.0, 0.0, 0.0
+        if i >= 0:
+            rix, riy, riz = cx - positions[i, 0], cy - positions[i, 1], cz - positions[i, 2]
+            wix, wiy, wiz = spins[i, 0], spins[i, 1], spins[i, 2]
+            ux -= velocities[i, 0] + wiy * riz - wiz * riy
+            uy -= velocities[i, 1] + wiz * rix - wix * riz
+            uz -= velocities[i, 2] + wix * riy - wiy * rix
+        else:
+            sw = wall_speed[-1 - i]
+            ux, uy, uz = ux - sw * nx, uy - sw * ny, uz - sw * nz
+        rel_vel[k, 0], rel_vel[k, 1], rel_vel[k, 2] = ux, uy, uz
+        if g >= 0.0:  # open: the springs are released
+            xi[k, 0], xi[k, 1], xi[k, 2] = 0.0, 0.0, 0.0
+            roll[k, 0], roll[k, 1], roll[k, 2] = 0.0, 0.0, 0.0
+            force[k, 0], force[k, 1], force[k, 2] = 0.0, 0.0, 0.0
+            torque_i[k, 0], torque_i[k, 1], torque_i[k, 2] = 0.0, 0.0, 0.0
+            torque_j[k, 0], torque_j[k, 1], torque_j[k, 2] = 0.0, 0.0, 0.0
+            stiffness[k] = 0.0
+            continue
+        overlap = -g
+        un = ux * nx + uy * ny + uz * nz
+        utx, uty, utz = ux - un * nx, uy - un * ny, uz - un * nz
+        fne, s_n, k_t, c_n, c_t = contact_law(code, params[0 if i >= 0 else 1], overlap, r_eff,
+                                              m_eff)
+        fn = max(0.0, fne - c_n * un)
+        stiffness[k] = s_n
+        hx, hy, hz = xi[k, 0], xi[k, 1], xi[k, 2]
+        if step > 0.0:
+            spin_n = 0.5 * ((wix + wjx) * nx + (wiy + wjy) * ny + (wiz + wjz) * nz)
+            hx, hy, hz = _turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, step)
+            hx, hy, hz = hx + utx * step, hy + uty * step, hz + utz * step
+        ftx, fty, ftz = -k_t * hx - c_t * utx, -k_t * hy - c_t * uty, -k_t * hz - c_t * utz
+        ft = math.sqrt(ftx * ftx + fty * fty + ftz * ftz)
+        limit = mu[k] * fn
+        if ft > limit:
+            f = limit / ft
+            ftx, fty, ftz = f * ftx, f * fty, f * ftz
+            if k_t > 0.0:
+                hx, hy, hz = -(ftx + c_t * utx) / k_t, -(fty + c_t * uty) / k_t, \
+                    -(ftz + c_t * utz) / k_t
+        xi[k, 0], xi[k, 1], xi[k, 2] = hx, hy, hz
+        fx, fy, fz = fn * nx + ftx, fn * ny + fty, fn * nz + ftz
+        force[k, 0], force[k, 1], force[k, 2] = fx, fy, fz
+        mjx, mjy, mjz = rjy * fz - rjz * fy, rjz * fx - rjx * fz, rjx * fy - rjy * fx
+        mix, miy, miz = -(riy * fz - riz * fy), -(riz * fx - rix * fz), -(rix * fy - riy * fx)
+        if rolling > 0.0:
+            k_r = 2.25 * s_n * rolling * rolling * r_eff * r_eff
+            ex, ey, ez = wjx - wix, wjy - wiy, wjz - wiz
+            en = ex * nx + ey * ny + ez * nz
+            ex, ey, ez = ex - en * nx, ey - en * ny, ez - en * nz
+            lx, ly, lz = roll[k, 0], roll[k, 1], roll[k, 2]
+            if step > 0.0:
+                spin_n = 0.5 * ((wix + wjx) * nx + (wiy + wjy) * ny + (wiz + wjz) * nz)
+                lx, ly, lz = _turn_with_frame(lx, ly, lz, nx, ny, nz, spin_n, step)
+                lx, ly, lz = lx - k_r * ex * step, ly - k_r * ey * step, lz - k_r * ez * step
+            moment = math.sqrt(lx * lx + ly * ly + lz * lz)
+            cap = rolling * r_eff * fn
+            if moment > cap:
+                f = cap / moment
+                lx, ly, lz = f * lx, f * ly, f * lz
+            roll[k, 0], roll[k, 1], roll[k, 2] = lx, ly, lz
+            mjx, mjy, mjz = mjx + lx, mjy + ly, mjz + lz
+            mix, miy, miz = mix - lx, miy - ly, miz - lz
+        torque_j[k, 0], torque_j[k, 1], torque_j[k, 2] = mjx, mjy, mjz
+        torque_i[k, 0], torque_i[k, 1], torque_i[k, 2] = mix, miy, miz
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def gather_kernel(adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
                   body_force, body_torque):
     """Net force (N, 3) [N] (contacts and weight m g) and moment (N, 3) [N m] on each body,
     summed in list order (module docstring)."""
-    for b in prange(masses.shape[0]):
+    for b in range(masses.shape[0]):
         fx, fy, fz = masses[b] * gravity[0], masses[b] * gravity[1], masses[b] * gravity[2]
         tx, ty, tz = 0.0, 0.0, 0.0
         for e in range(adj_start[b], adj_start[b + 1]):
@@ -266,40 +264,48 @@ def boundary_loads_kernel(wall_rows, body_i, wall_n, image_rows, images, normal,
             cell_stiffness[d] += stiffness[k] * gn * gn
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
                 body_force, body_torque, velocities, spins):
     """Half kick of velocity Verlet: v += (h/2) F / m, omega += (h/2) I_w^-1 T (``half`` =
     h/2 [s]), F and T reduced by the local damping alpha |F| sign(v) per component."""
-    for b in prange(inv_mass.shape[0]):
-        inv_i = np.empty((3, 3))
-        t = np.empty(3)
-        for d in range(3):
-            f = body_force[b, d]
-            m = body_torque[b, d]
-            if local_damping > 0.0:
-                f -= local_damping * abs(f) * np.sign(velocities[b, d])
-                m -= local_damping * abs(m) * np.sign(spins[b, d])
-            velocities[b, d] += half * inv_mass[b] * f
-            t[d] = m
+    for b in range(inv_mass.shape[0]):
+        fx, fy, fz = body_force[b, 0], body_force[b, 1], body_force[b, 2]
+        tx, ty, tz = body_torque[b, 0], body_torque[b, 1], body_torque[b, 2]
+        if local_damping > 0.0:
+            fx -= local_damping * abs(fx) * np.sign(velocities[b, 0])
+            fy -= local_damping * abs(fy) * np.sign(velocities[b, 1])
+            fz -= local_damping * abs(fz) * np.sign(velocities[b, 2])
+            tx -= local_damping * abs(tx) * np.sign(spins[b, 0])
+            ty -= local_damping * abs(ty) * np.sign(spins[b, 1])
+            tz -= local_damping * abs(tz) * np.sign(spins[b, 2])
+        f = half * inv_mass[b]
+        velocities[b, 0] += f * fx
+        velocities[b, 1] += f * fy
+        velocities[b, 2] += f * fz
         if isotropic[b]:
-            for d in range(3):
-                spins[b, d] += half * t[d] / principal[b, 0]
+            f = half / principal[b, 0]
+            spins[b, 0] += f * tx
+            spins[b, 1] += f * ty
+            spins[b, 2] += f * tz
         else:
-            _world_tensor(orientations[b], 1.0 / principal[b], inv_i)
-            for d in range(3):
-                spins[b, d] += half * (inv_i[d, 0] * t[0] + inv_i[d, 1] * t[1]
-                                       + inv_i[d, 2] * t[2])
+            q = orientations[b]
+            inverse = _world_tensor(q[0], q[1], q[2], q[3], 1.0 / principal[b, 0],
+                                    1.0 / principal[b, 1], 1.0 / principal[b, 2])
+            ax, ay, az = _apply_tensor(inverse, tx, ty, tz)
+            spins[b, 0] += half * ax
+            spins[b, 1] += half * ay
+            spins[b, 2] += half * az
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def drift_kernel(dt, principal, isotropic, bounding, positions, orientations, velocities,
                  spins, travel):
     """Drift: x += h v; q <- exp(h omega / 2) q (world frame); a body with anisotropic
     inertia keeps its angular momentum L = I_w omega through the turn, so omega follows the
     new orientation (torque-free precession). ``travel`` (N,) [m] grows by the largest
     displacement of a point of the body (|dx| + |omega| h R_bound)."""
-    for b in prange(positions.shape[0]):
+    for b in range(positions.shape[0]):
         ex, ey, ez = dt * velocities[b, 0], dt * velocities[b, 1], dt * velocities[b, 2]
         positions[b, 0] += ex
         positions[b, 1] += ey
@@ -309,46 +315,45 @@ def drift_kernel(dt, principal, isotropic, bounding, positions, orientations, ve
         travel[b] += math.sqrt(ex * ex + ey * ey + ez * ez) + spin * dt * bounding[b]
         if spin == 0.0:
             continue
-        angular = np.empty(3)
+        w, x, y, z = orientations[b, 0], orientations[b, 1], orientations[b, 2], \
+            orientations[b, 3]
+        lx, ly, lz = wx, wy, wz
         if not isotropic[b]:  # L = I_w omega before the turn
-            ii = np.empty((3, 3))
-            _world_tensor(orientations[b], principal[b], ii)
-            for d in range(3):
-                angular[d] = ii[d, 0] * wx + ii[d, 1] * wy + ii[d, 2] * wz
+            inertia = _world_tensor(w, x, y, z, principal[b, 0], principal[b, 1],
+                                    principal[b, 2])
+            lx, ly, lz = _apply_tensor(inertia, wx, wy, wz)
         half = 0.5 * spin * dt
         f = math.sin(half) / spin
         dw, dx, dy, dz = math.cos(half), f * wx, f * wy, f * wz
-        w, x, y, z = orientations[b, 0], orientations[b, 1], orientations[b, 2], \
-            orientations[b, 3]
         nw = dw * w - dx * x - dy * y - dz * z
         nx = dw * x + w * dx + dy * z - dz * y
         ny = dw * y + w * dy + dz * x - dx * z
         nz = dw * z + w * dz + dx * y - dy * x
         norm = math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
-        orientations[b, 0], orientations[b, 1] = nw / norm, nx / norm
-        orientations[b, 2], orientations[b, 3] = ny / norm, nz / norm
+        nw, nx, ny, nz = nw / norm, nx / norm, ny / norm, nz / norm
+        orientations[b, 0], orientations[b, 1] = nw, nx
+        orientations[b, 2], orientations[b, 3] = ny, nz
         if not isotropic[b]:
-            inv_i = np.empty((3, 3))
-            _world_tensor(orientations[b], 1.0 / principal[b], inv_i)
-            for d in range(3):
-                spins[b, d] = (inv_i[d, 0] * angular[0] + inv_i[d, 1] * angular[1]
-                               + inv_i[d, 2] * angular[2])
+            inverse = _world_tensor(nw, nx, ny, nz, 1.0 / principal[b, 0],
+                                    1.0 / principal[b, 1], 1.0 / principal[b, 2])
+            spins[b, 0], spins[b, 1], spins[b, 2] = _apply_tensor(inverse, lx, ly, lz)
 
 
 @njit(cache=True)
-def servo_kernel(macro, dt, wall_inv_mass, wall_free, wall_max, wall_force, wall_stiffness,
+def servo_kernel(macro, wall_inv_mass, wall_free, wall_max, wall_force, wall_stiffness,
                  cell_fixed, cell_basis, cell_inv_mass, cell_free, cell_bounds, cell_force,
                  cell_stiffness, wall_speed, cell_dofs, cell_rate):
-    """Speeds of the servo walls and rates of the cell's free degrees of freedom for the next
-    drift of ``dt`` [s]: the overdamped servos of contact dynamics (speed = free speed -
-    inverse mass x ``macro`` x load, :mod:`grainlab.engine.soft_contact`) taken backward
-    in time over the drift, s = (s_free - kappa h R) / (1 + kappa h K dt) with the load's
-    stiffness K (stable at any stiffness), then held within their bounds."""
+    """Speeds of the servo walls and rates of the cell's free degrees of freedom over a step of
+    ``macro`` [s]: the overdamped servos of contact dynamics (speed = free speed - inverse
+    mass x ``macro`` x load; :mod:`grainlab.engine.soft_contact`) taken backward in time
+    over the step, s = (s_free - kappa h R) / (1 + kappa h K h) with the load's stiffness K
+    (stable at any contact stiffness), then held within their bounds. ``wall_force`` (W,)
+    [N] and ``cell_force`` (D,) [N m] are the loads expected at the start of the step."""
     for w in range(wall_speed.shape[0]):
         inv = wall_inv_mass[w]
         if inv > 0.0:
             gain = inv * macro
-            s = (wall_free[w] - gain * wall_force[w]) / (1.0 + gain * wall_stiffness[w] * dt)
+            s = (wall_free[w] - gain * wall_force[w]) / (1.0 + gain * wall_stiffness[w] * macro)
             if wall_max[w] < np.inf:
                 s = min(max(s, -OUTWARD_FACTOR * wall_max[w]), wall_max[w])
             wall_speed[w] = s
@@ -357,7 +362,7 @@ def servo_kernel(macro, dt, wall_inv_mass, wall_free, wall_max, wall_force, wall
     cell_rate[:, :] = cell_fixed
     for d in range(cell_dofs.shape[0]):
         gain = cell_inv_mass[d] * macro
-        e = (cell_free[d] + gain * cell_force[d]) / (1.0 + gain * cell_stiffness[d] * dt)
+        e = (cell_free[d] + gain * cell_force[d]) / (1.0 + gain * cell_stiffness[d] * macro)
         e = min(max(e, cell_bounds[d, 0]), cell_bounds[d, 1])
         cell_dofs[d] = e
         for a in range(3):
@@ -386,19 +391,19 @@ def _loads(step, code, params, rolling, gravity, body_i, body_j, off_i, off_j, r
 
 
 @njit(cache=True)
-def substeps_kernel(n_steps, dt, macro, skin, code, params, rolling, local_damping, gravity,
+def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gravity,
                     body_i, body_j, off_i, off_j, rad_i, rad_j, images, mu, adj_start,
                     adj_entry, wall_rows, image_rows, inv_mass, masses, principal, isotropic,
-                    bounding, wall_p0, wall_n, wall_inv_mass, wall_free, wall_max, cell_fixed,
-                    cell_basis, cell_inv_mass, cell_free, cell_bounds, wall_disp_built,
-                    cell_h_built, positions, orientations, velocities, spins, xi, roll,
-                    wall_disp, wall_speed, cell_h, cell_dofs, cell_rate, dof_integral, travel,
-                    force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
-                    body_force, body_torque, wall_force, wall_stiffness, cell_force,
-                    cell_stiffness, stats):
+                    bounding, wall_p0, wall_n, cell_basis, wall_speed, cell_rate,
+                    wall_disp_built, cell_h_built, positions, orientations, velocities, spins,
+                    xi, roll, wall_disp, cell_h, travel, force, torque_i, torque_j, gap, normal,
+                    point, stiffness, rel_vel, body_force, body_torque, wall_force,
+                    wall_stiffness, cell_force, cell_stiffness, wall_impulse, cell_impulse,
+                    stats):
     """Up to ``n_steps`` velocity-Verlet sub-steps of ``dt`` [s] on the current list: half
-    kick, servo speeds, drift (walls by their speeds, the cell by its rate), forces, half
-    kick. Stops early, after a complete sub-step, when two points may have approached by
+    kick, drift (walls at their speeds ``wall_speed`` (W,) [m/s], the cell at its rate
+    ``cell_rate`` (3, 3) [m/s]), forces, half kick; the boundary's loads are summed over
+    time into ``wall_impulse`` (W,) [N s] and ``cell_impulse`` (D,) [N m s]. Stops early, after a complete sub-step, when two points may have approached by
     more than ``skin`` [m] since the list was built (2 max travel + the walls' and the cell's
     own motion, with the next sub-step's increment taken as the last one's), so that no
     contact is missed. Returns the sub-steps done; ``stats[0]``
@@ -415,9 +420,6 @@ def substeps_kernel(n_steps, dt, macro, skin, code, params, rolling, local_dampi
     for _ in range(n_steps):
         kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
                     body_force, body_torque, velocities, spins)
-        servo_kernel(macro, dt, wall_inv_mass, wall_free, wall_max, wall_force,
-                     wall_stiffness, cell_fixed, cell_basis, cell_inv_mass, cell_free,
-                     cell_bounds, cell_force, cell_stiffness, wall_speed, cell_dofs, cell_rate)
         drift_kernel(dt, principal, isotropic, bounding, positions, orientations, velocities,
                      spins, travel)
         for w in range(wall_disp.shape[0]):
@@ -425,8 +427,6 @@ def substeps_kernel(n_steps, dt, macro, skin, code, params, rolling, local_dampi
         for a in range(3):
             for b in range(3):
                 cell_h[a, b] += dt * cell_rate[a, b]
-        for d in range(cell_dofs.shape[0]):
-            dof_integral[d] += dt * cell_dofs[d]
         _loads(dt, code, params, rolling, gravity, body_i, body_j, off_i, off_j, rad_i, rad_j,
                images, mu, adj_start, adj_entry, wall_rows, image_rows, inv_mass, masses,
                wall_p0, wall_n, cell_basis, positions, orientations, velocities, spins,
@@ -435,6 +435,10 @@ def substeps_kernel(n_steps, dt, macro, skin, code, params, rolling, local_dampi
                wall_stiffness, cell_force, cell_stiffness)
         kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
                     body_force, body_torque, velocities, spins)
+        for w in range(wall_impulse.shape[0]):
+            wall_impulse[w] += dt * wall_force[w]
+        for d in range(cell_impulse.shape[0]):
+            cell_impulse[d] += dt * cell_force[d]
         done += 1
         for k in range(gap.shape[0]):
             if -gap[k] > stats[0]:

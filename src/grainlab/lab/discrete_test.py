@@ -98,6 +98,7 @@ import numpy as np
 
 from grainlab._validate import at_least
 from grainlab.engine.contact_dynamics import ContactDynamicsStep
+from grainlab.engine.soft_contact import SoftContactStep
 from grainlab.engine.sample_measures import box_strains, sample_measures
 from grainlab.engine.shape_kinds import kinds_present, library_time_step_length
 from grainlab.engine.simulation import Periodic, Simulation
@@ -119,6 +120,7 @@ from grainlab.lab.run_outcome import (
     RunOutcome,
     stage_outcome,
 )
+from grainlab.lab.soft_contact_settings import SOLVER_METHODS, SoftContactSettings
 from grainlab.lab.stage_numerics import (
     COMPACTION,
     SHEAR,
@@ -212,6 +214,15 @@ class DiscreteTestSettings:
         End criteria of stages without a strain-controlled axis.
     seed:
         Seed of the solver's visiting order.
+    method:
+        The solver: ``"cd"`` (contact dynamics, rigid grains; default) or ``"dem"``
+        (soft-contact DEM, :class:`~grainlab.engine.soft_contact.SoftContactStep`); the
+        NLGS settings (``tolerance``, ``max_iterations``, ``overlap_recovery``, ``theta``,
+        ``sweep``) serve contact dynamics only.
+    dem:
+        The soft-contact law (:class:`~grainlab.lab.soft_contact_settings.
+        SoftContactSettings`), its stiffness number taken at the first stage's confining
+        stress.
     """
 
     compaction: StageNumerics = COMPACTION
@@ -227,11 +238,18 @@ class DiscreteTestSettings:
     wall_servo: bool = True
     quasi_static: QuasiStaticCriteria = field(default_factory=QuasiStaticCriteria)
     seed: int = 0
+    method: str = "cd"
+    dem: SoftContactSettings = field(default_factory=SoftContactSettings)
 
     def __post_init__(self) -> None:
         for kind in STAGE_KINDS:
             if not isinstance(getattr(self, kind), StageNumerics):
                 raise InputError(kind, getattr(self, kind), "a StageNumerics")
+        if self.method not in SOLVER_METHODS:
+            raise InputError("method", self.method,
+                             " or ".join(f'"{m}"' for m in SOLVER_METHODS))
+        if not isinstance(self.dem, SoftContactSettings):
+            raise InputError("dem", self.dem, "a SoftContactSettings")
         at_least("wall_mass_factor", self.wall_mass_factor)
         if self.dt is not None:
             at_least("dt", self.dt)
@@ -305,11 +323,18 @@ class DiscreteTest:
         self.adaptive_step = spins_fast(sample.library)
         self.stage_dt = s.dt or 1.0
         first = s.compaction  # each stage sets its own numerics when it starts
-        self.solver = ContactDynamicsStep(
-            dt=s.dt or 1.0, theta=s.theta, tolerance=first.tolerance,
-            max_iterations=first.max_iterations, friction=first.friction,
-            sweep=s.sweep, seed=s.seed, overlap_recovery=first.overlap_recovery,
-            gyroscopic=self.adaptive_step)
+        if s.method == "dem":
+            self.contact_law = s.dem.law_at(self._confining(self.stages[0]),
+                                            sample.mean_diameter)
+            self.solver = SoftContactStep(self.contact_law, dt=s.dt or 1.0,
+                                          friction=first.friction)
+        else:
+            self.contact_law = None
+            self.solver = ContactDynamicsStep(
+                dt=s.dt or 1.0, theta=s.theta, tolerance=first.tolerance,
+                max_iterations=first.max_iterations, friction=first.friction,
+                sweep=s.sweep, seed=s.seed, overlap_recovery=first.overlap_recovery,
+                gyroscopic=self.adaptive_step)
         self.simulation = Simulation(sample, self.solver)
         self.simulation.add(_StageControl(self))
         self.simulation.add(_Recorder(self, Periodic(s.record_every)))

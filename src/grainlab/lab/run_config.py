@@ -12,7 +12,8 @@ every key has a default, an unknown key is an error that names it::
                true_triaxial), axial_strain and unload_strain (oedometer), b (true_triaxial),
                gamma_max (simple_shear), q_ratio and circle_points (circular),
                amplitude and n_cycles (cyclic_shear)
-    [solver]   dt [s] (0: automatic), theta, sweep, max_stage_steps, at_max_stage_steps
+    [solver]   method ("cd": contact dynamics | "dem": soft-contact DEM), dt [s]
+               (0: automatic), theta, sweep, max_stage_steps, at_max_stage_steps
                ("stop" | "next_stage"), wall_mass_factor, wall_servo, seed
     [solver.compaction]   friction, inertia_number, time_step_factor, tolerance,
     [solver.shear]        max_iterations, overlap_recovery
@@ -20,6 +21,10 @@ every key has a default, an unknown key is an error that names it::
                stages without a strain-controlled axis, shear for the others; defaults
                :data:`~grainlab.lab.stage_numerics.COMPACTION` and
                :data:`~grainlab.lab.stage_numerics.SHEAR`)
+    [solver.dem]   law ("linear" | "hertz_mindlin"), kappa, normal_stiffness [N/m],
+               young_modulus [Pa], poisson_ratio, stiffness_ratio, restitution,
+               rolling_friction, local_damping, time_step_fraction, rigid_walls
+               (:class:`~grainlab.lab.soft_contact_settings.SoftContactSettings`)
     [output]   record_every, snapshot_every, checkpoint_every, vtk_every (steps; 0: never)
 
 A config of the earlier layout, with the per-stage keys flat in ``[solver]`` (``friction``,
@@ -66,6 +71,7 @@ from grainlab.lab.presets import (
     triaxial_extension,
     true_triaxial,
 )
+from grainlab.lab.soft_contact_settings import SoftContactSettings
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR, STAGE_KINDS, StageNumerics
 from grainlab.prep.sample_shapes import MAX_FACES, sample_shape
 
@@ -78,7 +84,8 @@ PERIODIC_ONLY = ("true_triaxial", "simple_shear", "circular", "cyclic_shear")
 walls (which moves only along its axes, one stress per axis) cannot."""
 
 UNITS = {"sample.d_min": "m", "sample.density": "kg/m^3", "test.sigma0": "Pa",
-         "solver.dt": "s"}
+         "solver.dt": "s", "solver.dem.normal_stiffness": "N/m",
+         "solver.dem.young_modulus": "Pa"}
 """Units of the keys that carry one (the others are dimensionless or counts)."""
 
 _FACES_NOTE = ("even: n_f = 2 n_v - 4; Table I of Azéma, Radjaï & Dubois 2013: 8, 20, 30, "
@@ -115,6 +122,7 @@ EARLIER_SOLVER_KEYS = {
 without overlap recovery then), and the key of ``[solver]`` each is now."""
 
 _RUN_WIDE = DiscreteTestSettings()
+_DEM = SoftContactSettings()
 """The defaults of the run-wide settings (one place: :class:`DiscreteTestSettings`)."""
 
 class _Section(BaseModel):
@@ -223,10 +231,34 @@ class ShearConfig(_StageSection):
     overlap_recovery: OverlapRecovery = SHEAR.overlap_recovery
 
 
+class DemConfig(_Section):
+    """``[solver.dem]``: the soft-contact law of ``method = "dem"``
+    (:class:`~grainlab.lab.soft_contact_settings.SoftContactSettings`: its stiffness by
+    kappa at sigma0 unless ``normal_stiffness`` or ``young_modulus`` is given)."""
+
+    law: Literal["linear", "hertz_mindlin"] = _DEM.law
+    kappa: float = Field(_DEM.kappa, gt=0)
+    normal_stiffness: float = Field(_DEM.normal_stiffness, ge=0)
+    young_modulus: float = Field(_DEM.young_modulus, ge=0)
+    poisson_ratio: float = Field(_DEM.poisson_ratio, gt=-1, lt=0.5)
+    stiffness_ratio: float = Field(_DEM.stiffness_ratio, gt=0)
+    restitution: float = Field(_DEM.restitution, gt=0, le=1)
+    rolling_friction: float = Field(_DEM.rolling_friction, ge=0)
+    local_damping: float = Field(_DEM.local_damping, ge=0, lt=1)
+    time_step_fraction: float = Field(_DEM.time_step_fraction, gt=0, le=1)
+    rigid_walls: bool = _DEM.rigid_walls
+
+    def settings(self) -> SoftContactSettings:
+        """The :class:`~grainlab.lab.soft_contact_settings.SoftContactSettings` of this
+        table."""
+        return SoftContactSettings(**self.model_dump())
+
+
 class SolverConfig(_Section):
     """Numerical settings (:class:`grainlab.lab.discrete_test.DiscreteTestSettings`): the
-    run-wide keys, and a table per kind of stage."""
+    run-wide keys, a table per kind of stage and the soft-contact law."""
 
+    method: Literal["cd", "dem"] = _RUN_WIDE.method
     dt: float = Field(0.0, ge=0)
     theta: float = Field(_RUN_WIDE.theta, ge=0.5, le=1.0)
     sweep: Literal["coloured", "serial"] = _RUN_WIDE.sweep
@@ -237,6 +269,7 @@ class SolverConfig(_Section):
     seed: int = Field(_RUN_WIDE.seed, ge=0, le=MAX_SEED)
     compaction: CompactionConfig = Field(default_factory=CompactionConfig)
     shear: ShearConfig = Field(default_factory=ShearConfig)
+    dem: DemConfig = Field(default_factory=DemConfig)
 
 
 class OutputConfig(_Section):
@@ -350,7 +383,7 @@ class RunConfig(_Section):
             theta=s.theta, sweep=s.sweep, record_every=out.record_every,
             snapshot_every=out.snapshot_every, max_stage_steps=s.max_stage_steps,
             at_max_stage_steps=s.at_max_stage_steps, wall_mass_factor=s.wall_mass_factor,
-            wall_servo=s.wall_servo, seed=s.seed)
+            wall_servo=s.wall_servo, seed=s.seed, method=s.method, dem=s.dem.settings())
 
 
 def current_layout(data: Any) -> tuple[Any, dict[str, str]]:
