@@ -15,7 +15,7 @@ import sys
 
 import pytest
 
-PRECOMPILE_PARTS = ("discrete", "polyhedra,theories")
+PRECOMPILE_PARTS = ("discrete", "polyhedra,theories,dem")
 """The compilation split over two processes (about equal halves on two cores)."""
 
 

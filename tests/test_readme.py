@@ -92,6 +92,10 @@ def test_every_readme_command_runs_as_typed(tmp_path, monkeypatch):
             arguments += ["--size-ratio", "1.2", "--inertia", "0.01", "--config", "fast.toml"]
             if arguments[0] == "test":
                 arguments += ["--gamma", "0.02"]
+        if "dem" in arguments:  # soft-contact DEM: softer grains, a quicker compaction
+            arguments += ["--config", "fast.toml"]
+            if "--kappa" not in arguments and "--young-modulus" not in arguments:
+                arguments += ["--kappa", "1e3"]
         if arguments[0] == "triaxial" and "--eps-q" not in arguments:
             arguments += ["--eps-q", "0.02"]  # the default 0.5 would flatten 24 particles
         if arguments[0] in ("triaxial", "compaction", "oedometer", "resume", "test"):

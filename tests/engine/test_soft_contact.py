@@ -152,7 +152,7 @@ def rotation_to(a, b):
 def test_sphere_rolls_without_slipping_on_a_gentle_incline():
     theta, mu = math.atan(0.5), 0.4  # tan = 0.5 < 7 mu / 2 = 1.4
     library, positions = sphere_on(theta)
-    a, state, report = incline_run(theta, mu, library, positions)
+    a, _, report = incline_run(theta, mu, library, positions)
     assert a == pytest.approx(5.0 / 7.0 * G * math.sin(theta), rel=1e-2)
     force = report.impulses[0] / 1e-3
     assert np.linalg.norm(force[1:]) < mu * force[0]
@@ -207,7 +207,7 @@ def test_energy_is_conserved_to_second_order_without_damping():
         box = WallBox([0.0, 0.0, 0.0], [0.07, 0.07, 0.07])
         solver = SoftContactStep(law, dt=1e-3, friction=0.0, substep=dt)
 
-        def energy(report):
+        def energy(report, state=state, k_n=k_n):
             elastic = 0.5 * k_n * float(np.sum(report.contacts.gap ** 2))
             return state.kinetic_energy() + elastic
 

@@ -219,6 +219,10 @@ _OPTIONS = {
     "checkpoint_every": ("--checkpoint-every", "output.checkpoint_every"),
     "vtk_every": ("--vtk-every", "output.vtk_every"),
     "boundary": ("--boundary", "sample.boundary"),
+    "solver": ("--solver", "solver.method"), "law": ("--law", "solver.dem.law"),
+    "kappa": ("--kappa", "solver.dem.kappa"),
+    "young_modulus": ("--young-modulus", "solver.dem.young_modulus"),
+    "restitution": ("--restitution", "solver.dem.restitution"),
     "height_ratio": ("--height-ratio", "sample.height_ratio"),
     "b": ("--b", "test.b"), "gamma": ("--gamma", "test.gamma_max"),
     "q_ratio": ("--q-ratio", "test.q_ratio"),
@@ -325,6 +329,17 @@ _UNLOAD = _option("unload_strain", "--unload-strain", help="Vertical strain of u
 _BOUNDARY = _option("boundary", "--boundary", help="What holds the sample: walls (a box of "
                     "six walls, as the seeds) or periodic (a periodic deformable cell: no "
                     "walls, every stress and strain component controlled; needed to shear).")
+_SOLVER = _option("solver", "--solver", help="The solver: cd (contact dynamics: rigid grains, "
+                  "implicit) or dem (soft-contact DEM: elastic contacts, explicit).")
+_LAW = _option("law", "--law", help="dem: contact law, linear (spring-dashpot, Cundall & "
+               "Strack) or hertz_mindlin.")
+_KAPPA = _option("kappa", "--kappa", help="dem: stiffness number kappa = k_n / (SIGMA0 <d>) "
+                 "(linear) or (E / ((1 - nu^2) SIGMA0))^(2/3) (Hertz); >= 1e4 for "
+                 "quasi-rigid grains.")
+_YOUNG = _option("young_modulus", "--young-modulus", help="dem, hertz_mindlin: the grains' "
+                 "Young's modulus E [Pa] (0: from --kappa).")
+_RESTITUTION = _option("restitution", "--restitution", help="dem: coefficient of "
+                       "restitution of a normal impact, in (0, 1].")
 _HEIGHT = _option("height_ratio", "--height-ratio", help="Height / width of the loose "
                   "start box (a taller periodic cell keeps room to compress along z).")
 _B = _option("b", "--b", help="true_triaxial: b = (sigma_2 - sigma_3) / (sigma_1 - sigma_3), "
@@ -361,7 +376,9 @@ def triaxial_command(
     seed: int = _SEED, dt: float = _DT, tolerance: float = _TOL, sweep: str = _SWEEP,
     max_iterations: int = _ITER,
     record_every: int = _RECORD, snapshot_every: int = _SNAP, checkpoint_every: int = _CKPT,
-    vtk_every: int = _VTK, boundary: str = _BOUNDARY, config: Path = _CONFIG,
+    vtk_every: int = _VTK, boundary: str = _BOUNDARY, solver: str = _SOLVER, law: str = _LAW,
+    kappa: float = _KAPPA, young_modulus: float = _YOUNG,
+    restitution: float = _RESTITUTION, config: Path = _CONFIG,
     overwrite: bool = _OVERWRITE, progress: bool = _PROGRESS,
 ) -> None:
     """Triaxial compression of a discrete sample, as Azéma, Radjaï & Dubois 2013
@@ -375,7 +392,8 @@ def triaxial_command(
         eps_q=eps_q, seed=seed, dt=dt, tolerance=tolerance, sweep=sweep,
         max_iterations=max_iterations, record_every=record_every,
         snapshot_every=snapshot_every, checkpoint_every=checkpoint_every,
-        vtk_every=vtk_every, boundary=boundary), overwrite, progress)
+        vtk_every=vtk_every, boundary=boundary, solver=solver, law=law, kappa=kappa,
+        young_modulus=young_modulus, restitution=restitution), overwrite, progress)
 
 
 @friendly_errors
@@ -386,7 +404,9 @@ def compaction_command(
     sigma0: float = _SIGMA0, seed: int = _SEED, dt: float = _DT,
     tolerance: float = _COMPACTION_TOL, sweep: str = _SWEEP, record_every: int = _RECORD,
     snapshot_every: int = _SNAP, checkpoint_every: int = _CKPT, vtk_every: int = _VTK,
-    boundary: str = _BOUNDARY, config: Path = _CONFIG, overwrite: bool = _OVERWRITE,
+    boundary: str = _BOUNDARY, solver: str = _SOLVER, law: str = _LAW,
+    kappa: float = _KAPPA, young_modulus: float = _YOUNG,
+    restitution: float = _RESTITUTION, config: Path = _CONFIG, overwrite: bool = _OVERWRITE,
     progress: bool = _PROGRESS,
 ) -> None:
     """Isotropic compaction of a loose random sample to SIGMA0 (no gravity, no friction: the
@@ -397,7 +417,8 @@ def compaction_command(
         templates=templates, density=density, sigma0=sigma0, seed=seed, dt=dt,
         compaction_tolerance=tolerance, sweep=sweep, record_every=record_every,
         snapshot_every=snapshot_every, checkpoint_every=checkpoint_every,
-        vtk_every=vtk_every, boundary=boundary), overwrite, progress)
+        vtk_every=vtk_every, boundary=boundary, solver=solver, law=law, kappa=kappa,
+        young_modulus=young_modulus, restitution=restitution), overwrite, progress)
 
 
 @friendly_errors
@@ -409,7 +430,9 @@ def oedometer_command(
     unload_strain: float = _UNLOAD,
     seed: int = _SEED, dt: float = _DT, tolerance: float = _TOL, sweep: str = _SWEEP,
     record_every: int = _RECORD, snapshot_every: int = _SNAP, checkpoint_every: int = _CKPT,
-    vtk_every: int = _VTK, boundary: str = _BOUNDARY, config: Path = _CONFIG,
+    vtk_every: int = _VTK, boundary: str = _BOUNDARY, solver: str = _SOLVER, law: str = _LAW,
+    kappa: float = _KAPPA, young_modulus: float = _YOUNG,
+    restitution: float = _RESTITUTION, config: Path = _CONFIG,
     overwrite: bool = _OVERWRITE, progress: bool = _PROGRESS,
 ) -> None:
     """Oedometer (1-D compression, lateral walls fixed) of a discrete sample after
@@ -425,7 +448,8 @@ def oedometer_command(
         axial_strain=axial_strain, unload_strain=unload_strain, seed=seed, dt=dt,
         tolerance=tolerance, sweep=sweep, record_every=record_every,
         snapshot_every=snapshot_every, checkpoint_every=checkpoint_every,
-        vtk_every=vtk_every, boundary=boundary), overwrite, progress)
+        vtk_every=vtk_every, boundary=boundary, solver=solver, law=law, kappa=kappa,
+        young_modulus=young_modulus, restitution=restitution), overwrite, progress)
 
 
 _KIND = typer.Argument(..., help="The lab test: " + ", ".join(TEST_KINDS) + ". "
@@ -444,7 +468,9 @@ def lab_test_command(
     amplitude: float = _AMPLITUDE, cycles: int = _CYCLES,
     seed: int = _SEED, dt: float = _DT, tolerance: float = _TOL, sweep: str = _SWEEP,
     max_iterations: int = _ITER, record_every: int = _RECORD, snapshot_every: int = _SNAP,
-    checkpoint_every: int = _CKPT, vtk_every: int = _VTK, config: Path = _CONFIG,
+    checkpoint_every: int = _CKPT, vtk_every: int = _VTK, solver: str = _SOLVER,
+    law: str = _LAW, kappa: float = _KAPPA, young_modulus: float = _YOUNG,
+    restitution: float = _RESTITUTION, config: Path = _CONFIG,
     overwrite: bool = _OVERWRITE, progress: bool = _PROGRESS,
 ) -> None:
     """Any lab test on a discrete sample: a loose random sample, frictionless isotropic
@@ -465,7 +491,9 @@ def lab_test_command(
         circle_points=circle_points, amplitude=amplitude, cycles=cycles, seed=seed, dt=dt,
         tolerance=tolerance, sweep=sweep, max_iterations=max_iterations,
         record_every=record_every, snapshot_every=snapshot_every,
-        checkpoint_every=checkpoint_every, vtk_every=vtk_every), overwrite, progress)
+        checkpoint_every=checkpoint_every, vtk_every=vtk_every, solver=solver, law=law,
+        kappa=kappa, young_modulus=young_modulus, restitution=restitution), overwrite,
+        progress)
 
 
 @friendly_errors

@@ -7,8 +7,9 @@ happens now, with a message, instead of inside a user's first test, and can be s
 processes: ``--part discrete`` (contact dynamics of the sphere-based shape kinds, spheres and
 aggregates, sample measures, snapshots, microstructure analysis, ParaView export),
 ``--part polyhedra`` (the kinds of the polyhedron family: contact geometry and dynamics;
-:data:`FAMILY_PARTS`) and ``--part theories`` (the regular-packing and micro-element
-models); ``--part all`` runs the three in turn. Nothing is kept but the compiled code.
+:data:`FAMILY_PARTS`), ``--part theories`` (the regular-packing and micro-element
+models) and ``--part dem`` (the soft-contact solver, in a box of walls and in a periodic
+cell); ``--part all`` runs them in turn. Nothing is kept but the compiled code.
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ from grainlab.errors import InputError
 
 console = Console()
 
-PARTS = ("discrete", "polyhedra", "theories")
+PARTS = ("discrete", "polyhedra", "theories", "dem")
 """The parts of the compilation (``--part``), each a set of tiny runs."""
 
 
@@ -136,7 +137,22 @@ def _theory_runs(folder: Path) -> None:
                         np.empty((n, 6, 6)), np.empty((1, 6, 6)))
 
 
-_WORK = {"discrete": _discrete_runs, "polyhedra": _polyhedra_runs, "theories": _theory_runs}
+def _dem_runs(folder: Path) -> None:
+    """The soft-contact solver's kernels: a tiny triaxial test in a box of walls and one in
+    a periodic cell, and the damping of Hertz-Mindlin contacts."""
+    from grainlab.contact.soft_contact_law import SoftContactLaw
+    from grainlab.lab.discrete_run import start_run
+
+    SoftContactLaw.hertz_mindlin(1e9, restitution=0.5)
+    for boundary, sample in (("walls", {}),
+                             ("periodic", {"n_particles": 60, "size_ratio": 1.2})):
+        config = _tiny_config(SPHERE).with_updates(
+            {"sample": {"boundary": boundary, **sample}, "solver": {"method": "dem"}})
+        start_run(folder / boundary, config).run()
+
+
+_WORK = {"discrete": _discrete_runs, "polyhedra": _polyhedra_runs, "theories": _theory_runs,
+         "dem": _dem_runs}
 
 
 def compile_kernels(part: str = "all") -> float:
@@ -157,8 +173,8 @@ def compile_kernels(part: str = "all") -> float:
 @friendly_errors
 def compile_command(
     part: str = typer.Option("all", "--part",
-                             help="all, or some of discrete, polyhedra, theories separated by "
-                                  "commas (two parts in two shells use two cores)."),
+                             help="all, or some of discrete, polyhedra, theories, dem separated "
+                                  "by commas (two parts in two shells use two cores)."),
 ) -> None:
     """Compile grainlab's kernels now (a minute or two on two cores; cached on disk for every
     later run), so that the first real test starts at once."""

@@ -25,13 +25,20 @@ boundary's own detection (every shape kind's broad and narrow phase, walls, the 
 cell's images), rebuilt when two points may have closed the skin.
 
 The boundary (:mod:`grainlab.engine.boundary`) is asked for its constraints once per step, as
-by contact dynamics, and driven within it: a driven wall moves at its speed, a servo wall at
-s = s_free - kappa dt R (its reaction R [N] at the sub-step) and a stress-controlled degree
-of freedom e of the periodic cell at e_free + kappa dt (its generalised force), the servos of
-contact dynamics (same gains, same bounds) taken backward in time over each sub-step so that
-they are stable at any contact stiffness. The step's report holds the contacts closed at its
-end with their forces (``impulses`` = force x dt, as a step of contact dynamics reports
-them); the boundary moves by what it travelled, at its mean speed.
+by contact dynamics, and moves at constant speed through the step: a driven wall at its speed,
+the cell at its prescribed rate; a servo wall and a stress-controlled component of the cell at
+the speed their servo gives from the step before (:func:`~grainlab.engine.
+soft_contact_kernels.servo_kernel`). The servo takes the mean load of the last step (a wall's
+reaction, the cell's generalised force from its image contacts), so that the collisions of
+each sub-step do not shake it. Its proportional part is the overdamped servo of contact
+dynamics (same gains, same bounds) taken backward in time with the stiffness of the
+boundary's contacts, stable at any contact stiffness; an integral part learns the speed a
+boundary must keep while the sample is deformed (only in steps with a driven part), starting
+from the speeds that would keep the volume (:func:`isochoric_speeds`). A lateral wall of a
+sheared sample then holds its target within some 10-20 % (in CD: 1 %), after an overshoot
+where the shear starts; the servo of the periodic cell lags more (see docs). The step's
+report holds the contacts closed at its end with their forces (``impulses`` = force x dt,
+as a step of contact dynamics reports them); a wall's reaction is its mean over the step.
 
 A simulation that blows up stops with a diagnosis: an overlap beyond :data:`OVERLAP_LIMIT`
 of the effective radius, and non-finite values (the simulation's health check).
@@ -63,7 +70,7 @@ from grainlab.engine.boundary import BoundaryMotion, DetectionPhases, as_boundar
 from grainlab.engine.contact_dynamics import StepReport, contact_frames, contact_keys
 from grainlab.engine.narrow_phase import Contacts
 from grainlab.engine.simulation import SimulationBlowUp
-from grainlab.engine.soft_contact_kernels import servo_kernel, substeps_kernel
+from grainlab.engine.soft_contact_kernels import SERVO_INTEGRAL, servo_kernel, substeps_kernel
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 
@@ -125,10 +132,13 @@ class SoftContactStep:
         self._history_keys = np.zeros(0, dtype=np.int64)
         self._history = np.zeros((0, 6))
         self._wall_load = np.zeros((0, 3))
-        """Per wall: mean reaction over the last step [N], stiffness [N/m], speed [m/s]."""
+        """Per wall: mean reaction over the last step [N], stiffness [N/m], servo memory
+        [m/s]."""
         self._cell_load = np.zeros((0, 3))
         """Per free degree of freedom of the cell: mean generalised force [N m], stiffness
-        [N m], rate [1/s] of the last step."""
+        [N m], servo memory [1/s] of the last step."""
+        self._driven = False
+        """Whether the last step had a driven (strain-controlled) part of the boundary."""
         self._phases: DetectionPhases | None = None
 
     # -- Solver protocol ------------------------------------------------------------------------
@@ -155,7 +165,8 @@ class SoftContactStep:
         """The contacts' springs (keys, tangential displacement [m], rolling moment [N m])
         and the boundary's loads of the last step (the servos' input)."""
         return {"keys": self._history_keys.copy(), "history": self._history.copy(),
-                "wall_load": self._wall_load.copy(), "cell_load": self._cell_load.copy()}
+                "wall_load": self._wall_load.copy(), "cell_load": self._cell_load.copy(),
+                "driven": np.array(int(self._driven))}
 
     def restore_warm_start(self, arrays: dict[str, np.ndarray]) -> None:
         """Restore what :meth:`warm_start_arrays` saved."""
@@ -163,6 +174,7 @@ class SoftContactStep:
         self._history = np.asarray(arrays["history"], dtype=np.float64).reshape(-1, 6)
         self._wall_load = np.asarray(arrays["wall_load"], dtype=np.float64).reshape(-1, 3)
         self._cell_load = np.asarray(arrays["cell_load"], dtype=np.float64).reshape(-1, 3)
+        self._driven = bool(int(arrays["driven"]))
 
     # -- stepping ------------------------------------------------------------------------------
     def stable_substep(self, state: BodyState, library: ShapeLibrary) -> float:
@@ -202,7 +214,9 @@ class SoftContactStep:
                                                np.zeros(n_walls)])
             self._cell_load = np.column_stack([run.cell_force, run.cell_stiffness,
                                                np.zeros(n_dofs)])
-        run.servo(self._wall_load, self._cell_load, macro)
+        run.was_driven = self._driven
+        memory = run.servo(self._wall_load, self._cell_load, macro)
+        self._driven = run.driven
         done = 0
         while done < n_sub:
             if done:
@@ -211,9 +225,9 @@ class SoftContactStep:
         self.n_substeps += n_sub
         self.last_substeps = n_sub
         self._wall_load = np.column_stack([run.wall_impulse / macro, run.wall_stiffness,
-                                           run.wall_speed])
+                                           memory[0]])
         self._cell_load = np.column_stack([run.cell_impulse / macro, run.cell_stiffness,
-                                           run.cell_dofs])
+                                           memory[1]])
         report = run.report(self, rows, macro, library)
         boundary.finish_step(BoundaryMotion(
             dt=macro, theta=1.0, wall_speeds=run.wall_speed.copy(),
@@ -257,6 +271,37 @@ class SoftContactStep:
         order = np.argsort(rows.keys, kind="stable")
         self._history_keys = rows.keys[order]
         self._history = np.hstack([rows.xi, rows.roll])[order]
+
+
+def isochoric_speeds(bounds) -> tuple[np.ndarray, np.ndarray]:
+    """The servos' speeds that keep the volume while the driven parts of the boundary move
+    (the first guess of their integral terms when a deformation starts): servo walls (W,)
+    [m/s] sharing the volume the driven walls take (each wall of a pair of planes normal to
+    an axis, at distance L_a: a speed s changes the volume at -s / L_a per unit volume), and
+    cell degrees of freedom (D,) [1/s] sharing -tr(L_0) (L_0 the driven velocity gradient;
+    L = L_0 + sum_d e_d G_d)."""
+    walls = np.zeros(bounds.n_walls)
+    n, points = bounds.wall_normals, bounds.wall_points
+    if bounds.n_walls:
+        lengths = np.zeros(bounds.n_walls)
+        for w in range(bounds.n_walls):
+            facing = np.flatnonzero(np.isclose(n @ n[w], -1.0))
+            if facing.size:
+                lengths[w] = abs(float((points[facing[0]] - points[w]) @ n[w]))
+        driven = (bounds.wall_inv_mass == 0.0) & (lengths > 0.0)
+        servo = (bounds.wall_inv_mass > 0.0) & (lengths > 0.0)
+        rate = float(np.sum(bounds.wall_free[driven] / lengths[driven]))
+        if np.any(servo):
+            walls[servo] = -rate * lengths[servo] / np.count_nonzero(servo)
+    cells = np.zeros(bounds.cell_basis.shape[0])
+    if cells.size:
+        inverse = np.linalg.inv(bounds.cell_matrix)
+        traces = np.einsum("dab,ba->d", bounds.cell_basis, inverse)
+        volumetric = float(np.trace(bounds.cell_fixed @ inverse))
+        free = np.abs(traces) > 1e-12 * np.abs(traces).max(initial=1.0)
+        if np.any(free):
+            cells[free] = -volumetric / (np.count_nonzero(free) * traces[free])
+    return walls, cells
 
 
 def _refuse_polyhedra(library: ShapeLibrary) -> None:
@@ -331,6 +376,8 @@ class _Run:
         self.cell_rate = np.array(bounds.cell_fixed, dtype=np.float64)
         self.wall_impulse = np.zeros(n_walls)
         self.cell_impulse = np.zeros(n_dofs)
+        self.was_driven = False
+        self.driven = False
         self.body_force = np.zeros((state.n_bodies, 3))
         self.body_torque = np.zeros((state.n_bodies, 3))
         self.wall_force = np.zeros(n_walls)
@@ -339,25 +386,34 @@ class _Run:
         self.cell_stiffness = np.zeros(n_dofs)
         self.stats = np.zeros(1)
 
-    def servo(self, wall_load: np.ndarray, cell_load: np.ndarray, macro: float) -> None:
+    def servo(self, wall_load: np.ndarray, cell_load: np.ndarray, macro: float
+              ) -> tuple[np.ndarray, np.ndarray]:
         """The walls' speeds and the cell's rate over the step (:func:`~grainlab.engine.
-        soft_contact_kernels.servo_kernel`) from the last step's mean loads, carried to the
-        step's start by its speeds (R + K s h / 2: the mean was at the last step's middle)."""
+        soft_contact_kernels.servo_kernel`) from the last step's mean loads and the servos'
+        memories; returns the updated memories (walls, cell). When a driven deformation
+        starts, the memories start from :func:`isochoric_speeds`."""
         b, f64 = self.bounds, np.float64
-        wall_force = wall_load[:, 0] + wall_load[:, 1] * wall_load[:, 2] * 0.5 * macro
-        cell_force = cell_load[:, 0] - cell_load[:, 1] * cell_load[:, 2] * 0.5 * macro
+        wall_memory = np.ascontiguousarray(wall_load[:, 2], dtype=f64)
+        cell_memory = np.ascontiguousarray(cell_load[:, 2], dtype=f64)
+        driven = bool(np.any((b.wall_inv_mass == 0.0) & (b.wall_free != 0.0))
+                      or np.any(b.cell_fixed != 0.0))
+        if driven and not self.was_driven:  # a deformation starts: guess the servos' speeds
+            wall_memory[:], cell_memory[:] = isochoric_speeds(b)
         servo_kernel(
-            macro, np.ascontiguousarray(b.wall_inv_mass, dtype=f64),
+            macro, SERVO_INTEGRAL if driven else 0.0,
+            np.ascontiguousarray(b.wall_inv_mass, dtype=f64),
             np.ascontiguousarray(b.wall_free, dtype=f64),
-            np.ascontiguousarray(b.wall_max, dtype=f64), np.ascontiguousarray(wall_force),
-            np.ascontiguousarray(wall_load[:, 1]),
+            np.ascontiguousarray(b.wall_max, dtype=f64),
+            np.ascontiguousarray(wall_load[:, 0]), np.ascontiguousarray(wall_load[:, 1]),
             np.ascontiguousarray(b.cell_fixed, dtype=f64),
             np.ascontiguousarray(b.cell_basis, dtype=f64),
             np.ascontiguousarray(b.cell_inv_mass, dtype=f64),
             np.ascontiguousarray(b.cell_free, dtype=f64),
-            np.ascontiguousarray(b.cell_bounds, dtype=f64), np.ascontiguousarray(cell_force),
-            np.ascontiguousarray(cell_load[:, 1]), self.wall_speed, self.cell_dofs,
-            self.cell_rate)
+            np.ascontiguousarray(b.cell_bounds, dtype=f64),
+            np.ascontiguousarray(cell_load[:, 0]), np.ascontiguousarray(cell_load[:, 1]),
+            wall_memory, cell_memory, self.wall_speed, self.cell_dofs, self.cell_rate)
+        self.driven = driven
+        return wall_memory, cell_memory
 
     def advance(self, solver: SoftContactStep, rows: _Rows, n_steps: int, h: float) -> int:
         """Up to ``n_steps`` sub-steps of ``h`` [s] on ``rows`` (0: only the loads now);

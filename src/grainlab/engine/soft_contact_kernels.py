@@ -339,31 +339,57 @@ def drift_kernel(dt, principal, isotropic, bounding, positions, orientations, ve
             spins[b, 0], spins[b, 1], spins[b, 2] = _apply_tensor(inverse, lx, ly, lz)
 
 
+SERVO_INTEGRAL = 0.3
+"""Fraction of its proportional correction a servo adds to its memory each step (the integral
+term), weighted by how much the contacts' stiffness dominates the correction; in steps where
+another part of the boundary is driven (a strain-controlled wall or cell component), the only
+ones where a servo must keep moving to hold its target. With no driven part (a compaction) it
+would only carry the settling's overshoot into the packing (the cell then drifted out of
+shape)."""
+
+
+@njit(inline="always")
+def _servo_rate(free, gain, load, stiffness, macro, low, high, memory, integral):
+    """One servo's speed over a step of ``macro`` [s] and its updated memory (module docstring
+    of :mod:`grainlab.engine.soft_contact`): the proportional part is the overdamped servo
+    of contact dynamics, s = free - gain load, taken backward in time with the load's
+    stiffness K over the step, (free - gain load) / (1 + gain K h): stable at any contact
+    stiffness, and it would cancel the load's error in one step if the grains behind the
+    contacts did not move. They do, in a sample being deformed: the boundary must then keep
+    moving, which the integral ``memory`` learns (+ :data:`SERVO_INTEGRAL` x the proportional
+    part, weighted by gain K h / (1 + gain K h), so that a boundary still closing on a loose
+    sample does not wind it up). Speed and memory within [low, high]."""
+    damping = gain * stiffness * macro
+    proportional = (free - gain * load) / (1.0 + damping)
+    memory = min(max(memory + integral * proportional * damping / (1.0 + damping), low),
+                 high)
+    return min(max(proportional + memory, low), high), memory
+
+
 @njit(cache=True)
-def servo_kernel(macro, wall_inv_mass, wall_free, wall_max, wall_force, wall_stiffness,
-                 cell_fixed, cell_basis, cell_inv_mass, cell_free, cell_bounds, cell_force,
-                 cell_stiffness, wall_speed, cell_dofs, cell_rate):
+def servo_kernel(macro, integral, wall_inv_mass, wall_free, wall_max, wall_force,
+                 wall_stiffness, cell_fixed, cell_basis, cell_inv_mass, cell_free, cell_bounds,
+                 cell_force, cell_stiffness, wall_memory, cell_memory, wall_speed, cell_dofs,
+                 cell_rate):
     """Speeds of the servo walls and rates of the cell's free degrees of freedom over a step of
-    ``macro`` [s]: the overdamped servos of contact dynamics (speed = free speed - inverse
-    mass x ``macro`` x load; :mod:`grainlab.engine.soft_contact`) taken backward in time
-    over the step, s = (s_free - kappa h R) / (1 + kappa h K h) with the load's stiffness K
-    (stable at any contact stiffness), then held within their bounds. ``wall_force`` (W,)
-    [N] and ``cell_force`` (D,) [N m] are the loads expected at the start of the step."""
+    ``macro`` [s] (:func:`_servo_rate`) from the last step's mean loads ``wall_force`` (W,)
+    [N] and ``cell_force`` (D,) [N m] (the generalised force of the image contacts) and their
+    stiffnesses; the servos' memories are updated (``integral``: :data:`SERVO_INTEGRAL`
+    or 0)."""
     for w in range(wall_speed.shape[0]):
         inv = wall_inv_mass[w]
         if inv > 0.0:
-            gain = inv * macro
-            s = (wall_free[w] - gain * wall_force[w]) / (1.0 + gain * wall_stiffness[w] * macro)
-            if wall_max[w] < np.inf:
-                s = min(max(s, -OUTWARD_FACTOR * wall_max[w]), wall_max[w])
-            wall_speed[w] = s
+            high = wall_max[w]
+            wall_speed[w], wall_memory[w] = _servo_rate(
+                wall_free[w], inv * macro, wall_force[w], wall_stiffness[w], macro,
+                -OUTWARD_FACTOR * high, high, wall_memory[w], integral)
         else:
             wall_speed[w] = wall_free[w]
     cell_rate[:, :] = cell_fixed
     for d in range(cell_dofs.shape[0]):
-        gain = cell_inv_mass[d] * macro
-        e = (cell_free[d] + gain * cell_force[d]) / (1.0 + gain * cell_stiffness[d] * macro)
-        e = min(max(e, cell_bounds[d, 0]), cell_bounds[d, 1])
+        e, cell_memory[d] = _servo_rate(
+            cell_free[d], cell_inv_mass[d] * macro, -cell_force[d], cell_stiffness[d], macro,
+            cell_bounds[d, 0], cell_bounds[d, 1], cell_memory[d], integral)
         cell_dofs[d] = e
         for a in range(3):
             for b in range(3):
@@ -403,11 +429,11 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
     """Up to ``n_steps`` velocity-Verlet sub-steps of ``dt`` [s] on the current list: half
     kick, drift (walls at their speeds ``wall_speed`` (W,) [m/s], the cell at its rate
     ``cell_rate`` (3, 3) [m/s]), forces, half kick; the boundary's loads are summed over
-    time into ``wall_impulse`` (W,) [N s] and ``cell_impulse`` (D,) [N m s]. Stops early, after a complete sub-step, when two points may have approached by
-    more than ``skin`` [m] since the list was built (2 max travel + the walls' and the cell's
-    own motion, with the next sub-step's increment taken as the last one's), so that no
-    contact is missed. Returns the sub-steps done; ``stats[0]``
-    becomes the largest overlap [m] met."""
+    time into ``wall_impulse`` (W,) [N s] and ``cell_impulse`` (D,) [N m s]. Stops early,
+    after a complete sub-step, when two points may have approached by more than ``skin`` [m]
+    since the list was built (2 max travel + the walls' and the cell's own motion, with the
+    next sub-step's increment taken as the last one's), so that no contact is missed.
+    Returns the sub-steps done; ``stats[0]`` becomes the largest overlap [m] met."""
     half = 0.5 * dt
     _loads(0.0, code, params, rolling, gravity, body_i, body_j, off_i, off_j, rad_i, rad_j,
            images, mu, adj_start, adj_entry, wall_rows, image_rows, inv_mass, masses, wall_p0,

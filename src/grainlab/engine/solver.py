@@ -10,8 +10,10 @@ local frames, impulses over the step, relative velocities, images, the solve's c
 figures): everything the recorders, the analysis and the health check read. A solver whose
 steps have no iterations reports each step as converged in one.
 
-The first implementation is contact dynamics
-(:class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`). A new solver implements
+The implementations are contact dynamics
+(:class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`) and soft-contact DEM
+(:class:`~grainlab.engine.soft_contact.SoftContactStep`, explicit: each step is cut into
+sub-steps, and reports each step converged in one iteration). A new solver implements
 :class:`Solver` and every boundary, recorder, checkpoint and lab test runs with it; what it
 keeps from step to step (contact memory, random state) goes into checkpoints through
 :meth:`Solver.warm_start_arrays` / :meth:`Solver.restore_warm_start` and ``rng_state``.

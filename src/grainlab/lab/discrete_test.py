@@ -98,10 +98,10 @@ import numpy as np
 
 from grainlab._validate import at_least
 from grainlab.engine.contact_dynamics import ContactDynamicsStep
-from grainlab.engine.soft_contact import SoftContactStep
 from grainlab.engine.sample_measures import box_strains, sample_measures
 from grainlab.engine.shape_kinds import kinds_present, library_time_step_length
 from grainlab.engine.simulation import Periodic, Simulation
+from grainlab.engine.soft_contact import SoftContactStep
 from grainlab.engine.state import ShapeLibrary
 from grainlab.engine.wall_box import WALL_NAMES
 from grainlab.errors import InputError

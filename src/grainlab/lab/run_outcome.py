@@ -73,7 +73,8 @@ class StageOutcome:
     name, ended, reason:
         Stage name; how it ended (:data:`ENDINGS`); its end in words.
     steps, capped_steps, max_iterations:
-        Steps of the stage, those ended at the solver's cap, the cap [sweeps].
+        Steps of the stage, those ended at the solver's cap, the cap [sweeps] (0: an explicit
+        solver, whose steps have no iterations).
     start_step, end_step:
         The run's step before the stage's first and at its last (-1: unknown).
     inertia_bound:
@@ -161,7 +162,7 @@ class StageOutcome:
                      f"{_fmt(self.inertia_max)} = {ratio:.3g} x the bound)")
         if self.solid is False:
             text += f"; contact network LOST (median z {_fmt(self.z_median)})"
-        if self.steps:
+        if self.steps and self.max_iterations:  # 0: an explicit solver, no iterations
             share = 100.0 * self.capped_steps / self.steps
             text += (f"; {self.capped_steps} of {self.steps} steps ({share:.0f} %) ended at the "
                      f"solver's cap of {self.max_iterations} sweeps")
@@ -292,7 +293,8 @@ def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
         "steps": int(record["steps"]), "capped_steps": int(record.get("capped_steps", 0)),
         "start_step": int(record.get("start_step", -1)),
         "end_step": int(record.get("end_step", -1)),
-        "max_iterations": int(numerics.max_iterations)}
+        "max_iterations": 0 if getattr(settings, "method", "cd") == "dem"
+        else int(numerics.max_iterations)}
     if moving:
         inertia = np.array([r["inertia_number"] for r in rows], dtype=float)
         inertia = inertia[np.isfinite(inertia)]

@@ -1,0 +1,123 @@
+"""Lab tests with the soft-contact (DEM) solver: the config selects it, a wall-box triaxial test
+compacts to sigma0 and shears, a periodic compaction settles isostatic, a run resumes exactly,
+and (validation) both solvers agree on the same test at high stiffness."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from grainlab.engine.soft_contact import SoftContactStep
+from grainlab.errors import InputError
+from grainlab.lab.discrete_run import resume_run, start_run
+from grainlab.lab.run_config import RunConfig
+
+SIGMA0 = 1e4
+SMALL = {
+    "sample": {"n_particles": 40, "seed": 3},
+    "test": {"kind": "triaxial", "sigma0": SIGMA0, "eps_q_max": 0.03},
+    "solver": {"method": "dem", "dem": {"kappa": 1e3},
+               "compaction": {"inertia_number": 0.05}, "shear": {"inertia_number": 0.01}},
+    "output": {"record_every": 10, "checkpoint_every": 0, "snapshot_every": 0},
+}
+
+
+def config(**updates) -> RunConfig:
+    return RunConfig.model_validate(SMALL).with_updates(updates)
+
+
+@pytest.fixture(scope="module")
+def triaxial(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("dem") / "triaxial"
+    run = start_run(folder, config())
+    return run, run.run()
+
+
+def test_the_config_selects_the_solver_and_its_law():
+    settings = config().settings()
+    assert settings.method == "dem" and settings.dem.kappa == 1e3
+    law = settings.dem.law_at(SIGMA0, 1.5e-3)
+    assert law.normal_stiffness == pytest.approx(1e3 * SIGMA0 * 1.5e-3)
+    hertz = config(solver={"dem": {"law": "hertz_mindlin", "kappa": 1e4}}).settings()
+    e = hertz.dem.law_at(SIGMA0, 1e-3)
+    assert e.kappa(SIGMA0, 1e-3) == pytest.approx(1e4)
+    with pytest.raises(InputError, match=r"solver\.dem\.law"):
+        config(solver={"dem": {"law": "hooke"}})
+    with pytest.raises(InputError, match=r"solver\.method"):
+        config(solver={"method": "md"})
+    assert RunConfig().settings().method == "cd"  # contact dynamics stays the default
+
+
+def test_dem_triaxial_in_a_wall_box_compacts_then_shears(triaxial):
+    run, result = triaxial
+    assert isinstance(run.test.solver, SoftContactStep)
+    table = result.table
+    assert result.metadata["outcome"]["finished"]
+    assert list(dict.fromkeys(table["stage"])) == ["compaction", "shear"]
+    compaction = table[table["stage"] == "compaction"].iloc[-1]
+    # quasi-static end: the walls' mean reactions at sigma0 (the stage's 1 % criterion), a
+    # packing with contacts (40 spheres: loose along the walls), overlaps of order <d> / kappa
+    for axis in ("xx", "yy", "zz"):
+        assert compaction[f"wall_sigma_{axis}"] == pytest.approx(SIGMA0, rel=0.011)
+    assert compaction["packing_fraction"] > 0.45 and compaction["z"] > 2.5
+    assert 0.0 < compaction["max_overlap_over_d"] < 10.0 / 1e3
+    shear = table[table["stage"] == "shear"]
+    assert shear["eps_q"].iloc[-1] >= 0.03
+    assert shear["q_over_trace"].max() > 0.1  # frictional spheres resist
+    # an explicit solver: every step "converged" in one iteration, no sweep cap in the words
+    assert result.metadata["outcome"]["unconverged_steps"] == 0
+    assert "sweeps" not in result.metadata["outcome"]["summary"]
+
+
+def test_a_dem_run_resumes_exactly(triaxial, tmp_path):
+    _, full = triaxial
+    folder = tmp_path / "resumed"
+    run = start_run(folder, config())
+    run.run(max_steps=int(full.table["step"].iloc[-1]) // 2)
+    run.checkpoint()
+    resumed = resume_run(folder).run()
+    np.testing.assert_array_equal(resumed.table["step"], full.table["step"])
+    np.testing.assert_array_equal(resumed.table["q_over_trace"], full.table["q_over_trace"])
+    np.testing.assert_array_equal(resumed.table["wall_sigma_xx"], full.table["wall_sigma_xx"])
+
+
+def test_dem_compaction_in_a_periodic_cell_settles_isostatic(tmp_path):
+    """Frictionless spheres compacted to sigma0 in a periodic cell jam with z at least 6
+    (isostatic in the rigid limit; z - 6 grows as kappa^-1/2 with the overlaps: about 0.4 at
+    kappa = 1e3) and a packing fraction near random close packing."""
+    result = start_run(tmp_path / "cell", config(
+        sample={"n_particles": 80, "size_ratio": 1.2, "seed": 2, "boundary": "periodic"},
+        test={"kind": "compaction"})).run()
+    end = result.table.iloc[-1]
+    assert result.metadata["outcome"]["finished"]
+    for axis in ("xx", "yy", "zz"):
+        assert end[f"cell_sigma_{axis}"] == pytest.approx(SIGMA0, rel=0.011)
+    assert 0.6 < end["packing_fraction"] < 0.66
+    assert 5.9 <= end["z_no_rattlers"] <= 6.8
+
+
+@pytest.mark.validate
+@pytest.mark.parametrize("boundary", ["walls"])
+def test_both_solvers_agree_on_a_quasi_static_triaxial_test(tmp_path, boundary):
+    """The same 300-sphere triaxial test with contact dynamics and with DEM at kappa = 1e4:
+    packing fraction after compaction and q/p at eps_q = 0.2 within the spread of two
+    seeds."""
+    results = {}
+    for method in ("cd", "dem"):
+        for seed in (1, 2):
+            cfg = RunConfig.model_validate({
+                "sample": {"n_particles": 300, "seed": seed, "boundary": boundary},
+                "test": {"kind": "triaxial", "sigma0": SIGMA0, "eps_q_max": 0.2},
+                "solver": {"method": method, "dem": {"kappa": 1e4}},
+                "output": {"record_every": 10, "checkpoint_every": 0, "snapshot_every": 0}})
+            table = start_run(tmp_path / f"{method}{seed}", cfg).run().table
+            compaction = table[table["stage"] == "compaction"].iloc[-1]
+            shear = table[table["stage"] == "shear"]
+            late = shear[shear["eps_q"] > 0.15]
+            results[method, seed] = (compaction["packing_fraction"],
+                                     late["q_over_trace"].mean())
+    for index in (0, 1):
+        cd = [results["cd", s][index] for s in (1, 2)]
+        dem = [results["dem", s][index] for s in (1, 2)]
+        spread = max(np.ptp(cd), np.ptp(dem), 0.01 * np.mean(cd))
+        assert abs(np.mean(dem) - np.mean(cd)) <= 2.0 * spread
