@@ -27,12 +27,15 @@ The normal force is never attractive: F_n = max(0, F_n) (a dashpot cannot pull t
 together as they separate). The contact then ends before the overlap closes, so the damping
 of both laws is found from e for such a force (the textbook formulas, which assume a pull at
 the end, give e too high: 0.58 for 0.5 with linear springs); an isolated impact restitutes
-e as set. The tangential spring xi (3,) [m] is the elastic tangential
-displacement carried by the contact from the step it formed: each step it is turned with the
-contact frame (its normal part removed and its length kept, then turned about n by the mean
-spin of the two bodies about n; no spurious force under a rigid rotation of the pair), then
-increased by U_T dt; F_T = -k_t xi - c_t U_T and, when |F_T| > mu F_n, F_T is scaled back
-onto the Coulomb limit and xi set to the displacement that gives it (-(F_T + c_t U_T) / k_t).
+e as set. The tangential spring carries an elastic force F_e (3,) [N] from the step the
+contact formed: each step it is turned with the contact frame (its normal part removed and its
+length kept, then turned about n by the mean spin of the two bodies about n; no spurious force
+under a rigid rotation of the pair), then loaded incrementally, dF_e = -k_t U_T dt with the
+stiffness of the moment (Mindlin's no-slip law with history as YADE's ``MindlinPhys``; storing
+the displacement instead and taking F = -k_t(delta) xi, as LIGGGHTS does, makes energy when
+k_t falls during the rebound: a sphere hitting a plane 2 degrees from the normal came back
+with 1.004 of its tangential speed). F_T = F_e - c_t U_T and, when |F_T| > mu F_n, F_T is
+scaled back onto the Coulomb limit and F_e set to the force that gives it (F_T + c_t U_T).
 
 Rolling resistance (optional, mu_r > 0; the elastic-plastic spring of Iwashita & Oda 1998
 and Ai et al. 2011, LIGGGHTS' ``epsd2``): a moment M_r (3,) [N m] on j (minus on i) with

@@ -171,20 +171,19 @@ def contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, of
                                               m_eff)
         fn = max(0.0, fne - c_n * un)
         stiffness[k] = s_n
-        hx, hy, hz = xi[k, 0], xi[k, 1], xi[k, 2]
+        hx, hy, hz = xi[k, 0], xi[k, 1], xi[k, 2]  # the tangential spring's force [N]
         if step > 0.0:
             spin_n = 0.5 * ((wix + wjx) * nx + (wiy + wjy) * ny + (wiz + wjz) * nz)
             hx, hy, hz = _turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, step)
-            hx, hy, hz = hx + utx * step, hy + uty * step, hz + utz * step
-        ftx, fty, ftz = -k_t * hx - c_t * utx, -k_t * hy - c_t * uty, -k_t * hz - c_t * utz
+            f = k_t * step  # incremental: dF_t = -k_t dU_t with the stiffness of the moment
+            hx, hy, hz = hx - f * utx, hy - f * uty, hz - f * utz
+        ftx, fty, ftz = hx - c_t * utx, hy - c_t * uty, hz - c_t * utz
         ft = math.sqrt(ftx * ftx + fty * fty + ftz * ftz)
         limit = mu[k] * fn
-        if ft > limit:
+        if ft > limit:  # sliding: the spring holds the Coulomb force less the dashpot's
             f = limit / ft
             ftx, fty, ftz = f * ftx, f * fty, f * ftz
-            if k_t > 0.0:
-                hx, hy, hz = -(ftx + c_t * utx) / k_t, -(fty + c_t * uty) / k_t, \
-                    -(ftz + c_t * utz) / k_t
+            hx, hy, hz = ftx + c_t * utx, fty + c_t * uty, ftz + c_t * utz
         xi[k, 0], xi[k, 1], xi[k, 2] = hx, hy, hz
         fx, fy, fz = fn * nx + ftx, fn * ny + fty, fn * nz + ftz
         force[k, 0], force[k, 1], force[k, 2] = fx, fy, fz
