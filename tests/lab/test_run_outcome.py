@@ -181,3 +181,26 @@ def test_the_progress_bar_estimates_the_time_left_in_each_stage(tmp_path):
     starts = {name: {start for n, start in stages if n == name} for name in set(names)}
     assert len(starts["compaction"]) == 1 and len(starts["shear"]) == 1
     assert starts["shear"] != starts["compaction"]
+
+
+def test_a_dem_stage_whose_servo_lagged_is_not_as_asked():
+    """The soft-contact servo is judged on the stresses it held past the stage's first tenth:
+    lateral walls at twice their target are a problem; at the target, none."""
+    from types import SimpleNamespace
+
+    from grainlab.lab.run_outcome import stage_outcome
+
+    record = {"name": "shear", "reason": "stop", "steps": 100, "strain_controlled": True}
+    settings = SimpleNamespace(method="dem", numerics_for=lambda moving: SimpleNamespace(
+        max_iterations=400, inertia_number=1e-3), quasi_static=None)
+
+    def rows(factor):
+        return [{"inertia_number": 5e-4, "z": 4.0, "wall_sigma_xx": factor * 1e4,
+                 "wall_sigma_yy": 1e4} for _ in range(20)]
+
+    lagging = stage_outcome(record, rows(2.0), settings, {"xx": 1e4, "yy": 1e4})
+    assert dict(lagging.stress_errors)["xx"] == pytest.approx(1.0)
+    assert any("sigma_xx" in problem for problem in lagging.problems())
+    held = stage_outcome(record, rows(1.02), settings, {"xx": 1e4, "yy": 1e4})
+    assert held.problems() == []
+    assert type(held).from_dict(held.to_dict()) == held

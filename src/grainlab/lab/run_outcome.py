@@ -57,6 +57,10 @@ INERTIA_MEDIAN_FACTOR = 2.0
 INERTIA_QUANTILE_FACTOR = 4.0
 INERTIA_QUANTILE = 0.9
 MIN_COORDINATION = 1.0
+HELD_STRESS_ERROR = 0.1
+"""Largest median relative error of a stress-controlled boundary against its target in a
+strain-controlled stage of a soft-contact (DEM) run, past its first tenth (the servo's
+start): beyond it the boundary did not hold the stress asked."""
 EXIT_NOT_AS_ASKED = 3
 
 
@@ -99,6 +103,7 @@ class StageOutcome:
     inertia_max: float = math.nan
     z_median: float = math.nan
     unsettled: tuple[str, ...] = ()
+    stress_errors: tuple[tuple[str, float], ...] = ()
     start_step: int = -1
     end_step: int = -1
 
@@ -136,6 +141,12 @@ class StageOutcome:
                 f"{self.inertia_median / self.inertia_bound:.3g} x the bound, largest "
                 f"{_fmt(self.inertia_max)}): the loading was faster than asked; lower "
                 "solver.shear.inertia_number")
+        for axis, error in self.stress_errors:
+            if error > HELD_STRESS_ERROR:
+                out.append(f"stage {self.name}: the boundary did not hold sigma_{axis} at its "
+                           f"target (median error {100 * error:.0f} % > "
+                           f"{100 * HELD_STRESS_ERROR:.0f} %): the soft-contact servo lagged; "
+                           "lower solver.shear.inertia_number or use --solver cd")
         if self.solid is False:
             out.append(f"stage {self.name}: the sample lost its contact network (median z "
                        f"{_fmt(self.z_median)} < {MIN_COORDINATION:g}): a granular gas, not a "
@@ -172,6 +183,7 @@ class StageOutcome:
         """Plain data (with the judgement)."""
         data = asdict(self)
         data["unsettled"] = list(self.unsettled)
+        data["stress_errors"] = [list(pair) for pair in self.stress_errors]
         data.update(inertia_held=self.inertia_held, solid=self.solid,
                     problems=self.problems())
         return data
@@ -182,6 +194,8 @@ class StageOutcome:
         names = {f for f in cls.__dataclass_fields__}
         values = {k: v for k, v in data.items() if k in names}
         values["unsettled"] = tuple(values.get("unsettled", ()))
+        values["stress_errors"] = tuple((str(a), float(e))
+                                        for a, e in values.get("stress_errors", ()))
         for key in ("inertia_median", "inertia_q90", "inertia_max", "z_median"):
             if values.get(key) is None:
                 values[key] = math.nan
@@ -278,6 +292,23 @@ def _unsettled(row: dict[str, Any], criteria, targets: dict[str, float]) -> tupl
     return tuple(out)
 
 
+def _held_stress_errors(rows: list[dict[str, Any]], stress_targets: dict[str, float]
+                        ) -> tuple[tuple[str, float], ...]:
+    """Per stress-controlled axis ("xx": target [Pa]), the median relative error of the
+    boundary's stress (``wall_sigma_`` or ``cell_sigma_`` column) over the rows past the first
+    tenth of the stage."""
+    later = rows[len(rows) // 10:]
+    errors = []
+    for axis, target in stress_targets.items():
+        for column in (f"wall_sigma_{axis}", f"cell_sigma_{axis}"):
+            values = np.array([r.get(column, math.nan) for r in later], dtype=float)
+            values = values[np.isfinite(values)]
+            if values.size and target > 0.0:
+                errors.append((axis, float(np.median(np.abs(values / target - 1.0)))))
+                break
+    return tuple(errors)
+
+
 def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
                   stress_targets: dict[str, float]) -> StageOutcome:
     """Judge one stage from its record (``name``, ``reason``, ``steps``, ``ended``,
@@ -306,6 +337,8 @@ def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
                           inertia_max=float(np.max(inertia)))
         if z.size:
             values["z_median"] = float(np.median(z))
+        if getattr(settings, "method", "cd") == "dem":
+            values["stress_errors"] = _held_stress_errors(rows, stress_targets)
     elif ended != REACHED and rows:
         values["unsettled"] = _unsettled(rows[-1], settings.quasi_static, stress_targets)
     return StageOutcome(**values)
