@@ -139,6 +139,8 @@ class SoftContactStep:
         [N m], servo memory [1/s] of the last step."""
         self._driven = False
         """Whether the last step had a driven (strain-controlled) part of the boundary."""
+        self._carried = np.zeros((3, 3))
+        """The velocity gradient L [1/s] the particles' velocities carry (periodic cell)."""
         self._phases: DetectionPhases | None = None
 
     # -- Solver protocol ------------------------------------------------------------------------
@@ -166,7 +168,7 @@ class SoftContactStep:
         and the boundary's loads of the last step (the servos' input)."""
         return {"keys": self._history_keys.copy(), "history": self._history.copy(),
                 "wall_load": self._wall_load.copy(), "cell_load": self._cell_load.copy(),
-                "driven": np.array(int(self._driven))}
+                "driven": np.array(int(self._driven)), "carried": self._carried.copy()}
 
     def restore_warm_start(self, arrays: dict[str, np.ndarray]) -> None:
         """Restore what :meth:`warm_start_arrays` saved."""
@@ -175,6 +177,7 @@ class SoftContactStep:
         self._wall_load = np.asarray(arrays["wall_load"], dtype=np.float64).reshape(-1, 3)
         self._cell_load = np.asarray(arrays["cell_load"], dtype=np.float64).reshape(-1, 3)
         self._driven = bool(int(arrays["driven"]))
+        self._carried = np.asarray(arrays["carried"], dtype=np.float64).reshape(3, 3).copy()
 
     # -- stepping ------------------------------------------------------------------------------
     def stable_substep(self, state: BodyState, library: ShapeLibrary) -> float:
@@ -202,9 +205,6 @@ class SoftContactStep:
             _refuse_polyhedra(library)
         n_sub = max(1, math.ceil(macro / self.substep * (1.0 - 1e-12)))
         h = macro / n_sub
-        if np.any(bounds.affine_change != 0.0):  # a periodic cell whose rate changed
-            centre = np.average(state.positions, axis=0, weights=state.masses)
-            state.velocities += (state.positions - centre) @ bounds.affine_change.T
         n_walls, n_dofs = bounds.n_walls, bounds.cell_inv_mass.shape[0]
         run = _Run(state, library, bounds, n_walls, n_dofs)
         rows = self._build_list(state, library, boundary, bounds, run)
@@ -217,6 +217,13 @@ class SoftContactStep:
         run.was_driven = self._driven
         memory = run.servo(self._wall_load, self._cell_load, macro)
         self._driven = run.driven
+        if n_dofs or np.any(bounds.cell_fixed != 0.0) or np.any(self._carried != 0.0):
+            # the particles take up the cell's rate of this step at once (contact dynamics'
+            # bounds.affine_change would give it to them one step late, from the last rate)
+            gradient = run.cell_rate @ np.linalg.inv(bounds.cell_matrix)
+            centre = np.average(state.positions, axis=0, weights=state.masses)
+            state.velocities += (state.positions - centre) @ (gradient - self._carried).T
+            self._carried = gradient
         done = 0
         while done < n_sub:
             if done:

@@ -46,6 +46,7 @@ from grainlab.lab.discrete_test import (
 )
 from grainlab.lab.load_path import LoadPath
 from grainlab.lab.specimen import tensor_to_voigt
+from grainlab.lab.wall_stages import AXES
 
 THIN_CELL_MARGIN = 1.05
 """A stage stops when a width of the cell is within 5 % of the detection's limit."""
@@ -85,6 +86,17 @@ class CellTest(DiscreteTest):
                           [row["sigma_xy"], row["sigma_yy"], row["sigma_yz"]],
                           [row["sigma_xz"], row["sigma_yz"], row["sigma_zz"]]])
         return stage.conjugate(sigma, progress)
+
+    def outcome_stress_targets(self, stage: CellStage) -> dict[str, float]:
+        """The normal stress targets [Pa] of a stage controlled in the cell's own axes
+        (``"target"`` stress mode, no rotation, the Voigt basis), by ``"xx"``...; empty for
+        the other stages."""
+        load = stage.stage
+        if load.stress_mode != "target" or load.rotation_start or load.rotation_per_step \
+                or load.component_basis is not None:
+            return {}
+        return {AXES[a] * 2: float(load.values[a]) for a in range(3)
+                if load.control[a] == "stress" and load.values[a] > 0.0}
 
     def start_stage(self) -> None:
         """Set the cell's control, friction, strain rate and time step of the current

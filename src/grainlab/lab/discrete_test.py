@@ -707,12 +707,17 @@ class DiscreteTest:
             rows = [r for r in self.rows
                     if r["stage"] == record["name"] and start < r["step"] <= end]
             stage = by_name.get(record["name"])
-            targets = {AXES[a] * 2: stage.targets[a] for a in stage.stress_axes
-                       if math.isfinite(stage.targets[a])} if stage is not None else {}
+            targets = self.outcome_stress_targets(stage) if stage is not None else {}
             stages.append(stage_outcome(record, rows, self.settings, targets))
         return RunOutcome(stages=tuple(stages), finished=self.finished,
                           steps=self.simulation.step_index,
                           stopped=self.halted["reason"] if self.halted else "")
+
+    def outcome_stress_targets(self, stage) -> dict[str, float]:
+        """The stress targets [Pa] of a stage's stress-controlled axes, by ``"xx"``... (the
+        outcome judges the walls' stresses against them)."""
+        return {AXES[a] * 2: stage.targets[a] for a in stage.stress_axes
+                if math.isfinite(stage.targets[a])}
 
     # -- records ------------------------------------------------------------------------------
     def record(self) -> dict[str, Any]:
