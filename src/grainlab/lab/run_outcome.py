@@ -61,6 +61,9 @@ HELD_STRESS_ERROR = 0.1
 """Largest median relative error of a stress-controlled boundary against its target in a
 strain-controlled stage of a soft-contact (DEM) run, past its first tenth (the servo's
 start): beyond it the boundary did not hold the stress asked."""
+HELD_STRESS_ROWS = 10
+"""Fewest records (past the first tenth) on which the held stresses are judged: a shorter
+stage is mostly the servo's start."""
 EXIT_NOT_AS_ASKED = 3
 
 
@@ -296,8 +299,10 @@ def _held_stress_errors(rows: list[dict[str, Any]], stress_targets: dict[str, fl
                         ) -> tuple[tuple[str, float], ...]:
     """Per stress-controlled axis ("xx": target [Pa]), the median relative error of the
     boundary's stress (``wall_sigma_`` or ``cell_sigma_`` column) over the rows past the first
-    tenth of the stage."""
+    tenth of the stage (none when fewer than :data:`HELD_STRESS_ROWS` are left)."""
     later = rows[len(rows) // 10:]
+    if len(later) < HELD_STRESS_ROWS:
+        return ()
     errors = []
     for axis, target in stress_targets.items():
         for column in (f"wall_sigma_{axis}", f"cell_sigma_{axis}"):
