@@ -203,26 +203,49 @@ def run_liggghts(n: int = 4000, threads: int = 1, eps1: float = 0.3,
 
 def run_yade(n: int = 4000, threads: int = 1, eps1: float = 0.3,
              args: list[str] | None = None, binary: str = "yade", omp_passive: bool = True,
-             timeout: float | None = None, log: str | Path | None = None) -> dict | None:
+             timeout: float | None = None, log: str | Path | None = None,
+             process_s: float | None = None) -> dict | None:
     """Run the YADE script with ``threads`` OpenMP threads (``yade -j``); ``args``: more
     script options (``--seed 2`` ...). ``omp_passive``: OMP_WAIT_POLICY=PASSIVE (YADE's
     threads then sleep instead of spinning while they wait: much faster on a machine whose
-    cores are busy, benchmarks/yade/README.md). Returns the figures or None with a printed
-    reason."""
+    cores are busy, benchmarks/yade/README.md). ``process_s``: stop each YADE process after
+    about that many seconds of time stepping, save a checkpoint and go on in a new process
+    (``--checkpoint``/``--resume``) until the test ends; ``timeout`` then applies to each
+    process. The wall times are those of the time stepping, summed over the processes.
+    Returns the figures or None with a printed reason."""
     exe = shutil.which(binary)
     if exe is None:
         print(f"YADE not run: no '{binary}' on PATH (Debian: apt-get install yade)")
         return None
-    cmd = [exe, "-j", str(threads), "-n", "-x", str(YADE_SCRIPT), "--n", str(n),
-           "--eps1", repr(float(eps1)), *(args or [])]
     env = dict(os.environ)
     if omp_passive:
         env["OMP_WAIT_POLICY"] = "PASSIVE"
+    base = [exe, "-j", str(threads), "-n", "-x", str(YADE_SCRIPT)]
+    first = [*base, "--n", str(n), "--eps1", repr(float(eps1)), *(args or [])]
     started = time.perf_counter()
-    res = _finish(_run(cmd, env, timeout, log), "yade", threads, cmd,
+    with tempfile.TemporaryDirectory(prefix="grainlab_yade_ckpt_") as tmp:
+        ckpt = str(Path(tmp) / "checkpoint.bin.gz")
+        extra = ["--checkpoint", ckpt, "--max-process-wall", str(process_s)] if process_s else []
+        cmd, texts, loads = [*first, *extra], [], []
+        for _ in range(1000):
+            text, load0, load1 = _run(cmd, env, timeout, None)
+            loads.append((load0, load1))
+            if text is None:
+                if log:
+                    Path(log).write_text("\n".join(texts))
+                return None
+            texts.append(text)
+            if "\nCHECKPOINT " not in text:
+                break
+            cmd = [*base, "--resume", ckpt, *extra]
+    text = "\n".join(texts)
+    if log:
+        Path(log).write_text(text)
+    res = _finish((text, loads[0][0], loads[-1][1]), "yade", threads, first,
                   time.perf_counter() - started)
     if res is not None:
         res["omp_wait_policy"] = env.get("OMP_WAIT_POLICY")
+        res["processes"] = len(texts)
     return res
 
 
@@ -250,6 +273,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--log", default=None, help="save the peer's screen output here")
     ap.add_argument("--json", default=None, help="write the result here")
     ap.add_argument("--rows", action="store_true", help="keep the rows in the printed JSON")
+    ap.add_argument("--process-s", type=float, default=None,
+                    help="yade: checkpoint and restart every that many seconds of stepping")
     a, extra = ap.parse_known_args(argv)
     # anything else: LIGGGHTS NAME=VALUE variables or YADE script options (after --)
     extra = [x for x in extra if x != "--"]
@@ -259,7 +284,8 @@ def main(argv: list[str] | None = None) -> int:
         res = run_liggghts(a.n, a.threads, a.eps1, dict(x.split("=", 1) for x in extra),
                            timeout=a.timeout, log=a.log)
     else:
-        res = run_yade(a.n, a.threads, a.eps1, extra, timeout=a.timeout, log=a.log)
+        res = run_yade(a.n, a.threads, a.eps1, extra, timeout=a.timeout, log=a.log,
+                       process_s=a.process_s)
     if res is None:
         return 1
     if a.json:

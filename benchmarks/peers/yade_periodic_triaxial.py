@@ -51,6 +51,7 @@ PHASE2 lines also give z_nr, the coordination of force-carrying contacts without
 
 import argparse
 import builtins
+import json
 import math
 import os
 import sys
@@ -107,76 +108,106 @@ def parse_args(argv):
                          "with more than 1 the cell oscillated at its rate cap, see the README)")
     ap.add_argument("--sample-every", type=int, default=10, help="steps between stress samples")
     ap.add_argument("--max-wall", type=float, default=3600.0, help="abort a phase after [s]")
+    ap.add_argument("--checkpoint", default=None,
+                    help="with --max-process-wall: save the simulation here (O.save, plus "
+                         "FILE.json) and stop once this process has run that long")
+    ap.add_argument("--max-process-wall", type=float, default=0.0,
+                    help="seconds of time stepping in this process before a checkpoint "
+                         "(0: no limit); checked at the end of each check or row")
+    ap.add_argument("--resume", default=None,
+                    help="go on from a checkpoint (its options are used, except the three "
+                         "checkpoint options)")
     return ap.parse_args(argv)
 
 
 A = parse_args(sys.argv[1:])
+if A.resume:
+    with open(A.resume + ".json") as f:
+        _saved = json.load(f)
+    for k, v in _saved["args"].items():
+        if k not in ("checkpoint", "max_process_wall", "resume"):
+            setattr(A, k, v)
+else:
+    _saved = None
 
 
 def say(*a):
     print(*a, flush=True)
 
 
-# ---------------------------------------------------------------- cloud
 D_MIN, D_MAX = A.dmin, A.dratio * A.dmin
-_mean_d3 = (D_MAX - D_MIN) / (0.5 * (D_MIN ** -2 - D_MAX ** -2))
-V_SOLID_EXPECTED = A.n * math.pi / 6.0 * _mean_d3
-L0 = (V_SOLID_EXPECTED / A.phi_cloud) ** (1.0 / 3.0)
+G = A.young / (2.0 * (1.0 + A.nu))
+T_R = math.pi * 0.5 * A.dmin * math.sqrt(A.rho / G) / (0.1631 * A.nu + 0.8766)
 
-O.periodic = True
-O.cell.hSize = Matrix3(L0, 0, 0, 0, L0, 0, 0, 0, L0)
-mat = FrictMat(young=A.young, poisson=A.nu, frictionAngle=0.0, density=A.rho, label="grains")
-O.materials.append(mat)
-sp = pack.SpherePack()
-n_made = sp.makeCloud(Vector3(0, 0, 0), Vector3(L0, L0, L0), -1, 0, A.n, True, 0.5,
-                      [D_MIN, D_MAX], [0.0, 1.0], True, A.seed)
-if n_made != A.n or abs(sp.appliedPsdScaling - 1.0) > 1e-12:
-    raise SystemExit(f"makeCloud made {n_made} spheres with PSD scaling {sp.appliedPsdScaling}")
-IDS = O.bodies.append([utils.sphere(c, r, material="grains") for c, r in sp])
-RADII = [O.bodies[i].shape.radius for i in IDS]
+if _saved is None:
+    # ------------------------------------------------------------ cloud
+    _mean_d3 = (D_MAX - D_MIN) / (0.5 * (D_MIN ** -2 - D_MAX ** -2))
+    V_SOLID_EXPECTED = A.n * math.pi / 6.0 * _mean_d3
+    L0 = (V_SOLID_EXPECTED / A.phi_cloud) ** (1.0 / 3.0)
+    O.periodic = True
+    O.cell.hSize = Matrix3(L0, 0, 0, 0, L0, 0, 0, 0, L0)
+    O.materials.append(FrictMat(young=A.young, poisson=A.nu, frictionAngle=0.0,
+                                density=A.rho, label="grains"))
+    sp = pack.SpherePack()
+    n_made = sp.makeCloud(Vector3(0, 0, 0), Vector3(L0, L0, L0), -1, 0, A.n, True, 0.5,
+                          [D_MIN, D_MAX], [0.0, 1.0], True, A.seed)
+    if n_made != A.n or abs(sp.appliedPsdScaling - 1.0) > 1e-12:
+        raise SystemExit(f"makeCloud made {n_made} spheres, PSD scaling {sp.appliedPsdScaling}")
+    O.bodies.append([utils.sphere(c, r, material="grains") for c, r in sp])
+    O.dt = A.dt_factor * T_R
+    O.engines = [
+        ForceResetter(),
+        InsertionSortCollider([Bo1_Sphere_Aabb()]),
+        InteractionLoop([Ig2_Sphere_Sphere_ScGeom()],
+                        [Ip2_FrictMat_FrictMat_MindlinPhys(en=A.en)],
+                        [Law2_ScGeom_MindlinPhys_Mindlin()]),
+        PeriTriaxController(stressMask=7, goal=Vector3(-A.sigma0, -A.sigma0, -A.sigma0),
+                            maxStrainRate=Vector3(A.cgas, A.cgas, A.cgas),
+                            maxUnbalanced=A.unb, relStressTol=A.stol,
+                            absStressTol=A.stol * A.sigma0, globUpdate=A.glob_update,
+                            dynCell=False, label="triax"),
+        PyRunner(iterPeriod=10, command="gas_cap()", label="gascap"),
+        PyRunner(iterPeriod=A.sample_every, command="sample()", dead=True, label="sampler"),
+        NewtonIntegrator(damping=0.0, gravity=(0, 0, 0)),
+    ]
+    L0_CLOUD = L0
+    ST = {"phase": 1, "steps1": 0, "t1": 0.0, "t2": 0.0, "rows": 0, "processes": 1, "L0": L0}
+else:
+    O.load(A.resume)
+    ST = _saved["state"]
+    ST["processes"] += 1
+    L0_CLOUD = ST["L0"]
+
+ENG = {e.label: e for e in O.engines if e.label}
+triax, GAS, SAMPLER = ENG["triax"], ENG["gascap"], ENG["sampler"]
+IDS = [b.id for b in O.bodies]
+RADII = [b.shape.radius for b in O.bodies]
 N = len(IDS)
 V_SOLID = sum(4.0 / 3.0 * math.pi * r ** 3 for r in RADII)
 D_MEAN = 2.0 * sum(RADII) / N
-
-G = A.young / (2.0 * (1.0 + A.nu))
-T_R = math.pi * 0.5 * A.dmin * math.sqrt(A.rho / G) / (0.1631 * A.nu + 0.8766)
-O.dt = A.dt_factor * T_R
-
 EDOT0 = A.inertia / (D_MEAN * math.sqrt(A.rho / A.sigma0))
 NROWS = max(1, round(A.eps1 / A.rec))
 NREC = max(1, round(A.eps1 / (NROWS * EDOT0 * O.dt)))
 NSTEPS2 = NROWS * NREC
 EDOT = A.eps1 / (NSTEPS2 * O.dt)
-
-triax = PeriTriaxController(stressMask=7, goal=Vector3(-A.sigma0, -A.sigma0, -A.sigma0),
-                            maxStrainRate=Vector3(A.cgas, A.cgas, A.cgas),
-                            maxUnbalanced=A.unb, relStressTol=A.stol,
-                            absStressTol=A.stol * A.sigma0, globUpdate=A.glob_update,
-                            dynCell=False, label="triax")
-GAS = PyRunner(iterPeriod=10, command="gas_cap()", label="gascap")
-SAMPLER = PyRunner(iterPeriod=A.sample_every, command="sample()", dead=True, label="sampler")
-O.engines = [
-    ForceResetter(),
-    InsertionSortCollider([Bo1_Sphere_Aabb()]),
-    InteractionLoop([Ig2_Sphere_Sphere_ScGeom()],
-                    [Ip2_FrictMat_FrictMat_MindlinPhys(en=A.en)],
-                    [Law2_ScGeom_MindlinPhys_Mindlin()]),
-    triax,
-    GAS,
-    SAMPLER,
-    NewtonIntegrator(damping=0.0, gravity=(0, 0, 0)),
-]
+T_PROCESS = 0.0          # time stepping done by this process
 
 import yade.config  # noqa: E402
 
-say(f"SETUP yade version={yade.config.version} threads={O.numThreads} N={N} "
-    f"d=[{2 * min(RADII):.6g}, {2 * max(RADII):.6g}] m d_mean(number)={D_MEAN:.6g} m "
-    f"solid_volume={V_SOLID:.6g} m3 L0={L0:.6g} m phi_cloud={V_SOLID / O.cell.volume:.4f}")
-say(f"SETUP rho={A.rho} kg/m3 E={A.young} Pa nu={A.nu} G={G} Pa en={A.en} "
-    f"mu_phase2={A.mu} sigma0={A.sigma0} Pa")
-say(f"SETUP T_Rayleigh(dmin)={T_R:.6g} s dt={O.dt:.6g} s ({A.dt_factor} T_R)")
-say(f"SETUP phase2 edot={EDOT:.6g} 1/s I={EDOT * D_MEAN * math.sqrt(A.rho / A.sigma0):.6g} "
-    f"eps1={A.eps1} rows={NROWS} steps_per_row={NREC} steps={NSTEPS2}")
+if _saved is None:
+    say(f"SETUP yade version={yade.config.version} threads={O.numThreads} N={N} "
+        f"d=[{2 * min(RADII):.6g}, {2 * max(RADII):.6g}] m d_mean(number)={D_MEAN:.6g} m "
+        f"solid_volume={V_SOLID:.6g} m3 L0={L0_CLOUD:.6g} m "
+        f"phi_cloud={V_SOLID / O.cell.volume:.4f}")
+    say(f"SETUP rho={A.rho} kg/m3 E={A.young} Pa nu={A.nu} G={G} Pa en={A.en} "
+        f"mu_phase2={A.mu} sigma0={A.sigma0} Pa")
+    say(f"SETUP T_Rayleigh(dmin)={T_R:.6g} s dt={O.dt:.6g} s ({A.dt_factor} T_R)")
+    say(f"SETUP phase2 edot={EDOT:.6g} 1/s "
+        f"I={EDOT * D_MEAN * math.sqrt(A.rho / A.sigma0):.6g} eps1={A.eps1} rows={NROWS} "
+        f"steps_per_row={NREC} steps={NSTEPS2}")
+else:
+    say(f"RESUME from {A.resume}: phase {ST['phase']}, iteration {O.iter}, process "
+        f"{ST['processes']}, threads={O.numThreads}")
 
 
 # ---------------------------------------------------------------- measures
@@ -205,38 +236,6 @@ def gas_cap():
     triax.maxStrainRate = Vector3(cap, cap, cap)
 
 
-builtins.gas_cap = gas_cap
-
-# ---------------------------------------------------------------- phase 1
-t_acc, steps1 = 0.0, 0
-while True:
-    t0 = time.perf_counter()
-    O.run(A.check_every, True)
-    t_acc += time.perf_counter() - t0
-    steps1 += A.check_every
-    s = stresses()
-    unb = utils.unbalancedForce()
-    say(f"COMPACT steps={steps1} wall_s={t_acc:.6g} phi={phi():.6f} z={z_all():.4f} "
-        f"s=({s[0]:.6g}, {s[1]:.6g}, {s[2]:.6g}) Pa unbalanced={unb:.4g}")
-    if max(abs(si / A.sigma0 - 1.0) for si in s) < A.stol and unb < A.unb:
-        break
-    if steps1 >= A.max_steps1 or t_acc > A.max_wall:
-        raise SystemExit("phase 1 did not converge")
-T1, PHI1, Z1, ZNR1 = t_acc, phi(), z_all(), z_nr()
-say(f"PHASE1 steps={steps1} wall_s={T1:.6g} particle_steps_per_s={N * steps1 / T1:.6g} "
-    f"phi={PHI1:.6f} z={Z1:.4f} z_nr={ZNR1:.4f} s=({s[0]:.6g}, {s[1]:.6g}, {s[2]:.6g}) Pa "
-    f"unbalanced={unb:.4g}")
-
-# ---------------------------------------------------------------- phase 2
-GAS.dead = True
-utils.setContactFriction(math.atan(A.mu))
-H0 = Vector3(O.cell.size)
-V0 = O.cell.volume
-triax.stressMask = 3
-# z: strain-controlled, goal beyond the target so that the rate stays at the cap (edot);
-# the run is stopped after NSTEPS2 steps
-triax.goal = Vector3(-A.sigma0, -A.sigma0, triax.strain[2] - A.eps1 - 0.1)
-triax.maxStrainRate = Vector3(A.lateral_cap, A.lateral_cap, EDOT)
 ACC = {"sum": [0.0, 0.0, 0.0], "n": 0}
 
 
@@ -248,45 +247,102 @@ def sample():
     ACC["n"] += 1
 
 
+builtins.gas_cap = gas_cap
 builtins.sample = sample
 
 
+def timed_run(steps):
+    global T_PROCESS
+    t0 = time.perf_counter()
+    O.run(steps, True)
+    dt = time.perf_counter() - t0
+    T_PROCESS += dt
+    return dt
+
+
+def checkpoint_if_due():
+    """Save and stop when this process has stepped for --max-process-wall seconds."""
+    if not (A.checkpoint and A.max_process_wall > 0 and T_PROCESS >= A.max_process_wall):
+        return
+    t0 = time.perf_counter()
+    O.save(A.checkpoint)
+    with open(A.checkpoint + ".json", "w") as f:
+        json.dump({"args": vars(A), "state": ST}, f)
+    say(f"CHECKPOINT path={A.checkpoint} phase={ST['phase']} iteration={O.iter} "
+        f"save_s={time.perf_counter() - t0:.3g}")
+    sys.exit(0)
+
+
+# ---------------------------------------------------------------- phase 1
+if ST["phase"] == 1:
+    while True:
+        ST["t1"] += timed_run(A.check_every)
+        ST["steps1"] += A.check_every
+        s = stresses()
+        unb = utils.unbalancedForce()
+        say(f"COMPACT steps={ST['steps1']} wall_s={ST['t1']:.6g} phi={phi():.6f} "
+            f"z={z_all():.4f} s=({s[0]:.6g}, {s[1]:.6g}, {s[2]:.6g}) Pa unbalanced={unb:.4g}")
+        if max(abs(si / A.sigma0 - 1.0) for si in s) < A.stol and unb < A.unb:
+            break
+        if ST["steps1"] >= A.max_steps1 or ST["t1"] > A.max_wall:
+            raise SystemExit("phase 1 did not converge")
+        checkpoint_if_due()
+    ST.update({"phi1": phi(), "z1": z_all(), "z_nr1": z_nr()})
+    say(f"PHASE1 steps={ST['steps1']} wall_s={ST['t1']:.6g} "
+        f"particle_steps_per_s={N * ST['steps1'] / ST['t1']:.6g} phi={ST['phi1']:.6f} "
+        f"z={ST['z1']:.4f} z_nr={ST['z_nr1']:.4f} s=({s[0]:.6g}, {s[1]:.6g}, {s[2]:.6g}) Pa "
+        f"unbalanced={unb:.4g}")
+
+    # -------------------------------------------------------- start of phase 2
+    GAS.dead = True
+    utils.setContactFriction(math.atan(A.mu))
+    ST["H0"] = list(O.cell.size)
+    ST["V0"] = O.cell.volume
+    triax.stressMask = 3
+    # z: strain-controlled, goal beyond the target so that the rate stays at its cap (edot);
+    # the run stops after NSTEPS2 steps
+    triax.goal = Vector3(-A.sigma0, -A.sigma0, triax.strain[2] - A.eps1 - 0.1)
+    triax.maxStrainRate = Vector3(A.lateral_cap, A.lateral_cap, EDOT)
+    ST["phase"] = 2
+    say("ROWHEAD step eps_1 eps_v sigma_1 sigma_3 p q_over_trace eta q_over_trace_inst phi z "
+        "sx_over_s0 sy_over_s0 inertia_number")
+    ST["row0"] = stresses()
+    SAMPLER.dead = False
+
+
+# ---------------------------------------------------------------- phase 2
 def row(step, s_avg):
-    sz_, sx_, sy_ = s_avg[2], s_avg[0], s_avg[1]
+    sx_, sy_, sz_ = s_avg
     s1, s3 = sz_, 0.5 * (sx_ + sy_)
     p = (s1 + 2 * s3) / 3.0
     si = stresses()
     qpi = (si[2] - 0.5 * (si[0] + si[1])) / (si[0] + si[1] + si[2])
-    size = O.cell.size
-    e1 = math.log(H0[2] / size[2])
-    ev = math.log(V0 / O.cell.volume)
+    e1 = math.log(ST["H0"][2] / O.cell.size[2])
+    ev = math.log(ST["V0"] / O.cell.volume)
     inertia = EDOT * D_MEAN * math.sqrt(A.rho / p) if p > 0 else 0.0
     say(f"ROW {step} {e1:.10g} {ev:.10g} {s1:.10g} {s3:.10g} {p:.10g} "
         f"{(s1 - s3) / (3 * p):.10g} {(s1 - s3) / p:.10g} {qpi:.10g} {phi():.10g} "
         f"{z_all():.6g} {sx_ / A.sigma0:.10g} {sy_ / A.sigma0:.10g} {inertia:.6g}")
 
 
-say("ROWHEAD step eps_1 eps_v sigma_1 sigma_3 p q_over_trace eta q_over_trace_inst phi z "
-    "sx_over_s0 sy_over_s0 inertia_number")
-s = stresses()
-row(0, s)
-SAMPLER.dead = False
-t_acc = 0.0
-for k in range(NROWS):
+if ST["rows"] == 0:
+    row(0, ST["row0"])
+while ST["rows"] < NROWS:
     ACC["sum"], ACC["n"] = [0.0, 0.0, 0.0], 0
-    t0 = time.perf_counter()
-    O.run(NREC, True)
-    t_acc += time.perf_counter() - t0
+    ST["t2"] += timed_run(NREC)
+    ST["rows"] += 1
     n = max(ACC["n"], 1)
-    row((k + 1) * NREC, [v / n for v in ACC["sum"]])
-    if t_acc > A.max_wall:
+    row(ST["rows"] * NREC, [v / n for v in ACC["sum"]])
+    if ST["t2"] > A.max_wall:
         raise SystemExit("phase 2 exceeded --max-wall")
-T2 = t_acc
-e1 = math.log(H0[2] / O.cell.size[2])
-ev = math.log(V0 / O.cell.volume)
+    if ST["rows"] < NROWS:
+        checkpoint_if_due()
+T1, T2, steps1 = ST["t1"], ST["t2"], ST["steps1"]
+e1 = math.log(ST["H0"][2] / O.cell.size[2])
+ev = math.log(ST["V0"] / O.cell.volume)
 say(f"PHASE2 steps={NSTEPS2} wall_s={T2:.6g} particle_steps_per_s={N * NSTEPS2 / T2:.6g} "
     f"eps_1={e1:.6g} eps_v={ev:.6g} phi={phi():.6f} z={z_all():.4f} z_nr={z_nr():.4f}")
 say(f"RESULT peer=yade N={N} steps1={steps1} wall1_s={T1:.6g} steps2={NSTEPS2} "
     f"wall2_s={T2:.6g} steps={steps1 + NSTEPS2} wall_s={T1 + T2:.6g} "
-    f"particle_steps_per_s={N * (steps1 + NSTEPS2) / (T1 + T2):.6g} phi1={PHI1:.6f} "
-    f"z1={Z1:.4f}")
+    f"particle_steps_per_s={N * (steps1 + NSTEPS2) / (T1 + T2):.6g} phi1={ST['phi1']:.6f} "
+    f"z1={ST['z1']:.4f} processes={ST['processes']}")
