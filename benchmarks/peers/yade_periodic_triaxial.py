@@ -230,8 +230,10 @@ def z_nr():
 
 
 def gas_cap():
-    """Phase 1: strain-rate cap cgas while p < pgas sigma0, crate afterwards."""
-    p = -sum(triax.stress[i] for i in range(3)) / 3.0
+    """Phase 1: strain-rate cap cgas while p < pgas sigma0, crate afterwards. p from the
+    controller's last stress reading (``stressTensor``; its ``stress`` also holds the
+    prediction it adds after each step, which alone exceeded pgas sigma0 in the gas)."""
+    p = -triax.stressTensor.trace() / 3.0
     cap = A.cgas if p < A.pgas * A.sigma0 else A.crate
     triax.maxStrainRate = Vector3(cap, cap, cap)
 
