@@ -89,11 +89,11 @@ from yade.wrapper import (
     Bo1_Sphere_Aabb,
     ForceResetter,
     FrictMat,
+    GlobalStiffnessTimeStepper,
     Ig2_Box_Sphere_ScGeom,
     Ig2_Sphere_Sphere_ScGeom,
     InsertionSortCollider,
     InteractionLoop,
-    GlobalStiffnessTimeStepper,
     Ip2_FrictMat_FrictMat_FrictPhys,
     Law2_ScGeom_FrictPhys_CundallStrack,
     NewtonIntegrator,
@@ -212,9 +212,10 @@ O.engines = [
 ]
 O.dt = A.dt_safety * utils.PWaveTimeStep()
 if A.timestepper == "gsts":
-    O.engines = O.engines[:3] + [GlobalStiffnessTimeStepper(
-        active=True, timeStepUpdateInterval=A.gsts_interval,
-        timestepSafetyCoefficient=A.gsts_safety, defaultDt=O.dt, label="gsts")] + O.engines[3:]
+    GSTS = GlobalStiffnessTimeStepper(active=True, timeStepUpdateInterval=A.gsts_interval,
+                                      timestepSafetyCoefficient=A.gsts_safety, defaultDt=O.dt,
+                                      label="gsts")
+    O.engines = [*O.engines[:3], GSTS, *O.engines[3:]]
 
 if A.strain_rate is not None:
     EPS_DOT = A.strain_rate
