@@ -37,7 +37,11 @@ contacts (FrictMat / ``Ip2_FrictMat_FrictMat_FrictPhys`` /
 (d_h: harmonic mean diameter of the pair), so the stiffness number
 kappa = k_n / (sigma0 d) = E / (2 sigma0) for every pair: E = 2 kappa sigma0 with
 ``--kappa`` [1e4]; k_t = ``--kt-kn`` [0.5] * k_n. Global (Cundall) damping 0.2 in
-``NewtonIntegrator``; dt = ``--dt-safety`` [0.5] * ``PWaveTimeStep()``.
+``NewtonIntegrator``; dt = ``--dt-safety`` [0.5] * ``PWaveTimeStep()``, or with
+``--timestepper gsts`` YADE's ``GlobalStiffnessTimeStepper`` (safety ``--gsts-safety``
+[0.8], every ``--gsts-interval`` [100] steps, starting from that dt). Linear springs at
+another stiffness number: ``--kappa 1e3`` (E = 2 kappa sigma0; k_n/(sigma0 d) = kappa for a
+pair of diameter d, hence for a pair of the mean diameter).
 Axial strain rate: eps_dot = I / (d_mean sqrt(rho / sigma0)) with the inertia number I =
 ``--inertia`` [1e-3] and d_mean the number-mean diameter (or ``--strain-rate`` directly).
 
@@ -85,6 +89,7 @@ from yade.wrapper import (
     Bo1_Sphere_Aabb,
     ForceResetter,
     FrictMat,
+    GlobalStiffnessTimeStepper,
     Ig2_Box_Sphere_ScGeom,
     Ig2_Sphere_Sphere_ScGeom,
     InsertionSortCollider,
@@ -110,6 +115,14 @@ def parse_args(argv):
     ap.add_argument("--mu", type=float, default=0.4, help="interparticle friction (triaxial)")
     ap.add_argument("--damping", type=float, default=0.2, help="NewtonIntegrator damping")
     ap.add_argument("--dt-safety", type=float, default=0.5, help="dt = this * PWaveTimeStep()")
+    ap.add_argument("--timestepper", choices=["pwave", "gsts"], default="pwave",
+                    help="pwave: fixed dt = --dt-safety * PWaveTimeStep(); gsts: "
+                         "GlobalStiffnessTimeStepper (dt from the contact stiffnesses, "
+                         "starting from the pwave value)")
+    ap.add_argument("--gsts-safety", type=float, default=0.8,
+                    help="GlobalStiffnessTimeStepper.timestepSafetyCoefficient")
+    ap.add_argument("--gsts-interval", type=int, default=100,
+                    help="GlobalStiffnessTimeStepper.timeStepUpdateInterval [steps]")
     ap.add_argument("--inertia", type=float, default=1e-3,
                     help="target inertia number at p = sigma0 (sets the axial strain rate)")
     ap.add_argument("--strain-rate", type=float, default=None,
@@ -198,6 +211,11 @@ O.engines = [
     newton,
 ]
 O.dt = A.dt_safety * utils.PWaveTimeStep()
+if A.timestepper == "gsts":
+    GSTS = GlobalStiffnessTimeStepper(active=True, timeStepUpdateInterval=A.gsts_interval,
+                                      timestepSafetyCoefficient=A.gsts_safety, defaultDt=O.dt,
+                                      label="gsts")
+    O.engines = [*O.engines[:3], GSTS, *O.engines[3:]]
 
 if A.strain_rate is not None:
     EPS_DOT = A.strain_rate
@@ -217,7 +235,9 @@ say(f"SETUP solid volume={V_SOLID:.6g} m3  cloud cube L0={L0:.5g} m "
 say(f"SETUP E={E:.4g} Pa  kappa=k_n/(sigma0 d)={A.kappa:.4g}  k_n={KN_MIN:.4g} N/m (d_min pair)"
     f" .. {KN_MAX:.4g} N/m (d_max pair)  k_t/k_n={A.kt_kn:.3g}")
 say(f"SETUP dt={O.dt:.4g} s ({A.dt_safety:.2f} x PWaveTimeStep; "
-    f"sqrt(m_min/kn_min)={math.sqrt(M_MIN / KN_MIN):.4g} s)  damping={A.damping:.2f}")
+    f"sqrt(m_min/kn_min)={math.sqrt(M_MIN / KN_MIN):.4g} s)  damping={A.damping:.2f}"
+    + (f"; then GlobalStiffnessTimeStepper (safety {A.gsts_safety:g}, every "
+       f"{A.gsts_interval} steps)" if A.timestepper == "gsts" else ""))
 say(f"SETUP triaxial: axial strain rate={EPS_DOT:.5g} /s  inertia number at sigma0: I={I0:.4g}"
     f"  mu={A.mu:.3g}  target eps_q={A.eps_q_target:.3g}")
 
@@ -308,8 +328,9 @@ STEPS_COMP = O.iter - it0
 PHI_COMP = packing_fraction()
 Z_COMP = contact_stats(A.min_contacts)
 Z_COMP_ISO = contact_stats(4)
+SIMT_COMP = O.time
 say(f"COMPACTION done: wall time {T_COMP:.2f} s, {STEPS_COMP} steps "
-    f"({STEPS_COMP / T_COMP:.1f} steps/s), simulated time {STEPS_COMP * O.dt:.4g} s")
+    f"({STEPS_COMP / T_COMP:.1f} steps/s), simulated time {SIMT_COMP:.4g} s, dt now {O.dt:.4g} s")
 say(f"COMPACTION state: phi={PHI_COMP:.4f}  unb={unb:.3g}  "
     f"s=({s[0]:.5g}, {s[1]:.5g}, {s[2]:.5g}) Pa  z={Z_COMP[0]:.3f}  "
     f"z_nr(min {A.min_contacts})={Z_COMP[1]:.3f} rattlers={Z_COMP[2]:.3f} "
@@ -424,14 +445,15 @@ resid = sum(r["qp_avg"] * r["n_samples"] for r in win) / sum(r["n_samples"] for 
 z_end = contact_stats(A.min_contacts)
 
 say(f"TRIAXIAL done: wall time {T_TRIAX:.2f} s, {STEPS_TRIAX} steps "
-    f"({STEPS_TRIAX / T_TRIAX:.1f} steps/s), simulated time {STEPS_TRIAX * O.dt:.4g} s, "
-    f"eps_q={eq_final:.4f}")
+    f"({STEPS_TRIAX / T_TRIAX:.1f} steps/s), simulated time {O.time - SIMT_COMP:.4g} s "
+    f"(mean dt {(O.time - SIMT_COMP) / max(STEPS_TRIAX, 1):.4g} s), eps_q={eq_final:.4f}")
 for m in MARKS:
     if m in ST["marks"]:
         tw, ns = ST["marks"][m]
         say(f"  to eps_q={m:.1f}: {tw:.1f} s wall, {ns} steps, {tw / m:.1f} s per unit eps_q")
 say(f"RESULT threads={O.numThreads} N={N} seed={A.seed} kappa={A.kappa:g} E={E:.4g} "
-    f"k_n(d_min)={KN_MIN:.4g} dt={O.dt:.4g} strain_rate={EPS_DOT:.5g} I0={I0:.4g}")
+    f"k_n(d_min)={KN_MIN:.4g} dt={O.dt:.4g} timestepper={A.timestepper} "
+    f"strain_rate={EPS_DOT:.5g} I0={I0:.4g}")
 say(f"RESULT compaction: wall {T_COMP:.2f} s, steps {STEPS_COMP}, phi={PHI_COMP:.4f}, "
     f"z={Z_COMP[0]:.3f}, z_nr={Z_COMP[1]:.3f} (rattlers {Z_COMP[2]:.3f}), "
     f"z_walls_nr={Z_COMP[3]:.3f}; rattler threshold 4: z_nr={Z_COMP_ISO[1]:.3f} "
