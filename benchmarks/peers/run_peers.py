@@ -177,9 +177,13 @@ def _finish(run: tuple, peer: str, threads: int, cmd: list[str], seconds: float)
 
 def run_liggghts(n: int = 4000, threads: int = 1, eps1: float = 0.3,
                  variables: dict[str, Any] | None = None, binary: str = "liggghts",
-                 timeout: float | None = None, log: str | Path | None = None) -> dict | None:
+                 timeout: float | None = None, log: str | Path | None = None,
+                 mpi_yield: bool = True) -> dict | None:
     """Run the LIGGGHTS deck with ``threads`` MPI ranks (1: no mpirun); ``variables``: more
-    ``-var NAME VALUE`` pairs. Returns the figures (:func:`parse_output`), or None with a
+    ``-var NAME VALUE`` pairs. ``mpi_yield``: Open MPI's ``--mca mpi_yield_when_idle 1``
+    (a rank waiting for a message yields its core instead of spinning: on a machine whose
+    cores are shared with other processes the spinning rank otherwise steals the time of
+    the rank it waits for). Returns the figures (:func:`parse_output`), or None with a
     printed reason (binary or mpirun missing, failure, timeout)."""
     exe = shutil.which(binary)
     if exe is None:
@@ -195,7 +199,8 @@ def run_liggghts(n: int = 4000, threads: int = 1, eps1: float = 0.3,
             print("LIGGGHTS not run with several ranks: no 'mpirun' on PATH")
             return None
         root = ["--allow-run-as-root"] if hasattr(os, "geteuid") and os.geteuid() == 0 else []
-        cmd = [mpirun, "-np", str(threads), *root, *cmd]
+        yield_ = ["--mca", "mpi_yield_when_idle", "1"] if mpi_yield else []
+        cmd = [mpirun, "-np", str(threads), *root, *yield_, *cmd]
     started = time.perf_counter()
     run = _run(cmd, None, timeout, log)
     return _finish(run, "liggghts", threads, cmd, time.perf_counter() - started)
@@ -273,6 +278,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--log", default=None, help="save the peer's screen output here")
     ap.add_argument("--json", default=None, help="write the result here")
     ap.add_argument("--rows", action="store_true", help="keep the rows in the printed JSON")
+    ap.add_argument("--no-yield", action="store_true",
+                    help="liggghts: no --mca mpi_yield_when_idle 1 (ranks spin while waiting)")
     ap.add_argument("--process-s", type=float, default=None,
                     help="yade: checkpoint and restart every that many seconds of stepping")
     a, extra = ap.parse_known_args(argv)
@@ -282,7 +289,7 @@ def main(argv: list[str] | None = None) -> int:
         res = parse_output(Path(a.parse).read_text(), a.peer)
     elif a.peer == "liggghts":
         res = run_liggghts(a.n, a.threads, a.eps1, dict(x.split("=", 1) for x in extra),
-                           timeout=a.timeout, log=a.log)
+                           timeout=a.timeout, log=a.log, mpi_yield=not a.no_yield)
     else:
         res = run_yade(a.n, a.threads, a.eps1, extra, timeout=a.timeout, log=a.log,
                        process_s=a.process_s)

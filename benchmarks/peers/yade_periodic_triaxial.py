@@ -58,10 +58,10 @@ import sys
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(sys.argv[0])), "..", "yade"))
-import contact_counts  # noqa: E402
-from yade import O, pack, utils  # noqa: E402
-from yade.minieigenHP import Matrix3, Vector3  # noqa: E402
-from yade.wrapper import (  # noqa: E402
+import contact_counts
+from yade import O, pack, utils
+from yade.minieigenHP import Matrix3, Vector3
+from yade.wrapper import (
     Bo1_Sphere_Aabb,
     ForceResetter,
     FrictMat,
