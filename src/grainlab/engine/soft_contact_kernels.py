@@ -29,6 +29,7 @@ import numpy as np
 from numba import njit
 
 from grainlab.contact.soft_contact_law import contact_law
+from grainlab.engine.narrow_phase import sphere_sphere
 from grainlab.engine.quaternion import rotate
 
 OUTWARD_FACTOR = 4.0
@@ -110,15 +111,7 @@ def contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, of
                 px_, py_, pz_ = rotate(qi[0], qi[1], qi[2], qi[3], px_, py_, pz_)
             ax, ay, az = positions[i, 0] + px_, positions[i, 1] + py_, positions[i, 2] + pz_
             ra = rad_i[k]
-            dx, dy, dz = bx - ax, by - ay, bz - az
-            dist = math.sqrt(dx * dx + dy * dy + dz * dz)
-            if dist > 0.0:
-                nx, ny, nz = dx / dist, dy / dist, dz / dist
-            else:
-                nx, ny, nz = 0.0, 0.0, 1.0
-            g = dist - ra - rb
-            s = ra + 0.5 * g
-            cx, cy, cz = ax + s * nx, ay + s * ny, az + s * nz
+            g, nx, ny, nz, cx, cy, cz = sphere_sphere(ax, ay, az, ra, bx, by, bz, rb)
             r_eff = ra * rb / (ra + rb)
             m_eff = 1.0 / (inv_mass[i] + inv_mass[j])
         else:
