@@ -22,7 +22,10 @@ oscillation period sqrt(m/k) 2 pi for springs; ``substep`` reports it). The sub-
 compiled code (:mod:`grainlab.engine.soft_contact_kernels`) on a neighbour list: the member
 pairs within a ``skin`` [m] (default 0.1 x the smallest member diameter) found by the
 boundary's own detection (every shape kind's broad and narrow phase, walls, the periodic
-cell's images), rebuilt when two points may have closed the skin.
+cell's images), rebuilt when two points may have closed the skin. The list lives from step to
+step (the bodies' travel, the walls' and the cell's motion since it was built carried along),
+and is rebuilt at once when the bodies, the walls or the cell were moved between two steps
+by anything else than the solver (a re-mapped cell, a restored state).
 
 The boundary (:mod:`grainlab.engine.boundary`) is asked for its constraints once per step, as
 by contact dynamics, and moves at constant speed through the step: a driven wall at its speed,
@@ -67,10 +70,15 @@ import numpy as np
 from grainlab._validate import at_least
 from grainlab.contact.soft_contact_law import SoftContactLaw
 from grainlab.engine.boundary import BoundaryMotion, DetectionPhases, as_boundary
-from grainlab.engine.contact_dynamics import StepReport, contact_frames, contact_keys
+from grainlab.engine.contact_dynamics import StepReport, contact_keys
 from grainlab.engine.narrow_phase import Contacts
 from grainlab.engine.simulation import SimulationBlowUp
-from grainlab.engine.soft_contact_kernels import SERVO_INTEGRAL, servo_kernel, substeps_kernel
+from grainlab.engine.soft_contact_kernels import (
+    SERVO_INTEGRAL,
+    closed_rows_kernel,
+    servo_kernel,
+    substeps_kernel,
+)
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 
@@ -142,6 +150,10 @@ class SoftContactStep:
         self._carried = np.zeros((3, 3))
         """The velocity gradient L [1/s] the particles' velocities carry (periodic cell)."""
         self._phases: DetectionPhases | None = None
+        self._rows: _Rows | None = None
+        """The neighbour list, kept from step to step while it is valid."""
+        self._end = (np.zeros((0, 3)), np.zeros((0, 4)))
+        """The bodies' positions and orientations at the end of the last step."""
 
     # -- Solver protocol ------------------------------------------------------------------------
     @property
@@ -164,11 +176,17 @@ class SoftContactStep:
         """Nothing to restore."""
 
     def warm_start_arrays(self) -> dict[str, np.ndarray]:
-        """The contacts' springs (keys, tangential displacement [m], rolling moment [N m])
-        and the boundary's loads of the last step (the servos' input)."""
-        return {"keys": self._history_keys.copy(), "history": self._history.copy(),
-                "wall_load": self._wall_load.copy(), "cell_load": self._cell_load.copy(),
-                "driven": np.array(int(self._driven)), "carried": self._carried.copy()}
+        """The contacts' springs (keys, tangential force [N], rolling moment [N m]), the
+        boundary's loads of the last step (the servos' input) and the neighbour list (so that
+        a resumed run goes on with the same list, bit for bit)."""
+        arrays = {"keys": self._history_keys.copy(), "history": self._history.copy(),
+                  "wall_load": self._wall_load.copy(), "cell_load": self._cell_load.copy(),
+                  "driven": np.array(int(self._driven)), "carried": self._carried.copy()}
+        if self._rows is not None:
+            arrays |= {f"list_{k}": v for k, v in self._rows.to_arrays().items()}
+            arrays |= {"end_positions": self._end[0].copy(),
+                       "end_orientations": self._end[1].copy()}
+        return arrays
 
     def restore_warm_start(self, arrays: dict[str, np.ndarray]) -> None:
         """Restore what :meth:`warm_start_arrays` saved."""
@@ -178,6 +196,12 @@ class SoftContactStep:
         self._cell_load = np.asarray(arrays["cell_load"], dtype=np.float64).reshape(-1, 3)
         self._driven = bool(int(arrays["driven"]))
         self._carried = np.asarray(arrays["carried"], dtype=np.float64).reshape(3, 3).copy()
+        self._rows = None
+        if "list_body_i" in arrays:
+            self._rows = _Rows.from_arrays(
+                {k[5:]: v for k, v in arrays.items() if k.startswith("list_")})
+            self._end = (np.asarray(arrays["end_positions"], dtype=np.float64).copy(),
+                         np.asarray(arrays["end_orientations"], dtype=np.float64).copy())
 
     # -- stepping ------------------------------------------------------------------------------
     def stable_substep(self, state: BodyState, library: ShapeLibrary) -> float:
@@ -207,7 +231,9 @@ class SoftContactStep:
         h = macro / n_sub
         n_walls, n_dofs = bounds.n_walls, bounds.cell_inv_mass.shape[0]
         run = _Run(state, library, bounds, n_walls, n_dofs)
-        rows = self._build_list(state, library, boundary, bounds, run)
+        rows = self._kept_list(state, library, bounds, run)
+        if rows is None:
+            rows = self._build_list(state, library, boundary, bounds, run)
         if self._wall_load.shape[0] != n_walls or self._cell_load.shape[0] != n_dofs:
             run.advance(self, rows, 0, h)  # the loads now: the servos' first input
             self._wall_load = np.column_stack([run.wall_force, run.wall_stiffness,
@@ -235,13 +261,13 @@ class SoftContactStep:
                                            memory[0]])
         self._cell_load = np.column_stack([run.cell_impulse / macro, run.cell_stiffness,
                                            memory[1]])
-        report = run.report(self, rows, macro, library)
+        report, forces = run.report(rows, macro)
         boundary.finish_step(BoundaryMotion(
             dt=macro, theta=1.0, wall_speeds=run.wall_speed.copy(),
             wall_reactions=run.wall_impulse / macro, cell_dofs=run.cell_dofs.copy(),
             cell_rate=run.cell_rate.copy(), contacts=report.contacts,
-            images=report.image_vectors, impulses=report.impulses,
-            forces=np.einsum("cji,cj->ci", report.frames, report.impulses) / macro))
+            images=report.image_vectors, impulses=report.impulses, forces=forces))
+        self._end = (state.positions.copy(), state.orientations.copy())
         return report
 
     def _detection(self, library: ShapeLibrary) -> DetectionPhases:
@@ -251,6 +277,27 @@ class SoftContactStep:
             self._phases = DetectionPhases.with_alert(self.skin)
         return self._phases
 
+    def _kept_list(self, state, library, bounds, run) -> _Rows | None:
+        """The list of the last step if it is still valid for this one (the same bodies where
+        that step left them, the same walls, and no two points nearer to closing the skin
+        than :func:`~grainlab.engine.soft_contact_kernels.substeps_kernel` allows); None if
+        it must be rebuilt."""
+        rows = self._rows
+        if (rows is None or rows.travel.shape[0] != state.n_bodies
+                or rows.wall_normals.shape != bounds.wall_normals.shape
+                or not np.array_equal(rows.wall_normals, bounds.wall_normals)
+                or not np.array_equal(self._end[0], state.positions)
+                or not np.array_equal(self._end[1], state.orientations)):
+            return None
+        total = (2.0 * float(np.max(rows.travel, initial=0.0))
+                 + float(np.max(np.abs(rows.built_wall_disp(bounds)), initial=0.0))
+                 + math.sqrt(3.0 * float(np.sum((bounds.cell_matrix - rows.built_cell) ** 2))))
+        if 2.0 * total - float(rows.approach[0]) > float(self.skin):
+            return None
+        rows.set_friction(bounds, self.friction)
+        run.rows = rows
+        return rows
+
     def _build_list(self, state, library, boundary, bounds, run) -> _Rows:
         """The neighbour list at the current configuration, with the springs it carries."""
         phases = self._detection(library)
@@ -259,10 +306,13 @@ class SoftContactStep:
                       cell_matrix=run.cell_h.copy())
         contacts, images = boundary.detect(state, library, phases, now)
         self.n_detections += 1
-        if run.rows is not None:  # keep the springs of the list being replaced
-            self._remember(run.rows, state.n_bodies, library)
+        if self._rows is not None:  # keep the springs of the list being replaced
+            self._remember(self._rows)
         rows = _Rows(contacts, np.ascontiguousarray(images, dtype=np.float64), state, library,
                      bounds, self.friction)
+        rows.built_walls = np.array(now.wall_points, dtype=np.float64)
+        rows.wall_normals = np.array(bounds.wall_normals, dtype=np.float64)
+        rows.built_cell = np.array(now.cell_matrix, dtype=np.float64)
         keys = contact_keys(contacts, state.n_bodies, library)
         rows.keys = keys
         if self._history_keys.size and keys.size:
@@ -272,9 +322,10 @@ class SoftContactStep:
             rows.xi[found] = self._history[where[found], :3]
             rows.roll[found] = self._history[where[found], 3:]
         run.rows = rows
+        self._rows = rows
         return rows
 
-    def _remember(self, rows, n_bodies, library) -> None:
+    def _remember(self, rows) -> None:
         order = np.argsort(rows.keys, kind="stable")
         self._history_keys = rows.keys[order]
         self._history = np.hstack([rows.xi, rows.roll])[order]
@@ -318,12 +369,26 @@ def _refuse_polyhedra(library: ShapeLibrary) -> None:
 
 
 class _Rows:
-    """A neighbour list as the kernels take it (:mod:`grainlab.engine.soft_contact_kernels`)."""
+    """A neighbour list as the kernels take it (:mod:`grainlab.engine.soft_contact_kernels`),
+    with what decides how long it lives: the bodies' ``travel`` (N,) [m] since it was built,
+    the walls (``built_walls`` (W, 3) [m], ``wall_normals``) and the cell matrix
+    ``built_cell`` (3, 3) [m] it was built at, and the kernel's bound ``approach`` (1,) [m]."""
 
-    def __init__(self, contacts: Contacts, images, state, library, bounds, friction):
-        self.contacts = contacts
+    SAVED = ("body_i", "body_j", "member_i", "member_j", "contact_type", "images", "off_i",
+             "off_j", "rad_i", "rad_j", "mu", "wall_rows", "image_rows", "adj_start",
+             "adj_entry", "xi", "roll", "keys", "travel", "approach", "built_walls",
+             "wall_normals", "built_cell")
+    """The arrays that restore a list (checkpoints); the rest is recomputed by the kernels."""
+
+    def __init__(self, contacts: Contacts | None, images=None, state=None, library=None,
+                 bounds=None, friction=0.0):
+        if contacts is None:  # filled by from_arrays
+            return
         self.images = images
         c = contacts.n_contacts
+        self.member_i = np.ascontiguousarray(contacts.member_i, dtype=np.int64)
+        self.member_j = np.ascontiguousarray(contacts.member_j, dtype=np.int64)
+        self.contact_type = np.ascontiguousarray(contacts.contact_type)
         self.body_i = np.ascontiguousarray(contacts.body_i, dtype=np.int64)
         self.body_j = np.ascontiguousarray(contacts.body_j, dtype=np.int64)
         starts = library.sphere_start[state.shape_ids]
@@ -336,9 +401,8 @@ class _Rows:
         row_i = starts[self.body_i[inner]] + contacts.member_i[inner]
         self.off_i[inner] = library.sphere_offsets[row_i]
         self.rad_i[inner] = library.sphere_radii[row_i]
-        self.mu = np.full(c, float(friction))
-        if np.any(~inner):
-            self.mu[~inner] = bounds.wall_friction[-1 - self.body_i[~inner]]
+        self.mu = np.zeros(c)
+        self.set_friction(bounds, friction)
         self.wall_rows = np.flatnonzero(~inner).astype(np.int64)
         self.image_rows = np.flatnonzero(np.any(images != 0.0, axis=1)).astype(np.int64)
         # CSR of the rows of each body: 2 k for its j side, 2 k + 1 for its i side
@@ -353,6 +417,15 @@ class _Rows:
         self.xi = np.zeros((c, 3))
         self.roll = np.zeros((c, 3))
         self.keys = np.zeros(c, dtype=np.int64)
+        self.travel = np.zeros(n)
+        self.approach = np.zeros(1)
+        self.built_walls = np.zeros((0, 3))
+        self.wall_normals = np.zeros((0, 3))
+        self.built_cell = np.zeros((3, 3))
+        self._outputs()
+
+    def _outputs(self) -> None:
+        c = self.body_j.shape[0]
         self.force = np.zeros((c, 3))
         self.torque_i = np.zeros((c, 3))
         self.torque_j = np.zeros((c, 3))
@@ -361,6 +434,43 @@ class _Rows:
         self.point = np.zeros((c, 3))
         self.stiffness = np.zeros(c)
         self.rel_vel = np.zeros((c, 3))
+
+    def set_friction(self, bounds, friction: float) -> None:
+        """The Coulomb coefficients of the rows: ``friction`` between bodies, each wall's
+        own on its rows (they may change from stage to stage)."""
+        inner = self.body_i >= 0
+        self.mu[inner] = float(friction)
+        if not np.all(inner):
+            self.mu[~inner] = bounds.wall_friction[-1 - self.body_i[~inner]]
+
+    def built_wall_disp(self, bounds) -> np.ndarray:
+        """(W,) [m] where the walls were when the list was built, along their normals, from
+        where they are at the start of this step (the kernel's ``wall_disp_built``)."""
+        return np.einsum("wi,wi->w", self.built_walls - bounds.wall_points, self.wall_normals)
+
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """The arrays of :data:`SAVED` (copies)."""
+        return {name: np.array(getattr(self, name)) for name in self.SAVED}
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> _Rows:
+        """The list :meth:`to_arrays` saved."""
+        rows = cls(None)
+        for name in cls.SAVED:
+            value = np.ascontiguousarray(arrays[name])
+            if value.dtype.kind in "iu" and name != "contact_type":
+                value = value.astype(np.int64)
+            elif value.dtype.kind == "f":
+                value = value.astype(np.float64)
+            setattr(rows, name, value)
+        rows.images = rows.images.reshape(-1, 3)
+        for name in ("off_i", "off_j", "xi", "roll"):
+            setattr(rows, name, getattr(rows, name).reshape(-1, 3))
+        rows.built_walls = rows.built_walls.reshape(-1, 3)
+        rows.wall_normals = rows.wall_normals.reshape(-1, 3)
+        rows.approach = rows.approach.reshape(1)
+        rows._outputs()
+        return rows
 
 
 class _Run:
@@ -437,13 +547,13 @@ class _Run:
             np.ascontiguousarray(bounds.wall_points, dtype=f64),
             np.ascontiguousarray(bounds.wall_normals, dtype=f64),
             np.ascontiguousarray(bounds.cell_basis, dtype=f64), self.wall_speed,
-            self.cell_rate, self.wall_disp.copy(), self.cell_h.copy(),
+            self.cell_rate, rows.built_wall_disp(bounds), rows.built_cell,
             state.positions, state.orientations, state.velocities, state.angular_velocities,
-            rows.xi, rows.roll, self.wall_disp, self.cell_h, np.zeros(state.n_bodies),
+            rows.xi, rows.roll, self.wall_disp, self.cell_h, rows.travel,
             rows.force, rows.torque_i, rows.torque_j, rows.gap, rows.normal, rows.point,
             rows.stiffness, rows.rel_vel, self.body_force, self.body_torque, self.wall_force,
             self.wall_stiffness, self.cell_force, self.cell_stiffness, self.wall_impulse,
-            self.cell_impulse, self.stats)
+            self.cell_impulse, self.stats, rows.approach)
         smallest = float(np.min(rows.rad_j)) if rows.rad_j.size else math.inf
         if self.stats[0] > OVERLAP_LIMIT * smallest:
             raise SimulationBlowUp(
@@ -453,20 +563,21 @@ class _Run:
                 f"{h:.3g} s too long for their stiffness.")
         return int(done)
 
-    def report(self, solver: SoftContactStep, rows: _Rows, macro: float,
-               library: ShapeLibrary) -> StepReport:
-        """The contacts closed at the end of the step, as a step report."""
-        solver._remember(rows, self.state.n_bodies, library)
-        closed = rows.gap < 0.0
-        c = rows.contacts
+    def report(self, rows: _Rows, macro: float) -> tuple[StepReport, np.ndarray]:
+        """The contacts closed at the end of the step, as a step report, and their forces
+        (C, 3) [N] in the world frame."""
+        closed = np.flatnonzero(rows.gap < 0.0)
         contacts = Contacts(
-            body_i=c.body_i[closed], body_j=c.body_j[closed], member_i=c.member_i[closed],
-            member_j=c.member_j[closed], point=rows.point[closed], normal=rows.normal[closed],
-            gap=rows.gap[closed], contact_type=c.contact_type[closed])
-        frames = contact_frames(contacts.normal)
-        impulses = np.einsum("cij,cj->ci", frames, rows.force[closed]) * macro
-        relative = np.einsum("cij,cj->ci", frames, rows.rel_vel[closed])
-        return StepReport(
-            n_contacts=contacts.n_contacts, iterations=1, converged=True, change=0.0,
-            residual=0.0, max_overlap=float(self.stats[0]), contacts=contacts, frames=frames,
+            body_i=rows.body_i[closed], body_j=rows.body_j[closed],
+            member_i=rows.member_i[closed], member_j=rows.member_j[closed],
+            point=rows.point[closed], normal=rows.normal[closed], gap=rows.gap[closed],
+            contact_type=rows.contact_type[closed])
+        c = closed.shape[0]
+        frames, impulses, relative = np.empty((c, 3, 3)), np.empty((c, 3)), np.empty((c, 3))
+        closed_rows_kernel(closed, rows.normal, rows.force, rows.rel_vel, macro, frames,
+                           impulses, relative)
+        report = StepReport(
+            n_contacts=c, iterations=1, converged=True, change=0.0, residual=0.0,
+            max_overlap=float(self.stats[0]), contacts=contacts, frames=frames,
             impulses=impulses, relative_velocity=relative, images=rows.images[closed])
+        return report, rows.force[closed]

@@ -417,15 +417,17 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
                     xi, roll, wall_disp, cell_h, travel, force, torque_i, torque_j, gap, normal,
                     point, stiffness, rel_vel, body_force, body_torque, wall_force,
                     wall_stiffness, cell_force, cell_stiffness, wall_impulse, cell_impulse,
-                    stats):
+                    stats, approach):
     """Up to ``n_steps`` velocity-Verlet sub-steps of ``dt`` [s] on the current list: half
     kick, drift (walls at their speeds ``wall_speed`` (W,) [m/s], the cell at its rate
     ``cell_rate`` (3, 3) [m/s]), forces, half kick; the boundary's loads are summed over
     time into ``wall_impulse`` (W,) [N s] and ``cell_impulse`` (D,) [N m s]. Stops early,
     after a complete sub-step, when two points may have approached by more than ``skin`` [m]
     since the list was built (2 max travel + the walls' and the cell's own motion, with the
-    next sub-step's increment taken as the last one's), so that no contact is missed.
-    Returns the sub-steps done; ``stats[0]`` becomes the largest overlap [m] met."""
+    next sub-step's increment taken as the last one's), so that no contact is missed;
+    ``travel`` (N,) [m] and ``approach`` (1,) [m] (that bound after the last sub-step) carry
+    over from call to call while the list lives. Returns the sub-steps done; ``stats[0]``
+    becomes the largest overlap [m] met."""
     half = 0.5 * dt
     _loads(0.0, code, params, rolling, gravity, body_i, body_j, off_i, off_j, rad_i, rad_j,
            images, mu, adj_start, adj_entry, wall_rows, image_rows, inv_mass, masses, wall_p0,
@@ -434,7 +436,7 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
            point, stiffness, rel_vel, body_force, body_torque, wall_force, wall_stiffness,
            cell_force, cell_stiffness)
     done = 0
-    previous = 0.0
+    previous = approach[0]
     for _ in range(n_steps):
         kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
                     body_force, body_torque, velocities, spins)
@@ -473,7 +475,47 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
             for b in range(3):
                 shift += (cell_h[a, b] - cell_h_built[a, b]) ** 2
         total = reach + moved + math.sqrt(3.0 * shift)
+        approach[0] = total
         if 2.0 * total - previous > skin:  # the next sub-step might go past the skin
             break
         previous = total
     return done
+
+
+@njit(inline="always")
+def _frame(nx, ny, nz):
+    """The local frame (n, t, s) of a contact normal, as :func:`~grainlab.engine.
+    contact_dynamics.contact_frames` builds it: t = n x e normalised (e the axis least
+    aligned with n, the first of equals), s = n x t."""
+    ax, ay, az = abs(nx), abs(ny), abs(nz)
+    if ax <= ay and ax <= az:
+        tx, ty, tz = 0.0, nz, -ny
+    elif ay <= az:
+        tx, ty, tz = -nz, 0.0, nx
+    else:
+        tx, ty, tz = ny, -nx, 0.0
+    norm = math.sqrt(tx * tx + ty * ty + tz * tz)
+    tx, ty, tz = tx / norm, ty / norm, tz / norm
+    return tx, ty, tz, ny * tz - nz * ty, nz * tx - nx * tz, nx * ty - ny * tx
+
+
+@njit(cache=True)
+def closed_rows_kernel(rows, normal, force, rel_vel, dt, frames, impulses, relative):
+    """For the rows ``rows`` of the list (the closed contacts): their local frames (C, 3, 3)
+    (rows n, t, s), the impulses force x ``dt`` [N s] and relative velocities [m/s] in those
+    frames (the step report of :mod:`grainlab.engine.soft_contact`)."""
+    for c in range(rows.shape[0]):
+        k = rows[c]
+        nx, ny, nz = normal[k, 0], normal[k, 1], normal[k, 2]
+        tx, ty, tz, sx, sy, sz = _frame(nx, ny, nz)
+        frames[c, 0, 0], frames[c, 0, 1], frames[c, 0, 2] = nx, ny, nz
+        frames[c, 1, 0], frames[c, 1, 1], frames[c, 1, 2] = tx, ty, tz
+        frames[c, 2, 0], frames[c, 2, 1], frames[c, 2, 2] = sx, sy, sz
+        fx, fy, fz = force[k, 0], force[k, 1], force[k, 2]
+        impulses[c, 0] = dt * (nx * fx + ny * fy + nz * fz)
+        impulses[c, 1] = dt * (tx * fx + ty * fy + tz * fz)
+        impulses[c, 2] = dt * (sx * fx + sy * fy + sz * fz)
+        ux, uy, uz = rel_vel[k, 0], rel_vel[k, 1], rel_vel[k, 2]
+        relative[c, 0] = nx * ux + ny * uy + nz * uz
+        relative[c, 1] = tx * ux + ty * uy + tz * uz
+        relative[c, 2] = sx * ux + sy * uy + sz * uz
