@@ -270,7 +270,7 @@ def turned_spring_force(n_steps):
             np.zeros((1, 3)), np.array([10.0]), np.array([1.0, 1.0]), positions,
             np.array([[1.0, 0.0, 0.0, 0.0]] * 2), np.cross(omega, positions),
             np.array([omega, omega]), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0),
-            np.zeros(0), np.eye(3), np.zeros((3, 3)), xi, roll, *outputs)
+            np.zeros(0), np.eye(3), np.zeros((3, 3)), xi, roll, *outputs, np.zeros((3, 3)))
         if start is None:
             start = outputs[0][0].copy()
     return start, outputs[0][0].copy(), rotation(1.0) @ start

@@ -99,7 +99,9 @@ class BoundaryMotion:
     (normal force of the particles on each wall, compression positive); ``cell_dofs`` (D,)
     and ``cell_rate`` (3, 3) [m/s] (hdot at the end of the step); the step's ``contacts``,
     their ``images`` (C, 3), local ``impulses`` (C, 3) (P_n, P_t, P_s) [N s] and world
-    ``forces`` (C, 3) [N] on body j."""
+    ``forces`` (C, 3) [N] on body j; ``stress`` (3, 3) [Pa]: the mean stress of all the
+    contacts over the step (compression positive), when the solver measured it (an explicit
+    solver; a periodic cell then records it and its servo's integral follows it), else None."""
 
     dt: float
     theta: float
@@ -111,6 +113,7 @@ class BoundaryMotion:
     images: np.ndarray
     impulses: np.ndarray
     forces: np.ndarray
+    stress: np.ndarray | None = None
 
 
 @dataclass

@@ -243,14 +243,17 @@ class PeriodicCell:
 
     def finish_step(self, motion: BoundaryMotion) -> None:
         """Move the cell to the end of the step, record the stress its image contacts carry
-        (``boundary_stress``, compression positive, [Pa]) and re-map it if too skewed."""
+        (``boundary_stress``, compression positive, [Pa]; the solver's mean stress of all
+        the contacts over the step when it gives one) and re-map it if too skewed."""
         if self._step is None:
             raise InputError("periodic cell", "finish_step", "a call of constraints first")
         h_m, predicted = self._step
         self._step = None
         images = motion.images
         crossing = np.any(images != 0.0, axis=1)
-        if np.any(crossing):
+        if motion.stress is not None:
+            self.boundary_stress = np.array(motion.stress, dtype=np.float64)
+        elif np.any(crossing):
             shifts = images[crossing] @ h_m.T
             moment = np.einsum("ci,cj->ij", motion.forces[crossing], shifts)
             self.boundary_stress = 0.5 * (moment + moment.T) / float(np.linalg.det(h_m))
@@ -258,7 +261,11 @@ class PeriodicCell:
             self.boundary_stress = np.zeros((3, 3))
         self.rate = np.array(motion.cell_rate, dtype=np.float64)
         self.dofs = np.array(motion.cell_dofs, dtype=np.float64)
-        if self.targets.size:
+        # with an explicit solver's stress, the integral only learns while a prescribed part
+        # of the rate deforms the sample: without one the servo holds its target alone, and
+        # the integral would only wind up the stress's vibrations
+        learns = motion.stress is None or bool(np.any(self.fixed_gradient != 0.0))
+        if self.targets.size and learns:
             error = self.targets - self.conjugate_stress(self.boundary_stress)
             bound = OUTWARD_RATE_FACTOR / self.gain * self.reference_stress
             self.integral = np.clip(

@@ -28,20 +28,25 @@ and is rebuilt at once when the bodies, the walls or the cell were moved between
 by anything else than the solver (a re-mapped cell, a restored state).
 
 The boundary (:mod:`grainlab.engine.boundary`) is asked for its constraints once per step, as
-by contact dynamics, and moves at constant speed through the step: a driven wall at its speed,
-the cell at its prescribed rate; a servo wall and a stress-controlled component of the cell at
-the speed their servo gives from the step before (:func:`~grainlab.engine.
-soft_contact_kernels.servo_kernel`). The servo takes the mean load of the last step (a wall's
-reaction, the cell's generalised force from its image contacts), so that the collisions of
-each sub-step do not shake it. Its proportional part is the overdamped servo of contact
-dynamics (same gains, same bounds) taken backward in time with the stiffness of the
-boundary's contacts, stable at any contact stiffness; an integral part learns the speed a
-boundary must keep while the sample is deformed (only in steps with a driven part), starting
-from the speeds that would keep the volume (:func:`isochoric_speeds`). A lateral wall of a
-sheared sample then holds its target within some 10-20 % (in CD: 1 %), after an overshoot
-where the shear starts; the servo of the periodic cell lags more (see docs). The step's
-report holds the contacts closed at its end with their forces (``impulses`` = force x dt,
-as a step of contact dynamics reports them); a wall's reaction is its mean over the step.
+by contact dynamics. Walls move at constant speed through the step: a driven wall at its
+speed, a servo wall at the speed its servo gives from the step before
+(:func:`~grainlab.engine.soft_contact_kernels.servo_kernel`): the wall's mean reaction over
+the last step, so that the collisions of each sub-step do not shake it, in the overdamped
+servo of contact dynamics (same gains, same bounds) taken backward in time with the stiffness
+of the wall's contacts, stable at any contact stiffness, and an integral part that learns the
+speed a wall must keep while the sample is deformed (only in steps with a driven wall),
+starting from the speeds that would keep the volume (:func:`isochoric_wall_speeds`). A
+lateral wall of a sheared sample then holds its target within a few % at kappa = 1e3. The
+periodic cell is servoed at every sub-step (:func:`~grainlab.engine.soft_contact_kernels.
+cell_servo_kernel`: the stress of the contacts' springs over all the contacts, low-passed
+over :data:`FILTER_SUBSTEPS` stable sub-steps, the stiffness of the affine deformation of
+the contacts in the denominator), the bodies taking up each change of its rate at once
+(YADE's homogeneous deformation); the cell's integral term (:mod:`grainlab.engine.
+periodic_boundary`) then learns from the step's mean stress while a prescribed part of the
+rate deforms the sample. A lateral stress of a sheared periodic sample holds its target
+within about 1 % (median). The step's report holds the contacts closed at its end with
+their forces (``impulses`` = force x dt, as a step of contact dynamics reports them); a
+wall's reaction is its mean over the step, the cell's stress the springs' mean stress.
 
 A simulation that blows up stops with a diagnosis: an overlap beyond :data:`OVERLAP_LIMIT`
 of the effective radius, and non-finite values (the simulation's health check).
@@ -84,6 +89,9 @@ from grainlab.errors import InputError
 
 SKIN_FRACTION = 0.1
 """Default skin of the neighbour list: this fraction of the smallest member diameter."""
+FILTER_SUBSTEPS = 20.0
+"""The periodic cell's servo reads the contacts' stress low-passed over this many stable
+sub-steps (one collision: the law's stable step is 0.2 of the half period)."""
 OVERLAP_LIMIT = 0.5
 """A sub-step that meets an overlap beyond this fraction of the smallest member radius
 stops the run (the contacts are far too soft or the time step too long)."""
@@ -142,13 +150,12 @@ class SoftContactStep:
         self._wall_load = np.zeros((0, 3))
         """Per wall: mean reaction over the last step [N], stiffness [N/m], servo memory
         [m/s]."""
-        self._cell_load = np.zeros((0, 3))
-        """Per free degree of freedom of the cell: mean generalised force [N m], stiffness
-        [N m], servo memory [1/s] of the last step."""
         self._driven = False
         """Whether the last step had a driven (strain-controlled) part of the boundary."""
         self._carried = np.zeros((3, 3))
-        """The velocity gradient L [1/s] the particles' velocities carry (periodic cell)."""
+        """The velocity gradient L [1/s] the bodies' velocities carry (periodic cell)."""
+        self._filtered = np.zeros((3, 3))
+        """The springs' stress [Pa] low-passed over :attr:`filter_time` (the cell's servo)."""
         self._phases: DetectionPhases | None = None
         self._rows: _Rows | None = None
         """The neighbour list, kept from step to step while it is valid."""
@@ -180,8 +187,9 @@ class SoftContactStep:
         boundary's loads of the last step (the servos' input) and the neighbour list (so that
         a resumed run goes on with the same list, bit for bit)."""
         arrays = {"keys": self._history_keys.copy(), "history": self._history.copy(),
-                  "wall_load": self._wall_load.copy(), "cell_load": self._cell_load.copy(),
-                  "driven": np.array(int(self._driven)), "carried": self._carried.copy()}
+                  "wall_load": self._wall_load.copy(),
+                  "driven": np.array(int(self._driven)), "carried": self._carried.copy(),
+                  "filtered": self._filtered.copy()}
         if self._rows is not None:
             arrays |= {f"list_{k}": v for k, v in self._rows.to_arrays().items()}
             arrays |= {"end_positions": self._end[0].copy(),
@@ -193,15 +201,23 @@ class SoftContactStep:
         self._history_keys = np.asarray(arrays["keys"], dtype=np.int64)
         self._history = np.asarray(arrays["history"], dtype=np.float64).reshape(-1, 6)
         self._wall_load = np.asarray(arrays["wall_load"], dtype=np.float64).reshape(-1, 3)
-        self._cell_load = np.asarray(arrays["cell_load"], dtype=np.float64).reshape(-1, 3)
         self._driven = bool(int(arrays["driven"]))
         self._carried = np.asarray(arrays["carried"], dtype=np.float64).reshape(3, 3).copy()
+        self._filtered = np.asarray(arrays.get("filtered", np.zeros((3, 3))),
+                                    dtype=np.float64).reshape(3, 3).copy()
         self._rows = None
         if "list_body_i" in arrays:
             self._rows = _Rows.from_arrays(
                 {k[5:]: v for k, v in arrays.items() if k.startswith("list_")})
             self._end = (np.asarray(arrays["end_positions"], dtype=np.float64).copy(),
                          np.asarray(arrays["end_orientations"], dtype=np.float64).copy())
+
+    @property
+    def filter_time(self) -> float:
+        """Time [s] over which the periodic cell's servo low-passes the contacts' stress:
+        :data:`FILTER_SUBSTEPS` stable sub-steps, about one collision (the half period of a
+        contact's oscillation)."""
+        return FILTER_SUBSTEPS * float(self.substep)
 
     # -- stepping ------------------------------------------------------------------------------
     def stable_substep(self, state: BodyState, library: ShapeLibrary) -> float:
@@ -230,26 +246,17 @@ class SoftContactStep:
         n_sub = max(1, math.ceil(macro / self.substep * (1.0 - 1e-12)))
         h = macro / n_sub
         n_walls, n_dofs = bounds.n_walls, bounds.cell_inv_mass.shape[0]
-        run = _Run(state, library, bounds, n_walls, n_dofs)
+        run = _Run(state, library, bounds, n_walls, n_dofs, macro)
         rows = self._kept_list(state, library, bounds, run)
         if rows is None:
             rows = self._build_list(state, library, boundary, bounds, run)
-        if self._wall_load.shape[0] != n_walls or self._cell_load.shape[0] != n_dofs:
+        if self._wall_load.shape[0] != n_walls:
             run.advance(self, rows, 0, h)  # the loads now: the servos' first input
             self._wall_load = np.column_stack([run.wall_force, run.wall_stiffness,
                                                np.zeros(n_walls)])
-            self._cell_load = np.column_stack([run.cell_force, run.cell_stiffness,
-                                               np.zeros(n_dofs)])
         run.was_driven = self._driven
-        memory = run.servo(self._wall_load, self._cell_load, macro)
+        memory = run.servo(self._wall_load, macro)
         self._driven = run.driven
-        if n_dofs or np.any(bounds.cell_fixed != 0.0) or np.any(self._carried != 0.0):
-            # the particles take up the cell's rate of this step at once (contact dynamics'
-            # bounds.affine_change would give it to them one step late, from the last rate)
-            gradient = run.cell_rate @ np.linalg.inv(bounds.cell_matrix)
-            centre = np.average(state.positions, axis=0, weights=state.masses)
-            state.velocities += (state.positions - centre) @ (gradient - self._carried).T
-            self._carried = gradient
         done = 0
         while done < n_sub:
             if done:
@@ -258,15 +265,14 @@ class SoftContactStep:
         self.n_substeps += n_sub
         self.last_substeps = n_sub
         self._wall_load = np.column_stack([run.wall_impulse / macro, run.wall_stiffness,
-                                           memory[0]])
-        self._cell_load = np.column_stack([run.cell_impulse / macro, run.cell_stiffness,
-                                           memory[1]])
+                                           memory])
         report, forces = run.report(rows, macro)
         boundary.finish_step(BoundaryMotion(
             dt=macro, theta=1.0, wall_speeds=run.wall_speed.copy(),
             wall_reactions=run.wall_impulse / macro, cell_dofs=run.cell_dofs.copy(),
-            cell_rate=run.cell_rate.copy(), contacts=report.contacts,
-            images=report.image_vectors, impulses=report.impulses, forces=forces))
+            cell_rate=(run.cell_h - bounds.cell_matrix) / macro, contacts=report.contacts,
+            images=report.image_vectors, impulses=report.impulses, forces=forces,
+            stress=run.stress_impulse / macro if n_walls == 0 else None))
         self._end = (state.positions.copy(), state.orientations.copy())
         return report
 
@@ -331,13 +337,11 @@ class SoftContactStep:
         self._history = np.hstack([rows.xi, rows.roll])[order]
 
 
-def isochoric_speeds(bounds) -> tuple[np.ndarray, np.ndarray]:
-    """The servos' speeds that keep the volume while the driven parts of the boundary move
-    (the first guess of their integral terms when a deformation starts): servo walls (W,)
-    [m/s] sharing the volume the driven walls take (each wall of a pair of planes normal to
-    an axis, at distance L_a: a speed s changes the volume at -s / L_a per unit volume), and
-    cell degrees of freedom (D,) [1/s] sharing -tr(L_0) (L_0 the driven velocity gradient;
-    L = L_0 + sum_d e_d G_d)."""
+def isochoric_wall_speeds(bounds) -> np.ndarray:
+    """The servo walls' speeds (W,) [m/s] that keep the volume while the driven walls move
+    (the first guess of their integral terms when a deformation starts): the servo walls
+    share the volume the driven walls take (each wall of a pair of planes normal to an axis,
+    at distance L_a: a speed s changes the volume at -s / L_a per unit volume)."""
     walls = np.zeros(bounds.n_walls)
     n, points = bounds.wall_normals, bounds.wall_points
     if bounds.n_walls:
@@ -351,15 +355,7 @@ def isochoric_speeds(bounds) -> tuple[np.ndarray, np.ndarray]:
         rate = float(np.sum(bounds.wall_free[driven] / lengths[driven]))
         if np.any(servo):
             walls[servo] = -rate * lengths[servo] / np.count_nonzero(servo)
-    cells = np.zeros(bounds.cell_basis.shape[0])
-    if cells.size:
-        inverse = np.linalg.inv(bounds.cell_matrix)
-        traces = np.einsum("dab,ba->d", bounds.cell_basis, inverse)
-        volumetric = float(np.trace(bounds.cell_fixed @ inverse))
-        free = np.abs(traces) > 1e-12 * np.abs(traces).max(initial=1.0)
-        if np.any(free):
-            cells[free] = -volumetric / (np.count_nonzero(free) * traces[free])
-    return walls, cells
+    return walls
 
 
 def _refuse_polyhedra(library: ShapeLibrary) -> None:
@@ -375,7 +371,7 @@ class _Rows:
     ``built_cell`` (3, 3) [m] it was built at, and the kernel's bound ``approach`` (1,) [m]."""
 
     SAVED = ("body_i", "body_j", "member_i", "member_j", "contact_type", "images", "off_i",
-             "off_j", "rad_i", "rad_j", "mu", "wall_rows", "image_rows", "adj_start",
+             "off_j", "rad_i", "rad_j", "mu", "wall_rows", "adj_start",
              "adj_entry", "xi", "roll", "keys", "travel", "approach", "built_walls",
              "wall_normals", "built_cell")
     """The arrays that restore a list (checkpoints); the rest is recomputed by the kernels."""
@@ -404,7 +400,6 @@ class _Rows:
         self.mu = np.zeros(c)
         self.set_friction(bounds, friction)
         self.wall_rows = np.flatnonzero(~inner).astype(np.int64)
-        self.image_rows = np.flatnonzero(np.any(images != 0.0, axis=1)).astype(np.int64)
         # CSR of the rows of each body: 2 k for its j side, 2 k + 1 for its i side
         n = state.n_bodies
         bodies = np.concatenate([self.body_j, self.body_i[inner]])
@@ -476,7 +471,7 @@ class _Rows:
 class _Run:
     """What one step carries from sub-step to sub-step and list to list."""
 
-    def __init__(self, state, library, bounds, n_walls, n_dofs):
+    def __init__(self, state, library, bounds, n_walls, n_dofs, macro):
         self.state = state
         self.bounds = bounds
         self.rows: _Rows | None = None
@@ -489,48 +484,49 @@ class _Run:
         self.wall_disp = np.zeros(n_walls)
         self.wall_speed = np.array(bounds.wall_free, dtype=np.float64)
         self.cell_h = np.array(bounds.cell_matrix, dtype=np.float64)
+        # the cell's servo (kernels.cell_servo_kernel): L = L_0 + sum_d e_d G_d, e_d =
+        # clip(free_d - scale_d c_d), as periodic_boundary's servo (scale = kappa_d V dt)
+        inverse = np.linalg.inv(bounds.cell_matrix)
+        self.cell_gradient = np.ascontiguousarray(bounds.cell_fixed @ inverse)
+        self.cell_directions = np.ascontiguousarray(
+            np.einsum("dab,bc->dac", bounds.cell_basis, inverse).reshape(n_dofs, 3, 3))
+        self.cell_scale = np.ascontiguousarray(
+            bounds.cell_inv_mass * float(np.linalg.det(bounds.cell_matrix)) * macro,
+            dtype=np.float64)
         self.cell_dofs = np.array(bounds.cell_free, dtype=np.float64)
-        self.cell_rate = np.array(bounds.cell_fixed, dtype=np.float64)
+        self.cell_stiffness = np.zeros(n_dofs)
+        self.cell_rate = np.zeros((3, 3))
+        self.gradient = np.zeros((3, 3))
+        self.virial = np.zeros((3, 3))
+        self.stress_impulse = np.zeros((3, 3))
         self.wall_impulse = np.zeros(n_walls)
-        self.cell_impulse = np.zeros(n_dofs)
         self.was_driven = False
         self.driven = False
         self.body_force = np.zeros((state.n_bodies, 3))
         self.body_torque = np.zeros((state.n_bodies, 3))
         self.wall_force = np.zeros(n_walls)
         self.wall_stiffness = np.zeros(n_walls)
-        self.cell_force = np.zeros(n_dofs)
-        self.cell_stiffness = np.zeros(n_dofs)
         self.stats = np.zeros(1)
 
-    def servo(self, wall_load: np.ndarray, cell_load: np.ndarray, macro: float
-              ) -> tuple[np.ndarray, np.ndarray]:
-        """The walls' speeds and the cell's rate over the step (:func:`~grainlab.engine.
-        soft_contact_kernels.servo_kernel`) from the last step's mean loads and the servos'
-        memories; returns the updated memories (walls, cell). When a driven deformation
-        starts, the memories start from :func:`isochoric_speeds`."""
+    def servo(self, wall_load: np.ndarray, macro: float) -> np.ndarray:
+        """The walls' speeds over the step (:func:`~grainlab.engine.soft_contact_kernels.
+        servo_kernel`) from the last step's mean loads and the servos' memories; returns the
+        updated memories. When a driven deformation starts, the memories start from
+        :func:`isochoric_wall_speeds`. (The cell's servo runs at every sub-step, in the kernels.)"""
         b, f64 = self.bounds, np.float64
         wall_memory = np.ascontiguousarray(wall_load[:, 2], dtype=f64)
-        cell_memory = np.ascontiguousarray(cell_load[:, 2], dtype=f64)
-        driven = bool(np.any((b.wall_inv_mass == 0.0) & (b.wall_free != 0.0))
-                      or np.any(b.cell_fixed != 0.0))
+        driven = bool(np.any((b.wall_inv_mass == 0.0) & (b.wall_free != 0.0)))
         if driven and not self.was_driven:  # a deformation starts: guess the servos' speeds
-            wall_memory[:], cell_memory[:] = isochoric_speeds(b)
+            wall_memory[:] = isochoric_wall_speeds(b)
         servo_kernel(
             macro, SERVO_INTEGRAL if driven else 0.0,
             np.ascontiguousarray(b.wall_inv_mass, dtype=f64),
             np.ascontiguousarray(b.wall_free, dtype=f64),
             np.ascontiguousarray(b.wall_max, dtype=f64),
             np.ascontiguousarray(wall_load[:, 0]), np.ascontiguousarray(wall_load[:, 1]),
-            np.ascontiguousarray(b.cell_fixed, dtype=f64),
-            np.ascontiguousarray(b.cell_basis, dtype=f64),
-            np.ascontiguousarray(b.cell_inv_mass, dtype=f64),
-            np.ascontiguousarray(b.cell_free, dtype=f64),
-            np.ascontiguousarray(b.cell_bounds, dtype=f64),
-            np.ascontiguousarray(cell_load[:, 0]), np.ascontiguousarray(cell_load[:, 1]),
-            wall_memory, cell_memory, self.wall_speed, self.cell_dofs, self.cell_rate)
+            wall_memory, self.wall_speed)
         self.driven = driven
-        return wall_memory, cell_memory
+        return wall_memory
 
     def advance(self, solver: SoftContactStep, rows: _Rows, n_steps: int, h: float) -> int:
         """Up to ``n_steps`` sub-steps of ``h`` [s] on ``rows`` (0: only the loads now);
@@ -542,18 +538,22 @@ class _Run:
             law.rolling_friction, law.local_damping, solver.gravity,
             rows.body_i, rows.body_j, rows.off_i, rows.off_j, rows.rad_i, rows.rad_j,
             rows.images, rows.mu, rows.adj_start, rows.adj_entry, rows.wall_rows,
-            rows.image_rows, self.inv_mass, np.ascontiguousarray(state.masses, dtype=f64),
+            self.inv_mass, np.ascontiguousarray(state.masses, dtype=f64),
             self.principal, self.isotropic, self.bounding,
             np.ascontiguousarray(bounds.wall_points, dtype=f64),
-            np.ascontiguousarray(bounds.wall_normals, dtype=f64),
-            np.ascontiguousarray(bounds.cell_basis, dtype=f64), self.wall_speed,
-            self.cell_rate, rows.built_wall_disp(bounds), rows.built_cell,
+            np.ascontiguousarray(bounds.wall_normals, dtype=f64), self.wall_speed,
+            self.cell_gradient, self.cell_directions, self.cell_scale,
+            np.ascontiguousarray(bounds.cell_free, dtype=f64),
+            np.ascontiguousarray(bounds.cell_bounds, dtype=f64).reshape(-1, 2),
+            self.cell_stiffness, solver.filter_time, solver._filtered,
+            rows.built_wall_disp(bounds), rows.built_cell,
             state.positions, state.orientations, state.velocities, state.angular_velocities,
-            rows.xi, rows.roll, self.wall_disp, self.cell_h, rows.travel,
+            rows.xi, rows.roll, self.wall_disp, self.cell_h, self.cell_dofs, self.gradient,
+            solver._carried, self.cell_rate, rows.travel,
             rows.force, rows.torque_i, rows.torque_j, rows.gap, rows.normal, rows.point,
-            rows.stiffness, rows.rel_vel, self.body_force, self.body_torque, self.wall_force,
-            self.wall_stiffness, self.cell_force, self.cell_stiffness, self.wall_impulse,
-            self.cell_impulse, self.stats, rows.approach)
+            rows.stiffness, rows.rel_vel, self.virial, self.body_force, self.body_torque,
+            self.wall_force, self.wall_stiffness, self.wall_impulse, self.stress_impulse,
+            self.stats, rows.approach)
         smallest = float(np.min(rows.rad_j)) if rows.rad_j.size else math.inf
         if self.stats[0] > OVERLAP_LIMIT * smallest:
             raise SimulationBlowUp(

@@ -84,11 +84,16 @@ def contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, of
                           rad_j, images, mu, inv_mass, positions, orientations, velocities,
                           spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate,
                           xi, roll, force, torque_i, torque_j, gap, normal, point, stiffness,
-                          rel_vel):
-    """Geometry and force of every row k of the list, in parallel (module docstring of
+                          rel_vel, virial):
+    """Geometry and force of every row k of the list (module docstring of
     :mod:`grainlab.contact.soft_contact_law`); ``step`` [s] is the time since the last
     evaluation (0: the force of the current springs, nothing carried forward). Writes the
-    rows' outputs; the histories ``xi`` (C, 3) [m] and ``roll`` (C, 3) [N m] are updated."""
+    rows' outputs; the histories ``xi`` (C, 3) [N] and ``roll`` (C, 3) [N m] are updated;
+    ``virial`` (3, 3) [N m] becomes sum_k f_k (x) l_k over the rows between bodies, f_k the
+    springs' force on j (the elastic normal force and the tangential spring, without the
+    dashpots), l_k = x_j + h m_k - x_i the branch vector: V sigma of the springs,
+    compression positive."""
+    virial[:, :] = 0.0
     for k in range(body_j.shape[0]):
         j = body_j[k]
         i = body_i[k]
@@ -180,6 +185,18 @@ def contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, of
         xi[k, 0], xi[k, 1], xi[k, 2] = hx, hy, hz
         fx, fy, fz = fn * nx + ftx, fn * ny + fty, fn * nz + ftz
         force[k, 0], force[k, 1], force[k, 2] = fx, fy, fz
+        if i >= 0:
+            lx, ly, lz = jx - positions[i, 0], jy - positions[i, 1], jz - positions[i, 2]
+            ex, ey, ez = fne * nx + hx, fne * ny + hy, fne * nz + hz
+            virial[0, 0] += ex * lx
+            virial[0, 1] += ex * ly
+            virial[0, 2] += ex * lz
+            virial[1, 0] += ey * lx
+            virial[1, 1] += ey * ly
+            virial[1, 2] += ey * lz
+            virial[2, 0] += ez * lx
+            virial[2, 1] += ez * ly
+            virial[2, 2] += ez * lz
         mjx, mjy, mjz = rjy * fz - rjz * fy, rjz * fx - rjx * fz, rjx * fy - rjy * fx
         mix, miy, miz = -(riy * fz - riz * fy), -(riz * fx - rix * fz), -(rix * fy - riy * fx)
         if rolling > 0.0:
@@ -226,13 +243,10 @@ def gather_kernel(adj_start, adj_entry, force, torque_i, torque_j, masses, gravi
 
 
 @njit(cache=True)
-def boundary_loads_kernel(wall_rows, body_i, wall_n, image_rows, images, normal, cell_basis,
-                          force, stiffness, wall_force, wall_stiffness, cell_force,
-                          cell_stiffness):
+def wall_loads_kernel(wall_rows, body_i, wall_n, force, stiffness, wall_force,
+                      wall_stiffness):
     """Per wall w: the normal force R_w [N] of its rows (compression positive) and their
-    normal stiffness K_w [N/m]; per free degree of freedom d of the cell: the generalised
-    force sum_k F_k . g_dk [N m] of the rows with an image (g_dk = H_d m_k [m]) and its
-    stiffness sum_k S_n,k (n_k . g_dk)^2 [N m]."""
+    normal stiffness K_w [N/m]."""
     wall_force[:] = 0.0
     wall_stiffness[:] = 0.0
     for e in range(wall_rows.shape[0]):
@@ -241,19 +255,6 @@ def boundary_loads_kernel(wall_rows, body_i, wall_n, image_rows, images, normal,
         wall_force[w] += (force[k, 0] * wall_n[w, 0] + force[k, 1] * wall_n[w, 1]
                           + force[k, 2] * wall_n[w, 2])
         wall_stiffness[w] += stiffness[k]
-    cell_force[:] = 0.0
-    cell_stiffness[:] = 0.0
-    for e in range(image_rows.shape[0]):
-        k = image_rows[e]
-        mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
-        for d in range(cell_basis.shape[0]):
-            h = cell_basis[d]
-            gx = h[0, 0] * mx + h[0, 1] * my + h[0, 2] * mz
-            gy = h[1, 0] * mx + h[1, 1] * my + h[1, 2] * mz
-            gz = h[2, 0] * mx + h[2, 1] * my + h[2, 2] * mz
-            cell_force[d] += force[k, 0] * gx + force[k, 1] * gy + force[k, 2] * gz
-            gn = normal[k, 0] * gx + normal[k, 1] * gy + normal[k, 2] * gz
-            cell_stiffness[d] += stiffness[k] * gn * gn
 
 
 @njit(cache=True)
@@ -360,14 +361,11 @@ def _servo_rate(free, gain, load, stiffness, macro, low, high, memory, integral)
 
 @njit(cache=True)
 def servo_kernel(macro, integral, wall_inv_mass, wall_free, wall_max, wall_force,
-                 wall_stiffness, cell_fixed, cell_basis, cell_inv_mass, cell_free, cell_bounds,
-                 cell_force, cell_stiffness, wall_memory, cell_memory, wall_speed, cell_dofs,
-                 cell_rate):
-    """Speeds of the servo walls and rates of the cell's free degrees of freedom over a step of
-    ``macro`` [s] (:func:`_servo_rate`) from the last step's mean loads ``wall_force`` (W,)
-    [N] and ``cell_force`` (D,) [N m] (the generalised force of the image contacts) and their
-    stiffnesses; the servos' memories are updated (``integral``: :data:`SERVO_INTEGRAL`
-    or 0)."""
+                 wall_stiffness, wall_memory, wall_speed):
+    """Speeds of the servo walls over a step of ``macro`` [s] (:func:`_servo_rate`) from the
+    last step's mean loads ``wall_force`` (W,) [N] and their stiffnesses ``wall_stiffness``
+    (W,) [N/m]; the servos' memories are updated (``integral``: :data:`SERVO_INTEGRAL` or 0).
+    A driven wall keeps its speed ``wall_free``."""
     for w in range(wall_speed.shape[0]):
         inv = wall_inv_mass[w]
         if inv > 0.0:
@@ -377,51 +375,161 @@ def servo_kernel(macro, integral, wall_inv_mass, wall_free, wall_max, wall_force
                 -OUTWARD_FACTOR * high, high, wall_memory[w], integral)
         else:
             wall_speed[w] = wall_free[w]
-    cell_rate[:, :] = cell_fixed
+
+
+@njit(inline="always")
+def _det3(h):
+    return (h[0, 0] * (h[1, 1] * h[2, 2] - h[1, 2] * h[2, 1])
+            - h[0, 1] * (h[1, 0] * h[2, 2] - h[1, 2] * h[2, 0])
+            + h[0, 2] * (h[1, 0] * h[2, 1] - h[1, 1] * h[2, 0]))
+
+
+@njit(cache=True)
+def cell_stiffness_kernel(body_i, body_j, images, stiffness, normal, positions, cell_h,
+                          cell_directions, cell_stiffness):
+    """K_d = (1/V) sum_k S_k (n_k . G_d l_k)^2 [Pa] (D,): how fast the springs' conjugate
+    stress c_d grows per unit strain e_d of the cell when the bodies follow it affinely
+    (S_k the rows' normal stiffness [N/m], l_k their branch vectors)."""
+    volume = _det3(cell_h)
+    cell_stiffness[:] = 0.0
+    for k in range(body_j.shape[0]):
+        i, j = body_i[k], body_j[k]
+        if i < 0 or stiffness[k] == 0.0:
+            continue
+        mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
+        lx = positions[j, 0] - positions[i, 0] + cell_h[0, 0] * mx + cell_h[0, 1] * my \
+            + cell_h[0, 2] * mz
+        ly = positions[j, 1] - positions[i, 1] + cell_h[1, 0] * mx + cell_h[1, 1] * my \
+            + cell_h[1, 2] * mz
+        lz = positions[j, 2] - positions[i, 2] + cell_h[2, 0] * mx + cell_h[2, 1] * my \
+            + cell_h[2, 2] * mz
+        nx, ny, nz = normal[k, 0], normal[k, 1], normal[k, 2]
+        for d in range(cell_directions.shape[0]):
+            g = cell_directions[d]
+            s = (nx * (g[0, 0] * lx + g[0, 1] * ly + g[0, 2] * lz)
+                 + ny * (g[1, 0] * lx + g[1, 1] * ly + g[1, 2] * lz)
+                 + nz * (g[2, 0] * lx + g[2, 1] * ly + g[2, 2] * lz))
+            cell_stiffness[d] += stiffness[k] * s * s / volume
+
+
+@njit(cache=True)
+def cell_servo_kernel(dt, virial, cell_h, cell_gradient, cell_directions, cell_scale,
+                      cell_free, cell_bounds, cell_stiffness, filter_time, filtered,
+                      cell_dofs, gradient):
+    """The periodic cell's stress-controlled degrees of freedom, at every sub-step of ``dt``
+    [s], from the stress of the contacts' springs (the servo of
+    :mod:`grainlab.engine.periodic_boundary` made fit for vibrating contacts):
+
+        e_d = clip((free_d - scale_d c_d) / (1 + scale_d K_d 4 tau), bounds_d),
+
+    c_d = -G_d : sym(sigma_f) [Pa], sigma_f the springs' stress ``virial`` / det h
+    (compression positive) low-passed over ``filter_time`` tau [s] (``filtered`` (3, 3),
+    updated here), free_d = scale_d (c*_d + J_d) (``cell_free`` (D,) [1/s], ``cell_scale``
+    (D,) [1/(Pa s)], ``cell_directions`` G_d (D, 3, 3), ``cell_stiffness`` K_d (D,) [Pa] of
+    :func:`cell_stiffness_kernel`). On a loose sample (K_d = 0) it is contact dynamics'
+    servo; on a dense one the stress closes on its target in 4 tau, the critically damped
+    response of a servo that reads through a filter of time tau. Why so: the instantaneous
+    stress of a small packing shakes with every collision, and a servo that follows it
+    shakes the bodies it carries; and the springs' stress, not the dashpots', because the
+    dashpots answer at once to the velocity the servo gives the bodies, a loop that made the
+    servo chatter from bound to bound. Writes ``cell_dofs`` (D,) [1/s] and the velocity
+    gradient ``gradient`` = L_0 + sum_d e_d G_d (3, 3) [1/s] (``cell_gradient`` L_0 the
+    prescribed part)."""
+    volume = _det3(cell_h)
+    blend = min(1.0, dt / filter_time)
+    for a in range(3):
+        for b in range(3):
+            filtered[a, b] += blend * (virial[a, b] / volume - filtered[a, b])
+    gradient[:, :] = cell_gradient
     for d in range(cell_dofs.shape[0]):
-        e, cell_memory[d] = _servo_rate(
-            cell_free[d], cell_inv_mass[d] * macro, -cell_force[d], cell_stiffness[d], macro,
-            cell_bounds[d, 0], cell_bounds[d, 1], cell_memory[d], integral)
+        conjugate = 0.0
+        for a in range(3):
+            for b in range(3):
+                conjugate -= cell_directions[d, a, b] * 0.5 * (filtered[a, b]
+                                                               + filtered[b, a])
+        e = (cell_free[d] - cell_scale[d] * conjugate) \
+            / (1.0 + 4.0 * cell_scale[d] * cell_stiffness[d] * filter_time)
+        e = min(max(e, cell_bounds[d, 0]), cell_bounds[d, 1])
         cell_dofs[d] = e
         for a in range(3):
             for b in range(3):
-                cell_rate[a, b] += e * cell_basis[d, a, b]
+                gradient[a, b] += e * cell_directions[d, a, b]
+
+
+@njit(cache=True)
+def carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell_h, cell_rate):
+    """The bodies take up a change of the cell's velocity gradient at once (YADE's
+    homogeneous deformation): v_i += (L - L_carried) (x_i - x_c), x_c the centre of mass
+    (momentum kept); then L_carried = L and the cell's rate hdot = L h (``cell_rate``
+    (3, 3) [m/s])."""
+    change = False
+    for a in range(3):
+        for b in range(3):
+            if gradient[a, b] != carried[a, b]:
+                change = True
+    if change:
+        total, cx, cy, cz = 0.0, 0.0, 0.0, 0.0
+        for n in range(masses.shape[0]):
+            m = masses[n]
+            total += m
+            cx += m * positions[n, 0]
+            cy += m * positions[n, 1]
+            cz += m * positions[n, 2]
+        cx, cy, cz = cx / total, cy / total, cz / total
+        d00, d01, d02 = gradient[0, 0] - carried[0, 0], gradient[0, 1] - carried[0, 1], \
+            gradient[0, 2] - carried[0, 2]
+        d10, d11, d12 = gradient[1, 0] - carried[1, 0], gradient[1, 1] - carried[1, 1], \
+            gradient[1, 2] - carried[1, 2]
+        d20, d21, d22 = gradient[2, 0] - carried[2, 0], gradient[2, 1] - carried[2, 1], \
+            gradient[2, 2] - carried[2, 2]
+        for n in range(masses.shape[0]):
+            rx, ry, rz = positions[n, 0] - cx, positions[n, 1] - cy, positions[n, 2] - cz
+            velocities[n, 0] += d00 * rx + d01 * ry + d02 * rz
+            velocities[n, 1] += d10 * rx + d11 * ry + d12 * rz
+            velocities[n, 2] += d20 * rx + d21 * ry + d22 * rz
+        carried[:, :] = gradient
+    for a in range(3):
+        for b in range(3):
+            cell_rate[a, b] = (gradient[a, 0] * cell_h[0, b] + gradient[a, 1] * cell_h[1, b]
+                               + gradient[a, 2] * cell_h[2, b])
 
 
 @njit(cache=True)
 def _loads(step, code, params, rolling, gravity, body_i, body_j, off_i, off_j, rad_i, rad_j,
-           images, mu, adj_start, adj_entry, wall_rows, image_rows, inv_mass, masses,
-           wall_p0, wall_n, cell_basis, positions, orientations, velocities, spins,
-           wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force, torque_i, torque_j, gap,
-           normal, point, stiffness, rel_vel, body_force, body_torque, wall_force,
-           wall_stiffness, cell_force, cell_stiffness):
-    """Contact forces of the list, their sums on the bodies and the boundary's loads."""
+           images, mu, adj_start, adj_entry, wall_rows, inv_mass, masses, wall_p0, wall_n,
+           positions, orientations, velocities, spins, wall_disp, wall_speed, cell_h,
+           cell_rate, xi, roll, force, torque_i, torque_j, gap, normal, point, stiffness,
+           rel_vel, virial, body_force, body_torque, wall_force, wall_stiffness):
+    """Contact forces of the list, their sums on the bodies and the walls' loads."""
     contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
                           rad_j, images, mu, inv_mass, positions, orientations, velocities,
                           spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate,
                           xi, roll, force, torque_i, torque_j, gap, normal, point, stiffness,
-                          rel_vel)
+                          rel_vel, virial)
     gather_kernel(adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
                   body_force, body_torque)
-    boundary_loads_kernel(wall_rows, body_i, wall_n, image_rows, images, normal, cell_basis,
-                          force, stiffness, wall_force, wall_stiffness, cell_force,
-                          cell_stiffness)
+    wall_loads_kernel(wall_rows, body_i, wall_n, force, stiffness, wall_force,
+                      wall_stiffness)
 
 
 @njit(cache=True)
 def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gravity,
                     body_i, body_j, off_i, off_j, rad_i, rad_j, images, mu, adj_start,
-                    adj_entry, wall_rows, image_rows, inv_mass, masses, principal, isotropic,
-                    bounding, wall_p0, wall_n, cell_basis, wall_speed, cell_rate,
-                    wall_disp_built, cell_h_built, positions, orientations, velocities, spins,
-                    xi, roll, wall_disp, cell_h, travel, force, torque_i, torque_j, gap, normal,
-                    point, stiffness, rel_vel, body_force, body_torque, wall_force,
-                    wall_stiffness, cell_force, cell_stiffness, wall_impulse, cell_impulse,
-                    stats, approach):
+                    adj_entry, wall_rows, inv_mass, masses, principal, isotropic, bounding,
+                    wall_p0, wall_n, wall_speed, cell_gradient, cell_directions, cell_scale,
+                    cell_free, cell_bounds, cell_stiffness, filter_time, filtered,
+                    wall_disp_built, cell_h_built, positions, orientations, velocities,
+                    spins, xi, roll, wall_disp, cell_h, cell_dofs, gradient, carried,
+                    cell_rate, travel, force, torque_i, torque_j, gap,
+                    normal, point, stiffness, rel_vel, virial, body_force, body_torque,
+                    wall_force, wall_stiffness, wall_impulse, stress_impulse, stats,
+                    approach):
     """Up to ``n_steps`` velocity-Verlet sub-steps of ``dt`` [s] on the current list: half
-    kick, drift (walls at their speeds ``wall_speed`` (W,) [m/s], the cell at its rate
-    ``cell_rate`` (3, 3) [m/s]), forces, half kick; the boundary's loads are summed over
-    time into ``wall_impulse`` (W,) [N s] and ``cell_impulse`` (D,) [N m s]. Stops early,
+    kick, drift (walls at their speeds ``wall_speed`` (W,) [m/s], the cell h at hdot = L h),
+    forces, half kick; then the cell's servo (:func:`cell_servo_kernel`) sets L from the
+    contacts' stress and the bodies take it up (:func:`carry_gradient_kernel`). The walls'
+    loads are summed over time into ``wall_impulse`` (W,) [N s], in a periodic cell (no
+    walls) the contacts' stress sigma into ``stress_impulse`` (3, 3) [Pa s]. Stops early,
     after a complete sub-step, when two points may have approached by more than ``skin`` [m]
     since the list was built (2 max travel + the walls' and the cell's own motion, with the
     next sub-step's increment taken as the last one's), so that no contact is missed;
@@ -429,12 +537,23 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
     over from call to call while the list lives. Returns the sub-steps done; ``stats[0]``
     becomes the largest overlap [m] met."""
     half = 0.5 * dt
+    servo = cell_dofs.shape[0] > 0
+    periodic = wall_disp.shape[0] == 0
     _loads(0.0, code, params, rolling, gravity, body_i, body_j, off_i, off_j, rad_i, rad_j,
-           images, mu, adj_start, adj_entry, wall_rows, image_rows, inv_mass, masses, wall_p0,
-           wall_n, cell_basis, positions, orientations, velocities, spins, wall_disp,
-           wall_speed, cell_h, cell_rate, xi, roll, force, torque_i, torque_j, gap, normal,
-           point, stiffness, rel_vel, body_force, body_torque, wall_force, wall_stiffness,
-           cell_force, cell_stiffness)
+           images, mu, adj_start, adj_entry, wall_rows, inv_mass, masses, wall_p0, wall_n,
+           positions, orientations, velocities, spins, wall_disp, wall_speed, cell_h,
+           cell_rate, xi, roll, force, torque_i, torque_j, gap, normal, point, stiffness,
+           rel_vel, virial, body_force, body_torque, wall_force, wall_stiffness)
+    if servo:
+        cell_stiffness_kernel(body_i, body_j, images, stiffness, normal, positions, cell_h,
+                              cell_directions, cell_stiffness)
+    if servo:
+        cell_servo_kernel(0.0, virial, cell_h, cell_gradient, cell_directions, cell_scale,
+                          cell_free, cell_bounds, cell_stiffness, filter_time, filtered,
+                          cell_dofs, gradient)
+    else:
+        gradient[:, :] = cell_gradient
+    carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell_h, cell_rate)
     done = 0
     previous = approach[0]
     for _ in range(n_steps):
@@ -448,17 +567,28 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
             for b in range(3):
                 cell_h[a, b] += dt * cell_rate[a, b]
         _loads(dt, code, params, rolling, gravity, body_i, body_j, off_i, off_j, rad_i, rad_j,
-               images, mu, adj_start, adj_entry, wall_rows, image_rows, inv_mass, masses,
-               wall_p0, wall_n, cell_basis, positions, orientations, velocities, spins,
-               wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force, torque_i, torque_j,
-               gap, normal, point, stiffness, rel_vel, body_force, body_torque, wall_force,
-               wall_stiffness, cell_force, cell_stiffness)
+               images, mu, adj_start, adj_entry, wall_rows, inv_mass, masses, wall_p0, wall_n,
+               positions, orientations, velocities, spins, wall_disp, wall_speed, cell_h,
+               cell_rate, xi, roll, force, torque_i, torque_j, gap, normal, point, stiffness,
+               rel_vel, virial, body_force, body_torque, wall_force, wall_stiffness)
         kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
                     body_force, body_torque, velocities, spins)
+        if servo:
+            cell_servo_kernel(dt, virial, cell_h, cell_gradient, cell_directions, cell_scale,
+                              cell_free, cell_bounds, cell_stiffness, filter_time, filtered,
+                              cell_dofs, gradient)
+            carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell_h,
+                                  cell_rate)
+        elif periodic:  # hdot = L_0 h follows the cell
+            carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell_h,
+                                  cell_rate)
         for w in range(wall_impulse.shape[0]):
             wall_impulse[w] += dt * wall_force[w]
-        for d in range(cell_impulse.shape[0]):
-            cell_impulse[d] += dt * cell_force[d]
+        if periodic:
+            volume = _det3(cell_h)
+            for a in range(3):
+                for b in range(3):
+                    stress_impulse[a, b] += dt * virial[a, b] / volume
         done += 1
         for k in range(gap.shape[0]):
             if -gap[k] > stats[0]:
