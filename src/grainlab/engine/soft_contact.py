@@ -125,7 +125,8 @@ class SoftContactStep:
         self.theta = 1.0
         self.alert_growths = 0
         self.n_substeps = 0
-        """Sub-steps done since the solver was made."""
+        """Sub-steps done since the solver was made (or since its run started, when its
+        warm start is restored from a checkpoint)."""
         self.n_detections = 0
         """Neighbour lists built since the solver was made."""
         self.last_substeps = 0
@@ -164,11 +165,13 @@ class SoftContactStep:
         """Nothing to restore."""
 
     def warm_start_arrays(self) -> dict[str, np.ndarray]:
-        """The contacts' springs (keys, tangential displacement [m], rolling moment [N m])
-        and the boundary's loads of the last step (the servos' input)."""
+        """The contacts' springs (keys, tangential displacement [m], rolling moment [N m]),
+        the boundary's loads of the last step (the servos' input) and the count of sub-steps
+        done (:attr:`n_substeps`: a resumed run goes on counting)."""
         return {"keys": self._history_keys.copy(), "history": self._history.copy(),
                 "wall_load": self._wall_load.copy(), "cell_load": self._cell_load.copy(),
-                "driven": np.array(int(self._driven)), "carried": self._carried.copy()}
+                "driven": np.array(int(self._driven)), "carried": self._carried.copy(),
+                "substeps": np.array(self.n_substeps, dtype=np.int64)}
 
     def restore_warm_start(self, arrays: dict[str, np.ndarray]) -> None:
         """Restore what :meth:`warm_start_arrays` saved."""
@@ -178,6 +181,8 @@ class SoftContactStep:
         self._cell_load = np.asarray(arrays["cell_load"], dtype=np.float64).reshape(-1, 3)
         self._driven = bool(int(arrays["driven"]))
         self._carried = np.asarray(arrays["carried"], dtype=np.float64).reshape(3, 3).copy()
+        if "substeps" in arrays:  # not in the checkpoints written before it was counted
+            self.n_substeps = int(arrays["substeps"])
 
     # -- stepping ------------------------------------------------------------------------------
     def stable_substep(self, state: BodyState, library: ShapeLibrary) -> float:
