@@ -92,13 +92,16 @@ def test_every_readme_command_runs_as_typed(tmp_path, monkeypatch):
             arguments += ["--size-ratio", "1.2", "--inertia", "0.01", "--config", "fast.toml"]
             if arguments[0] == "test":
                 arguments += ["--gamma", "0.02"]
+        if arguments[0] == "compare":  # both solvers: a quicker compaction
+            arguments += ["--config", "fast.toml"]
         if "dem" in arguments:  # soft-contact DEM: softer grains, a quicker compaction
             arguments += ["--config", "fast.toml"]
             if "--kappa" not in arguments and "--young-modulus" not in arguments:
                 arguments += ["--kappa", "1e3"]
         if arguments[0] == "triaxial" and "--eps-q" not in arguments:
             arguments += ["--eps-q", "0.02"]  # the default 0.5 would flatten 24 particles
-        if arguments[0] in ("triaxial", "compaction", "oedometer", "resume", "test"):
+        if arguments[0] in ("triaxial", "compaction", "oedometer", "resume", "test",
+                            "compare"):
             arguments.append("--no-progress")
         result = runner.invoke(app, arguments)
         assert result.exit_code == 0, f"{line}\n{result.output}"
@@ -106,6 +109,8 @@ def test_every_readme_command_runs_as_typed(tmp_path, monkeypatch):
     assert (tmp_path / "runs" / "tri" / "snapshots.h5").exists()
     assert (tmp_path / "runs" / "tri" / "vtk-checkpoint").is_dir()
     assert (tmp_path / "analysis" / "analysis.csv").exists()
+    for written in ("cd/results.h5", "dem/results.h5", "compare.png", "compare.csv"):
+        assert (tmp_path / "runs" / "cmp" / written).exists(), written
     for block in _blocks("python"):
         code = _small(block)
         if "start_run(" in code:  # the README's run folder is taken by the CLI's run above

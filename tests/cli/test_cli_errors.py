@@ -74,6 +74,7 @@ def _commands_with_out(tmp_path):
     """Each command that writes a folder, with arguments that would otherwise run it."""
     return {
         "triaxial": ["triaxial", "-n", "8"],
+        "compare": ["compare", "compaction", "-n", "8"],
         "demo": ["demo"],
         "packing2d load": ["packing2d", "load", "--max-ratio", "1.2"],
         "analyse": ["analyse", "--synthetic", "20"],
@@ -82,16 +83,16 @@ def _commands_with_out(tmp_path):
     }
 
 
-@pytest.mark.parametrize("command", ["triaxial", "demo", "packing2d load", "analyse", "vtk",
-                                     "microelement run"])
+@pytest.mark.parametrize("command", ["triaxial", "compare", "demo", "packing2d load",
+                                     "analyse", "vtk", "microelement run"])
 def test_out_that_is_a_file_is_named(tmp_path, a_file, command):
     refused(*_commands_with_out(tmp_path)[command], "--out", a_file,
             named=("--out", str(a_file)))
     assert a_file.read_text() == "not a folder\n"
 
 
-@pytest.mark.parametrize("command", ["triaxial", "demo", "packing2d load", "analyse", "vtk",
-                                     "microelement run"])
+@pytest.mark.parametrize("command", ["triaxial", "compare", "demo", "packing2d load",
+                                     "analyse", "vtk", "microelement run"])
 def test_out_under_a_file_is_named(tmp_path, a_file, command):
     refused(*_commands_with_out(tmp_path)[command], "--out", a_file / "sub",
             named=("--out", str(a_file)))

@@ -11,6 +11,7 @@ from grainlab.engine.soft_contact import SoftContactStep
 from grainlab.errors import InputError
 from grainlab.lab.discrete_run import resume_run, start_run
 from grainlab.lab.run_config import RunConfig
+from grainlab.lab.run_outcome import RunCost
 
 SIGMA0 = 1e4
 SMALL = {
@@ -75,10 +76,18 @@ def test_a_dem_run_resumes_exactly(triaxial, tmp_path):
     run = start_run(folder, config())
     run.run(max_steps=int(full.table["step"].iloc[-1]) // 2)
     run.checkpoint()
-    resumed = resume_run(folder).run()
+    again = resume_run(folder)
+    assert again.wall_time == run.wall_time > 0.0  # the first session's, from the checkpoint
+    resumed = again.run()
     np.testing.assert_array_equal(resumed.table["step"], full.table["step"])
     np.testing.assert_array_equal(resumed.table["q_over_trace"], full.table["q_over_trace"])
     np.testing.assert_array_equal(resumed.table["wall_sigma_xx"], full.table["wall_sigma_xx"])
+    # the cost goes on counting across the resume: sub-steps as uninterrupted, both sessions'
+    # wall time
+    cost, uninterrupted = RunCost.of_result(resumed), RunCost.of_result(full)
+    assert cost.steps == uninterrupted.steps
+    assert cost.substeps == uninterrupted.substeps > cost.steps
+    assert cost.wall_time > run.wall_time
 
 
 def test_dem_compaction_in_a_periodic_cell_settles_isostatic(tmp_path):

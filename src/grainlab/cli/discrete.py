@@ -107,20 +107,24 @@ def _summary(result) -> None:
     if _test_config(result)["kind"] == "oedometer":
         _oedometer_summary(result)
     elif len(shear) > 2:
+        from grainlab.lab.solver_comparison import RESIDUAL_SHARE, residual_rows
+
         peak = shear["q_over_trace"].max()
-        late = shear[shear["eps_q"] >= 0.7 * shear["eps_q"].max()]
-        console.print(f"shear: peak q/p {peak:.4f}; over the last 30 % of eps_q: q/p "
+        late = residual_rows(shear)
+        console.print(f"shear: peak q/p {peak:.4f}; over the last {100 * RESIDUAL_SHARE:g} % "
+                      f"of eps_q: q/p "
                       f"{late['q_over_trace'].mean():.4f}, packing fraction "
                       f"{late['packing_fraction'].mean():.4f}, z {late['z'].mean():.3f}; "
                       f"max inertia number {shear['inertia_number'].max():.2e}"
                       f"{_type_fractions(late.mean(numeric_only=True))}")
 
 
-def finish_run(folder: Path, run, progress: bool) -> tuple[Any, list[Path]]:
-    """Run to the end, print the summary, the outcome in words and the figures; exit 3 when
-    the outcome is not as asked or the run blew up. Returns the result and the figures."""
+def complete_run(folder: Path, run, progress: bool) -> tuple[Any, list[Path], Any]:
+    """Run to the end, print the summary, the outcome in words and the figures. Returns the
+    result, the figures and the :class:`~grainlab.lab.run_outcome.RunOutcome`; a blow-up is
+    printed and returns (None, [], None)."""
     from grainlab.engine.simulation import SimulationBlowUp
-    from grainlab.lab.run_outcome import EXIT_NOT_AS_ASKED, RunOutcome
+    from grainlab.lab.run_outcome import RunOutcome
 
     for note in run.notes:
         console.print(f"[bold yellow]note:[/] {note}")
@@ -128,7 +132,7 @@ def finish_run(folder: Path, run, progress: bool) -> tuple[Any, list[Path]]:
         result = run.run(progress=progress)
     except SimulationBlowUp as error:
         console.print(f"[bold red]blow-up:[/] {error}")
-        raise typer.Exit(code=EXIT_NOT_AS_ASKED) from None
+        return None, [], None
     outcome = RunOutcome.of_result(result)
     figures = []
     if len(result.table):
@@ -142,24 +146,32 @@ def finish_run(folder: Path, run, progress: bool) -> tuple[Any, list[Path]]:
                   highlight=False)
     for line in lines:
         console.print(line, highlight=False)
-    if not outcome.as_asked:
+    return result, figures, outcome
+
+
+def finish_run(folder: Path, run, progress: bool) -> tuple[Any, list[Path]]:
+    """:func:`complete_run`, then exit 3 when the run blew up or its outcome is not as asked.
+    Returns the result and the figures."""
+    from grainlab.lab.run_outcome import EXIT_NOT_AS_ASKED
+
+    result, figures, outcome = complete_run(folder, run, progress)
+    if outcome is None or not outcome.as_asked:
         raise typer.Exit(code=EXIT_NOT_AS_ASKED)
     return result, figures
 
 
-def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any],
-         overwrite: bool, progress: bool) -> None:
-    """Check every option, then start the run: nothing is written before the input is
-    accepted, and a rejected start leaves OUT as it was."""
-    from grainlab.lab.discrete_run import start_run
-
-    output_folder("--out", out)
+def command_config(kind: str, config_file: Path | None, options: dict[str, Any]
+                   ) -> tuple[RunConfig, dict[str, Any]]:
+    """The config a command asks for: ``--config``'s file (or the defaults), the test
+    ``kind`` and the options given (those not None, keyed as :data:`_OPTIONS`) over it; and
+    the options given. A refused value is an :class:`InputError` naming the option as typed
+    (:func:`as_typed`)."""
     if config_file is not None:
         input_file("--config", config_file)
         try:
             config = RunConfig.read(config_file)
         except InputError as error:
-            raise _as_typed(error, {}, config_file) from None
+            raise as_typed(error, {}, config_file) from None
     else:
         config = RunConfig()
     given = {key: value for key, value in options.items() if value is not None}
@@ -171,10 +183,23 @@ def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any]
             table = table.setdefault(part, {})
         table[name] = value
     try:
-        config = config.with_updates(overrides)
+        return config.with_updates(overrides), given
+    except InputError as error:
+        raise as_typed(error, given, config_file) from None
+
+
+def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any],
+         overwrite: bool, progress: bool) -> None:
+    """Check every option, then start the run: nothing is written before the input is
+    accepted, and a rejected start leaves OUT as it was."""
+    from grainlab.lab.discrete_run import start_run
+
+    output_folder("--out", out)
+    config, given = command_config(kind, config_file, options)
+    try:
         run = start_run(out, config, overwrite=overwrite)
     except InputError as error:
-        raise _as_typed(error, given, config_file) from None
+        raise as_typed(error, given, config_file) from None
     sample = config.sample
     shapes = particles_text(sample.model_dump())
     console.print(f"run folder [bold]{out}[/] ({sample.n_particles} {shapes}, {kind}); "
@@ -183,8 +208,8 @@ def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any]
     finish_run(out, run, progress)
 
 
-def _as_typed(error: InputError, given: dict[str, Any], config_file: Path | None
-              ) -> InputError:
+def as_typed(error: InputError, given: dict[str, Any], config_file: Path | None
+             ) -> InputError:
     """``error`` naming what the user typed: the option (``--mu``) when the value came from
     the command line, else the config key and its file (``solver.shear.friction (in
     c.toml)``)."""

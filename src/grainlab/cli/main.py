@@ -6,7 +6,7 @@ import typer
 from rich.console import Console
 
 from grainlab._version import __version__
-from grainlab.cli import analyse, demo, discrete, microelement, packing2d, precompile
+from grainlab.cli import analyse, compare, demo, discrete, microelement, packing2d, precompile
 
 app = typer.Typer(
     help=(
@@ -26,6 +26,7 @@ app.command("triaxial")(discrete.triaxial_command)
 app.command("compaction")(discrete.compaction_command)
 app.command("oedometer")(discrete.oedometer_command)
 app.command("test")(discrete.lab_test_command)
+app.command("compare")(compare.compare_command)
 app.command("resume")(discrete.resume_command)
 app.command("vtk")(discrete.vtk_command)
 app.command("demo")(demo.demo)

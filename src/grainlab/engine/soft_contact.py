@@ -91,7 +91,7 @@ SKIN_FRACTION = 0.1
 """Default skin of the neighbour list: this fraction of the smallest member diameter."""
 FILTER_SUBSTEPS = 20.0
 """The periodic cell's servo reads the contacts' stress low-passed over this many stable
-sub-steps (one collision: the law's stable step is 0.2 of the half period)."""
+sub-steps (four collisions: the law's stable step is 0.2 of a contact's half period)."""
 OVERLAP_LIMIT = 0.5
 """A sub-step that meets an overlap beyond this fraction of the smallest member radius
 stops the run (the contacts are far too soft or the time step too long)."""
@@ -141,7 +141,8 @@ class SoftContactStep:
         self.theta = 1.0
         self.alert_growths = 0
         self.n_substeps = 0
-        """Sub-steps done since the solver was made."""
+        """Sub-steps done since the solver was made (or since its run started, when its
+        warm start is restored from a checkpoint)."""
         self.n_detections = 0
         """Neighbour lists built since the solver was made."""
         self.last_substeps = 0
@@ -184,12 +185,14 @@ class SoftContactStep:
 
     def warm_start_arrays(self) -> dict[str, np.ndarray]:
         """The contacts' springs (keys, tangential force [N], rolling moment [N m]), the
-        boundary's loads of the last step (the servos' input) and the neighbour list (so that
-        a resumed run goes on with the same list, bit for bit)."""
+        boundary's loads of the last step (the servos' input), the neighbour list (so that
+        a resumed run goes on with the same list, bit for bit) and the count of sub-steps
+        done (:attr:`n_substeps`: a resumed run goes on counting)."""
         arrays = {"keys": self._history_keys.copy(), "history": self._history.copy(),
                   "wall_load": self._wall_load.copy(),
                   "driven": np.array(int(self._driven)), "carried": self._carried.copy(),
-                  "filtered": self._filtered.copy()}
+                  "filtered": self._filtered.copy(),
+                  "substeps": np.array(self.n_substeps, dtype=np.int64)}
         if self._rows is not None:
             arrays |= {f"list_{k}": v for k, v in self._rows.to_arrays().items()}
             arrays |= {"end_positions": self._end[0].copy(),
@@ -205,6 +208,8 @@ class SoftContactStep:
         self._carried = np.asarray(arrays["carried"], dtype=np.float64).reshape(3, 3).copy()
         self._filtered = np.asarray(arrays.get("filtered", np.zeros((3, 3))),
                                     dtype=np.float64).reshape(3, 3).copy()
+        if "substeps" in arrays:  # not in the checkpoints written before it was counted
+            self.n_substeps = int(arrays["substeps"])
         self._rows = None
         if "list_body_i" in arrays:
             self._rows = _Rows.from_arrays(
@@ -215,8 +220,8 @@ class SoftContactStep:
     @property
     def filter_time(self) -> float:
         """Time [s] over which the periodic cell's servo low-passes the contacts' stress:
-        :data:`FILTER_SUBSTEPS` stable sub-steps, about one collision (the half period of a
-        contact's oscillation)."""
+        :data:`FILTER_SUBSTEPS` stable sub-steps (a few collisions: the law's stable step is
+        0.2 of a contact's half period)."""
         return FILTER_SUBSTEPS * float(self.substep)
 
     # -- stepping ------------------------------------------------------------------------------

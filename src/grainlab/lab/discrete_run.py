@@ -73,7 +73,7 @@ from grainlab.lab.run_checkpoint import (
     write_checkpoint,
 )
 from grainlab.lab.run_config import CHANGEABLE_ON_RESUME, RunConfig, parse_assignments
-from grainlab.lab.run_outcome import RunOutcome
+from grainlab.lab.run_outcome import RunCost, RunOutcome
 from grainlab.lab.wall_stages import QuasiStaticCriteria, wall_stages
 from grainlab.prep.loose_sample import loose_sample
 from grainlab.result.test_result import TestResult
@@ -154,6 +154,10 @@ class DiscreteRun:
         """What the user should know about this run besides its outcome (e.g. a damaged
         checkpoint passed over)."""
         self._vtk = None
+        self._seconds = 0.0
+        """Wall time [s] of the finished sessions (and of the run before its checkpoint)."""
+        self._clock: float | None = None
+        """``time.perf_counter()`` when the running session started; None between runs."""
         test.on_snapshot = self._write_snapshot
         test.on_stage_end = self._stage_ended
         out = config.output
@@ -198,12 +202,30 @@ class DiscreteRun:
                                  outcome.stopped, tuple(self.notes))
         return outcome
 
+    @property
+    def wall_time(self) -> float:
+        """Seconds spent running so far (:class:`~grainlab.lab.run_outcome.RunCost`): the
+        sessions that made the steps kept, this one included; NaN for a run resumed from a
+        checkpoint written before wall times were kept."""
+        running = 0.0 if self._clock is None else time.perf_counter() - self._clock
+        return self._seconds + running
+
+    @property
+    def cost(self) -> RunCost:
+        """Wall time, steps and (soft-contact DEM) sub-steps so far."""
+        solver = self.test.solver
+        substeps = solver.n_substeps if self.config.solver.method == "dem" else None
+        return RunCost(wall_time=self.wall_time, steps=self.test.simulation.step_index,
+                       substeps=substeps)
+
     def result(self) -> TestResult:
         """The results so far in the test-result format; ``metadata["outcome"]`` is
-        :meth:`RunOutcome.to_dict <grainlab.lab.run_outcome.RunOutcome.to_dict>`."""
+        :meth:`RunOutcome.to_dict <grainlab.lab.run_outcome.RunOutcome.to_dict>`,
+        ``metadata["cost"]`` :meth:`RunCost.to_dict
+        <grainlab.lab.run_outcome.RunCost.to_dict>`."""
         test = self.test
         table = pd.DataFrame(test.rows)
-        return TestResult.create(
+        result = TestResult.create(
             table, specimen={"kind": "discrete sample", **test.sample.description},
             load_path={"name": test.path.name, "description": test.path.description,
                        "stages": [s.to_dict() for s in test.stages]},
@@ -211,6 +233,8 @@ class DiscreteRun:
                         "config": self.config.model_dump()},
             outcome=_plain(self.outcome.to_dict()),
             dimension=3, title=f"{test.path.name} on a discrete sample")
+        result.metadata["cost"] = _plain(self.cost.to_dict())
+        return result
 
     def write_results(self, final: bool = False) -> None:
         """Rewrite results.csv (and results.h5, with the outcome in its attributes, when
@@ -259,7 +283,8 @@ class DiscreteRun:
                    "progress": json.dumps(_plain(test.progress_arrays())),
                    "outcome": json.dumps(_plain(test.outcome)),
                    "description": json.dumps(_plain(test.sample.description)),
-                   "config": json.dumps(self.config.model_dump())},
+                   "config": json.dumps(self.config.model_dump()),
+                   "wall_time": self.wall_time},
             datasets={"rows": json.dumps(_plain(test.rows))})  # a dataset: no 64 kB limit
 
     def checkpoint(self) -> Path:
@@ -299,7 +324,7 @@ class DiscreteRun:
         bar = _ProgressBar(test) if progress else None
         if bar is not None:
             test.on_record = bar.update
-        start = time.perf_counter()
+        start = self._clock = time.perf_counter()
         try:
             if bar is not None:
                 bar.start()
@@ -309,6 +334,7 @@ class DiscreteRun:
                     raise KeyboardInterrupt
                 if max_steps is not None:
                     break
+            self._stop_clock()  # the files written at the end carry the same wall time
             if interrupted:
                 raise KeyboardInterrupt
         except KeyboardInterrupt:
@@ -323,6 +349,7 @@ class DiscreteRun:
             self.log.error("blow-up: %s", diagnosed)
             raise diagnosed from None
         finally:
+            self._stop_clock()
             if bar is not None:
                 bar.stop()
             for signum, handler in previous.items():
@@ -345,6 +372,12 @@ class DiscreteRun:
             outcome = self.outcome
             (self.log.info if outcome.as_asked else self.log.warning)("%s", outcome.summary())
         return self.result()
+
+    def _stop_clock(self) -> None:
+        """Add the running session's seconds to the wall time and stop counting."""
+        if self._clock is not None:
+            self._seconds += time.perf_counter() - self._clock
+            self._clock = None
 
     def _blow_up_diagnosis(self, error: SimulationBlowUp) -> str:
         """The blow-up's message, with the box's thickness where the box is thinner than a
@@ -510,6 +543,7 @@ def test_for(sample: DiscreteSample, config: RunConfig) -> DiscreteTest:
 def _new_test(config: RunConfig) -> DiscreteTest:
     """The sample and the test of ``config``, its targets checked against the box."""
     config.load_path()  # a path the boundary cannot run is refused before the sample is made
+    config.check_solver()  # and a shape the solver cannot run
     test = test_for(build_sample(config), config)
     _refuse_flattening(test, config)
     return test
@@ -623,6 +657,7 @@ def resume_run(folder: str | Path, changes: list[str] | dict | None = None, *,
     run = DiscreteRun(folder, config, test)
     run.notes += notes
     run.last_checkpoint_step = test.simulation.step_index
+    run._seconds = saved["wall_time"]
     run.resumed = True
     if not test.finished:
         (folder / RESULTS_H5).unlink(missing_ok=True)  # rewritten at the end

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import errno
 import json
+import math
 import os
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -176,7 +177,8 @@ def _boundary(group) -> Any:
 def read_checkpoint(path: str | Path) -> dict[str, Any]:
     """Everything a checkpoint holds: ``library``, ``state``, ``box`` (objects),
     ``warm_start`` (arrays), ``rng_state``, ``progress``, ``outcome``, ``description``,
-    ``rows`` (plain data), ``config`` (plain data, None in checkpoints older than it).
+    ``rows`` (plain data), ``config`` (plain data, None in checkpoints older than it),
+    ``wall_time`` [s] (the run's so far: NaN in checkpoints older than it).
     A damaged file raises :class:`CheckpointDamaged` naming it."""
     path = Path(path)
     try:
@@ -196,6 +198,8 @@ def read_checkpoint(path: str | Path) -> dict[str, Any]:
                 saved[name] = json.loads(handle.attrs[name])
             saved["config"] = json.loads(handle.attrs["config"]) \
                 if "config" in handle.attrs else None
+            saved["wall_time"] = float(handle.attrs["wall_time"]) \
+                if "wall_time" in handle.attrs else math.nan
     except CheckpointDamaged:
         raise
     except (OSError, KeyError, ValueError, TypeError) as error:

@@ -58,7 +58,7 @@ import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from grainlab._validate import MAX_SEED
-from grainlab.engine.shape_kinds import SPHERE
+from grainlab.engine.shape_kinds import MEMBER_SPHERES, SPHERE
 from grainlab.errors import InputError
 from grainlab.lab.discrete_test import DiscreteTestSettings
 from grainlab.lab.load_path import LoadPath, LoadStage, StopCriterion
@@ -73,7 +73,7 @@ from grainlab.lab.presets import (
 )
 from grainlab.lab.soft_contact_settings import SoftContactSettings
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR, STAGE_KINDS, StageNumerics
-from grainlab.prep.sample_shapes import MAX_FACES, sample_shape
+from grainlab.prep.sample_shapes import MAX_FACES, SAMPLE_SHAPES, sample_shape
 
 TEST_KINDS = ("compaction", "triaxial", "extension", "oedometer", "true_triaxial",
               "simple_shear", "circular", "cyclic_shear")
@@ -346,7 +346,7 @@ class RunConfig(_Section):
         """The keys changed from ``started`` (the config the run was last checkpointed with)
         as ``{"section.key": (old, new)}``; an :class:`InputError` names the first key that
         may not change (:data:`CHANGEABLE_ON_RESUME`)."""
-        old, new = _flat(started.model_dump()), _flat(self.model_dump())
+        old, new = flat_keys(started.model_dump()), flat_keys(self.model_dump())
         changed = {k: (old[k], new[k]) for k in new if old.get(k) != new[k]}
         for key, (before, after) in changed.items():
             if key not in CHANGEABLE_ON_RESUME:
@@ -374,6 +374,19 @@ class RunConfig(_Section):
         stages, name, what = _test_stages(t)
         return LoadPath(name, 3, (*compaction, *stages),
                         f"isotropic compaction to {t.sigma0:g} Pa, then {what}")
+
+    def check_solver(self) -> None:
+        """Refuse a sample the solver cannot run, before anything is built: the soft-contact
+        solver (``method = "dem"``) takes sphere-based shapes only (an :class:`InputError`
+        naming ``sample.shape``)."""
+        shape = sample_shape(self.sample.shape)
+        if self.solver.method == "dem" and shape.kind.narrow_phase != MEMBER_SPHERES:
+            spheres = ", ".join(name for name, s in SAMPLE_SHAPES.items()
+                                if s.kind.narrow_phase == MEMBER_SPHERES)
+            raise InputError("sample.shape", self.sample.shape, (
+                f"a sphere-based shape ({spheres}) with solver.method = 'dem': the "
+                f"soft-contact solver does not run {shape.kind.plural}; they run with "
+                "contact dynamics (solver.method = 'cd')"))
 
     def settings(self) -> DiscreteTestSettings:
         """The discrete test's numerical settings."""
@@ -439,12 +452,12 @@ def _merged(data: dict[str, Any], updates: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _flat(data: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+def flat_keys(data: dict[str, Any], prefix: str = "") -> dict[str, Any]:
     """``{"solver.shear.tolerance": 1e-5, ...}`` of nested tables."""
     out: dict[str, Any] = {}
     for key, value in data.items():
         if isinstance(value, dict):
-            out.update(_flat(value, f"{prefix}{key}."))
+            out.update(flat_keys(value, f"{prefix}{key}."))
         else:
             out[f"{prefix}{key}"] = value
     return out

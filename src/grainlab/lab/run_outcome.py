@@ -1,4 +1,5 @@
-"""What a discrete run did, judged against what was asked, in words and as data.
+"""What a discrete run did, judged against what was asked, in words and as data, and what it
+cost (:class:`RunCost`: wall time, steps, sub-steps).
 
 A run is *as asked* when it finished every stage of its load path and each stage
 
@@ -271,6 +272,49 @@ class RunOutcome:
     def of_result(cls, result) -> RunOutcome:
         """The outcome of a discrete run's :class:`~grainlab.result.test_result.TestResult`."""
         return cls.from_dict(result.metadata["outcome"])
+
+
+@dataclass(frozen=True)
+class RunCost:
+    """What a run took to reach its last record: ``wall_time`` [s], the seconds spent
+    stepping, recording and checkpointing, summed over the sessions that made the steps kept
+    (a session's steps after its last checkpoint, lost to a kill, are not counted; a first
+    session's kernel compilation is); ``steps``, the simulation steps; ``substeps``, the
+    integration sub-steps of an explicit solver (soft-contact DEM: each step cut into
+    sub-steps no longer than the stable one), None for contact dynamics, whose steps have
+    none. A run's result keeps it in ``metadata["cost"]`` (:meth:`of_result`).
+
+    >>> cost = RunCost(wall_time=12.5, steps=400, substeps=9600)
+    >>> RunCost.from_dict(cost.to_dict()) == cost
+    True
+    """
+
+    wall_time: float
+    steps: int
+    substeps: int | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data (``wall_time`` None where unknown)."""
+        return {"wall_time": self.wall_time if math.isfinite(self.wall_time) else None,
+                "steps": self.steps, "substeps": self.substeps}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> RunCost:
+        """Inverse of :meth:`to_dict`."""
+        wall_time = data.get("wall_time")
+        substeps = data.get("substeps")
+        return cls(wall_time=math.nan if wall_time is None else float(wall_time),
+                   steps=int(data["steps"]),
+                   substeps=None if substeps is None else int(substeps))
+
+    @classmethod
+    def of_result(cls, result) -> RunCost:
+        """The cost of a discrete run's :class:`~grainlab.result.test_result.TestResult`; a
+        result written before costs were kept gives its steps (from the outcome) and an
+        unknown (NaN) wall time."""
+        if "cost" in result.metadata:
+            return cls.from_dict(result.metadata["cost"])
+        return cls(wall_time=math.nan, steps=int(result.metadata["outcome"]["steps"]))
 
 
 def _unsettled(row: dict[str, Any], criteria, targets: dict[str, float]) -> tuple[str, ...]:

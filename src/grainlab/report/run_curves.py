@@ -46,6 +46,8 @@ def run_title(result: TestResult) -> str:
              str(test.get("kind", meta.get("title", "")))]
     if "sigma0" in test:
         parts.append(rf"$\sigma_0$ = {test['sigma0'] / 1e3:g} kPa")
+    if test.get("kind") == "compaction":
+        shear = {}  # the shear's friction and inertia bound play no part
     if "friction" in shear:
         parts.append(rf"$\mu$ = {shear['friction']:g}")
     if "inertia_number" in shear:
@@ -56,15 +58,16 @@ def run_title(result: TestResult) -> str:
 
 
 def shear_from_its_start(table: pd.DataFrame) -> pd.DataFrame:
-    """The rows after the compaction, led by the compaction's last row as the state at
-    eps_q = 0 and eps_vol = 0 (the strains of the shear are counted from its start)."""
+    """The rows after the compaction, led by the compaction's last row as the state at zero
+    strain (every ``eps_*`` and ``gamma_*`` column 0: the strains of the stages after the
+    compaction are counted from its end)."""
     shear = table[table["stage"] != "compaction"]
     compaction = table[table["stage"] == "compaction"]
     if len(compaction) == 0 or len(shear) == 0:
         return shear.reset_index(drop=True)
     start = compaction.iloc[[-1]].copy()
-    for column in ("eps_q", "eps_vol"):
-        if column in start.columns:
+    for column in start.columns:
+        if str(column).startswith(("eps_", "gamma_")):
             start[column] = 0.0
     return pd.concat([start, shear], ignore_index=True)
 
