@@ -69,8 +69,10 @@ from grainlab.contact.soft_contact_law import SoftContactLaw
 from grainlab.engine.boundary import BoundaryMotion, DetectionPhases, as_boundary
 from grainlab.engine.contact_dynamics import StepReport, contact_frames, contact_keys
 from grainlab.engine.narrow_phase import Contacts
+from grainlab.engine.shape_kinds import library_time_step_length
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.soft_contact_kernels import SERVO_INTEGRAL, servo_kernel, substeps_kernel
+from grainlab.engine.soft_polyhedra import PolyhedronRows, has_polyhedra
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 
@@ -182,13 +184,14 @@ class SoftContactStep:
     # -- stepping ------------------------------------------------------------------------------
     def stable_substep(self, state: BodyState, library: ShapeLibrary) -> float:
         """The law's stable sub-step [s] for these bodies (the lightest mass, counting the
-        rotational inertia about a member's surface, and the smallest member radius)."""
-        _refuse_polyhedra(library)
+        rotational inertia about a member's surface, and the smallest member radius or
+        polyhedron inradius)."""
+        has_polyhedra(library, self.law)
         ids = state.shape_ids
         reach = library.bounding_radius[ids]
         rotational = np.min(state.inertias, axis=1) / np.maximum(reach, 1e-300) ** 2
         lightest = float(np.min(np.minimum(state.masses, rotational)))
-        radius = float(np.min(library.sphere_radii))
+        radius = 0.5 * library_time_step_length(library)
         return self.law.time_step(lightest, radius, state.density)
 
     def step(self, state: BodyState, library: ShapeLibrary, walls=None) -> StepReport:
@@ -202,7 +205,7 @@ class SoftContactStep:
         if self.fixed_substep is None:
             self.substep = self.stable_substep(state, library)
         else:
-            _refuse_polyhedra(library)
+            has_polyhedra(library, self.law)
         n_sub = max(1, math.ceil(macro / self.substep * (1.0 - 1e-12)))
         h = macro / n_sub
         n_walls, n_dofs = bounds.n_walls, bounds.cell_inv_mass.shape[0]
@@ -247,7 +250,7 @@ class SoftContactStep:
     def _detection(self, library: ShapeLibrary) -> DetectionPhases:
         if self._phases is None:
             if self.skin is None:
-                self.skin = 2.0 * SKIN_FRACTION * float(np.min(library.sphere_radii))
+                self.skin = SKIN_FRACTION * library_time_step_length(library)
             self._phases = DetectionPhases.with_alert(self.skin)
         return self._phases
 
@@ -261,10 +264,13 @@ class SoftContactStep:
         self.n_detections += 1
         if run.rows is not None:  # keep the springs of the list being replaced
             self._remember(run.rows, state.n_bodies, library)
-        rows = _Rows(contacts, np.ascontiguousarray(images, dtype=np.float64), state, library,
-                     bounds, self.friction)
-        keys = contact_keys(contacts, state.n_bodies, library)
-        rows.keys = keys
+        if has_polyhedra(library, self.law):  # one row per body pair (soft_polyhedra)
+            rows = PolyhedronRows(contacts, images, state, library, bounds, self.friction)
+        else:
+            rows = _Rows(contacts, np.ascontiguousarray(images, dtype=np.float64), state,
+                         library, bounds, self.friction)
+            rows.keys = contact_keys(contacts, state.n_bodies, library)
+        keys = rows.keys
         if self._history_keys.size and keys.size:
             where = np.minimum(np.searchsorted(self._history_keys, keys),
                                self._history_keys.size - 1)
@@ -309,12 +315,6 @@ def isochoric_speeds(bounds) -> tuple[np.ndarray, np.ndarray]:
         if np.any(free):
             cells[free] = -volumetric / (np.count_nonzero(free) * traces[free])
     return walls, cells
-
-
-def _refuse_polyhedra(library: ShapeLibrary) -> None:
-    if library.vertex_count is not None and np.any(library.sphere_count == 0):
-        raise InputError("shape", "polyhedron", "sphere-based bodies (spheres, aggregates) "
-                         "with the soft-contact solver; polyhedra run with contact dynamics")
 
 
 class _Rows:
@@ -425,6 +425,8 @@ class _Run:
     def advance(self, solver: SoftContactStep, rows: _Rows, n_steps: int, h: float) -> int:
         """Up to ``n_steps`` sub-steps of ``h`` [s] on ``rows`` (0: only the loads now);
         returns those done."""
+        if isinstance(rows, PolyhedronRows):
+            return rows.advance(self, solver, n_steps, h, OVERLAP_LIMIT)
         state, bounds, law = self.state, self.bounds, solver.law
         f64 = np.float64
         done = substeps_kernel(
@@ -457,6 +459,8 @@ class _Run:
                library: ShapeLibrary) -> StepReport:
         """The contacts closed at the end of the step, as a step report."""
         solver._remember(rows, self.state.n_bodies, library)
+        if isinstance(rows, PolyhedronRows):
+            return rows.report(self, macro)
         closed = rows.gap < 0.0
         c = rows.contacts
         contacts = Contacts(
