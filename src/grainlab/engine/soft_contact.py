@@ -69,10 +69,9 @@ from grainlab.contact.soft_contact_law import SoftContactLaw
 from grainlab.engine.boundary import BoundaryMotion, DetectionPhases, as_boundary
 from grainlab.engine.contact_dynamics import StepReport, contact_frames, contact_keys
 from grainlab.engine.narrow_phase import Contacts
-from grainlab.engine.shape_kinds import library_time_step_length
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.soft_contact_kernels import SERVO_INTEGRAL, servo_kernel, substeps_kernel
-from grainlab.engine.soft_polyhedra import PolyhedronRows, has_polyhedra
+from grainlab.engine.soft_polyhedra import PolyhedronRows, has_polyhedra, smallest_radius
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 
@@ -191,7 +190,7 @@ class SoftContactStep:
         reach = library.bounding_radius[ids]
         rotational = np.min(state.inertias, axis=1) / np.maximum(reach, 1e-300) ** 2
         lightest = float(np.min(np.minimum(state.masses, rotational)))
-        radius = 0.5 * library_time_step_length(library)
+        radius = smallest_radius(library)
         return self.law.time_step(lightest, radius, state.density)
 
     def step(self, state: BodyState, library: ShapeLibrary, walls=None) -> StepReport:
@@ -250,7 +249,7 @@ class SoftContactStep:
     def _detection(self, library: ShapeLibrary) -> DetectionPhases:
         if self._phases is None:
             if self.skin is None:
-                self.skin = SKIN_FRACTION * library_time_step_length(library)
+                self.skin = 2.0 * SKIN_FRACTION * smallest_radius(library)
             self._phases = DetectionPhases.with_alert(self.skin)
         return self._phases
 

@@ -80,12 +80,14 @@ Cost (measured, see docs/discrete_engine.md): one manifold per listed pair per s
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from grainlab.contact.soft_contact_law import SoftContactLaw
 from grainlab.engine.contact_dynamics import StepReport, contact_frames, contact_keys
 from grainlab.engine.narrow_phase import Contacts
-from grainlab.engine.polyhedron_narrow_phase import angle_tolerances, world_polyhedra
+from grainlab.engine.polyhedron_narrow_phase import angle_tolerances
 from grainlab.engine.shape_kinds import (
     MEMBER_SPHERES,
     POLYHEDRON_FEATURES,
@@ -102,10 +104,10 @@ from grainlab.geometry.polyhedron_contact import ANGLE_TOLERANCE, DEFAULT_MAX_PO
 def has_polyhedra(library: ShapeLibrary, law: SoftContactLaw) -> bool:
     """Whether the library holds polyhedra (the sub-steps of this module); refuses what the
     soft-contact solver does not run with them (module docstring)."""
-    polyhedra = bool(np.any(family_mask(library.kind, POLYHEDRON_FEATURES)))
+    polyhedra, spheres = _families(library)
     if not polyhedra:
         return False
-    if np.any(family_mask(library.kind, MEMBER_SPHERES)):
+    if spheres:
         raise InputError("shape", "polyhedra with spheres or aggregates",
                          "one family of shapes per sample with the soft-contact solver: "
                          "polyhedra alone, or spheres and aggregates")
@@ -113,6 +115,21 @@ def has_polyhedra(library: ShapeLibrary, law: SoftContactLaw) -> bool:
         raise InputError("rolling_friction", law.rolling_friction,
                          "0 with polyhedra (their faces resist rolling)")
     return True
+
+
+@lru_cache(maxsize=16)
+def _families(library: ShapeLibrary) -> tuple[bool, bool]:
+    """Whether a library (frozen, hashed by identity) holds polyhedra, member spheres."""
+    return (bool(np.any(family_mask(library.kind, POLYHEDRON_FEATURES))),
+            bool(np.any(family_mask(library.kind, MEMBER_SPHERES))))
+
+
+@lru_cache(maxsize=16)
+def smallest_radius(library: ShapeLibrary) -> float:
+    """Half the time-step length of the library's shapes [m]
+    (:func:`~grainlab.engine.shape_kinds.library_time_step_length`): the smallest member
+    radius or polyhedron inradius; the length of the stable sub-step and of the skin."""
+    return 0.5 * library_time_step_length(library)
 
 
 def equivalent_radii(state: BodyState, library: ShapeLibrary) -> np.ndarray:
@@ -141,7 +158,7 @@ class PolyhedronRows:
         self.r_eff = radii[self.pair_j].copy()
         ri = radii[self.pair_i[inner]]
         self.r_eff[inner] = ri * self.r_eff[inner] / (ri + self.r_eff[inner])
-        self.smallest_radius = 0.5 * library_time_step_length(library)
+        self.smallest_radius = smallest_radius(library)
         self.wall_rows = np.flatnonzero(~inner).astype(np.int64)
         self.image_rows = np.flatnonzero(np.any(self.images != 0.0, axis=1)).astype(np.int64)
         # CSR of the rows of each body: 2 p for its j side, 2 p + 1 for its i side
@@ -158,7 +175,7 @@ class PolyhedronRows:
             point=np.zeros((p, 3)), normal=np.zeros((p, 3)), gap=np.zeros(p)), n, library)
         self.xi = np.zeros((p, 3))
         self.roll = np.zeros((p, 3))  # no rolling resistance: kept for the springs' history
-        _, bvs, wv, bfs, wn, wo = world_polyhedra(state, library)
+        bvs, wv, bfs, wn, wo = _world_layout(state, library)
         lib = library
         self.bodies = (np.ascontiguousarray(state.shape_ids, dtype=np.int64), lib.vertex_start,
                        lib.vertices, lib.face_start, lib.face_normals, lib.face_offsets)
@@ -237,3 +254,18 @@ class PolyhedronRows:
             n_contacts=contacts.n_contacts, iterations=1, converged=True, change=0.0,
             residual=0.0, max_overlap=float(run.stats[0]), contacts=contacts, frames=frames,
             impulses=impulses, relative_velocity=relative, images=self.images[pair])
+
+
+def _world_layout(state: BodyState, library: ShapeLibrary) -> tuple:
+    """Rows of each body in the world-frame arrays of its polyhedron (body_vertex_start
+    (N + 1,), world_vertices (V_w, 3), body_face_start (N + 1,), world_normals (F_w, 3),
+    world_offsets (F_w,)), as :func:`~grainlab.engine.polyhedron_narrow_phase.
+    world_polyhedra` lays them out; the sub-steps fill them."""
+    ids = state.shape_ids
+    body_vertex_start = np.zeros(state.n_bodies + 1, dtype=np.int64)
+    np.cumsum(library.vertex_count[ids], out=body_vertex_start[1:])
+    body_face_start = np.zeros(state.n_bodies + 1, dtype=np.int64)
+    np.cumsum(library.face_count[ids], out=body_face_start[1:])
+    n_v, n_f = int(body_vertex_start[-1]), int(body_face_start[-1])
+    return (body_vertex_start, np.zeros((n_v, 3)), body_face_start, np.zeros((n_f, 3)),
+            np.zeros(n_f))
