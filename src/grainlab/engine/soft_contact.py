@@ -22,7 +22,9 @@ oscillation period sqrt(m/k) 2 pi for springs; ``substep`` reports it). The sub-
 compiled code (:mod:`grainlab.engine.soft_contact_kernels`) on a neighbour list: the member
 pairs within a ``skin`` [m] (default 0.1 x the smallest member diameter) found by the
 boundary's own detection (every shape kind's broad and narrow phase, walls, the periodic
-cell's images), rebuilt when two points may have closed the skin.
+cell's images), rebuilt when two points may have closed the skin. Convex polyhedra go through
+their own list and sub-steps (:mod:`grainlab.engine.soft_polyhedra`: a soft law on the
+penetration at each point of the contact-dynamics manifold, recomputed every sub-step).
 
 The boundary (:mod:`grainlab.engine.boundary`) is asked for its constraints once per step, as
 by contact dynamics, and moves at constant speed through the step: a driven wall at its speed,
@@ -98,7 +100,7 @@ class SoftContactStep:
         Coulomb coefficient mu >= 0 of the contacts between bodies (walls: their own).
     skin:
         Skin of the neighbour list [m] > 0; None: :data:`SKIN_FRACTION` x the smallest
-        member diameter.
+        member diameter or polyhedron inscribed diameter.
     substep:
         Sub-step [s] > 0; None: the law's stable step for the bodies of the first step.
     """

@@ -35,8 +35,9 @@ kept: the point forces derive from no potential. None can with positive point fo
 same total for one point and for K points at one depth, and continuity: the energy of two
 points at depths (delta_1, delta_2) would have to be the same at delta_2 = 0 and at
 delta_2 = delta_1, so the second point would carry nothing between. A rocking contact
-therefore need not return exactly the work done on it; the law's damping dominates that in
-every test here.
+therefore need not return exactly the work done on it; measured: an elastic, frictionless cube
+or n_f = 30 hull landing tilted by 0.02 or 0.2 rad keeps its kinetic energy within 4e-6
+(1000 sub-steps per impact).
 
 Tangential force. One spring per pair (Mindlin's incremental law with history as for spheres,
 :mod:`grainlab.contact.soft_contact_law`) at the penetration-weighted mean point
@@ -75,7 +76,10 @@ dynamics.
 Not here: rolling resistance (``rolling_friction`` must be 0; faces resist rolling) and
 polyhedra mixed with spheres or aggregates in one sample (both refused with a message).
 
-Cost (measured, see docs/discrete_engine.md): one manifold per listed pair per sub-step.
+Cost: one manifold per listed pair per sub-step, about 7 us per pair for n_f = 30 (5 of them
+the manifold); 100 polyhedra (n_f = 30) resting in a box, 3 listed pairs per particle: 390-520
+sub-steps per second on one thread (``benchmarks/benchmark_engine_soft_polyhedra.py``;
+docs/discrete_engine.md).
 """
 
 from __future__ import annotations
