@@ -80,6 +80,22 @@ Cost: one manifold per listed pair per sub-step, about 7 us per pair for n_f = 3
 the manifold); 100 polyhedra (n_f = 30) resting in a box, 3 listed pairs per particle: 390-520
 sub-steps per second on one thread (``benchmarks/benchmark_engine_soft_polyhedra.py``;
 docs/discrete_engine.md).
+
+A cube of side 1 cm at rest on a face sinks by m g / k_n, each corner carrying a quarter:
+
+>>> from grainlab.contact.soft_contact_law import SoftContactLaw
+>>> from grainlab.engine.soft_contact import SoftContactStep
+>>> from grainlab.geometry.polyhedron import from_vertices
+>>> cube = from_vertices([[x, y, z] for x in (0, 0.01) for y in (0, 0.01) for z in (0, 0.01)])
+>>> library = ShapeLibrary.from_polyhedra([cube])
+>>> state = BodyState.from_library(library, [0], [[0.0, 0.0, 0.005]], density=2600.0)
+>>> law = SoftContactLaw.linear(1e4, restitution=0.3, local_damping=0.3)
+>>> solver = SoftContactStep(law, dt=1e-3, gravity=(0.0, 0.0, -9.81))
+>>> for _ in range(300):
+...     report = solver.step(state, library, walls=([[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]]))
+>>> weight = float(state.masses[0]) * 9.81
+>>> report.n_contacts, round(float(-report.contacts.gap.mean()) * 1e4 / weight, 6)
+(4, 1.0)
 """
 
 from __future__ import annotations
