@@ -116,7 +116,6 @@ def test_a_folder_holding_runs_of_another_test_is_refused_untouched(compared):
 @pytest.mark.parametrize("arguments, words", [
     (["shear"], ("KIND = 'shear'", "one of compaction, triaxial, extension, oedometer")),
     (["triaxial", "--solver", "dem"], ("--solver = 'dem'", "both solvers")),
-    (["triaxial", "--shape", "polyhedron"], ("--shape = 'polyhedron'", "sphere, aggregate")),
     (["triaxial", "--kappa", "-1"], ("--kappa = -1", "> 0")),
     (["simple_shear"], ("sample.boundary = 'walls'", "periodic")),
 ])

@@ -21,7 +21,6 @@ from grainlab.engine.soft_contact import SoftContactStep
 from grainlab.engine.soft_contact_kernels import contact_forces_kernel
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
-from grainlab.errors import InputError
 from grainlab.geometry.sphere_aggregate import from_spheres
 
 G = 9.81
@@ -308,17 +307,6 @@ def test_forces_do_not_depend_on_the_labelling_of_the_bodies():
         results.append((state.positions[back], state.velocities[back]))
     np.testing.assert_allclose(results[0][0], results[1][0], rtol=0, atol=1e-12)
     np.testing.assert_allclose(results[0][1], results[1][1], rtol=0, atol=1e-9)
-
-
-def test_polyhedra_are_refused_with_a_clear_message():
-    from grainlab.geometry.polyhedron import from_vertices
-
-    cube = from_vertices([[x, y, z] for x in (0, 0.01) for y in (0, 0.01) for z in (0, 0.01)])
-    library = ShapeLibrary.from_polyhedra([cube])
-    state = BodyState.from_library(library, [0], [[0.0, 0.0, 0.02]], density=2600.0)
-    solver = SoftContactStep(SoftContactLaw.linear(1e5), dt=1e-4)
-    with pytest.raises(InputError, match="polyhedra"):
-        solver.step(state, library)
 
 
 def oblique_impact(angle_deg, mu=0.092, restitution=1.0):

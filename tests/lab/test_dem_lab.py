@@ -130,3 +130,19 @@ def test_both_solvers_agree_on_a_quasi_static_triaxial_test(tmp_path, boundary):
         dem = [results["dem", s][index] for s in (1, 2)]
         spread = max(np.ptp(cd), np.ptp(dem), 0.01 * np.mean(cd))
         assert abs(np.mean(dem) - np.mean(cd)) <= 2.0 * spread
+
+
+def test_dem_compaction_of_polyhedra_runs_to_the_end(tmp_path):
+    """A tiny polyhedra compaction with the soft-contact solver (smoke test): it settles on
+    sigma0 with the contact types of polyhedra in the table."""
+    result = start_run(tmp_path / "poly", config(
+        sample={"shape": "polyhedron", "n_particles": 8, "n_faces": 8, "templates": 3,
+                "seed": 1},
+        test={"kind": "compaction"}, solver={"dem": {"kappa": 1e2}})).run()
+    end = result.table.iloc[-1]
+    assert result.metadata["outcome"]["finished"] and result.metadata["outcome"]["as_asked"]
+    for axis in ("xx", "yy", "zz"):
+        assert end[f"wall_sigma_{axis}"] == pytest.approx(SIGMA0, rel=0.011)
+    fractions = [end[f"fraction_{t}"] for t in ("fv", "ee", "fe", "ff")]
+    assert sum(fractions) == pytest.approx(1.0)
+    assert 0.0 < end["max_overlap_over_d"] < 0.05

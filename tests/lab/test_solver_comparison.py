@@ -152,11 +152,14 @@ def test_the_two_configs_differ_in_the_method_only_and_a_folder_of_another_run_i
     check_solver_run(folder, configs["dem"], overwrite=True)
 
 
-def test_the_soft_contact_solver_refuses_polyhedra_before_anything_is_built():
+def test_the_soft_contact_solver_refuses_rolling_resistance_on_polyhedra_up_front():
     polyhedra = RunConfig.model_validate({"sample": {"shape": "polyhedron"},
-                                          "solver": {"method": "dem"}})
-    with pytest.raises(InputError, match=r"sample\.shape = 'polyhedron'.*sphere, aggregate"):
+                                          "solver": {"method": "dem",
+                                                     "dem": {"rolling_friction": 0.1}}})
+    with pytest.raises(InputError, match=r"solver\.dem\.rolling_friction = 0\.1.*polyhedra"):
         polyhedra.check_solver()
     RunConfig.model_validate({"sample": {"shape": "aggregate"},
+                              "solver": {"method": "dem", "dem": {"rolling_friction": 0.1}}}
+                             ).check_solver()
+    RunConfig.model_validate({"sample": {"shape": "polyhedron"},
                               "solver": {"method": "dem"}}).check_solver()
-    RunConfig.model_validate({"sample": {"shape": "polyhedron"}}).check_solver()

@@ -9,7 +9,8 @@ aggregates, sample measures, snapshots, microstructure analysis, ParaView export
 ``--part polyhedra`` (the kinds of the polyhedron family: contact geometry and dynamics;
 :data:`FAMILY_PARTS`), ``--part theories`` (the regular-packing and micro-element
 models) and ``--part dem`` (the soft-contact solver, in a box of walls and in a periodic
-cell); ``--part all`` runs them in turn. Nothing is kept but the compiled code.
+cell, spheres and polyhedra); ``--part all`` runs them in turn. Nothing is kept but the
+compiled code.
 """
 
 from __future__ import annotations
@@ -139,7 +140,8 @@ def _theory_runs(folder: Path) -> None:
 
 def _dem_runs(folder: Path) -> None:
     """The soft-contact solver's kernels: a tiny triaxial test in a box of walls and one in
-    a periodic cell, and the damping of Hertz-Mindlin contacts."""
+    a periodic cell, one of polyhedra in a box (their own sub-steps), and the damping of
+    Hertz-Mindlin contacts."""
     from grainlab.contact.soft_contact_law import SoftContactLaw
     from grainlab.lab.discrete_run import start_run
 
@@ -149,6 +151,8 @@ def _dem_runs(folder: Path) -> None:
         config = _tiny_config(SPHERE).with_updates(
             {"sample": {"boundary": boundary, **sample}, "solver": {"method": "dem"}})
         start_run(folder / boundary, config).run()
+    config = _tiny_config(POLYHEDRON).with_updates({"solver": {"method": "dem"}})
+    start_run(folder / POLYHEDRON.name, config).run()
 
 
 _WORK = {"discrete": _discrete_runs, "polyhedra": _polyhedra_runs, "theories": _theory_runs,

@@ -29,6 +29,33 @@ from grainlab.geometry.polyhedron_contact import MAX_POINTS, signed_distance, sp
 from grainlab.geometry.polyhedron_manifold import pair_manifold, wall_manifold
 
 
+@njit(inline="always")
+def world_polyhedron(n, positions, orientations, shape_ids, vertex_start, vertices, face_start,
+                     face_normals, face_offsets, body_vertex_start, body_face_start,
+                     world_vertices, world_normals, world_offsets):
+    """Body n's rows of :func:`world_polyhedra_kernel` (the scalar law, also inlined in the
+    serial sub-steps of :mod:`grainlab.engine.soft_polyhedra_kernels`)."""
+    w, x, y, z = orientations[n, 0], orientations[n, 1], orientations[n, 2], orientations[n, 3]
+    s = shape_ids[n]
+    px, py, pz = positions[n, 0], positions[n, 1], positions[n, 2]
+    v0 = vertex_start[s]
+    for row in range(body_vertex_start[n], body_vertex_start[n + 1]):
+        k = v0 + row - body_vertex_start[n]
+        rx, ry, rz = rotate(w, x, y, z, vertices[k, 0], vertices[k, 1], vertices[k, 2])
+        world_vertices[row, 0] = px + rx
+        world_vertices[row, 1] = py + ry
+        world_vertices[row, 2] = pz + rz
+    f0 = face_start[s]
+    for row in range(body_face_start[n], body_face_start[n + 1]):
+        k = f0 + row - body_face_start[n]
+        rx, ry, rz = rotate(w, x, y, z, face_normals[k, 0], face_normals[k, 1],
+                            face_normals[k, 2])
+        world_normals[row, 0] = rx
+        world_normals[row, 1] = ry
+        world_normals[row, 2] = rz
+        world_offsets[row] = face_offsets[k] + rx * px + ry * py + rz * pz
+
+
 @njit(cache=True, parallel=True)
 def world_polyhedra_kernel(
     positions, orientations, shape_ids, vertex_start, vertices, face_start, face_normals,
@@ -38,26 +65,9 @@ def world_polyhedra_kernel(
     """Vertices (V_w, 3) [m], face normals (F_w, 3) and offsets (F_w,) [m] of the polyhedron
     bodies in the world frame (body n: rows body_*_start[n] .. body_*_start[n + 1] - 1)."""
     for n in prange(positions.shape[0]):
-        w, x, y, z = orientations[n, 0], orientations[n, 1], orientations[n, 2], \
-            orientations[n, 3]
-        s = shape_ids[n]
-        px, py, pz = positions[n, 0], positions[n, 1], positions[n, 2]
-        v0 = vertex_start[s]
-        for row in range(body_vertex_start[n], body_vertex_start[n + 1]):
-            k = v0 + row - body_vertex_start[n]
-            rx, ry, rz = rotate(w, x, y, z, vertices[k, 0], vertices[k, 1], vertices[k, 2])
-            world_vertices[row, 0] = px + rx
-            world_vertices[row, 1] = py + ry
-            world_vertices[row, 2] = pz + rz
-        f0 = face_start[s]
-        for row in range(body_face_start[n], body_face_start[n + 1]):
-            k = f0 + row - body_face_start[n]
-            rx, ry, rz = rotate(w, x, y, z, face_normals[k, 0], face_normals[k, 1],
-                                face_normals[k, 2])
-            world_normals[row, 0] = rx
-            world_normals[row, 1] = ry
-            world_normals[row, 2] = rz
-            world_offsets[row] = face_offsets[k] + rx * px + ry * py + rz * pz
+        world_polyhedron(n, positions, orientations, shape_ids, vertex_start, vertices,
+                         face_start, face_normals, face_offsets, body_vertex_start,
+                         body_face_start, world_vertices, world_normals, world_offsets)
 
 
 @njit(inline="always")

@@ -26,6 +26,9 @@ cell's images), rebuilt when two points may have closed the skin. The list lives
 step (the bodies' travel, the walls' and the cell's motion since it was built carried along),
 and is rebuilt at once when the bodies, the walls or the cell were moved between two steps
 by anything else than the solver (a re-mapped cell, a restored state).
+Convex polyhedra go through their own list and sub-steps (:mod:`grainlab.engine.
+soft_polyhedra`: a soft law on the penetration at each point of the contact-dynamics
+manifold, recomputed every sub-step; their list is rebuilt at every step).
 
 The boundary (:mod:`grainlab.engine.boundary`) is asked for its constraints once per step, as
 by contact dynamics. Walls move at constant speed through the step: a driven wall at its
@@ -84,6 +87,7 @@ from grainlab.engine.soft_contact_kernels import (
     servo_kernel,
     substeps_kernel,
 )
+from grainlab.engine.soft_polyhedra import PolyhedronRows, has_polyhedra, smallest_radius
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 
@@ -113,7 +117,7 @@ class SoftContactStep:
         Coulomb coefficient mu >= 0 of the contacts between bodies (walls: their own).
     skin:
         Skin of the neighbour list [m] > 0; None: :data:`SKIN_FRACTION` x the smallest
-        member diameter.
+        member diameter or polyhedron inscribed diameter.
     substep:
         Sub-step [s] > 0; None: the law's stable step for the bodies of the first step.
     """
@@ -188,12 +192,14 @@ class SoftContactStep:
         boundary's loads of the last step (the servos' input), the neighbour list (so that
         a resumed run goes on with the same list, bit for bit) and the count of sub-steps
         done (:attr:`n_substeps`: a resumed run goes on counting)."""
+        if self._rows is not None:  # the live springs (the history is otherwise kept only
+            self._remember(self._rows)  # when a list is replaced)
         arrays = {"keys": self._history_keys.copy(), "history": self._history.copy(),
                   "wall_load": self._wall_load.copy(),
                   "driven": np.array(int(self._driven)), "carried": self._carried.copy(),
                   "filtered": self._filtered.copy(),
                   "substeps": np.array(self.n_substeps, dtype=np.int64)}
-        if self._rows is not None:
+        if isinstance(self._rows, _Rows):  # (a polyhedra list is rebuilt at every step)
             arrays |= {f"list_{k}": v for k, v in self._rows.to_arrays().items()}
             arrays |= {"end_positions": self._end[0].copy(),
                        "end_orientations": self._end[1].copy()}
@@ -227,13 +233,14 @@ class SoftContactStep:
     # -- stepping ------------------------------------------------------------------------------
     def stable_substep(self, state: BodyState, library: ShapeLibrary) -> float:
         """The law's stable sub-step [s] for these bodies (the lightest mass, counting the
-        rotational inertia about a member's surface, and the smallest member radius)."""
-        _refuse_polyhedra(library)
+        rotational inertia about a member's surface, and the smallest member radius or
+        polyhedron inradius)."""
+        has_polyhedra(library, self.law)
         ids = state.shape_ids
         reach = library.bounding_radius[ids]
         rotational = np.min(state.inertias, axis=1) / np.maximum(reach, 1e-300) ** 2
         lightest = float(np.min(np.minimum(state.masses, rotational)))
-        radius = float(np.min(library.sphere_radii))
+        radius = smallest_radius(library)
         return self.law.time_step(lightest, radius, state.density)
 
     def step(self, state: BodyState, library: ShapeLibrary, walls=None) -> StepReport:
@@ -247,7 +254,7 @@ class SoftContactStep:
         if self.fixed_substep is None:
             self.substep = self.stable_substep(state, library)
         else:
-            _refuse_polyhedra(library)
+            has_polyhedra(library, self.law)
         n_sub = max(1, math.ceil(macro / self.substep * (1.0 - 1e-12)))
         h = macro / n_sub
         n_walls, n_dofs = bounds.n_walls, bounds.cell_inv_mass.shape[0]
@@ -284,7 +291,7 @@ class SoftContactStep:
     def _detection(self, library: ShapeLibrary) -> DetectionPhases:
         if self._phases is None:
             if self.skin is None:
-                self.skin = 2.0 * SKIN_FRACTION * float(np.min(library.sphere_radii))
+                self.skin = 2.0 * SKIN_FRACTION * smallest_radius(library)
             self._phases = DetectionPhases.with_alert(self.skin)
         return self._phases
 
@@ -294,7 +301,7 @@ class SoftContactStep:
         than :func:`~grainlab.engine.soft_contact_kernels.substeps_kernel` allows); None if
         it must be rebuilt."""
         rows = self._rows
-        if (rows is None or rows.travel.shape[0] != state.n_bodies
+        if (not isinstance(rows, _Rows) or rows.travel.shape[0] != state.n_bodies
                 or rows.wall_normals.shape != bounds.wall_normals.shape
                 or not np.array_equal(rows.wall_normals, bounds.wall_normals)
                 or not np.array_equal(self._end[0], state.positions)
@@ -319,13 +326,16 @@ class SoftContactStep:
         self.n_detections += 1
         if self._rows is not None:  # keep the springs of the list being replaced
             self._remember(self._rows)
-        rows = _Rows(contacts, np.ascontiguousarray(images, dtype=np.float64), state, library,
-                     bounds, self.friction)
+        if has_polyhedra(library, self.law):  # one row per body pair (soft_polyhedra)
+            rows = PolyhedronRows(contacts, images, state, library, bounds, self.friction)
+        else:
+            rows = _Rows(contacts, np.ascontiguousarray(images, dtype=np.float64), state,
+                         library, bounds, self.friction)
+            rows.keys = contact_keys(contacts, state.n_bodies, library)
         rows.built_walls = np.array(now.wall_points, dtype=np.float64)
         rows.wall_normals = np.array(bounds.wall_normals, dtype=np.float64)
         rows.built_cell = np.array(now.cell_matrix, dtype=np.float64)
-        keys = contact_keys(contacts, state.n_bodies, library)
-        rows.keys = keys
+        keys = rows.keys
         if self._history_keys.size and keys.size:
             where = np.minimum(np.searchsorted(self._history_keys, keys),
                                self._history_keys.size - 1)
@@ -361,12 +371,6 @@ def isochoric_wall_speeds(bounds) -> np.ndarray:
         if np.any(servo):
             walls[servo] = -rate * lengths[servo] / np.count_nonzero(servo)
     return walls
-
-
-def _refuse_polyhedra(library: ShapeLibrary) -> None:
-    if library.vertex_count is not None and np.any(library.sphere_count == 0):
-        raise InputError("shape", "polyhedron", "sphere-based bodies (spheres, aggregates) "
-                         "with the soft-contact solver; polyhedra run with contact dynamics")
 
 
 class _Rows:
@@ -536,6 +540,8 @@ class _Run:
     def advance(self, solver: SoftContactStep, rows: _Rows, n_steps: int, h: float) -> int:
         """Up to ``n_steps`` sub-steps of ``h`` [s] on ``rows`` (0: only the loads now);
         returns those done."""
+        if isinstance(rows, PolyhedronRows):
+            return rows.advance(self, solver, n_steps, h, OVERLAP_LIMIT)
         state, bounds, law = self.state, self.bounds, solver.law
         f64 = np.float64
         done = substeps_kernel(
@@ -571,6 +577,8 @@ class _Run:
     def report(self, rows: _Rows, macro: float) -> tuple[StepReport, np.ndarray]:
         """The contacts closed at the end of the step, as a step report, and their forces
         (C, 3) [N] in the world frame."""
+        if isinstance(rows, PolyhedronRows):
+            return rows.report(self, macro)
         closed = np.flatnonzero(rows.gap < 0.0)
         contacts = Contacts(
             body_i=rows.body_i[closed], body_j=rows.body_j[closed],

@@ -385,6 +385,29 @@ def _det3(h):
 
 
 @njit(cache=True)
+def virial_kernel(body_i, body_j, images, force, positions, cell_h, virial):
+    """``virial`` (3, 3) [N m] = sum_k f_k (x) l_k over the rows between bodies (f_k the
+    force on j [N], l_k = x_j + h m_k - x_i the branch vector): V sigma, compression
+    positive."""
+    virial[:, :] = 0.0
+    for k in range(body_j.shape[0]):
+        i, j = body_i[k], body_j[k]
+        if i < 0:
+            continue
+        mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
+        lx = positions[j, 0] - positions[i, 0] + cell_h[0, 0] * mx + cell_h[0, 1] * my \
+            + cell_h[0, 2] * mz
+        ly = positions[j, 1] - positions[i, 1] + cell_h[1, 0] * mx + cell_h[1, 1] * my \
+            + cell_h[1, 2] * mz
+        lz = positions[j, 2] - positions[i, 2] + cell_h[2, 0] * mx + cell_h[2, 1] * my \
+            + cell_h[2, 2] * mz
+        for a in range(3):
+            virial[a, 0] += force[k, a] * lx
+            virial[a, 1] += force[k, a] * ly
+            virial[a, 2] += force[k, a] * lz
+
+
+@njit(cache=True)
 def cell_stiffness_kernel(body_i, body_j, images, stiffness, normal, positions, cell_h,
                           cell_directions, cell_stiffness):
     """K_d = (1/V) sum_k S_k (n_k . G_d l_k)^2 [Pa] (D,): how fast the springs' conjugate

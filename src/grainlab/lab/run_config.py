@@ -73,7 +73,7 @@ from grainlab.lab.presets import (
 )
 from grainlab.lab.soft_contact_settings import SoftContactSettings
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR, STAGE_KINDS, StageNumerics
-from grainlab.prep.sample_shapes import MAX_FACES, SAMPLE_SHAPES, sample_shape
+from grainlab.prep.sample_shapes import MAX_FACES, sample_shape
 
 TEST_KINDS = ("compaction", "triaxial", "extension", "oedometer", "true_triaxial",
               "simple_shear", "circular", "cyclic_shear")
@@ -377,16 +377,17 @@ class RunConfig(_Section):
 
     def check_solver(self) -> None:
         """Refuse a sample the solver cannot run, before anything is built: the soft-contact
-        solver (``method = "dem"``) takes sphere-based shapes only (an :class:`InputError`
-        naming ``sample.shape``)."""
+        solver (``method = "dem"``) gives polyhedra no rolling resistance (an
+        :class:`InputError` naming ``solver.dem.rolling_friction``: their faces resist
+        rolling)."""
         shape = sample_shape(self.sample.shape)
-        if self.solver.method == "dem" and shape.kind.narrow_phase != MEMBER_SPHERES:
-            spheres = ", ".join(name for name, s in SAMPLE_SHAPES.items()
-                                if s.kind.narrow_phase == MEMBER_SPHERES)
-            raise InputError("sample.shape", self.sample.shape, (
-                f"a sphere-based shape ({spheres}) with solver.method = 'dem': the "
-                f"soft-contact solver does not run {shape.kind.plural}; they run with "
-                "contact dynamics (solver.method = 'cd')"))
+        rolling = self.solver.dem.rolling_friction
+        if (self.solver.method == "dem" and shape.kind.narrow_phase != MEMBER_SPHERES
+                and rolling > 0.0):
+            raise InputError("solver.dem.rolling_friction", rolling, (
+                f"0 with {shape.kind.plural} and solver.method = 'dem' (rolling resistance "
+                "is a model for spheres and aggregates; the faces of polyhedra resist "
+                "rolling)"))
 
     def settings(self) -> DiscreteTestSettings:
         """The discrete test's numerical settings."""

@@ -1,0 +1,382 @@
+"""Compiled kernels of the soft-contact DEM step for convex polyhedra (Numba; STYLE.md 2, 8):
+the contact force of every listed pair from its manifold recomputed at each sub-step, and the
+velocity-Verlet sub-steps around it (:mod:`grainlab.engine.soft_polyhedra`, the physics).
+
+List. Row p is a body pair found within the skin at the last detection: ``pair_i`` (body i,
+or -1 - w for wall w), ``pair_j`` (a polyhedron), the image vector ``images`` (P, 3) of body
+j (x_j + h m_p), Coulomb coefficient ``mu`` (P,) and equivalent radius ``r_eff`` (P,) [m].
+Each evaluation moves every polyhedron to the world frame (serial:
+:func:`~grainlab.engine.polyhedron_narrow_phase.world_polyhedron` per body, no thread
+launch per sub-step), then recomputes the pair's gap and normal
+(:func:`~grainlab.geometry.polyhedron_contact.signed_distance`) and its manifold
+(:func:`~grainlab.geometry.polyhedron_manifold.pair_manifold`,
+:func:`~grainlab.geometry.polyhedron_manifold.wall_manifold`) with a zero alert distance:
+the exact narrow phase of contact dynamics, keeping the points that penetrate.
+
+Outputs per pair: the force on j (P, 3) [N] (minus on i), the moments on i and j (P, 3)
+[N m], the mean normal and point, the normal stiffness, the relative velocity at the mean
+point; per closed manifold point (slot r < ``n_points[p]`` of (P, K) arrays, K the most
+points kept): gap [m], normal, position [m], world force on j [N] (its normal force plus
+its share of the pair's tangential force), relative velocity [m/s], feature ids and the
+pair's type code. The sums on the bodies and the boundary's loads are those of the sphere
+path (:func:`~grainlab.engine.soft_contact_kernels.gather_kernel`,
+:func:`~grainlab.engine.soft_contact_kernels.wall_loads_kernel`) on the pair rows, the
+kicks and drifts its :func:`~grainlab.engine.soft_contact_kernels.kick_kernel` and
+:func:`~grainlab.engine.soft_contact_kernels.drift_kernel`, the periodic cell's servo its
+:func:`~grainlab.engine.soft_contact_kernels.cell_servo_kernel` on the stress of the pairs'
+forces (:func:`~grainlab.engine.soft_contact_kernels.virial_kernel`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from grainlab.contact.soft_contact_law import contact_law
+from grainlab.engine.polyhedron_narrow_phase import _body_features, world_polyhedron
+from grainlab.engine.soft_contact_kernels import (
+    _det3,
+    _turn_with_frame,
+    carry_gradient_kernel,
+    cell_servo_kernel,
+    cell_stiffness_kernel,
+    drift_kernel,
+    gather_kernel,
+    kick_kernel,
+    virial_kernel,
+    wall_loads_kernel,
+)
+from grainlab.geometry.polyhedron_contact import MAX_POINTS, signed_distance
+from grainlab.geometry.polyhedron_manifold import pair_manifold, wall_manifold
+
+
+@njit(cache=True)
+def world_boundaries_kernel(positions, orientations, bodies, world):
+    """Every polyhedron body moved to the world frame, one after the other (``bodies``:
+    (shape_ids, vertex_start, vertices, face_start, face_normals, face_offsets); ``world``:
+    (body_vertex_start, world_vertices, body_face_start, world_normals, world_offsets), the
+    last three written)."""
+    shape_ids, vertex_start, vertices, face_start, face_normals, face_offsets = bodies
+    body_vertex_start, world_vertices, body_face_start, world_normals, world_offsets = world
+    for n in range(positions.shape[0]):
+        world_polyhedron(n, positions, orientations, shape_ids, vertex_start, vertices,
+                         face_start, face_normals, face_offsets, body_vertex_start,
+                         body_face_start, world_vertices, world_normals, world_offsets)
+
+
+@njit(inline="always")
+def _velocity_at(i, j, px, py, pz, cj, rate, positions, velocities, spins, wall_n, wall_speed):
+    """Velocity (3 floats) [m/s] of body j's image (centre ``cj`` (3,), image speed ``rate``
+    (3,)) relative to body i (or wall -1 - i) at the point p."""
+    rx, ry, rz = px - cj[0], py - cj[1], pz - cj[2]
+    wx, wy, wz = spins[j, 0], spins[j, 1], spins[j, 2]
+    ux = velocities[j, 0] + wy * rz - wz * ry + rate[0]
+    uy = velocities[j, 1] + wz * rx - wx * rz + rate[1]
+    uz = velocities[j, 2] + wx * ry - wy * rx + rate[2]
+    if i >= 0:
+        rx, ry, rz = px - positions[i, 0], py - positions[i, 1], pz - positions[i, 2]
+        wx, wy, wz = spins[i, 0], spins[i, 1], spins[i, 2]
+        ux -= velocities[i, 0] + wy * rz - wz * ry
+        uy -= velocities[i, 1] + wz * rx - wx * rz
+        uz -= velocities[i, 2] + wx * ry - wy * rx
+    else:
+        w = -1 - i
+        s = wall_speed[w]
+        ux, uy, uz = ux - s * wall_n[w, 0], uy - s * wall_n[w, 1], uz - s * wall_n[w, 2]
+    return ux, uy, uz
+
+
+@njit(inline="always")
+def _add_moment(torque, p, rx, ry, rz, fx, fy, fz, sign):
+    torque[p, 0] += sign * (ry * fz - rz * fy)
+    torque[p, 1] += sign * (rz * fx - rx * fz)
+    torque[p, 2] += sign * (rx * fy - ry * fx)
+
+
+@njit(cache=True)
+def polyhedron_forces_kernel(step, code, params, library, world, pair_i, pair_j, images, mu,
+                             r_eff, inv_mass, positions, velocities, spins, wall_p0, wall_n,
+                             wall_disp, wall_speed, cell_h, cell_rate, cos_tol, sin_tol,
+                             max_points, xi, force, torque_i, torque_j, normal, point,
+                             stiffness, rel_vel, n_points, point_gap, point_normal,
+                             point_position, point_force, point_velocity, feature_i,
+                             feature_j, pair_type, stats):
+    """Manifold and force of every pair p of the list (module docstring; the law of
+    :mod:`grainlab.engine.soft_polyhedra`); ``step`` [s] is the time since the last
+    evaluation (0: the force of the current springs). ``library``: (shape_ids, face_start,
+    face_count, face_vertex_start, face_vertices, edge_start, edge_count, edges, edge_faces,
+    vertex_start, vertex_count, vertex_neighbour_start, vertex_neighbours); ``world`` as
+    :func:`world_boundaries_kernel`'s, filled. The tangential springs ``xi`` (P, 3) [N] are
+    updated; ``stats[0]`` grows to the deepest penetration [m] met."""
+    (shape_ids, face_start, face_count, face_vertex_start, face_vertices, edge_start,
+     edge_count, edges, edge_faces, vertex_start, vertex_count, vertex_neighbour_start,
+     vertex_neighbours) = library
+    body_vertex_start, world_vertices, body_face_start, world_normals, world_offsets = world
+    pts = np.empty((MAX_POINTS, 3))
+    gps = np.empty(MAX_POINTS)
+    nrm = np.empty((MAX_POINTS, 3))
+    ida = np.empty(MAX_POINTS, dtype=np.int64)
+    idb = np.empty(MAX_POINTS, dtype=np.int64)
+    n_out = np.empty(3)
+    cj = np.empty(3)
+    rate = np.empty(3)
+    wall_point = np.empty(3)
+    shifted_v = np.empty((max(1, int(vertex_count.max())), 3))
+    shifted_o = np.empty(max(1, int(face_count.max())))
+    for p in range(pair_j.shape[0]):
+        i, j = pair_i[p], pair_j[p]
+        mx, my, mz = images[p, 0], images[p, 1], images[p, 2]
+        imaged = mx != 0.0 or my != 0.0 or mz != 0.0
+        for a in range(3):
+            cj[a] = positions[j, a] + cell_h[a, 0] * mx + cell_h[a, 1] * my + cell_h[a, 2] * mz
+            rate[a] = cell_rate[a, 0] * mx + cell_rate[a, 1] * my + cell_rate[a, 2] * mz
+        vb, nb, ob, fsb, eb, efb, nsb = _body_features(
+            j, shape_ids[j], body_vertex_start, world_vertices, body_face_start, world_normals,
+            world_offsets, face_start, face_count, face_vertex_start, edge_start, edge_count,
+            edges, edge_faces, vertex_start, vertex_count, vertex_neighbour_start)
+        if imaged:  # body j's image: vertices + h m, face offsets + n . h m
+            sx, sy, sz = cj[0] - positions[j, 0], cj[1] - positions[j, 1], cj[2] - positions[j, 2]
+            for v in range(vb.shape[0]):
+                shifted_v[v, 0] = vb[v, 0] + sx
+                shifted_v[v, 1] = vb[v, 1] + sy
+                shifted_v[v, 2] = vb[v, 2] + sz
+            for f in range(ob.shape[0]):
+                shifted_o[f] = ob[f] + nb[f, 0] * sx + nb[f, 1] * sy + nb[f, 2] * sz
+            vb = shifted_v[:vb.shape[0]]
+            ob = shifted_o[:ob.shape[0]]
+        count, kind = 0, 0
+        if i >= 0:
+            va, na, oa, fsa, ea, efa, nsa = _body_features(
+                i, shape_ids[i], body_vertex_start, world_vertices, body_face_start,
+                world_normals, world_offsets, face_start, face_count, face_vertex_start,
+                edge_start, edge_count, edges, edge_faces, vertex_start, vertex_count,
+                vertex_neighbour_start)
+            g, found = signed_distance(
+                va, na, oa, fsa, face_vertices, ea, efa, nsa, vertex_neighbours, positions[i],
+                vb, nb, ob, fsb, face_vertices, eb, efb, nsb, vertex_neighbours, cj, 0.0, n_out)
+            if found:
+                count, kind = pair_manifold(
+                    va, na, oa, fsa, face_vertices, ea, efa, nsa, vertex_neighbours,
+                    vb, nb, ob, fsb, face_vertices, eb, efb, nsb, vertex_neighbours,
+                    g, n_out, 0.0, cos_tol, sin_tol, max_points, pts, gps, nrm, ida, idb)
+        else:
+            w = -1 - i
+            for a in range(3):
+                wall_point[a] = wall_p0[w, a] + wall_disp[w] * wall_n[w, a]
+            count, kind = wall_manifold(vb, nb, fsb, face_vertices, eb, nsb, vertex_neighbours,
+                                        wall_point, wall_n[w], 0.0, cos_tol, sin_tol,
+                                        max_points, pts, gps, idb)
+            for r in range(count):
+                nrm[r, 0], nrm[r, 1], nrm[r, 2] = wall_n[w, 0], wall_n[w, 1], wall_n[w, 2]
+                ida[r] = -1
+        # the penetrating points, compacted into the pair's slots
+        closed, total, squares = 0, 0.0, 0.0
+        for r in range(count):
+            depth = -gps[r]
+            if depth > 0.0:
+                point_gap[p, closed] = gps[r]
+                feature_i[p, closed], feature_j[p, closed] = ida[r], idb[r]
+                for a in range(3):
+                    point_normal[p, closed, a] = nrm[r, a]
+                    point_position[p, closed, a] = pts[r, a]
+                total += depth
+                squares += depth * depth
+                stats[0] = max(stats[0], depth)
+                closed += 1
+        n_points[p] = closed
+        pair_type[p] = kind
+        for a in range(3):
+            force[p, a] = 0.0
+            torque_i[p, a] = 0.0
+            torque_j[p, a] = 0.0
+        if closed == 0:  # open: the spring is released
+            xi[p, 0], xi[p, 1], xi[p, 2] = 0.0, 0.0, 0.0
+            stiffness[p] = 0.0
+            for a in range(3):
+                normal[p, a] = 0.0
+                point[p, a] = 0.0
+                rel_vel[p, a] = 0.0
+            continue
+        row = 0 if i >= 0 else 1
+        m_eff = 1.0 / (inv_mass[i] + inv_mass[j]) if i >= 0 else 1.0 / inv_mass[j]
+        normal_sum = 0.0
+        bx, by, bz, nx, ny, nz = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        for r in range(closed):  # normal force of each point: its share of the law
+            depth = -point_gap[p, r]
+            share = depth / total
+            qx, qy, qz = point_position[p, r, 0], point_position[p, r, 1], point_position[p, r, 2]
+            ex, ey, ez = point_normal[p, r, 0], point_normal[p, r, 1], point_normal[p, r, 2]
+            ux, uy, uz = _velocity_at(i, j, qx, qy, qz, cj, rate, positions, velocities, spins,
+                                      wall_n, wall_speed)
+            point_velocity[p, r, 0], point_velocity[p, r, 1], point_velocity[p, r, 2] = \
+                ux, uy, uz
+            fne, _, _, c_n, _ = contact_law(code, params[row], depth, r_eff[p], m_eff)
+            f = max(0.0, share * (fne - c_n * (ux * ex + uy * ey + uz * ez)))
+            normal_sum += f
+            fx, fy, fz = f * ex, f * ey, f * ez
+            point_force[p, r, 0], point_force[p, r, 1], point_force[p, r, 2] = fx, fy, fz
+            force[p, 0] += fx
+            force[p, 1] += fy
+            force[p, 2] += fz
+            _add_moment(torque_j, p, qx - cj[0], qy - cj[1], qz - cj[2], fx, fy, fz, 1.0)
+            if i >= 0:
+                _add_moment(torque_i, p, qx - positions[i, 0], qy - positions[i, 1],
+                            qz - positions[i, 2], fx, fy, fz, -1.0)
+            bx, by, bz = bx + share * qx, by + share * qy, bz + share * qz
+            nx, ny, nz = nx + share * ex, ny + share * ey, nz + share * ez
+        length = math.sqrt(nx * nx + ny * ny + nz * nz)
+        nx, ny, nz = nx / length, ny / length, nz / length
+        normal[p, 0], normal[p, 1], normal[p, 2] = nx, ny, nz
+        point[p, 0], point[p, 1], point[p, 2] = bx, by, bz
+        # one tangential spring per pair at the mean point, about the mean normal
+        ux, uy, uz = _velocity_at(i, j, bx, by, bz, cj, rate, positions, velocities, spins,
+                                  wall_n, wall_speed)
+        rel_vel[p, 0], rel_vel[p, 1], rel_vel[p, 2] = ux, uy, uz
+        un = ux * nx + uy * ny + uz * nz
+        utx, uty, utz = ux - un * nx, uy - un * ny, uz - un * nz
+        _, s_n, k_t, _, c_t = contact_law(code, params[row], squares / total, r_eff[p], m_eff)
+        stiffness[p] = s_n
+        hx, hy, hz = xi[p, 0], xi[p, 1], xi[p, 2]
+        if step > 0.0:
+            spin_n = spins[j, 0] * nx + spins[j, 1] * ny + spins[j, 2] * nz
+            if i >= 0:
+                spin_n += spins[i, 0] * nx + spins[i, 1] * ny + spins[i, 2] * nz
+            hx, hy, hz = _turn_with_frame(hx, hy, hz, nx, ny, nz, 0.5 * spin_n, step)
+            f = k_t * step
+            hx, hy, hz = hx - f * utx, hy - f * uty, hz - f * utz
+        ftx, fty, ftz = hx - c_t * utx, hy - c_t * uty, hz - c_t * utz
+        ft = math.sqrt(ftx * ftx + fty * fty + ftz * ftz)
+        limit = mu[p] * normal_sum
+        if ft > limit:  # sliding: the spring holds the Coulomb force less the dashpot's
+            f = limit / ft
+            ftx, fty, ftz = f * ftx, f * fty, f * ftz
+            hx, hy, hz = ftx + c_t * utx, fty + c_t * uty, ftz + c_t * utz
+        xi[p, 0], xi[p, 1], xi[p, 2] = hx, hy, hz
+        force[p, 0] += ftx
+        force[p, 1] += fty
+        force[p, 2] += ftz
+        _add_moment(torque_j, p, bx - cj[0], by - cj[1], bz - cj[2], ftx, fty, ftz, 1.0)
+        if i >= 0:
+            _add_moment(torque_i, p, bx - positions[i, 0], by - positions[i, 1],
+                        bz - positions[i, 2], ftx, fty, ftz, -1.0)
+        for r in range(closed):  # each point's share of the tangential force (report)
+            share = -point_gap[p, r] / total
+            point_force[p, r, 0] += share * ftx
+            point_force[p, r, 1] += share * fty
+            point_force[p, r, 2] += share * ftz
+
+
+@njit(cache=True)
+def _loads(step, code, params, gravity, bodies, library, world, pairs, adj_start, adj_entry,
+           wall_rows, inv_mass, masses, positions, orientations, velocities, spins, wall_p0,
+           wall_n, wall_disp, wall_speed, cell_h, cell_rate, tolerances, xi, outputs,
+           body_force, body_torque, wall_force, wall_stiffness, virial, stats):
+    """World boundaries, pair forces, their sums on the bodies, the walls' loads and the
+    pairs' virial."""
+    pair_i, pair_j, images, mu, r_eff = pairs
+    cos_tol, sin_tol, max_points = tolerances
+    (force, torque_i, torque_j, normal, point, stiffness, rel_vel, n_points, point_gap,
+     point_normal, point_position, point_force, point_velocity, feature_i, feature_j,
+     pair_type) = outputs
+    world_boundaries_kernel(positions, orientations, bodies, world)
+    polyhedron_forces_kernel(
+        step, code, params, library, world, pair_i, pair_j, images, mu, r_eff, inv_mass,
+        positions, velocities, spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h,
+        cell_rate, cos_tol, sin_tol, max_points, xi, force, torque_i, torque_j, normal, point,
+        stiffness, rel_vel, n_points, point_gap, point_normal, point_position, point_force,
+        point_velocity, feature_i, feature_j, pair_type, stats)
+    gather_kernel(adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
+                  body_force, body_torque)
+    wall_loads_kernel(wall_rows, pair_i, wall_n, force, stiffness, wall_force, wall_stiffness)
+    virial_kernel(pair_i, pair_j, images, force, positions, cell_h, virial)
+
+
+@njit(cache=True)
+def polyhedra_substeps_kernel(n_steps, dt, skin, code, params, local_damping, gravity,
+                              bodies, library, world, pairs, adj_start, adj_entry, wall_rows,
+                              inv_mass, masses, principal, isotropic, bounding, wall_p0,
+                              wall_n, wall_speed, cell, filter_time, wall_disp_built,
+                              cell_h_built, tolerances, positions, orientations, velocities,
+                              spins, xi, wall_disp, cell_h, travel, outputs, body_force,
+                              body_torque, wall_force, wall_stiffness, wall_impulse, stats):
+    """Up to ``n_steps`` velocity-Verlet sub-steps of ``dt`` [s] on the pair list (``bodies``
+    and ``world`` as :func:`world_boundaries_kernel`'s, ``library`` and the rest as
+    :func:`polyhedron_forces_kernel`'s; ``pairs``: (pair_i, pair_j, images, mu, r_eff),
+    ``tolerances``: (cos, sin of the angle tolerance, most points kept); ``cell``: the
+    periodic cell's servo (L_0, G_d, scale_d, free_d, bounds_d, K_d, the filtered stress,
+    e_d, L, the carried L, hdot, the virial, the stress summed over time), as
+    :func:`~grainlab.engine.soft_contact_kernels.substeps_kernel` does on the sphere rows
+    (same kicks, drifts, boundary motion and servos, load sums and early stop when two points
+    may have approached by more than ``skin`` [m]); ``n_steps`` = 0: only the loads now.
+    Returns the sub-steps done; ``stats[0]`` becomes the deepest penetration [m] met. The
+    cell's servo reads the pairs' whole forces (a pair's spring and dashpot are not kept
+    apart), low-passed as for the spheres."""
+    (cell_gradient, cell_directions, cell_scale, cell_free, cell_bounds, cell_stiffness,
+     filtered, cell_dofs, gradient, carried, cell_rate, virial, stress_impulse) = cell
+    pair_i, pair_j, images = pairs[0], pairs[1], pairs[2]
+    normal, stiffness = outputs[3], outputs[5]
+    half = 0.5 * dt
+    servo = cell_dofs.shape[0] > 0
+    periodic = wall_disp.shape[0] == 0
+    _loads(0.0, code, params, gravity, bodies, library, world, pairs, adj_start, adj_entry,
+           wall_rows, inv_mass, masses, positions, orientations, velocities, spins, wall_p0,
+           wall_n, wall_disp, wall_speed, cell_h, cell_rate, tolerances, xi, outputs,
+           body_force, body_torque, wall_force, wall_stiffness, virial, stats)
+    if servo:
+        cell_stiffness_kernel(pair_i, pair_j, images, stiffness, normal, positions, cell_h,
+                              cell_directions, cell_stiffness)
+        cell_servo_kernel(0.0, virial, cell_h, cell_gradient, cell_directions, cell_scale,
+                          cell_free, cell_bounds, cell_stiffness, filter_time, filtered,
+                          cell_dofs, gradient)
+    else:
+        gradient[:, :] = cell_gradient
+    carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell_h, cell_rate)
+    done = 0
+    previous = 0.0
+    for _ in range(n_steps):
+        kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
+                    body_force, body_torque, velocities, spins)
+        drift_kernel(dt, principal, isotropic, bounding, positions, orientations, velocities,
+                     spins, travel)
+        for w in range(wall_disp.shape[0]):
+            wall_disp[w] += dt * wall_speed[w]
+        for a in range(3):
+            for b in range(3):
+                cell_h[a, b] += dt * cell_rate[a, b]
+        _loads(dt, code, params, gravity, bodies, library, world, pairs, adj_start, adj_entry,
+               wall_rows, inv_mass, masses, positions, orientations, velocities, spins,
+               wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, tolerances, xi,
+               outputs, body_force, body_torque, wall_force, wall_stiffness, virial, stats)
+        kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
+                    body_force, body_torque, velocities, spins)
+        if servo:
+            cell_servo_kernel(dt, virial, cell_h, cell_gradient, cell_directions, cell_scale,
+                              cell_free, cell_bounds, cell_stiffness, filter_time, filtered,
+                              cell_dofs, gradient)
+        if periodic:
+            carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell_h,
+                                  cell_rate)
+            volume = _det3(cell_h)
+            for a in range(3):
+                for b in range(3):
+                    stress_impulse[a, b] += dt * virial[a, b] / volume
+        for w in range(wall_impulse.shape[0]):
+            wall_impulse[w] += dt * wall_force[w]
+        done += 1
+        reach = 0.0
+        for b in range(travel.shape[0]):
+            reach = max(reach, travel[b])
+        moved = 0.0
+        for w in range(wall_disp.shape[0]):
+            moved = max(moved, abs(wall_disp[w] - wall_disp_built[w]))
+        shift = 0.0
+        for a in range(3):
+            for b in range(3):
+                shift += (cell_h[a, b] - cell_h_built[a, b]) ** 2
+        total = 2.0 * reach + moved + math.sqrt(3.0 * shift)
+        if 2.0 * total - previous > skin:  # the next sub-step might go past the skin
+            break
+        previous = total
+    return done
