@@ -1,0 +1,110 @@
+"""The peers' test (benchmarks/peers/README.md) with grainlab's soft-contact DEM solver and
+with LIGGGHTS and YADE, in one script run: wall time, particle-steps per second, peak and
+residual q/p, packing fraction and z after the compaction, how well the lateral stresses were
+held, and the ratio of each peer's rate to grainlab's.
+
+The test: N spheres, diameters uniform by volume fraction in [1, 2] mm, density 2600 kg/m^3,
+periodic cell, Hertz-Mindlin E = 1 GPa, nu = 0.25, restitution 0.5, sub-step 0.2 x the
+Rayleigh time of the smallest sphere, frictionless isotropic compaction to sigma0 = 100 kPa,
+then mu = 0.4 and axial compression at I = 1e-3 with the lateral stresses at sigma0. grainlab
+stops on eps_q (``--eps-q``, about eps_1 + |eps_3|): its peak is read up to eps_1 = ``--eps1``
+and its residual over eps_1 in [0.6, 1] x eps1 (the peers' window, 0.18-0.30 at 0.3). Its
+loose sample starts at packing fraction 0.3 (the peers' at 0.1); its compaction ends on its
+own quasi-static criterion (the peers': stresses within 1 %, unbalanced force < 0.01). Rates
+are those of the whole run (compaction and shear) for every code; grainlab's wall time
+includes the lab's recording, not the compilation (``grainlab compile`` first).
+
+    python benchmarks/benchmark_dem_peers.py --n 4000                       # grainlab only
+    python benchmarks/benchmark_dem_peers.py --n 4000 --peers liggghts yade --threads 1 2
+    python benchmarks/benchmark_dem_peers.py --n 500 --eps1 0.05 --eps-q 0.08  # a quick look
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from grainlab.lab.discrete_run import start_run
+from grainlab.lab.run_config import RunConfig
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "peers"))
+import run_peers
+
+SIGMA0 = 1e5
+
+
+def run_grainlab(folder: Path, n: int, eps1: float, eps_q: float, seed: int) -> dict:
+    """The peers' test in a grainlab run folder; the figures as the peers' driver gives them."""
+    config = RunConfig.model_validate({
+        "sample": {"n_particles": n, "seed": seed, "boundary": "periodic", "d_min": 1e-3,
+                   "size_ratio": 2.0, "density": 2600.0},
+        "test": {"kind": "triaxial", "sigma0": SIGMA0, "eps_q_max": eps_q},
+        "solver": {"method": "dem",
+                   "dem": {"law": "hertz_mindlin", "young_modulus": 1e9,
+                           "poisson_ratio": 0.25, "restitution": 0.5},
+                   "shear": {"friction": 0.4, "inertia_number": 1e-3}},
+        "output": {"record_every": 20, "snapshot_every": 0, "checkpoint_every": 0}})
+    discrete_run = start_run(folder, config)
+    start = time.perf_counter()
+    result = discrete_run.run()
+    elapsed = time.perf_counter() - start
+    solver = discrete_run.test.solver
+    table = result.table
+    compaction = table[table["stage"] == "compaction"].iloc[-1]
+    shear = table[table["stage"] == "shear"]
+    within = shear[shear["eps_zz"] <= eps1]
+    late = within[within["eps_zz"] >= 0.6 * eps1]
+    lateral = np.concatenate([shear["cell_sigma_xx"], shear["cell_sigma_yy"]]) / SIGMA0
+    return {"peer": "grainlab", "threads": 1, "n": n, "wall_s": elapsed,
+            "steps": solver.n_substeps, "particle_steps_per_s": n * solver.n_substeps / elapsed,
+            "peak_q_over_p": float(within["q_over_trace"].max()),
+            "residual_q_over_p": float(late["q_over_trace"].mean()),
+            "phi": float(compaction["packing_fraction"]), "z": float(compaction["z"]),
+            "lateral_error": float(np.median(np.abs(lateral[len(lateral) // 10:] - 1.0))),
+            "as_asked": bool(result.metadata["outcome"]["as_asked"])}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--n", type=int, default=4000)
+    parser.add_argument("--eps1", type=float, default=0.3, help="axial strain of the peers")
+    parser.add_argument("--eps-q", type=float, default=None,
+                        help="grainlab's stop (default 1.5 x eps1)")
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--peers", nargs="*", default=[], choices=["liggghts", "yade"])
+    parser.add_argument("--threads", type=int, nargs="+", default=[1],
+                        help="the peers' thread counts (grainlab runs on one)")
+    parser.add_argument("--timeout", type=float, default=3600.0)
+    args = parser.parse_args()
+    eps_q = 1.5 * args.eps1 if args.eps_q is None else args.eps_q
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        rows.append(run_grainlab(Path(tmp) / "run", args.n, args.eps1, eps_q, args.seed))
+    for peer in args.peers:
+        for threads in args.threads:
+            run = run_peers.run_liggghts if peer == "liggghts" else run_peers.run_yade
+            res = run(n=args.n, threads=threads, eps1=args.eps1, timeout=args.timeout)
+            if res is not None:
+                rows.append(res)
+    ours = rows[0]["particle_steps_per_s"]
+    print(f"{'code':>10} {'thr':>4} {'wall [s]':>9} {'steps':>8} {'part-steps/s':>13} "
+          f"{'peer/ours':>10} {'q/p peak':>9} {'q/p res':>8} {'phi0':>6} {'z0':>5} "
+          f"{'lateral err':>12}")
+    for r in rows:
+        lateral = r.get("lateral_error")
+        if lateral is None and "lateral_stress_over_sigma0" in r:
+            lateral = abs(float(r["lateral_stress_over_sigma0"][0]) - 1.0)
+        print(f"{r['peer']:>10} {r['threads']:>4d} {r['wall_s']:9.1f} {r['steps']:8d} "
+              f"{r['particle_steps_per_s']:13.3e} {r['particle_steps_per_s'] / ours:10.2f} "
+              f"{r['peak_q_over_p']:9.3f} {r['residual_q_over_p']:8.3f} {r['phi']:6.3f} "
+              f"{r['z']:5.2f} {'' if lateral is None else f'{lateral:12.3%}'}")
+    print(f"grainlab as asked: {rows[0]['as_asked']}")
+
+
+if __name__ == "__main__":
+    main()
