@@ -1,7 +1,7 @@
 """Test-suite options: ``--validate`` runs the slow validation runs (STYLE.md 11).
 
 With pytest-xdist workers (``make test`` runs ``-n auto``), the kernels are first compiled
-once, split over two processes (``grainlab compile --part ...``), before the workers start:
+once, split over three processes (``grainlab compile --part ...``), before the workers start:
 each worker would otherwise compile every kernel it meets for itself, and compilation is most
 of a cold run (measured: 550 s cold against 235 s with the cache warm, two workers, two
 cores). ``GRAINLAB_NO_PRECOMPILE=1`` skips it.
@@ -44,6 +44,9 @@ def pytest_addoption(parser):
 
 
 def pytest_collection_modifyitems(config, items):
+    # the long tests first: xdist hands tests out in this order, and a long test started
+    # last keeps one worker busy while the other has nothing left (longest first)
+    items.sort(key=lambda item: item.get_closest_marker("long") is None)
     if config.getoption("--validate"):
         return
     skip = pytest.mark.skip(reason="validation run: use pytest --validate")

@@ -75,6 +75,7 @@ def test_the_readme_lists_the_commands_a_new_user_needs():
     assert len(_blocks("python")) >= 3
 
 
+@pytest.mark.long
 def test_every_readme_command_runs_as_typed(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     _packing_file(tmp_path)

@@ -14,6 +14,7 @@ SMALL = ["-n", "150", "--size-ratio", "1.2", "--seed", "2", "--inertia", "0.01",
          "--no-progress", "--record-every", "10"]
 
 
+@pytest.mark.long
 def test_simple_shear_in_a_periodic_cell(tmp_path):
     out = tmp_path / "shear"
     result = runner.invoke(app, ["test", "simple_shear", "--boundary", "periodic", "--gamma",

@@ -220,6 +220,7 @@ def test_kernel_with_no_contacts_returns_free_velocities():
     np.testing.assert_array_equal(residuals, 0.0)
 
 
+@pytest.mark.long
 def test_tumbling_aggregate_conserves_angular_momentum():
     """A free asymmetric aggregate (three spheres in an L) spinning about a non-principal axis:
     with the gyroscopic term its world angular momentum is conserved (semi-implicit step:

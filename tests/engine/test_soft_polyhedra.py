@@ -250,6 +250,7 @@ def settle(sample, solver, n_steps):
     return report
 
 
+@pytest.mark.long
 def test_a_small_packing_settles_and_a_checkpoint_resumes_bit_for_bit():
     sample = loose_sample(shape="polyhedron", n_particles=20, n_faces=8, templates=4, d_min=1e-3,
                           size_ratio=1.5, packing_fraction=0.15, seed=3)

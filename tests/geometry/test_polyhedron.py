@@ -158,6 +158,7 @@ def test_table_one_mean_angularity(n_faces):
     assert np.mean(alphas) == pytest.approx(TABLE_I[n_faces], rel=0.05)
 
 
+@pytest.mark.long
 def test_table_one_octahedra_deviate():
     """n_f = 8: random 6-vertex hulls that pass the criterion have a mean exterior angle of
     ~1.27 rad, above the regular octahedron's pi - arccos(-1/3) = 1.231 rad, whereas Table I

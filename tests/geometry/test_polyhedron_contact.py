@@ -128,6 +128,7 @@ def test_gap_and_normal_against_fcl_and_brute_force(n_faces, n_poses, distances)
     assert n_apart > n_poses / 5 and n_overlap > n_poses / 5
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("n_faces, n_poses, distances", [
     (8, 400, (0.5, 1.0)), (30, 400, (0.7, 1.0)), (96, 300, (0.85, 1.0)),
     (596, 100, (0.93, 1.0))])

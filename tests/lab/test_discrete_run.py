@@ -194,6 +194,7 @@ def test_resume_after_kill_loses_only_the_steps_since_the_checkpoint(tmp_path, f
                                rtol=1e-9)
 
 
+@pytest.mark.long
 def test_aggregate_triaxial_runs_and_classifies_contacts(tmp_path):
     from grainlab.analysis.snapshot_files import read_snapshots
 

@@ -160,6 +160,7 @@ def test_polyhedra_run_resumed_from_a_checkpoint_reproduces_the_rows(polyhedra_r
     np.testing.assert_allclose(table["z_c"], expected["z_c"])
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("n_faces", sorted(TABLE_I))
 def test_every_table_i_polyhedron_runs_a_triaxial_test(n_faces, tmp_path):
     """Seed 002's seven shapes (n_f = 8 ... 596) each run the triaxial test through the API:

@@ -90,6 +90,7 @@ def test_local_stiffness_matches_the_loop_twin(dimension, spin):
                                    c_local.shape[1] + (1 if dimension == 2 else 3))
 
 
+@pytest.mark.long
 def test_spin_without_rotational_stiffness_takes_no_spin():
     """Contacts without tangential stiffness (k_r = 0) leave C_ww zero up to round-off: the
     spin map is zero and C^n the Voigt block, not the inverse of round-off."""
@@ -210,6 +211,7 @@ def test_stress_and_contact_census_match_numpy():
     assert counts[5] == pytest.approx(mobilised[closed].sum(), rel=1e-12)
 
 
+@pytest.mark.long
 def test_parallel_kernels_match_the_serial_ones():
     """Several chunks and a partial one: every micro-element written once, sums per chunk."""
     n = 3 * k.CHUNK + 5
