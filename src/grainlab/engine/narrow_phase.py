@@ -66,7 +66,7 @@ from grainlab.engine.polyhedron_narrow_phase import (
     world_polyhedra,
 )
 from grainlab.engine.quaternion import rotate
-from grainlab.engine.state import BodyState, ShapeLibrary
+from grainlab.engine.state import BodyState, ReadOnlyArrays, ShapeLibrary
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron_contact import ANGLE_TOLERANCE, DEFAULT_MAX_POINTS, MAX_POINTS
 
@@ -356,7 +356,7 @@ class NarrowPhase:
             poly_pairs = np.ascontiguousarray(pairs[is_poly[pairs[:, 0]] | is_poly[pairs[:, 1]]])
         cos_tol, sin_tol = angle_tolerances(self.angle_tolerance)
         shape_ids = np.ascontiguousarray(state.shape_ids, dtype=np.int64)
-        lib = library
+        lib = ReadOnlyArrays(library)
         while True:
             self._buffers[-1][:] = 0
             sphere_rows = self._buffers[:-1]

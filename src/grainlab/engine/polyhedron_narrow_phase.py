@@ -25,6 +25,7 @@ from numba import njit, prange
 
 from grainlab.engine.quaternion import rotate
 from grainlab.engine.shape_kinds import POLYHEDRON_FEATURES, family_mask
+from grainlab.engine.state import ReadOnlyArrays
 from grainlab.geometry.polyhedron_contact import MAX_POINTS, signed_distance, sphere_contact
 from grainlab.geometry.polyhedron_manifold import pair_manifold, wall_manifold
 
@@ -240,11 +241,12 @@ def world_polyhedra(state, library):
     world_normals = np.empty((int(body_face_start[-1]), 3))
     world_offsets = np.empty(int(body_face_start[-1]))
     if body_vertex_start[-1]:
+        lib = ReadOnlyArrays(library)
         world_polyhedra_kernel(
             np.ascontiguousarray(state.positions), np.ascontiguousarray(state.orientations),
-            ids, library.vertex_start, library.vertices, library.face_start,
-            library.face_normals, library.face_offsets, body_vertex_start, body_face_start,
-            world_vertices, world_normals, world_offsets)
+            ids, lib.vertex_start, lib.vertices, lib.face_start, lib.face_normals,
+            lib.face_offsets, body_vertex_start, body_face_start, world_vertices,
+            world_normals, world_offsets)
     return is_poly, body_vertex_start, world_vertices, body_face_start, world_normals, \
         world_offsets
 

@@ -116,7 +116,7 @@ from grainlab.engine.shape_kinds import (
 )
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.soft_polyhedra_kernels import polyhedra_substeps_kernel
-from grainlab.engine.state import BodyState, ShapeLibrary
+from grainlab.engine.state import BodyState, ReadOnlyArrays, ShapeLibrary
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron_contact import ANGLE_TOLERANCE, DEFAULT_MAX_POINTS
 
@@ -195,7 +195,7 @@ class PolyhedronRows:
         self.xi = np.zeros((p, 3))
         self.roll = np.zeros((p, 3))  # no rolling resistance: kept for the springs' history
         bvs, wv, bfs, wn, wo = _world_layout(state, library)
-        lib = _Writeable(library)
+        lib = ReadOnlyArrays(library)
         self.bodies = (np.ascontiguousarray(state.shape_ids, dtype=np.int64), lib.vertex_start,
                        lib.vertices, lib.face_start, lib.face_normals, lib.face_offsets)
         self.library = (self.bodies[0], lib.face_start, lib.face_count, lib.face_vertex_start,
@@ -278,21 +278,6 @@ class PolyhedronRows:
             residual=0.0, max_overlap=float(run.stats[0]), contacts=contacts, frames=frames,
             impulses=impulses, relative_velocity=relative, images=self.images[pair]), \
             self.point_force[kept]
-
-
-class _Writeable:
-    """A shape library's arrays as the kernels take them: writeable and C-contiguous (a
-    library read from a file or shared between samples may hold read-only arrays, and Numba
-    would compile the sub-steps again for them)."""
-
-    def __init__(self, library: ShapeLibrary) -> None:
-        self._library = library
-
-    def __getattr__(self, name: str) -> np.ndarray:
-        array = getattr(self._library, name)
-        if array.flags.writeable and array.flags.c_contiguous:
-            return array
-        return np.array(array, order="C")
 
 
 def _world_layout(state: BodyState, library: ShapeLibrary) -> tuple:

@@ -84,6 +84,24 @@ def _readonly(array: np.ndarray) -> np.ndarray:
     return array
 
 
+class ReadOnlyArrays:
+    """The arrays of an object (a :class:`ShapeLibrary`) as compiled kernels take them:
+    C-contiguous and read-only (a read-only view of a writeable array, no copy). A library is
+    read-only when built, but a copy of it (``copy.deepcopy`` of a sample) is not, and Numba
+    compiles a kernel again for each layout of its arguments."""
+
+    def __init__(self, owner) -> None:
+        self._owner = owner
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        array = getattr(self._owner, name)
+        if not array.flags.writeable and array.flags.c_contiguous:
+            return array
+        view = np.ascontiguousarray(array).view()
+        view.setflags(write=False)
+        return view
+
+
 @dataclass(frozen=True, eq=False)
 class ShapeLibrary:
     """Shapes of a run, one row per shape (module docstring).
