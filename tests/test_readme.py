@@ -1,5 +1,6 @@
 """Every command of the README, run as typed (at small sizes): the command-line lines of its
-bash blocks in order, then its Python blocks in one namespace, in a scratch folder.
+bash blocks in order (in independent chains spread over a few tests, each in a scratch
+folder), then its Python blocks in one namespace, after the chain whose files they read.
 
 Sizes are shrunk so the whole README runs in about a minute: particle counts to a few dozen,
 strain targets to 0.02, step counts and sweeps cut (:data:`SMALLER`). Nothing else is edited:
@@ -75,13 +76,51 @@ def test_the_readme_lists_the_commands_a_new_user_needs():
     assert len(_blocks("python")) >= 3
 
 
+SHARDS = 4
+"""The README's commands run as this many tests (the workers share them out)."""
+
+
+def _chains() -> list[list[str]]:
+    """The README's command lines in chains, in order: a command that names a folder an earlier
+    one wrote (``--out``) runs after it, in its chain; the chains are independent."""
+    chains: list[list[str]] = []
+    outs: dict[str, int] = {}
+    for line in _commands():
+        words = shlex.split(line)
+        linked = next((index for word in words[1:] for folder, index in outs.items()
+                       if word == folder or word.startswith(folder + "/")), None)
+        if linked is None:
+            chains.append([line])
+            linked = len(chains) - 1
+        else:
+            chains[linked].append(line)
+        if "--out" in words:
+            outs[words[words.index("--out") + 1]] = linked
+    return chains
+
+
+LEFT_BEHIND = {"runs/tri": ("snapshots.h5", "vtk-checkpoint"), "analysis": ("analysis.csv",),
+               "runs/cmp": ("cd/results.h5", "dem/results.h5", "compare.png", "compare.csv")}
+"""What the README says some commands leave behind, by their --out folder."""
+
+
+def test_the_readme_commands_fall_in_independent_chains():
+    chains = _chains()
+    assert sorted(line for chain in chains for line in chain) == sorted(_commands())
+    tri = next(chain for chain in chains if any("--out runs/tri " in f"{c} " for c in chain))
+    assert "grainlab resume runs/tri" in tri and "grainlab vtk runs/tri" in tri
+
+
 @pytest.mark.long
-def test_every_readme_command_runs_as_typed(tmp_path, monkeypatch):
+@pytest.mark.parametrize("shard", range(SHARDS))
+def test_every_readme_command_runs_as_typed(shard, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     _packing_file(tmp_path)
     RunConfig.model_validate(FAST_POLYHEDRA).write(tmp_path / "fast.toml")
     runner = CliRunner()
-    for line in _commands():
+    lines = [line for index, chain in enumerate(_chains()) if index % SHARDS == shard
+             for line in chain]
+    for line in lines:
         arguments = shlex.split(_small(line))[1:]
         if "polyhedron" in arguments:  # 3 shapes, a quicker compaction
             if arguments[0] == "compaction":
@@ -106,12 +145,14 @@ def test_every_readme_command_runs_as_typed(tmp_path, monkeypatch):
             arguments.append("--no-progress")
         result = runner.invoke(app, arguments)
         assert result.exit_code == 0, f"{line}\n{result.output}"
-    # what the README says these commands leave behind
-    assert (tmp_path / "runs" / "tri" / "snapshots.h5").exists()
-    assert (tmp_path / "runs" / "tri" / "vtk-checkpoint").is_dir()
-    assert (tmp_path / "analysis" / "analysis.csv").exists()
-    for written in ("cd/results.h5", "dem/results.h5", "compare.png", "compare.csv"):
-        assert (tmp_path / "runs" / "cmp" / written).exists(), written
+    written = {shlex.split(line)[shlex.split(line).index("--out") + 1] for line in lines
+               if "--out" in shlex.split(line)}
+    for folder, files in LEFT_BEHIND.items():
+        for name in files if folder in written else ():
+            assert (tmp_path / folder / name).exists(), f"{folder}/{name}"
+    if "runs/tri" not in written:
+        return
+    # the Python blocks read what the runs/tri chain wrote: they run after it, in its shard
     for block in _blocks("python"):
         code = _small(block)
         if "start_run(" in code:  # the README's run folder is taken by the CLI's run above
@@ -119,6 +160,8 @@ def test_every_readme_command_runs_as_typed(tmp_path, monkeypatch):
                                 'start_run("runs/tri-python", config)')
         exec(compile(code, "README.md", "exec"), {"__name__": "readme"})
     assert (tmp_path / "runs" / "tri-python" / "results.csv").exists()
+
+
 
 
 @pytest.mark.parametrize("command", ["grainlab demo", "make demo", "make test"])
