@@ -83,6 +83,7 @@ from grainlab.engine.narrow_phase import Contacts
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.soft_contact_kernels import (
     SERVO_INTEGRAL,
+    body_rows,
     closed_rows_kernel,
     servo_kernel,
     substeps_kernel,
@@ -409,15 +410,8 @@ class _Rows:
         self.mu = np.zeros(c)
         self.set_friction(bounds, friction)
         self.wall_rows = np.flatnonzero(~inner).astype(np.int64)
-        # CSR of the rows of each body: 2 k for its j side, 2 k + 1 for its i side
         n = state.n_bodies
-        bodies = np.concatenate([self.body_j, self.body_i[inner]])
-        entries = np.concatenate([2 * np.arange(c, dtype=np.int64),
-                                  2 * np.flatnonzero(inner).astype(np.int64) + 1])
-        order = np.lexsort((entries, bodies))
-        self.adj_entry = np.ascontiguousarray(entries[order])
-        self.adj_start = np.zeros(n + 1, dtype=np.int64)
-        np.cumsum(np.bincount(bodies, minlength=n), out=self.adj_start[1:])
+        self.adj_start, self.adj_entry = body_rows(self.body_i, self.body_j, n)
         self.xi = np.zeros((c, 3))
         self.roll = np.zeros((c, 3))
         self.keys = np.zeros(c, dtype=np.int64)

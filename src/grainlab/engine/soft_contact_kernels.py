@@ -37,6 +37,21 @@ OUTWARD_FACTOR = 4.0
 contact dynamics' walls)."""
 
 
+def body_rows(body_i: np.ndarray, body_j: np.ndarray, n_bodies: int
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """The CSR list of the rows of each body that :func:`gather_kernel` reads: (adj_start
+    (N + 1,), adj_entry) with entry 2 k for the j side of row k, 2 k + 1 for its i side (a row
+    with a wall, body_i < 0, has only its j side), in the order of the rows."""
+    inner = body_i >= 0
+    bodies = np.concatenate([body_j, body_i[inner]])
+    entries = np.concatenate([2 * np.arange(body_j.shape[0], dtype=np.int64),
+                              2 * np.flatnonzero(inner).astype(np.int64) + 1])
+    order = np.lexsort((entries, bodies))
+    adj_start = np.zeros(n_bodies + 1, dtype=np.int64)
+    np.cumsum(np.bincount(bodies, minlength=n_bodies), out=adj_start[1:])
+    return adj_start, np.ascontiguousarray(entries[order])
+
+
 @njit(inline="always")
 def _turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, dt):
     """A tangential history vector (hx, hy, hz) carried into the current tangent plane of
@@ -384,6 +399,18 @@ def _det3(h):
             + h[0, 2] * (h[1, 0] * h[2, 1] - h[1, 1] * h[2, 0]))
 
 
+@njit(inline="always")
+def _branch(k, i, j, images, positions, cell_h):
+    """l_k = x_j + h m_k - x_i [m], the branch vector of row k through the cell."""
+    mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
+    return (positions[j, 0] - positions[i, 0] + cell_h[0, 0] * mx + cell_h[0, 1] * my
+            + cell_h[0, 2] * mz,
+            positions[j, 1] - positions[i, 1] + cell_h[1, 0] * mx + cell_h[1, 1] * my
+            + cell_h[1, 2] * mz,
+            positions[j, 2] - positions[i, 2] + cell_h[2, 0] * mx + cell_h[2, 1] * my
+            + cell_h[2, 2] * mz)
+
+
 @njit(cache=True)
 def virial_kernel(body_i, body_j, images, force, positions, cell_h, virial):
     """``virial`` (3, 3) [N m] = sum_k f_k (x) l_k over the rows between bodies (f_k the
@@ -394,13 +421,7 @@ def virial_kernel(body_i, body_j, images, force, positions, cell_h, virial):
         i, j = body_i[k], body_j[k]
         if i < 0:
             continue
-        mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
-        lx = positions[j, 0] - positions[i, 0] + cell_h[0, 0] * mx + cell_h[0, 1] * my \
-            + cell_h[0, 2] * mz
-        ly = positions[j, 1] - positions[i, 1] + cell_h[1, 0] * mx + cell_h[1, 1] * my \
-            + cell_h[1, 2] * mz
-        lz = positions[j, 2] - positions[i, 2] + cell_h[2, 0] * mx + cell_h[2, 1] * my \
-            + cell_h[2, 2] * mz
+        lx, ly, lz = _branch(k, i, j, images, positions, cell_h)
         for a in range(3):
             virial[a, 0] += force[k, a] * lx
             virial[a, 1] += force[k, a] * ly
@@ -419,13 +440,7 @@ def cell_stiffness_kernel(body_i, body_j, images, stiffness, normal, positions, 
         i, j = body_i[k], body_j[k]
         if i < 0 or stiffness[k] == 0.0:
             continue
-        mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
-        lx = positions[j, 0] - positions[i, 0] + cell_h[0, 0] * mx + cell_h[0, 1] * my \
-            + cell_h[0, 2] * mz
-        ly = positions[j, 1] - positions[i, 1] + cell_h[1, 0] * mx + cell_h[1, 1] * my \
-            + cell_h[1, 2] * mz
-        lz = positions[j, 2] - positions[i, 2] + cell_h[2, 0] * mx + cell_h[2, 1] * my \
-            + cell_h[2, 2] * mz
+        lx, ly, lz = _branch(k, i, j, images, positions, cell_h)
         nx, ny, nz = normal[k, 0], normal[k, 1], normal[k, 2]
         for d in range(cell_directions.shape[0]):
             g = cell_directions[d]

@@ -115,6 +115,7 @@ from grainlab.engine.shape_kinds import (
     library_time_step_length,
 )
 from grainlab.engine.simulation import SimulationBlowUp
+from grainlab.engine.soft_contact_kernels import body_rows
 from grainlab.engine.soft_polyhedra_kernels import polyhedra_substeps_kernel
 from grainlab.engine.state import BodyState, ReadOnlyArrays, ShapeLibrary
 from grainlab.errors import InputError
@@ -180,14 +181,7 @@ class PolyhedronRows:
         self.r_eff[inner] = ri * self.r_eff[inner] / (ri + self.r_eff[inner])
         self.smallest_radius = smallest_radius(library)
         self.wall_rows = np.flatnonzero(~inner).astype(np.int64)
-        # CSR of the rows of each body: 2 p for its j side, 2 p + 1 for its i side
-        bodies = np.concatenate([self.pair_j, self.pair_i[inner]])
-        entries = np.concatenate([2 * np.arange(p, dtype=np.int64),
-                                  2 * np.flatnonzero(inner).astype(np.int64) + 1])
-        order = np.lexsort((entries, bodies))
-        self.adj_entry = np.ascontiguousarray(entries[order])
-        self.adj_start = np.zeros(n + 1, dtype=np.int64)
-        np.cumsum(np.bincount(bodies, minlength=n), out=self.adj_start[1:])
+        self.adj_start, self.adj_entry = body_rows(self.pair_i, self.pair_j, n)
         self.keys = contact_keys(Contacts(
             body_i=self.pair_i, body_j=self.pair_j,
             member_i=np.where(inner, 0, -1).astype(np.int64), member_j=np.zeros(p, np.int64),
