@@ -339,26 +339,67 @@ def random_polyhedron(
     if not isinstance(rng, np.random.Generator):
         raise InputError("rng", rng, "a numpy.random.Generator")
     n_vertices = (int(n_faces) + 4) // 2
-    for _ in range(int(max_tries)):
-        points = rng.normal(size=(n_vertices, 3))
-        points /= np.linalg.norm(points, axis=1)[:, None]
-        try:
-            vertices, faces = _hull(points)
-        except InputError:  # degenerate draw (probability zero)
-            continue
-        if len(vertices) != n_vertices:
-            continue
-        _, com, inertia = polyhedron_mass_properties(vertices, faces)
-        _, axes = principal_frame(inertia)
-        body = (vertices - com) @ axes
-        extents = np.sort(body.max(axis=0) - body.min(axis=0))[::-1]
-        if extents[2] >= ratio * extents[0] and extents[2] >= ratio * extents[1]:
+    tried, batch = 0, 1
+    while tried < int(max_tries):  # draws in growing batches, judged together, in order
+        batch = min(2 * batch if tried else 1, DRAW_BATCH, int(max_tries) - tried)
+        before = rng.bit_generator.state
+        points = rng.normal(size=(batch, n_vertices, 3))
+        points /= np.linalg.norm(points, axis=2)[:, :, None]
+        passed = np.flatnonzero(_axes_pass(points, ratio))
+        if passed.size:
+            first = int(passed[0])
+            rng.bit_generator.state = before  # leave the generator after the accepted draw
+            rng.normal(size=(first + 1, n_vertices, 3))
             name = f"random polyhedron (n_f = {int(n_faces)})"
-            return from_vertices(0.5 * diameter * points, name=name)
+            return from_vertices(0.5 * diameter * points[first], name=name)
+        tried += batch
     raise ConvergenceError(
         f"random_polyhedron: no hull of {n_vertices} random points met h/L >= {ratio:g} "
         f"in max_tries = {int(max_tries)} draws; raise max_tries or lower min_axis_ratio."
     )
+
+
+DRAW_BATCH = 64
+"""The most point sets :func:`random_polyhedron` draws and judges at once (batches of 1, 2,
+4, ... while none passes; the accepted one, and the generator's state after it, are those of
+one draw at a time)."""
+
+
+def _axes_pass(points: np.ndarray, ratio: float) -> np.ndarray:
+    """(B,) whether the hull of each point set (B, V, 3) on the unit sphere has V vertices and
+    h/L, h/l >= ``ratio`` (:func:`random_polyhedron`): the mass properties of
+    :func:`polyhedron_mass_properties`, for the whole batch at once."""
+    batch, n_vertices = points.shape[:2]
+    n_faces = 2 * n_vertices - 4
+    faces = np.zeros((batch, n_faces, 3), dtype=np.int64)
+    whole = np.zeros(batch, dtype=bool)
+    for k in range(batch):
+        try:
+            hull = ConvexHull(points[k])
+        except QhullError:  # degenerate draw (probability zero)
+            continue
+        if hull.simplices.shape[0] == n_faces and np.unique(hull.simplices).size == n_vertices:
+            faces[k], whole[k] = hull.simplices, True
+    rows = np.arange(batch)[:, None]
+    reference = points.mean(axis=1)[:, None, :]
+    a, b, c = (points[rows, faces[:, :, k]] - reference for k in range(3))
+    normal = np.cross(b - a, c - a)
+    outward = np.einsum("bfi,bfi->bf", normal, a + b + c) >= 0.0  # the hull holds the centre
+    b, c = np.where(outward[..., None], b, c), np.where(outward[..., None], c, b)
+    volumes = np.einsum("bfi,bfi->bf", a, np.cross(b, c)) / 6.0
+    total = a + b + c
+    volume = volumes.sum(axis=1)
+    volume[~whole] = 1.0
+    com = np.einsum("bf,bfi->bi", volumes, total) / (4.0 * volume[:, None])
+    second = sum(np.einsum("bf,bfi,bfj->bij", volumes / 20.0, x, x) for x in (a, b, c, total))
+    second = second - volume[:, None, None] * np.einsum("bi,bj->bij", com, com)
+    second = 0.5 * (second + np.swapaxes(second, 1, 2))
+    inertia = np.trace(second, axis1=1, axis2=2)[:, None, None] * np.eye(3) - second
+    _, axes = np.linalg.eigh(inertia)
+    body = np.einsum("bvi,bij->bvj", points - (reference + com[:, None, :]), axes)
+    extents = np.sort(body.max(axis=1) - body.min(axis=1), axis=1)[:, ::-1]
+    return whole & (extents[:, 2] >= ratio * extents[:, 0]) & (
+        extents[:, 2] >= ratio * extents[:, 1])
 
 
 def polyhedron_mass_properties(
