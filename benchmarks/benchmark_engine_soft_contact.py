@@ -7,7 +7,8 @@ contact count of a dense frictionless packing), with random velocities of 1 cm/s
 E = 1e9 Pa, nu = 0.25, e = 0.5, mu = 0.4, the sub-step 0.2 x the Rayleigh time (the peers'
 test's settings). Each simulation step is 100 sub-steps. Printed per N: sub-step, rows of the
 neighbour list per particle, list builds per 100 sub-steps, particle-steps per second, and the
-memory of the solver's per-row and per-body arrays per particle.
+memory of the solver's per-row and per-body arrays per particle; the threads used (from
+soft_contact.PARALLEL_BODIES bodies on, all of Numba's: NUMBA_NUM_THREADS=1 for one).
 
     python benchmarks/benchmark_engine_soft_contact.py            # N = 1000, 4096, 10648
     python benchmarks/benchmark_engine_soft_contact.py --sides 10 22 47   # up to 1e5
@@ -18,9 +19,11 @@ from __future__ import annotations
 import argparse
 import time
 
+import numba
 import numpy as np
 
 from grainlab.contact.soft_contact_law import SoftContactLaw
+from grainlab.engine import soft_contact
 from grainlab.engine.periodic_boundary import PeriodicCell
 from grainlab.engine.soft_contact import SoftContactStep
 from grainlab.engine.state import BodyState, ShapeLibrary
@@ -55,10 +58,11 @@ def measure(side: int, steps: int) -> dict:
     elapsed = time.perf_counter() - start
     n = state.n_bodies
     substeps = steps * solver.last_substeps
-    rows = solver._history_keys.size  # the last list's rows (every row keeps its spring)
+    rows = solver._rows.body_j.shape[0]  # the rows of the list in use
     row_bytes = rows * (8 * (2 + 3 + 3 + 2 + 3 + 1 + 3 + 3 + 3 + 3 + 3 + 1 + 3 + 3 + 3 + 1 + 3 + 6))
     body_bytes = n * 8 * (3 + 4 + 3 + 3 + 1 + 3 + 3 + 3 + 1 + 1)
     return {"n": n, "substep": solver.substep, "rows_per_particle": rows / n,
+            "threads": numba.get_num_threads() if n >= soft_contact.PARALLEL_BODIES else 1,
             "builds_per_100": 100.0 * (solver.n_detections - builds) / substeps,
             "particle_steps_per_s": n * substeps / elapsed,
             "bytes_per_particle": (row_bytes + body_bytes) / n}
@@ -69,11 +73,11 @@ def main() -> None:
     parser.add_argument("--sides", type=int, nargs="+", default=[10, 16, 22])
     parser.add_argument("--steps", type=int, default=5, help="steps of 100 sub-steps each")
     args = parser.parse_args()
-    print(f"{'N':>8} {'substep [s]':>12} {'rows/part':>10} {'builds/100':>11} "
+    print(f"{'N':>8} {'thr':>4} {'substep [s]':>12} {'rows/part':>10} {'builds/100':>11} "
           f"{'particle-steps/s':>17} {'bytes/part':>11}")
     for side in args.sides:
         r = measure(side, args.steps)
-        print(f"{r['n']:8d} {r['substep']:12.3e} {r['rows_per_particle']:10.2f} "
+        print(f"{r['n']:8d} {r['threads']:4d} {r['substep']:12.3e} {r['rows_per_particle']:10.2f} "
               f"{r['builds_per_100']:11.2f} {r['particle_steps_per_s']:17.3e} "
               f"{r['bytes_per_particle']:11.0f}")
 

@@ -269,7 +269,8 @@ def turned_spring_force(n_steps):
             np.zeros((1, 3)), np.array([10.0]), np.array([1.0, 1.0]), positions,
             np.array([[1.0, 0.0, 0.0, 0.0]] * 2), np.cross(omega, positions),
             np.array([omega, omega]), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0),
-            np.zeros(0), np.eye(3), np.zeros((3, 3)), xi, roll, *outputs, np.zeros((3, 3)))
+            np.zeros(0), np.eye(3), np.zeros((3, 3)), xi, roll, *outputs, np.zeros((3, 3)),
+            np.zeros((1, 10)), np.zeros(1))
         if start is None:
             start = outputs[0][0].copy()
     return start, outputs[0][0].copy(), rotation(1.0) @ start
@@ -388,3 +389,36 @@ def test_rolling_resistance_holds_a_sphere_on_a_gentle_incline():
         results[rolling] = float(np.linalg.norm(state.velocities[0]))
     assert results[0.3] < 1e-4
     assert results[0.05] > 0.1
+
+
+def test_threads_change_nothing(monkeypatch):
+    """The sub-steps on the threads (rows in blocks, bodies shared out) give the serial
+    results bit for bit: 1728 jostling spheres, two blocks of rows, in a periodic cell."""
+    import numba
+
+    from grainlab.engine import soft_contact
+    from grainlab.engine.periodic_boundary import PeriodicCell
+    from grainlab.engine.soft_contact_kernels import ROW_BLOCK
+
+    side, diameter = 12, 1.5e-3
+    grid = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    library = ShapeLibrary.from_spheres([0.5 * diameter])
+    runs = []
+    for threshold in (10**9, 0):  # serial, then parallel
+        monkeypatch.setattr(soft_contact, "PARALLEL_BODIES", threshold)
+        state = BodyState.from_library(library, np.zeros(len(grid), dtype=np.int64),
+                                       (grid + 0.5) * diameter * 0.999, 2600.0)
+        state.velocities[:] = np.random.default_rng(0).normal(scale=0.05,
+                                                               size=state.velocities.shape)
+        cell = PeriodicCell(np.eye(3) * side * diameter * 0.999)
+        solver = SoftContactStep(SoftContactLaw.hertz_mindlin(1e9, 0.25, restitution=0.5),
+                                 dt=1.0, friction=0.4)
+        solver.dt = 30 * solver.stable_substep(state, library)
+        for _ in range(3):
+            solver.step(state, library, cell)
+        assert solver._rows.body_j.shape[0] > ROW_BLOCK  # more than one block
+        runs.append((state.positions.copy(), state.velocities.copy(),
+                     state.angular_velocities.copy(), solver._rows.xi.copy()))
+    if numba.get_num_threads() > 1:
+        for serial, threaded in zip(*runs, strict=True):
+            np.testing.assert_array_equal(serial, threaded)

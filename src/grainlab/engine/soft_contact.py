@@ -73,6 +73,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
+import numba
 import numpy as np
 
 from grainlab._validate import at_least
@@ -82,6 +83,7 @@ from grainlab.engine.contact_dynamics import StepReport, contact_keys
 from grainlab.engine.narrow_phase import Contacts
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.soft_contact_kernels import (
+    ROW_BLOCK,
     SERVO_INTEGRAL,
     body_rows,
     closed_rows_kernel,
@@ -97,6 +99,13 @@ SKIN_FRACTION = 0.1
 FILTER_SUBSTEPS = 20.0
 """The periodic cell's servo reads the contacts' stress low-passed over this many stable
 sub-steps (four collisions: the law's stable step is 0.2 of a contact's half period)."""
+PARALLEL_BODIES = 8_000
+"""From this many bodies the sub-steps share the rows and the bodies out over Numba's threads
+(:func:`~grainlab.engine.soft_contact_kernels.bodies_parallel`; the same results on any
+number of threads). Each sub-step then starts three parallel loops, ~0.17 ms each with the
+workqueue layer on the 2-core machine (measured), so that below this the threads lose:
+benchmark_engine_soft_contact.py, 2 threads against 1, 0.89x at 4096 spheres, 1.24x at
+10 648, 1.54x at 27 000."""
 OVERLAP_LIMIT = 0.5
 """A sub-step that meets an overlap beyond this fraction of the smallest member radius
 stops the run (the contacts are far too soft or the time step too long)."""
@@ -432,6 +441,7 @@ class _Rows:
         self.point = np.zeros((c, 3))
         self.stiffness = np.zeros(c)
         self.rel_vel = np.zeros((c, 3))
+        self.partial = np.zeros((-(-c // ROW_BLOCK), 10))  # the force pass's block sums
 
     def set_friction(self, bounds, friction: float) -> None:
         """The Coulomb coefficients of the rows: ``friction`` between bodies, each wall's
@@ -558,7 +568,8 @@ class _Run:
             rows.force, rows.torque_i, rows.torque_j, rows.gap, rows.normal, rows.point,
             rows.stiffness, rows.rel_vel, self.virial, self.body_force, self.body_torque,
             self.wall_force, self.wall_stiffness, self.wall_impulse, self.stress_impulse,
-            self.stats, rows.approach)
+            self.stats, rows.approach, rows.partial,
+            state.n_bodies >= PARALLEL_BODIES and numba.get_num_threads() > 1)
         smallest = float(np.min(rows.rad_j)) if rows.rad_j.size else math.inf
         if self.stats[0] > OVERLAP_LIMIT * smallest:
             raise SimulationBlowUp(

@@ -14,11 +14,15 @@ Gather. The forces of the rows are written per row and summed per body from a CS
 (``adj_start`` (N + 1,), ``adj_entry``: 2 k for the j side of row k, 2 k + 1 for its i side),
 always in the order of the list.
 
-One thread. The kernels are serial: a sub-step of 1000 spheres lasts ~0.3 ms, and each
-parallel region of Numba's workqueue layer costs ~40 us to launch (five per sub-step), so
-that two threads ran slower than one up to 15 625 spheres here. The way to two cores is one
-parallel region per sub-step over spatial blocks of bodies, reading the last sub-step's
-positions and writing the next (double buffers, no race).
+Threads. The rows are evaluated in blocks of :data:`ROW_BLOCK`, whose sums (the springs'
+virial, the largest overlap) are added in block order; the bodies' side of a sub-step (gather,
+kicks, drift) is body by body. So the same sub-steps run on one thread
+(:func:`contact_forces_kernel`, :func:`gather_kernel`, :func:`kick_kernel`,
+:func:`drift_kernel`) or on several (:func:`contact_forces_parallel`, :func:`bodies_parallel`:
+``parallel`` in :func:`substeps_kernel`) with the same results, bit for bit, whatever the
+number of threads. Each parallel loop costs ~0.17 ms to start with Numba's workqueue layer on
+a 2-core machine (three per sub-step), so the threads pay from about 8000 bodies
+(:data:`~grainlab.engine.soft_contact.PARALLEL_BODIES`).
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from grainlab.contact.soft_contact_law import contact_law
 from grainlab.engine.narrow_phase import sphere_sphere
@@ -94,22 +98,21 @@ def _apply_tensor(t, vx, vy, vz):
             t[4] * vx + t[3] * vy + t[2] * vz)
 
 
-@njit(cache=True)
-def contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
-                          rad_j, images, mu, inv_mass, positions, orientations, velocities,
-                          spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate,
-                          xi, roll, force, torque_i, torque_j, gap, normal, point, stiffness,
-                          rel_vel, virial):
-    """Geometry and force of every row k of the list (module docstring of
-    :mod:`grainlab.contact.soft_contact_law`); ``step`` [s] is the time since the last
-    evaluation (0: the force of the current springs, nothing carried forward). Writes the
-    rows' outputs; the histories ``xi`` (C, 3) [N] and ``roll`` (C, 3) [N m] are updated;
-    ``virial`` (3, 3) [N m] becomes sum_k f_k (x) l_k over the rows between bodies, f_k the
-    springs' force on j (the elastic normal force and the tangential spring, without the
-    dashpots), l_k = x_j + h m_k - x_i the branch vector: V sigma of the springs,
-    compression positive."""
-    virial[:, :] = 0.0
-    for k in range(body_j.shape[0]):
+ROW_BLOCK = 4096
+"""Rows per block of the force pass: the springs' virial is summed per block, then over the
+blocks in order, whether the blocks run one after the other or on several threads (the same
+sums, bit for bit, on any number of threads)."""
+
+
+@njit(_nrt=False)  # a call per block: more arguments than Python 3.11 lets Numba inline
+def _forces_block(blk, step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
+                  rad_j, images, mu, inv_mass, positions, orientations, velocities, spins,
+                  wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
+                  torque_i, torque_j, gap, normal, point, stiffness, rel_vel, partial):
+    """The rows of block ``blk`` (:func:`contact_forces_kernel`); their springs' virial into
+    ``partial[blk, :9]`` (row-major), their largest overlap [m] into ``partial[blk, 9]``."""
+    v00 = v01 = v02 = v10 = v11 = v12 = v20 = v21 = v22 = worst = 0.0
+    for k in range(blk * ROW_BLOCK, min((blk + 1) * ROW_BLOCK, body_j.shape[0])):
         j = body_j[k]
         i = body_i[k]
         mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
@@ -178,6 +181,7 @@ def contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, of
             stiffness[k] = 0.0
             continue
         overlap = -g
+        worst = max(worst, overlap)
         un = ux * nx + uy * ny + uz * nz
         utx, uty, utz = ux - un * nx, uy - un * ny, uz - un * nz
         fne, s_n, k_t, c_n, c_t = contact_law(code, params[0 if i >= 0 else 1], overlap, r_eff,
@@ -203,15 +207,9 @@ def contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, of
         if i >= 0:
             lx, ly, lz = jx - positions[i, 0], jy - positions[i, 1], jz - positions[i, 2]
             ex, ey, ez = fne * nx + hx, fne * ny + hy, fne * nz + hz
-            virial[0, 0] += ex * lx
-            virial[0, 1] += ex * ly
-            virial[0, 2] += ex * lz
-            virial[1, 0] += ey * lx
-            virial[1, 1] += ey * ly
-            virial[1, 2] += ey * lz
-            virial[2, 0] += ez * lx
-            virial[2, 1] += ez * ly
-            virial[2, 2] += ez * lz
+            v00, v01, v02 = v00 + ex * lx, v01 + ex * ly, v02 + ex * lz
+            v10, v11, v12 = v10 + ey * lx, v11 + ey * ly, v12 + ey * lz
+            v20, v21, v22 = v20 + ez * lx, v21 + ez * ly, v22 + ez * lz
         mjx, mjy, mjz = rjy * fz - rjz * fy, rjz * fx - rjx * fz, rjx * fy - rjy * fx
         mix, miy, miz = -(riy * fz - riz * fy), -(riz * fx - rix * fz), -(rix * fy - riy * fx)
         if rolling > 0.0:
@@ -234,6 +232,81 @@ def contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, of
             mix, miy, miz = mix - lx, miy - ly, miz - lz
         torque_j[k, 0], torque_j[k, 1], torque_j[k, 2] = mjx, mjy, mjz
         torque_i[k, 0], torque_i[k, 1], torque_i[k, 2] = mix, miy, miz
+    partial[blk, 0], partial[blk, 1], partial[blk, 2] = v00, v01, v02
+    partial[blk, 3], partial[blk, 4], partial[blk, 5] = v10, v11, v12
+    partial[blk, 6], partial[blk, 7], partial[blk, 8] = v20, v21, v22
+    partial[blk, 9] = worst
+
+
+@njit(inline="always")
+def _sum_blocks(partial, virial, stats):
+    for blk in range(partial.shape[0]):
+        stats[0] = max(stats[0], partial[blk, 9])
+    for a in range(3):
+        for b in range(3):
+            total = 0.0
+            for blk in range(partial.shape[0]):
+                total += partial[blk, 3 * a + b]
+            virial[a, b] = total
+
+
+@njit(cache=True, _nrt=False)  # no reference counts on the array arguments (~5 %)
+def contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
+                          rad_j, images, mu, inv_mass, positions, orientations, velocities,
+                          spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate,
+                          xi, roll, force, torque_i, torque_j, gap, normal, point, stiffness,
+                          rel_vel, virial, partial, stats):
+    """Geometry and force of every row k of the list (module docstring of
+    :mod:`grainlab.contact.soft_contact_law`); ``step`` [s] is the time since the last
+    evaluation (0: the force of the current springs, nothing carried forward). Writes the
+    rows' outputs; the histories ``xi`` (C, 3) [N] and ``roll`` (C, 3) [N m] are updated;
+    ``virial`` (3, 3) [N m] becomes sum_k f_k (x) l_k over the rows between bodies, f_k the
+    springs' force on j (the elastic normal force and the tangential spring, without the
+    dashpots), l_k = x_j + h m_k - x_i the branch vector: V sigma of the springs,
+    compression positive (summed by blocks of :data:`ROW_BLOCK` rows: ``partial``
+    (ceil(C / ROW_BLOCK), 10) scratch); ``stats[0]`` becomes the largest overlap [m] if
+    larger."""
+    for blk in range(partial.shape[0]):
+        _forces_block(blk, step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
+                      rad_j, images, mu, inv_mass, positions, orientations, velocities, spins,
+                      wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi, roll,
+                      force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
+                      partial)
+    _sum_blocks(partial, virial, stats)
+
+
+@njit(cache=True, parallel=True, _nrt=False)
+def contact_forces_parallel(step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
+                            rad_j, images, mu, inv_mass, positions, orientations, velocities,
+                            spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate,
+                            xi, roll, force, torque_i, torque_j, gap, normal, point,
+                            stiffness, rel_vel, virial, partial, stats):
+    """:func:`contact_forces_kernel` with its blocks on the threads (the same results)."""
+    for blk in prange(partial.shape[0]):
+        _forces_block(blk, step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
+                      rad_j, images, mu, inv_mass, positions, orientations, velocities, spins,
+                      wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi, roll,
+                      force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
+                      partial)
+    _sum_blocks(partial, virial, stats)
+
+
+@njit(inline="always")
+def _gather_body(b, adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
+                 body_force, body_torque):
+    fx, fy, fz = masses[b] * gravity[0], masses[b] * gravity[1], masses[b] * gravity[2]
+    tx, ty, tz = 0.0, 0.0, 0.0
+    for e in range(adj_start[b], adj_start[b + 1]):
+        entry = adj_entry[e]
+        k = entry >> 1
+        if entry & 1 == 0:
+            fx, fy, fz = fx + force[k, 0], fy + force[k, 1], fz + force[k, 2]
+            tx, ty, tz = tx + torque_j[k, 0], ty + torque_j[k, 1], tz + torque_j[k, 2]
+        else:
+            fx, fy, fz = fx - force[k, 0], fy - force[k, 1], fz - force[k, 2]
+            tx, ty, tz = tx + torque_i[k, 0], ty + torque_i[k, 1], tz + torque_i[k, 2]
+    body_force[b, 0], body_force[b, 1], body_force[b, 2] = fx, fy, fz
+    body_torque[b, 0], body_torque[b, 1], body_torque[b, 2] = tx, ty, tz
 
 
 @njit(cache=True)
@@ -242,19 +315,8 @@ def gather_kernel(adj_start, adj_entry, force, torque_i, torque_j, masses, gravi
     """Net force (N, 3) [N] (contacts and weight m g) and moment (N, 3) [N m] on each body,
     summed in list order (module docstring)."""
     for b in range(masses.shape[0]):
-        fx, fy, fz = masses[b] * gravity[0], masses[b] * gravity[1], masses[b] * gravity[2]
-        tx, ty, tz = 0.0, 0.0, 0.0
-        for e in range(adj_start[b], adj_start[b + 1]):
-            entry = adj_entry[e]
-            k = entry >> 1
-            if entry & 1 == 0:
-                fx, fy, fz = fx + force[k, 0], fy + force[k, 1], fz + force[k, 2]
-                tx, ty, tz = tx + torque_j[k, 0], ty + torque_j[k, 1], tz + torque_j[k, 2]
-            else:
-                fx, fy, fz = fx - force[k, 0], fy - force[k, 1], fz - force[k, 2]
-                tx, ty, tz = tx + torque_i[k, 0], ty + torque_i[k, 1], tz + torque_i[k, 2]
-        body_force[b, 0], body_force[b, 1], body_force[b, 2] = fx, fy, fz
-        body_torque[b, 0], body_torque[b, 1], body_torque[b, 2] = tx, ty, tz
+        _gather_body(b, adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
+                     body_force, body_torque)
 
 
 @njit(cache=True)
@@ -272,38 +334,81 @@ def wall_loads_kernel(wall_rows, body_i, wall_n, force, stiffness, wall_force,
         wall_stiffness[w] += stiffness[k]
 
 
+@njit(inline="always")
+def _kick_body(b, half, inv_mass, principal, isotropic, local_damping, orientations,
+               body_force, body_torque, velocities, spins):
+    fx, fy, fz = body_force[b, 0], body_force[b, 1], body_force[b, 2]
+    tx, ty, tz = body_torque[b, 0], body_torque[b, 1], body_torque[b, 2]
+    if local_damping > 0.0:
+        fx -= local_damping * abs(fx) * np.sign(velocities[b, 0])
+        fy -= local_damping * abs(fy) * np.sign(velocities[b, 1])
+        fz -= local_damping * abs(fz) * np.sign(velocities[b, 2])
+        tx -= local_damping * abs(tx) * np.sign(spins[b, 0])
+        ty -= local_damping * abs(ty) * np.sign(spins[b, 1])
+        tz -= local_damping * abs(tz) * np.sign(spins[b, 2])
+    f = half * inv_mass[b]
+    velocities[b, 0] += f * fx
+    velocities[b, 1] += f * fy
+    velocities[b, 2] += f * fz
+    if isotropic[b]:
+        f = half / principal[b, 0]
+        spins[b, 0] += f * tx
+        spins[b, 1] += f * ty
+        spins[b, 2] += f * tz
+    else:
+        q = orientations[b]
+        inverse = _world_tensor(q[0], q[1], q[2], q[3], 1.0 / principal[b, 0],
+                                1.0 / principal[b, 1], 1.0 / principal[b, 2])
+        ax, ay, az = _apply_tensor(inverse, tx, ty, tz)
+        spins[b, 0] += half * ax
+        spins[b, 1] += half * ay
+        spins[b, 2] += half * az
+
+
 @njit(cache=True)
 def kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
                 body_force, body_torque, velocities, spins):
     """Half kick of velocity Verlet: v += (h/2) F / m, omega += (h/2) I_w^-1 T (``half`` =
     h/2 [s]), F and T reduced by the local damping alpha |F| sign(v) per component."""
     for b in range(inv_mass.shape[0]):
-        fx, fy, fz = body_force[b, 0], body_force[b, 1], body_force[b, 2]
-        tx, ty, tz = body_torque[b, 0], body_torque[b, 1], body_torque[b, 2]
-        if local_damping > 0.0:
-            fx -= local_damping * abs(fx) * np.sign(velocities[b, 0])
-            fy -= local_damping * abs(fy) * np.sign(velocities[b, 1])
-            fz -= local_damping * abs(fz) * np.sign(velocities[b, 2])
-            tx -= local_damping * abs(tx) * np.sign(spins[b, 0])
-            ty -= local_damping * abs(ty) * np.sign(spins[b, 1])
-            tz -= local_damping * abs(tz) * np.sign(spins[b, 2])
-        f = half * inv_mass[b]
-        velocities[b, 0] += f * fx
-        velocities[b, 1] += f * fy
-        velocities[b, 2] += f * fz
-        if isotropic[b]:
-            f = half / principal[b, 0]
-            spins[b, 0] += f * tx
-            spins[b, 1] += f * ty
-            spins[b, 2] += f * tz
-        else:
-            q = orientations[b]
-            inverse = _world_tensor(q[0], q[1], q[2], q[3], 1.0 / principal[b, 0],
-                                    1.0 / principal[b, 1], 1.0 / principal[b, 2])
-            ax, ay, az = _apply_tensor(inverse, tx, ty, tz)
-            spins[b, 0] += half * ax
-            spins[b, 1] += half * ay
-            spins[b, 2] += half * az
+        _kick_body(b, half, inv_mass, principal, isotropic, local_damping, orientations,
+                   body_force, body_torque, velocities, spins)
+
+
+@njit(inline="always")
+def _drift_body(b, dt, principal, isotropic, bounding, positions, orientations, velocities,
+                spins, travel):
+    ex, ey, ez = dt * velocities[b, 0], dt * velocities[b, 1], dt * velocities[b, 2]
+    positions[b, 0] += ex
+    positions[b, 1] += ey
+    positions[b, 2] += ez
+    wx, wy, wz = spins[b, 0], spins[b, 1], spins[b, 2]
+    spin = math.sqrt(wx * wx + wy * wy + wz * wz)
+    travel[b] += math.sqrt(ex * ex + ey * ey + ez * ez) + spin * dt * bounding[b]
+    if spin == 0.0:
+        return
+    w, x, y, z = orientations[b, 0], orientations[b, 1], orientations[b, 2], \
+        orientations[b, 3]
+    lx, ly, lz = wx, wy, wz
+    if not isotropic[b]:  # L = I_w omega before the turn
+        inertia = _world_tensor(w, x, y, z, principal[b, 0], principal[b, 1],
+                                principal[b, 2])
+        lx, ly, lz = _apply_tensor(inertia, wx, wy, wz)
+    half = 0.5 * spin * dt
+    f = math.sin(half) / spin
+    dw, dx, dy, dz = math.cos(half), f * wx, f * wy, f * wz
+    nw = dw * w - dx * x - dy * y - dz * z
+    nx = dw * x + w * dx + dy * z - dz * y
+    ny = dw * y + w * dy + dz * x - dx * z
+    nz = dw * z + w * dz + dx * y - dy * x
+    norm = math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
+    nw, nx, ny, nz = nw / norm, nx / norm, ny / norm, nz / norm
+    orientations[b, 0], orientations[b, 1] = nw, nx
+    orientations[b, 2], orientations[b, 3] = ny, nz
+    if not isotropic[b]:
+        inverse = _world_tensor(nw, nx, ny, nz, 1.0 / principal[b, 0],
+                                1.0 / principal[b, 1], 1.0 / principal[b, 2])
+        spins[b, 0], spins[b, 1], spins[b, 2] = _apply_tensor(inverse, lx, ly, lz)
 
 
 @njit(cache=True)
@@ -314,37 +419,30 @@ def drift_kernel(dt, principal, isotropic, bounding, positions, orientations, ve
     new orientation (torque-free precession). ``travel`` (N,) [m] grows by the largest
     displacement of a point of the body (|dx| + |omega| h R_bound)."""
     for b in range(positions.shape[0]):
-        ex, ey, ez = dt * velocities[b, 0], dt * velocities[b, 1], dt * velocities[b, 2]
-        positions[b, 0] += ex
-        positions[b, 1] += ey
-        positions[b, 2] += ez
-        wx, wy, wz = spins[b, 0], spins[b, 1], spins[b, 2]
-        spin = math.sqrt(wx * wx + wy * wy + wz * wz)
-        travel[b] += math.sqrt(ex * ex + ey * ey + ez * ez) + spin * dt * bounding[b]
-        if spin == 0.0:
-            continue
-        w, x, y, z = orientations[b, 0], orientations[b, 1], orientations[b, 2], \
-            orientations[b, 3]
-        lx, ly, lz = wx, wy, wz
-        if not isotropic[b]:  # L = I_w omega before the turn
-            inertia = _world_tensor(w, x, y, z, principal[b, 0], principal[b, 1],
-                                    principal[b, 2])
-            lx, ly, lz = _apply_tensor(inertia, wx, wy, wz)
-        half = 0.5 * spin * dt
-        f = math.sin(half) / spin
-        dw, dx, dy, dz = math.cos(half), f * wx, f * wy, f * wz
-        nw = dw * w - dx * x - dy * y - dz * z
-        nx = dw * x + w * dx + dy * z - dz * y
-        ny = dw * y + w * dy + dz * x - dx * z
-        nz = dw * z + w * dz + dx * y - dy * x
-        norm = math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
-        nw, nx, ny, nz = nw / norm, nx / norm, ny / norm, nz / norm
-        orientations[b, 0], orientations[b, 1] = nw, nx
-        orientations[b, 2], orientations[b, 3] = ny, nz
-        if not isotropic[b]:
-            inverse = _world_tensor(nw, nx, ny, nz, 1.0 / principal[b, 0],
-                                    1.0 / principal[b, 1], 1.0 / principal[b, 2])
-            spins[b, 0], spins[b, 1], spins[b, 2] = _apply_tensor(inverse, lx, ly, lz)
+        _drift_body(b, dt, principal, isotropic, bounding, positions, orientations,
+                    velocities, spins, travel)
+
+
+@njit(cache=True, parallel=True, _nrt=False)
+def bodies_parallel(start, half, dt, adj_start, adj_entry, force, torque_i, torque_j, masses,
+                    gravity, inv_mass, principal, isotropic, local_damping, bounding,
+                    positions, orientations, velocities, spins, body_force, body_torque,
+                    travel):
+    """The bodies' side of a sub-step on the threads, body by body (the results of the
+    serial kernels): with ``start`` the half kick and the drift that open it
+    (:func:`kick_kernel`, :func:`drift_kernel`), else the gather and the half kick that
+    close it (:func:`gather_kernel`, :func:`kick_kernel`)."""
+    for b in prange(masses.shape[0]):
+        if start:
+            _kick_body(b, half, inv_mass, principal, isotropic, local_damping, orientations,
+                       body_force, body_torque, velocities, spins)
+            _drift_body(b, dt, principal, isotropic, bounding, positions, orientations,
+                        velocities, spins, travel)
+        else:
+            _gather_body(b, adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
+                         body_force, body_torque)
+            _kick_body(b, half, inv_mass, principal, isotropic, local_damping, orientations,
+                       body_force, body_torque, velocities, spins)
 
 
 SERVO_INTEGRAL = 0.3
@@ -533,19 +631,24 @@ def carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell
 
 
 @njit(cache=True)
-def _loads(step, code, params, rolling, gravity, body_i, body_j, off_i, off_j, rad_i, rad_j,
-           images, mu, adj_start, adj_entry, wall_rows, inv_mass, masses, wall_p0, wall_n,
-           positions, orientations, velocities, spins, wall_disp, wall_speed, cell_h,
-           cell_rate, xi, roll, force, torque_i, torque_j, gap, normal, point, stiffness,
-           rel_vel, virial, body_force, body_torque, wall_force, wall_stiffness):
-    """Contact forces of the list, their sums on the bodies and the walls' loads."""
-    contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
-                          rad_j, images, mu, inv_mass, positions, orientations, velocities,
-                          spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate,
-                          xi, roll, force, torque_i, torque_j, gap, normal, point, stiffness,
-                          rel_vel, virial)
-    gather_kernel(adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
-                  body_force, body_torque)
+def _forces(parallel, step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i, rad_j,
+            images, mu, wall_rows, inv_mass, wall_p0, wall_n, positions, orientations,
+            velocities, spins, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
+            torque_i, torque_j, gap, normal, point, stiffness, rel_vel, virial, partial,
+            stats, wall_force, wall_stiffness):
+    """Contact forces of the list (on the threads if ``parallel``) and the walls' loads."""
+    if parallel:
+        contact_forces_parallel(step, code, params, rolling, body_i, body_j, off_i, off_j,
+                                rad_i, rad_j, images, mu, inv_mass, positions, orientations,
+                                velocities, spins, wall_p0, wall_n, wall_disp, wall_speed,
+                                cell_h, cell_rate, xi, roll, force, torque_i, torque_j, gap,
+                                normal, point, stiffness, rel_vel, virial, partial, stats)
+    else:
+        contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, off_j,
+                              rad_i, rad_j, images, mu, inv_mass, positions, orientations,
+                              velocities, spins, wall_p0, wall_n, wall_disp, wall_speed,
+                              cell_h, cell_rate, xi, roll, force, torque_i, torque_j, gap,
+                              normal, point, stiffness, rel_vel, virial, partial, stats)
     wall_loads_kernel(wall_rows, body_i, wall_n, force, stiffness, wall_force,
                       wall_stiffness)
 
@@ -561,7 +664,7 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
                     cell_rate, travel, force, torque_i, torque_j, gap,
                     normal, point, stiffness, rel_vel, virial, body_force, body_torque,
                     wall_force, wall_stiffness, wall_impulse, stress_impulse, stats,
-                    approach):
+                    approach, partial, parallel):
     """Up to ``n_steps`` velocity-Verlet sub-steps of ``dt`` [s] on the current list: half
     kick, drift (walls at their speeds ``wall_speed`` (W,) [m/s], the cell h at hdot = L h),
     forces, half kick; then the cell's servo (:func:`cell_servo_kernel`) sets L from the
@@ -573,15 +676,21 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
     next sub-step's increment taken as the last one's), so that no contact is missed;
     ``travel`` (N,) [m] and ``approach`` (1,) [m] (that bound after the last sub-step) carry
     over from call to call while the list lives. Returns the sub-steps done; ``stats[0]``
-    becomes the largest overlap [m] met."""
+    becomes the largest overlap [m] met. ``partial`` (ceil(C / ROW_BLOCK), 10) is scratch;
+    with ``parallel`` the rows and the bodies are shared out over the threads (the same
+    results: :func:`contact_forces_parallel`, :func:`bodies_parallel`)."""
     half = 0.5 * dt
     servo = cell_dofs.shape[0] > 0
     periodic = wall_disp.shape[0] == 0
-    _loads(0.0, code, params, rolling, gravity, body_i, body_j, off_i, off_j, rad_i, rad_j,
-           images, mu, adj_start, adj_entry, wall_rows, inv_mass, masses, wall_p0, wall_n,
-           positions, orientations, velocities, spins, wall_disp, wall_speed, cell_h,
-           cell_rate, xi, roll, force, torque_i, torque_j, gap, normal, point, stiffness,
-           rel_vel, virial, body_force, body_torque, wall_force, wall_stiffness)
+    met = stats[0]  # the overlaps met in the sub-steps, not those at the start
+    _forces(parallel, 0.0, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
+            rad_j, images, mu, wall_rows, inv_mass, wall_p0, wall_n, positions, orientations,
+            velocities, spins, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
+            torque_i, torque_j, gap, normal, point, stiffness, rel_vel, virial, partial,
+            stats, wall_force, wall_stiffness)
+    stats[0] = met
+    gather_kernel(adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
+                  body_force, body_torque)
     if servo:
         cell_stiffness_kernel(body_i, body_j, images, stiffness, normal, positions, cell_h,
                               cell_directions, cell_stiffness)
@@ -595,22 +704,36 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
     done = 0
     previous = approach[0]
     for _ in range(n_steps):
-        kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
-                    body_force, body_torque, velocities, spins)
-        drift_kernel(dt, principal, isotropic, bounding, positions, orientations, velocities,
-                     spins, travel)
+        if parallel:
+            bodies_parallel(True, half, dt, adj_start, adj_entry, force, torque_i, torque_j,
+                            masses, gravity, inv_mass, principal, isotropic, local_damping,
+                            bounding, positions, orientations, velocities, spins, body_force,
+                            body_torque, travel)
+        else:
+            kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
+                        body_force, body_torque, velocities, spins)
+            drift_kernel(dt, principal, isotropic, bounding, positions, orientations,
+                         velocities, spins, travel)
         for w in range(wall_disp.shape[0]):
             wall_disp[w] += dt * wall_speed[w]
         for a in range(3):
             for b in range(3):
                 cell_h[a, b] += dt * cell_rate[a, b]
-        _loads(dt, code, params, rolling, gravity, body_i, body_j, off_i, off_j, rad_i, rad_j,
-               images, mu, adj_start, adj_entry, wall_rows, inv_mass, masses, wall_p0, wall_n,
-               positions, orientations, velocities, spins, wall_disp, wall_speed, cell_h,
-               cell_rate, xi, roll, force, torque_i, torque_j, gap, normal, point, stiffness,
-               rel_vel, virial, body_force, body_torque, wall_force, wall_stiffness)
-        kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
-                    body_force, body_torque, velocities, spins)
+        _forces(parallel, dt, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
+                rad_j, images, mu, wall_rows, inv_mass, wall_p0, wall_n, positions, orientations,
+                velocities, spins, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
+                torque_i, torque_j, gap, normal, point, stiffness, rel_vel, virial, partial,
+                stats, wall_force, wall_stiffness)
+        if parallel:
+            bodies_parallel(False, half, dt, adj_start, adj_entry, force, torque_i, torque_j,
+                            masses, gravity, inv_mass, principal, isotropic, local_damping,
+                            bounding, positions, orientations, velocities, spins, body_force,
+                            body_torque, travel)
+        else:
+            gather_kernel(adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
+                          body_force, body_torque)
+            kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
+                        body_force, body_torque, velocities, spins)
         if servo:
             cell_servo_kernel(dt, virial, cell_h, cell_gradient, cell_directions, cell_scale,
                               cell_free, cell_bounds, cell_stiffness, filter_time, filtered,
@@ -628,9 +751,6 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
                 for b in range(3):
                     stress_impulse[a, b] += dt * virial[a, b] / volume
         done += 1
-        for k in range(gap.shape[0]):
-            if -gap[k] > stats[0]:
-                stats[0] = -gap[k]
         reach = 0.0
         for b in range(travel.shape[0]):
             reach = max(reach, travel[b])
