@@ -8,7 +8,8 @@ E = 1e9 Pa, nu = 0.25, e = 0.5, mu = 0.4, the sub-step 0.2 x the Rayleigh time (
 test's settings). Each simulation step is 100 sub-steps. Printed per N: sub-step, rows of the
 neighbour list per particle, list builds per 100 sub-steps, particle-steps per second, and the
 memory of the solver's per-row and per-body arrays per particle; the threads used (from
-soft_contact.PARALLEL_BODIES bodies on, all of Numba's: NUMBA_NUM_THREADS=1 for one).
+soft_contact.PARALLEL_BODIES bodies on, all of Numba's: NUMBA_NUM_THREADS=1 for one) and the
+threading layer.
 
     python benchmarks/benchmark_engine_soft_contact.py            # N = 1000, 4096, 10648
     python benchmarks/benchmark_engine_soft_contact.py --sides 10 22 47   # up to 1e5
@@ -22,6 +23,7 @@ import time
 import numba
 import numpy as np
 
+from grainlab._numba_setup import threading_layer
 from grainlab.contact.soft_contact_law import SoftContactLaw
 from grainlab.engine import soft_contact
 from grainlab.engine.periodic_boundary import PeriodicCell
@@ -62,7 +64,7 @@ def measure(side: int, steps: int) -> dict:
     row_bytes = rows * (8 * (2 + 3 + 3 + 2 + 3 + 1 + 3 + 3 + 3 + 3 + 3 + 1 + 3 + 3 + 3 + 1 + 3 + 6))
     body_bytes = n * 8 * (3 + 4 + 3 + 3 + 1 + 3 + 3 + 3 + 1 + 1)
     return {"n": n, "substep": solver.substep, "rows_per_particle": rows / n,
-            "threads": numba.get_num_threads() if n >= soft_contact.PARALLEL_BODIES else 1,
+            "threads": numba.get_num_threads() if soft_contact.threads_pay(n) else 1,
             "builds_per_100": 100.0 * (solver.n_detections - builds) / substeps,
             "particle_steps_per_s": n * substeps / elapsed,
             "bytes_per_particle": (row_bytes + body_bytes) / n}
@@ -73,6 +75,7 @@ def main() -> None:
     parser.add_argument("--sides", type=int, nargs="+", default=[10, 16, 22])
     parser.add_argument("--steps", type=int, default=5, help="steps of 100 sub-steps each")
     args = parser.parse_args()
+    print(f"threading layer {threading_layer()}")
     print(f"{'N':>8} {'thr':>4} {'substep [s]':>12} {'rows/part':>10} {'builds/100':>11} "
           f"{'particle-steps/s':>17} {'bytes/part':>11}")
     for side in args.sides:

@@ -405,7 +405,8 @@ def test_threads_change_nothing(monkeypatch):
     library = ShapeLibrary.from_spheres([0.5 * diameter])
     runs = []
     for threshold in (10**9, 0):  # serial, then parallel
-        monkeypatch.setattr(soft_contact, "PARALLEL_BODIES", threshold)
+        monkeypatch.setattr(soft_contact, "PARALLEL_BODIES",
+                            dict.fromkeys(soft_contact.PARALLEL_BODIES, threshold))
         state = BodyState.from_library(library, np.zeros(len(grid), dtype=np.int64),
                                        (grid + 0.5) * diameter * 0.999, 2600.0)
         state.velocities[:] = np.random.default_rng(0).normal(scale=0.05,

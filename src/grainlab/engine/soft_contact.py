@@ -76,6 +76,7 @@ from dataclasses import replace
 import numba
 import numpy as np
 
+from grainlab._numba_setup import threading_layer
 from grainlab._validate import at_least
 from grainlab.contact.soft_contact_law import SoftContactLaw
 from grainlab.engine.boundary import BoundaryMotion, DetectionPhases, as_boundary
@@ -99,13 +100,23 @@ SKIN_FRACTION = 0.1
 FILTER_SUBSTEPS = 20.0
 """The periodic cell's servo reads the contacts' stress low-passed over this many stable
 sub-steps (four collisions: the law's stable step is 0.2 of a contact's half period)."""
-PARALLEL_BODIES = 8_000
-"""From this many bodies the sub-steps share the rows and the bodies out over Numba's threads
-(:func:`~grainlab.engine.soft_contact_kernels.bodies_parallel`; the same results on any
-number of threads). Each sub-step then starts three parallel loops, ~0.17 ms each with the
-workqueue layer on the 2-core machine (measured), so that below this the threads lose:
-benchmark_engine_soft_contact.py, 2 threads against 1, 0.89x at 4096 spheres, 1.24x at
-10 648, 1.54x at 27 000."""
+PARALLEL_BODIES = {"tbb": 1000, "workqueue": 8000, "omp": 8000}
+"""From this many bodies, per threading layer, the sub-steps share the rows and the bodies out
+over Numba's threads (:func:`~grainlab.engine.soft_contact_kernels.bodies_parallel`; the same
+results on any number of threads). Each sub-step then starts three parallel loops, ~0.02 ms
+each with TBB and ~0.17 ms with workqueue on the 2-core machine (measured), so that below this
+the threads lose (benchmark_engine_soft_contact.py, 2 threads against 1: TBB 0.57x at 512
+spheres, 1.4x at 1000, 1.6x at 2197; workqueue 0.89x at 4096, 1.24x at 10 648)."""
+
+
+def threads_pay(n_bodies: int) -> bool:
+    """Whether the sub-steps of ``n_bodies`` bodies run on the threads (:data:`PARALLEL_BODIES`
+    of the threading layer in use)."""
+    if numba.get_num_threads() < 2:
+        return False
+    return n_bodies >= PARALLEL_BODIES.get(threading_layer(), min(PARALLEL_BODIES.values()))
+
+
 OVERLAP_LIMIT = 0.5
 """A sub-step that meets an overlap beyond this fraction of the smallest member radius
 stops the run (the contacts are far too soft or the time step too long)."""
@@ -569,7 +580,7 @@ class _Run:
             rows.stiffness, rows.rel_vel, self.virial, self.body_force, self.body_torque,
             self.wall_force, self.wall_stiffness, self.wall_impulse, self.stress_impulse,
             self.stats, rows.approach, rows.partial,
-            state.n_bodies >= PARALLEL_BODIES and numba.get_num_threads() > 1)
+            threads_pay(state.n_bodies))
         smallest = float(np.min(rows.rad_j)) if rows.rad_j.size else math.inf
         if self.stats[0] > OVERLAP_LIMIT * smallest:
             raise SimulationBlowUp(

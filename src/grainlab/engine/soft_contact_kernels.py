@@ -20,9 +20,10 @@ kicks, drift) is body by body. So the same sub-steps run on one thread
 (:func:`contact_forces_kernel`, :func:`gather_kernel`, :func:`kick_kernel`,
 :func:`drift_kernel`) or on several (:func:`contact_forces_parallel`, :func:`bodies_parallel`:
 ``parallel`` in :func:`substeps_kernel`) with the same results, bit for bit, whatever the
-number of threads. Each parallel loop costs ~0.17 ms to start with Numba's workqueue layer on
-a 2-core machine (three per sub-step), so the threads pay from about 8000 bodies
-(:data:`~grainlab.engine.soft_contact.PARALLEL_BODIES`).
+number of threads. Each parallel loop costs ~0.02 ms to start with Numba's TBB layer on a
+2-core machine, ~0.17 ms with workqueue (three per sub-step), so the threads pay from about
+1000 bodies with TBB, 8000 with workqueue (:data:`~grainlab.engine.soft_contact.
+PARALLEL_BODIES`).
 """
 
 from __future__ import annotations
@@ -98,10 +99,11 @@ def _apply_tensor(t, vx, vy, vz):
             t[4] * vx + t[3] * vy + t[2] * vz)
 
 
-ROW_BLOCK = 4096
+ROW_BLOCK = 512
 """Rows per block of the force pass: the springs' virial is summed per block, then over the
 blocks in order, whether the blocks run one after the other or on several threads (the same
-sums, bit for bit, on any number of threads)."""
+sums, bit for bit, on any number of threads). Small, so that a few thousand rows still share
+out evenly (8493 rows of 2000 spheres on 2 threads: blocks of 4096 gave 1.15x, of 512 1.7x)."""
 
 
 @njit(_nrt=False)  # a call per block: more arguments than Python 3.11 lets Numba inline
