@@ -27,8 +27,10 @@ import tempfile
 import time
 from pathlib import Path
 
+import numba
 import numpy as np
 
+from grainlab.engine.soft_contact import threads_pay
 from grainlab.lab.discrete_run import start_run
 from grainlab.lab.run_config import RunConfig
 
@@ -60,7 +62,8 @@ def run_grainlab(folder: Path, n: int, eps1: float, eps_q: float, seed: int) -> 
     within = shear[shear["eps_zz"] <= eps1]
     late = within[within["eps_zz"] >= 0.6 * eps1]
     lateral = np.concatenate([shear["cell_sigma_xx"], shear["cell_sigma_yy"]]) / SIGMA0
-    return {"peer": "grainlab", "threads": 1, "n": n, "wall_s": elapsed,
+    threads = numba.get_num_threads() if threads_pay(n) else 1
+    return {"peer": "grainlab", "threads": threads, "n": n, "wall_s": elapsed,
             "steps": solver.n_substeps, "particle_steps_per_s": n * solver.n_substeps / elapsed,
             "peak_q_over_p": float(within["q_over_trace"].max()),
             "residual_q_over_p": float(late["q_over_trace"].mean()),
@@ -78,7 +81,8 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--peers", nargs="*", default=[], choices=["liggghts", "yade"])
     parser.add_argument("--threads", type=int, nargs="+", default=[1],
-                        help="the peers' thread counts (grainlab runs on one)")
+                        help="the peers' thread counts (grainlab runs on Numba's threads "
+                             "from soft_contact.PARALLEL_BODIES bodies: NUMBA_NUM_THREADS)")
     parser.add_argument("--timeout", type=float, default=3600.0)
     args = parser.parse_args()
     eps_q = 1.5 * args.eps1 if args.eps_q is None else args.eps_q
