@@ -42,10 +42,13 @@ def _load_tbb() -> bool:
     return False
 
 
-if "NUMBA_THREADING_LAYER" not in os.environ:
+_LAYER = os.environ.get("NUMBA_THREADING_LAYER")
+# loaded in every process that may pick TBB, child processes too (they inherit the variables)
+_TBB = _LAYER in (None, "default", "tbb", "safe", "threadsafe") and _load_tbb()
+if _LAYER is None:
     os.environ["NUMBA_THREADING_LAYER"] = "default"
     os.environ["NUMBA_THREADING_LAYER_PRIORITY"] = (
-        "tbb workqueue omp" if _load_tbb() else "workqueue tbb omp")
+        "tbb workqueue omp" if _TBB else "workqueue tbb omp")
 
 import numba  # noqa: E402  (after the environment it reads)
 
