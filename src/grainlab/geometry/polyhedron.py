@@ -386,15 +386,9 @@ def _axes_pass(points: np.ndarray, ratio: float) -> np.ndarray:
     normal = np.cross(b - a, c - a)
     outward = np.einsum("bfi,bfi->bf", normal, a + b + c) >= 0.0  # the hull holds the centre
     b, c = np.where(outward[..., None], b, c), np.where(outward[..., None], c, b)
-    volumes = np.einsum("bfi,bfi->bf", a, np.cross(b, c)) / 6.0
-    total = a + b + c
-    volume = volumes.sum(axis=1)
-    volume[~whole] = 1.0
-    com = np.einsum("bf,bfi->bi", volumes, total) / (4.0 * volume[:, None])
-    second = sum(np.einsum("bf,bfi,bfj->bij", volumes / 20.0, x, x) for x in (a, b, c, total))
-    second = second - volume[:, None, None] * np.einsum("bi,bj->bij", com, com)
-    second = 0.5 * (second + np.swapaxes(second, 1, 2))
-    inertia = np.trace(second, axis1=1, axis2=2)[:, None, None] * np.eye(3) - second
+    with np.errstate(invalid="ignore", divide="ignore"):  # the draws not whole: no volume
+        _, com, inertia = _tetrahedra_mass_properties(a, b, c)
+    inertia[~whole] = np.eye(3)
     _, axes = np.linalg.eigh(inertia)
     body = np.einsum("bvi,bij->bvj", points - (reference + com[:, None, :]), axes)
     extents = np.sort(body.max(axis=1) - body.min(axis=1), axis=1)[:, ::-1]
@@ -419,16 +413,25 @@ def polyhedron_mass_properties(
     tri = np.asarray(faces, dtype=np.int64)
     reference = points.mean(axis=0)
     a, b, c = (points[tri[:, k]] - reference for k in range(3))
-    volumes = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
+    volume, com, inertia = _tetrahedra_mass_properties(a, b, c)
+    return float(volume), reference + com, inertia
+
+
+def _tetrahedra_mass_properties(a, b, c):
+    """Volume, centre of mass and inertia tensor per unit density of the tetrahedra (0, a_f,
+    b_f, c_f) summed over the faces f: ``a``, ``b``, ``c`` (..., F, 3) [m] the faces' corners
+    from a reference point, any leading batch axes (:func:`polyhedron_mass_properties`, the
+    draws of :func:`random_polyhedron`)."""
+    volumes = np.einsum("...fi,...fi->...f", a, np.cross(b, c)) / 6.0
     total = a + b + c
-    volume = float(np.sum(volumes))
-    com = (volumes @ total) / (4.0 * volume)
-    weights = volumes / 20.0
-    second = sum(np.einsum("k,ki,kj->ij", weights, x, x) for x in (a, b, c, total))
-    second = second - volume * np.outer(com, com)
-    second = 0.5 * (second + second.T)
-    inertia = np.trace(second) * np.eye(3) - second
-    return volume, reference + com, inertia
+    volume = np.sum(volumes, axis=-1)
+    com = (volumes[..., None, :] @ total)[..., 0, :] / (4.0 * volume[..., None])
+    second = sum(np.einsum("...f,...fi,...fj->...ij", volumes / 20.0, x, x)
+                 for x in (a, b, c, total))
+    second = second - volume[..., None, None] * (com[..., :, None] * com[..., None, :])
+    second = 0.5 * (second + np.swapaxes(second, -1, -2))
+    inertia = np.trace(second, axis1=-2, axis2=-1)[..., None, None] * np.eye(3) - second
+    return volume, com, inertia
 
 
 # --------------------------------------------------------------------------- helpers
