@@ -88,17 +88,14 @@ def contact_law(code, params, overlap, r_eff, m_eff):
     ``params``: a row of :attr:`SoftContactLaw.params`)."""
     if code == LINEAR:
         k_n = params[0]
-        k_t = params[1] * k_n
-        zeta = params[2]
-        return (k_n * overlap, k_n, k_t, 2.0 * zeta * math.sqrt(m_eff * k_n),
-                2.0 * zeta * math.sqrt(m_eff * k_t))
+        c_n = 2.0 * params[2] * math.sqrt(m_eff * k_n)
+        return k_n * overlap, k_n, params[1] * k_n, c_n, params[3] * c_n
     e_star, g_star, beta = params[0], params[1], params[2]
     a = math.sqrt(r_eff * overlap)
     s_n = 2.0 * e_star * a
-    s_t = 8.0 * g_star * a
-    factor = -2.0 * math.sqrt(5.0 / 6.0) * beta
-    return (2.0 / 3.0 * s_n * overlap, s_n, s_t, factor * math.sqrt(s_n * m_eff),
-            factor * math.sqrt(s_t * m_eff))
+    c_n = -2.0 * math.sqrt(5.0 / 6.0) * beta * math.sqrt(s_n * m_eff)
+    # c_t / c_n = sqrt(k_t / S_n), a constant of the law (params[3]): one square root less
+    return 2.0 / 3.0 * s_n * overlap, s_n, 8.0 * g_star * a, c_n, params[3] * c_n
 
 
 def linear_restitution(zeta: float) -> float:
@@ -288,15 +285,20 @@ class SoftContactLaw:
 
     @property
     def params(self) -> np.ndarray:
-        """(2, 3) the compiled law's parameters, row 0 between grains and row 1 with a wall:
-        (k_n, k_t/k_n, zeta) or (E*, G*, beta)."""
+        """(2, 4) the compiled law's parameters, row 0 between grains and row 1 with a wall:
+        (k_n, k_t/k_n, zeta, c_t/c_n) or (E*, G*, beta, c_t/c_n), with c_t/c_n =
+        sqrt(k_t / S_n) the same at every overlap (k_t/k_n, or 4 G*/E* for Hertz-Mindlin)."""
         if self.model == "linear":
-            row = [self.normal_stiffness, self.stiffness_ratio, damping_ratio(self.restitution)]
+            ratio = self.stiffness_ratio
+            row = [self.normal_stiffness, ratio, damping_ratio(self.restitution),
+                   math.sqrt(ratio)]
             return np.array([row, row])
         beta = tsuji_beta(self.restitution)
-        grains = [self.effective_young_modulus, self.effective_shear_modulus, beta]
+        e_star, g_star = self.effective_young_modulus, self.effective_shear_modulus
+        ratio = math.sqrt(4.0 * g_star / e_star)
         wall = 2.0 if self.rigid_walls else 1.0
-        return np.array([grains, [wall * grains[0], wall * grains[1], beta]])
+        return np.array([[e_star, g_star, beta, ratio],
+                         [wall * e_star, wall * g_star, beta, ratio]])
 
     def kappa(self, confining_stress: float, mean_diameter: float) -> float:
         """The stiffness number at sigma0 [Pa] and <d> [m] (module docstring)."""

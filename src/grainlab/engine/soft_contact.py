@@ -187,6 +187,7 @@ class SoftContactStep:
         """The neighbour list, kept from step to step while it is valid."""
         self._end = (np.zeros((0, 3)), np.zeros((0, 4)))
         """The bodies' positions and orientations at the end of the last step."""
+        self._bodies: _BodyConstants | None = None
 
     # -- Solver protocol ------------------------------------------------------------------------
     @property
@@ -272,14 +273,15 @@ class SoftContactStep:
         if not bounds.walls_overdamped and np.any(bounds.wall_inv_mass > 0.0):
             raise InputError("wall_servo", False, "servo walls (true) with the soft-contact "
                              "solver: walls with mass are a contact-dynamics option")
+        bodies = self._body_constants(state, library)
         if self.fixed_substep is None:
-            self.substep = self.stable_substep(state, library)
+            self.substep = bodies.substep
         else:
             has_polyhedra(library, self.law)
         n_sub = max(1, math.ceil(macro / self.substep * (1.0 - 1e-12)))
         h = macro / n_sub
         n_walls, n_dofs = bounds.n_walls, bounds.cell_inv_mass.shape[0]
-        run = _Run(state, library, bounds, n_walls, n_dofs, macro)
+        run = _Run(state, bodies, bounds, n_walls, n_dofs, macro)
         rows = self._kept_list(state, library, bounds, run)
         if rows is None:
             rows = self._build_list(state, library, boundary, bounds, run)
@@ -308,6 +310,14 @@ class SoftContactStep:
             stress=run.stress_impulse / macro if n_walls == 0 else None))
         self._end = (state.positions.copy(), state.orientations.copy())
         return report
+
+    def _body_constants(self, state: BodyState, library: ShapeLibrary) -> _BodyConstants:
+        """The bodies' constants for the kernels, made again only for other bodies (other
+        arrays of masses, inertias or shapes, or another library)."""
+        kept = self._bodies
+        if kept is None or not kept.describes(state, library):
+            kept = self._bodies = _BodyConstants(state, library, self)
+        return kept
 
     def _detection(self, library: ShapeLibrary) -> DetectionPhases:
         if self._phases is None:
@@ -492,19 +502,42 @@ class _Rows:
         return rows
 
 
-class _Run:
-    """What one step carries from sub-step to sub-step and list to list."""
+class _BodyConstants:
+    """What the kernels read of the bodies and does not change while they are the same:
+    inverse masses (N,) [1/kg] and masses, principal moments (N, 3) [kg m^2], whether they
+    are equal (``isotropic`` (N,)), bounding radii (N,) [m], and the law's stable sub-step
+    [s]. Holds the arrays it was made from, so that :meth:`describes` is an identity test."""
 
-    def __init__(self, state, library, bounds, n_walls, n_dofs, macro):
-        self.state = state
-        self.bounds = bounds
-        self.rows: _Rows | None = None
+    def __init__(self, state: BodyState, library: ShapeLibrary, solver: SoftContactStep):
+        self._source = (state.masses, state.inertias, state.shape_ids, library)
         ids = state.shape_ids
-        self.inv_mass = 1.0 / state.masses
+        self.masses = np.ascontiguousarray(state.masses, dtype=np.float64)
+        self.inv_mass = 1.0 / self.masses
         self.principal = np.ascontiguousarray(state.inertias, dtype=np.float64)
         self.isotropic = np.all(np.isclose(state.inertias, state.inertias[:, :1], rtol=1e-12,
                                            atol=0.0), axis=1)
         self.bounding = np.ascontiguousarray(library.bounding_radius[ids])
+        self.substep = solver.stable_substep(state, library)
+
+    def describes(self, state: BodyState, library: ShapeLibrary) -> bool:
+        """Whether these are the constants of ``state``'s bodies (the same arrays)."""
+        masses, inertias, shape_ids, kept = self._source
+        return (masses is state.masses and inertias is state.inertias
+                and shape_ids is state.shape_ids and kept is library)
+
+
+class _Run:
+    """What one step carries from sub-step to sub-step and list to list."""
+
+    def __init__(self, state, bodies: _BodyConstants, bounds, n_walls, n_dofs, macro):
+        self.state = state
+        self.bounds = bounds
+        self.rows: _Rows | None = None
+        self.masses = bodies.masses
+        self.inv_mass = bodies.inv_mass
+        self.principal = bodies.principal
+        self.isotropic = bodies.isotropic
+        self.bounding = bodies.bounding
         self.wall_disp = np.zeros(n_walls)
         self.wall_speed = np.array(bounds.wall_free, dtype=np.float64)
         self.cell_h = np.array(bounds.cell_matrix, dtype=np.float64)
@@ -564,7 +597,7 @@ class _Run:
             law.rolling_friction, law.local_damping, solver.gravity,
             rows.body_i, rows.body_j, rows.off_i, rows.off_j, rows.rad_i, rows.rad_j,
             rows.images, rows.mu, rows.adj_start, rows.adj_entry, rows.wall_rows,
-            self.inv_mass, np.ascontiguousarray(state.masses, dtype=f64),
+            self.inv_mass, self.masses,
             self.principal, self.isotropic, self.bounding,
             np.ascontiguousarray(bounds.wall_points, dtype=f64),
             np.ascontiguousarray(bounds.wall_normals, dtype=f64), self.wall_speed,

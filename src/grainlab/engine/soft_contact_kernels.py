@@ -47,21 +47,42 @@ def body_rows(body_i: np.ndarray, body_j: np.ndarray, n_bodies: int
     """The CSR list of the rows of each body that :func:`gather_kernel` reads: (adj_start
     (N + 1,), adj_entry) with entry 2 k for the j side of row k, 2 k + 1 for its i side (a row
     with a wall, body_i < 0, has only its j side), in the order of the rows."""
-    inner = body_i >= 0
-    bodies = np.concatenate([body_j, body_i[inner]])
-    entries = np.concatenate([2 * np.arange(body_j.shape[0], dtype=np.int64),
-                              2 * np.flatnonzero(inner).astype(np.int64) + 1])
-    order = np.lexsort((entries, bodies))
     adj_start = np.zeros(n_bodies + 1, dtype=np.int64)
-    np.cumsum(np.bincount(bodies, minlength=n_bodies), out=adj_start[1:])
-    return adj_start, np.ascontiguousarray(entries[order])
+    adj_entry = np.empty(body_j.shape[0] + int(np.count_nonzero(body_i >= 0)), dtype=np.int64)
+    _body_rows_kernel(np.ascontiguousarray(body_i, dtype=np.int64),
+                      np.ascontiguousarray(body_j, dtype=np.int64), adj_start, adj_entry)
+    return adj_start, adj_entry
+
+
+@njit(cache=True, _nrt=False)
+def _body_rows_kernel(body_i, body_j, adj_start, adj_entry):
+    """:func:`body_rows` by a counting sort: each body's entries in increasing order (rows
+    in order, the j side 2 k before the i side 2 k + 1)."""
+    n = adj_start.shape[0] - 1
+    for k in range(body_j.shape[0]):
+        adj_start[body_j[k] + 1] += 1
+        if body_i[k] >= 0:
+            adj_start[body_i[k] + 1] += 1
+    for b in range(n):
+        adj_start[b + 1] += adj_start[b]
+    for k in range(body_j.shape[0]):  # adj_start[b] runs ahead as body b's entries fill
+        j = body_j[k]
+        adj_entry[adj_start[j]] = 2 * k
+        adj_start[j] += 1
+        i = body_i[k]
+        if i >= 0:
+            adj_entry[adj_start[i]] = 2 * k + 1
+            adj_start[i] += 1
+    for b in range(n, 0, -1):  # back to the starts
+        adj_start[b] = adj_start[b - 1]
+    adj_start[0] = 0
 
 
 @njit(inline="always")
 def _turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, dt):
     """A tangential history vector (hx, hy, hz) carried into the current tangent plane of
     normal n: normal part removed, length kept, then turned by ``spin_n`` dt about n."""
-    old = math.sqrt(hx * hx + hy * hy + hz * hz)
+    old = hx * hx + hy * hy + hz * hz  # squared lengths: one square root
     if old == 0.0:
         return 0.0, 0.0, 0.0
     dot = hx * nx + hy * ny + hz * nz
@@ -69,10 +90,10 @@ def _turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, dt):
     angle = spin_n * dt
     cx, cy, cz = ny * hz - nz * hy, nz * hx - nx * hz, nx * hy - ny * hx
     hx, hy, hz = hx + angle * cx, hy + angle * cy, hz + angle * cz
-    new = math.sqrt(hx * hx + hy * hy + hz * hz)
+    new = hx * hx + hy * hy + hz * hz
     if new == 0.0:
         return 0.0, 0.0, 0.0
-    f = old / new
+    f = math.sqrt(old / new)
     return f * hx, f * hy, f * hz
 
 
@@ -122,11 +143,12 @@ def _forces_block(blk, step, code, params, rolling, body_i, body_j, off_i, off_j
         if ox != 0.0 or oy != 0.0 or oz != 0.0:  # a member off the centre (aggregates)
             qj = orientations[j]
             ox, oy, oz = rotate(qj[0], qj[1], qj[2], qj[3], ox, oy, oz)
-        # the image of body j: x_j + h m
-        sx = cell_h[0, 0] * mx + cell_h[0, 1] * my + cell_h[0, 2] * mz
-        sy = cell_h[1, 0] * mx + cell_h[1, 1] * my + cell_h[1, 2] * mz
-        sz = cell_h[2, 0] * mx + cell_h[2, 1] * my + cell_h[2, 2] * mz
-        jx, jy, jz = positions[j, 0] + sx, positions[j, 1] + sy, positions[j, 2] + sz
+        jx, jy, jz = positions[j, 0], positions[j, 1], positions[j, 2]
+        image = mx != 0.0 or my != 0.0 or mz != 0.0
+        if image:  # the image of body j: x_j + h m
+            jx += cell_h[0, 0] * mx + cell_h[0, 1] * my + cell_h[0, 2] * mz
+            jy += cell_h[1, 0] * mx + cell_h[1, 1] * my + cell_h[1, 2] * mz
+            jz += cell_h[2, 0] * mx + cell_h[2, 1] * my + cell_h[2, 2] * mz
         bx, by, bz = jx + ox, jy + oy, jz + oz
         rb = rad_j[k]
         if i >= 0:
@@ -158,7 +180,7 @@ def _forces_block(blk, step, code, params, rolling, body_i, body_j, off_i, off_j
         ux = velocities[j, 0] + wjy * rjz - wjz * rjy
         uy = velocities[j, 1] + wjz * rjx - wjx * rjz
         uz = velocities[j, 2] + wjx * rjy - wjy * rjx
-        if mx != 0.0 or my != 0.0 or mz != 0.0:
+        if image:
             ux += cell_rate[0, 0] * mx + cell_rate[0, 1] * my + cell_rate[0, 2] * mz
             uy += cell_rate[1, 0] * mx + cell_rate[1, 1] * my + cell_rate[1, 2] * mz
             uz += cell_rate[2, 0] * mx + cell_rate[2, 1] * my + cell_rate[2, 2] * mz
@@ -197,10 +219,10 @@ def _forces_block(blk, step, code, params, rolling, body_i, body_j, off_i, off_j
             f = k_t * step  # incremental: dF_t = -k_t dU_t with the stiffness of the moment
             hx, hy, hz = hx - f * utx, hy - f * uty, hz - f * utz
         ftx, fty, ftz = hx - c_t * utx, hy - c_t * uty, hz - c_t * utz
-        ft = math.sqrt(ftx * ftx + fty * fty + ftz * ftz)
+        ft2 = ftx * ftx + fty * fty + ftz * ftz
         limit = mu[k] * fn
-        if ft > limit:  # sliding: the spring holds the Coulomb force less the dashpot's
-            f = limit / ft
+        if ft2 > limit * limit:  # sliding: the spring holds the Coulomb force less the
+            f = limit / math.sqrt(ft2)  # dashpot's
             ftx, fty, ftz = f * ftx, f * fty, f * ftz
             hx, hy, hz = ftx + c_t * utx, fty + c_t * uty, ftz + c_t * utz
         xi[k, 0], xi[k, 1], xi[k, 2] = hx, hy, hz
@@ -311,7 +333,7 @@ def _gather_body(b, adj_start, adj_entry, force, torque_i, torque_j, masses, gra
     body_torque[b, 0], body_torque[b, 1], body_torque[b, 2] = tx, ty, tz
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def gather_kernel(adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
                   body_force, body_torque):
     """Net force (N, 3) [N] (contacts and weight m g) and moment (N, 3) [N m] on each body,
@@ -321,7 +343,7 @@ def gather_kernel(adj_start, adj_entry, force, torque_i, torque_j, masses, gravi
                      body_force, body_torque)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def wall_loads_kernel(wall_rows, body_i, wall_n, force, stiffness, wall_force,
                       wall_stiffness):
     """Per wall w: the normal force R_w [N] of its rows (compression positive) and their
@@ -367,7 +389,7 @@ def _kick_body(b, half, inv_mass, principal, isotropic, local_damping, orientati
         spins[b, 2] += half * az
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
                 body_force, body_torque, velocities, spins):
     """Half kick of velocity Verlet: v += (h/2) F / m, omega += (h/2) I_w^-1 T (``half`` =
@@ -413,7 +435,7 @@ def _drift_body(b, dt, principal, isotropic, bounding, positions, orientations, 
         spins[b, 0], spins[b, 1], spins[b, 2] = _apply_tensor(inverse, lx, ly, lz)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def drift_kernel(dt, principal, isotropic, bounding, positions, orientations, velocities,
                  spins, travel):
     """Drift: x += h v; q <- exp(h omega / 2) q (world frame); a body with anisotropic
@@ -474,7 +496,7 @@ def _servo_rate(free, gain, load, stiffness, macro, low, high, memory, integral)
     return min(max(proportional + memory, low), high), memory
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def servo_kernel(macro, integral, wall_inv_mass, wall_free, wall_max, wall_force,
                  wall_stiffness, wall_memory, wall_speed):
     """Speeds of the servo walls over a step of ``macro`` [s] (:func:`_servo_rate`) from the
@@ -490,6 +512,14 @@ def servo_kernel(macro, integral, wall_inv_mass, wall_free, wall_max, wall_force
                 -OUTWARD_FACTOR * high, high, wall_memory[w], integral)
         else:
             wall_speed[w] = wall_free[w]
+
+
+@njit(inline="always")
+def _copy33(source, target):
+    """target[:, :] = source for (3, 3) arrays, written out (no NRT in the kernels)."""
+    for a in range(3):
+        for b in range(3):
+            target[a, b] = source[a, b]
 
 
 @njit(inline="always")
@@ -511,7 +541,7 @@ def _branch(k, i, j, images, positions, cell_h):
             + cell_h[2, 2] * mz)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def virial_kernel(body_i, body_j, images, force, positions, cell_h, virial):
     """``virial`` (3, 3) [N m] = sum_k f_k (x) l_k over the rows between bodies (f_k the
     force on j [N], l_k = x_j + h m_k - x_i the branch vector): V sigma, compression
@@ -528,7 +558,7 @@ def virial_kernel(body_i, body_j, images, force, positions, cell_h, virial):
             virial[a, 2] += force[k, a] * lz
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def cell_stiffness_kernel(body_i, body_j, images, stiffness, normal, positions, cell_h,
                           cell_directions, cell_stiffness):
     """K_d = (1/V) sum_k S_k (n_k . G_d l_k)^2 [Pa] (D,): how fast the springs' conjugate
@@ -550,7 +580,7 @@ def cell_stiffness_kernel(body_i, body_j, images, stiffness, normal, positions, 
             cell_stiffness[d] += stiffness[k] * s * s / volume
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def cell_servo_kernel(dt, virial, cell_h, cell_gradient, cell_directions, cell_scale,
                       cell_free, cell_bounds, cell_stiffness, filter_time, filtered,
                       cell_dofs, gradient):
@@ -578,7 +608,7 @@ def cell_servo_kernel(dt, virial, cell_h, cell_gradient, cell_directions, cell_s
     for a in range(3):
         for b in range(3):
             filtered[a, b] += blend * (virial[a, b] / volume - filtered[a, b])
-    gradient[:, :] = cell_gradient
+    _copy33(cell_gradient, gradient)
     for d in range(cell_dofs.shape[0]):
         conjugate = 0.0
         for a in range(3):
@@ -594,7 +624,7 @@ def cell_servo_kernel(dt, virial, cell_h, cell_gradient, cell_directions, cell_s
                 gradient[a, b] += e * cell_directions[d, a, b]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell_h, cell_rate):
     """The bodies take up a change of the cell's velocity gradient at once (YADE's
     homogeneous deformation): v_i += (L - L_carried) (x_i - x_c), x_c the centre of mass
@@ -625,14 +655,14 @@ def carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell
             velocities[n, 0] += d00 * rx + d01 * ry + d02 * rz
             velocities[n, 1] += d10 * rx + d11 * ry + d12 * rz
             velocities[n, 2] += d20 * rx + d21 * ry + d22 * rz
-        carried[:, :] = gradient
+        _copy33(gradient, carried)
     for a in range(3):
         for b in range(3):
             cell_rate[a, b] = (gradient[a, 0] * cell_h[0, b] + gradient[a, 1] * cell_h[1, b]
                                + gradient[a, 2] * cell_h[2, b])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _forces(parallel, step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i, rad_j,
             images, mu, wall_rows, inv_mass, wall_p0, wall_n, positions, orientations,
             velocities, spins, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
@@ -655,7 +685,7 @@ def _forces(parallel, step, code, params, rolling, body_i, body_j, off_i, off_j,
                       wall_stiffness)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gravity,
                     body_i, body_j, off_i, off_j, rad_i, rad_j, images, mu, adj_start,
                     adj_entry, wall_rows, inv_mass, masses, principal, isotropic, bounding,
@@ -701,7 +731,7 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
                           cell_free, cell_bounds, cell_stiffness, filter_time, filtered,
                           cell_dofs, gradient)
     else:
-        gradient[:, :] = cell_gradient
+        _copy33(cell_gradient, gradient)
     carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell_h, cell_rate)
     done = 0
     previous = approach[0]
@@ -789,7 +819,7 @@ def _frame(nx, ny, nz):
     return tx, ty, tz, ny * tz - nz * ty, nz * tx - nx * tz, nx * ty - ny * tx
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def closed_rows_kernel(rows, normal, force, rel_vel, dt, frames, impulses, relative):
     """For the rows ``rows`` of the list (the closed contacts): their local frames (C, 3, 3)
     (rows n, t, s), the impulses force x ``dt`` [N s] and relative velocities [m/s] in those
