@@ -330,6 +330,63 @@ def test_bodies_on_faces_edges_and_corners_match_the_slow_twin(kind):
     assert_same(keyed(found), keyed(expected), scale=10.0)
 
 
+@pytest.mark.parametrize("seed", [1, 8])
+@pytest.mark.parametrize("snap", [False, True])
+def test_the_cell_list_of_plain_spheres_matches_the_slow_twin(seed, snap):
+    # the compiled cell list (sphere_rows) finds the same rows as all pairs and all images,
+    # bodies far outside the cell, on its faces, edges and corners; rows by body_i, body_j
+    library, state, cell = random_sample("sphere", seed=seed)
+    if snap:
+        rng = np.random.default_rng(seed)
+        s = cell.fractional(state.positions)
+        faces = rng.random(s.shape) < 0.3
+        s[faces] = np.floor(s[faces]) + rng.choice([0.0, 1.0, -1e-17, 1.0 - 1e-16],
+                                                   int(faces.sum()))
+        state.positions[:] = s @ cell.matrix.T
+    found = PeriodicDetection(ALERT).detect(state, library, cell, sphere_rows=True)
+    expected = periodic_contacts_slow(state, library, cell, ALERT)
+    assert found.n_contacts >= 15
+    c = found.contacts
+    order = np.lexsort((c.body_j, c.body_i))
+    np.testing.assert_array_equal(order, np.arange(found.n_contacts))
+    assert (c.body_i < c.body_j).all()
+    assert_same(keyed(found), keyed(expected), scale=10.0)
+
+
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_the_cell_list_finds_a_pair_at_the_full_reach_across_a_face(axis):
+    r = 0.5
+    library = ShapeLibrary.from_spheres([r])
+    cutoff = 2 * r + ALERT
+    cell = _scaled_cell(SHEARED, cutoff, factor=3.0 + 1e-9)
+    normal = cell.inverse[axis] / np.linalg.norm(cell.inverse[axis])
+    s0 = np.full(3, 0.5)
+    s0[axis] = 1e-12
+    x0 = cell.matrix @ s0
+    x1 = cell.wrapped(x0 - (cutoff - 1e-9) * normal)
+    state = BodyState.from_library(library, [0, 0], [x0, x1], 1000.0)
+    found = PeriodicDetection(ALERT).detect(state, library, cell, sphere_rows=True)
+    assert found.n_contacts == 1
+    assert found.contacts.gap[0] == pytest.approx(ALERT - 1e-9, abs=1e-12)
+    np.testing.assert_array_equal(found.images[0], -np.eye(3, dtype=np.int64)[axis])
+
+
+def test_the_cell_list_keeps_the_general_detections_contacts_in_a_large_sample():
+    # 600 polydisperse spheres, many bins per axis, a sheared cell: the same rows as the
+    # ghost layer and broad phase
+    rng = np.random.default_rng(4)
+    radii = rng.uniform(0.25, 0.5, 600)
+    library = ShapeLibrary.from_spheres(radii)
+    cell = _scaled_cell(SHEARED, 2 * radii.max() + ALERT, factor=9.0)
+    x = _placed(cell, radii, rng, ratio=0.9) + rng.integers(-2, 3, (600, 3)) @ cell.matrix.T
+    state = BodyState.from_library(library, np.arange(600), x, 1000.0)
+    detection = PeriodicDetection(ALERT)
+    fast = detection.detect(state, library, cell, sphere_rows=True)
+    general = detection.detect(state, library, cell)
+    assert fast.n_contacts >= 200
+    assert_same(keyed(fast), keyed(general))
+
+
 def test_detection_does_not_depend_on_the_number_of_threads():
     library, state, cell = random_sample("mixed", seed=2)
     detection = PeriodicDetection(ALERT)

@@ -118,16 +118,22 @@ class BoundaryMotion:
 
 @dataclass
 class DetectionPhases:
-    """The broad and narrow phases a solver keeps for its alert distance [m]."""
+    """The broad and narrow phases a solver keeps for its alert distance [m]; with
+    ``sphere_rows``, a periodic cell finds the contacts of plain spheres by its compiled cell
+    list (:mod:`grainlab.engine.periodic_spheres`: the same contacts, rows by body_i then
+    body_j; the soft-contact solver's lists), else by the general detection, whose row order
+    contact dynamics' sweeps follow."""
 
     alert: float
     broad: CellListBroadPhase
     narrow: NarrowPhase
+    sphere_rows: bool = False
 
     @classmethod
-    def with_alert(cls, alert: float) -> DetectionPhases:
+    def with_alert(cls, alert: float, sphere_rows: bool = False) -> DetectionPhases:
         """New phases for ``alert`` [m]."""
-        return cls(alert, CellListBroadPhase(alert=alert), NarrowPhase(alert=alert))
+        return cls(alert, CellListBroadPhase(alert=alert), NarrowPhase(alert=alert),
+                   sphere_rows)
 
 
 class Boundary(Protocol):

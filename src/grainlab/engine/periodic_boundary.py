@@ -238,7 +238,8 @@ class PeriodicCell:
         if self._detection is None or self._detection.alert != phases.alert:
             self._detection = PeriodicDetection(alert=phases.alert)
         found = self._detection.detect(predicted, library,
-                                       TriclinicCell(constraints.cell_matrix))
+                                       TriclinicCell(constraints.cell_matrix),
+                                       sphere_rows=phases.sphere_rows)
         return found.contacts, found.images
 
     def finish_step(self, motion: BoundaryMotion) -> None:

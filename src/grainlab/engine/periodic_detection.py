@@ -39,6 +39,10 @@ body. Rows come in the narrow phase's order (module docstring there: sphere-base
 pairs in broad-phase order, then the rows of pairs with a polyhedron), which does not depend
 on the number of threads.
 
+Asked for ``sphere_rows``, plain spheres (every shape one sphere at its centre of mass) take
+a faster road to the same contacts, one compiled cell list without ghosts
+(:mod:`grainlab.engine.periodic_spheres`); their rows then come by body_i, then body_j.
+
 **Restriction:** every width of the cell must be at least 3 R_cut (else
 :class:`~grainlab.errors.InputError` naming "periodic cell width"). Then two images of a body
 are more than 2 R_cut apart, so no pair touches through two images at once, no body touches
@@ -67,6 +71,11 @@ import numpy as np
 
 from grainlab.engine.broad_phase import CellListBroadPhase
 from grainlab.engine.narrow_phase import Contacts, NarrowPhase
+from grainlab.engine.periodic_spheres import (
+    bins_per_axis,
+    periodic_sphere_contacts,
+    plain_spheres,
+)
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron_contact import ANGLE_TOLERANCE, DEFAULT_MAX_POINTS
@@ -181,16 +190,23 @@ class PeriodicDetection:
         self.alert = self.narrow_phase.alert
         self.broad_phase = CellListBroadPhase(alert=self.alert, capacity=capacity)
 
-    def detect(self, state: BodyState, library: ShapeLibrary, cell: TriclinicCell
-               ) -> PeriodicContacts:
+    def detect(self, state: BodyState, library: ShapeLibrary, cell: TriclinicCell,
+               sphere_rows: bool = False) -> PeriodicContacts:
         """Contacts of the bodies of ``state`` (unwrapped positions) in the periodic ``cell``,
-        each with its image vector (module docstring)."""
+        each with its image vector (module docstring; ``sphere_rows``: plain spheres by the
+        compiled cell list, rows by body_i then body_j)."""
         _checked(state, library, cell)
         n_bodies = state.n_bodies
         bounding = library.bounding_radius[state.shape_ids]
         cutoff = checked_cutoff(cell, bounding, self.alert)
         if n_bodies == 0:
             return _empty_contacts()
+        if sphere_rows and plain_spheres(library):  # one compiled cell list, same contacts
+            bins = bins_per_axis(cell.widths, cutoff, n_bodies)
+            contacts, images = periodic_sphere_contacts(
+                state.positions, bounding, cell.matrix, cell.inverse, bins,
+                self.alert)
+            return PeriodicContacts(contacts, images)
         h = cell.matrix
         s = cell.fractional(state.positions)
         counts = np.floor(s).astype(np.int64)

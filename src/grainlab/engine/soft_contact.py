@@ -323,7 +323,7 @@ class SoftContactStep:
         if self._phases is None:
             if self.skin is None:
                 self.skin = 2.0 * SKIN_FRACTION * smallest_radius(library)
-            self._phases = DetectionPhases.with_alert(self.skin)
+            self._phases = DetectionPhases.with_alert(self.skin, sphere_rows=True)
         return self._phases
 
     def _kept_list(self, state, library, bounds, run) -> _Rows | None:

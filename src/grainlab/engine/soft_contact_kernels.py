@@ -151,6 +151,7 @@ def _forces_block(blk, step, code, params, rolling, body_i, body_j, off_i, off_j
             jz += cell_h[2, 0] * mx + cell_h[2, 1] * my + cell_h[2, 2] * mz
         bx, by, bz = jx + ox, jy + oy, jz + oz
         rb = rad_j[k]
+        nx = ny = nz = cx = cy = cz = ra = 0.0
         if i >= 0:
             px_, py_, pz_ = off_i[k, 0], off_i[k, 1], off_i[k, 2]
             if px_ != 0.0 or py_ != 0.0 or pz_ != 0.0:
@@ -158,20 +159,37 @@ def _forces_block(blk, step, code, params, rolling, body_i, body_j, off_i, off_j
                 px_, py_, pz_ = rotate(qi[0], qi[1], qi[2], qi[3], px_, py_, pz_)
             ax, ay, az = positions[i, 0] + px_, positions[i, 1] + py_, positions[i, 2] + pz_
             ra = rad_i[k]
-            g, nx, ny, nz, cx, cy, cz = sphere_sphere(ax, ay, az, ra, bx, by, bz, rb)
-            r_eff = ra * rb / (ra + rb)
-            m_eff = 1.0 / (inv_mass[i] + inv_mass[j])
+            dx, dy, dz = bx - ax, by - ay, bz - az
+            reach = ra + rb
+            d2 = dx * dx + dy * dy + dz * dz
+            if d2 >= reach * reach:  # open (sphere_sphere's gap, without its normal)
+                g = math.sqrt(d2) - reach
+            else:
+                g, nx, ny, nz, cx, cy, cz = sphere_sphere(ax, ay, az, ra, bx, by, bz, rb)
         else:
             w = -1 - i
             nx, ny, nz = wall_n[w, 0], wall_n[w, 1], wall_n[w, 2]
             d = wall_disp[w]
             g = ((bx - wall_p0[w, 0] - d * nx) * nx + (by - wall_p0[w, 1] - d * ny) * ny
                  + (bz - wall_p0[w, 2] - d * nz) * nz - rb)
+        gap[k] = g
+        if g >= 0.0:  # open: the springs are released (once: an open row stays zero)
+            if step == 0.0 or stiffness[k] != 0.0:
+                xi[k, 0], xi[k, 1], xi[k, 2] = 0.0, 0.0, 0.0
+                roll[k, 0], roll[k, 1], roll[k, 2] = 0.0, 0.0, 0.0
+                force[k, 0], force[k, 1], force[k, 2] = 0.0, 0.0, 0.0
+                torque_i[k, 0], torque_i[k, 1], torque_i[k, 2] = 0.0, 0.0, 0.0
+                torque_j[k, 0], torque_j[k, 1], torque_j[k, 2] = 0.0, 0.0, 0.0
+                stiffness[k] = 0.0
+            continue
+        if i >= 0:
+            r_eff = ra * rb / (ra + rb)
+            m_eff = 1.0 / (inv_mass[i] + inv_mass[j])
+        else:
             s = rb + 0.5 * g
             cx, cy, cz = bx - s * nx, by - s * ny, bz - s * nz
             r_eff = rb
             m_eff = 1.0 / inv_mass[j]
-        gap[k] = g
         normal[k, 0], normal[k, 1], normal[k, 2] = nx, ny, nz
         point[k, 0], point[k, 1], point[k, 2] = cx, cy, cz
         # relative velocity of j (image) with respect to i at the contact point
@@ -196,14 +214,6 @@ def _forces_block(blk, step, code, params, rolling, body_i, body_j, off_i, off_j
             sw = wall_speed[-1 - i]
             ux, uy, uz = ux - sw * nx, uy - sw * ny, uz - sw * nz
         rel_vel[k, 0], rel_vel[k, 1], rel_vel[k, 2] = ux, uy, uz
-        if g >= 0.0:  # open: the springs are released
-            xi[k, 0], xi[k, 1], xi[k, 2] = 0.0, 0.0, 0.0
-            roll[k, 0], roll[k, 1], roll[k, 2] = 0.0, 0.0, 0.0
-            force[k, 0], force[k, 1], force[k, 2] = 0.0, 0.0, 0.0
-            torque_i[k, 0], torque_i[k, 1], torque_i[k, 2] = 0.0, 0.0, 0.0
-            torque_j[k, 0], torque_j[k, 1], torque_j[k, 2] = 0.0, 0.0, 0.0
-            stiffness[k] = 0.0
-            continue
         overlap = -g
         worst = max(worst, overlap)
         un = ux * nx + uy * ny + uz * nz
@@ -283,7 +293,9 @@ def contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, of
     """Geometry and force of every row k of the list (module docstring of
     :mod:`grainlab.contact.soft_contact_law`); ``step`` [s] is the time since the last
     evaluation (0: the force of the current springs, nothing carried forward). Writes the
-    rows' outputs; the histories ``xi`` (C, 3) [N] and ``roll`` (C, 3) [N m] are updated;
+    rows' outputs (``gap`` of every row; normal, point and relative velocity of the closed
+    ones only; an open row's force, moments, stiffness and springs are zero, written once
+    when it opens, or at ``step`` 0); the histories ``xi`` (C, 3) [N] and ``roll`` (C, 3) [N m] are updated;
     ``virial`` (3, 3) [N m] becomes sum_k f_k (x) l_k over the rows between bodies, f_k the
     springs' force on j (the elastic normal force and the tangential spring, without the
     dashpots), l_k = x_j + h m_k - x_i the branch vector: V sigma of the springs,
