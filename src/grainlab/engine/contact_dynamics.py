@@ -91,7 +91,9 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from numba import get_num_threads, njit
+from llvmlite import ir
+from numba import get_num_threads, njit, types
+from numba.core.extending import intrinsic
 
 from grainlab._validate import at_least
 from grainlab.engine.boundary import BoundaryMotion, DetectionPhases, as_boundary
@@ -122,6 +124,28 @@ convergence check, which visit every contact; the check pass always covers every
 # --------------------------------------------------------------------------------------------
 # Scalar laws
 # --------------------------------------------------------------------------------------------
+
+
+@intrinsic
+def _fma(typingctx, a, b, c):
+    """a b + c with a single rounding (LLVM's ``fma`` on float64)."""
+    signature = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, sig, args):
+        double = ir.DoubleType()
+        fma = builder.module.declare_intrinsic("llvm.fma", [double],
+                                               ir.FunctionType(double, [double] * 3))
+        return builder.call(fma, args)
+
+    return signature, codegen
+
+
+@njit(inline="always")
+def _dot3(a0, a1, a2, b0, b1, b2):
+    """a . b of two 3-vectors as a chain of fused multiply-adds over k = 0, 1, 2 from 0, the
+    summation of one entry of a 3 x 3 product by OpenBLAS's dgemm (which Numba's ``@`` calls):
+    the Delassus blocks below are bit for bit those of ``@``."""
+    return _fma(a2, b2, _fma(a1, b1, _fma(a0, b0, 0.0)))
 
 
 @njit(inline="always")
@@ -384,10 +408,21 @@ def delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, 
     a wall w contributes K = wall_inv_mass[w] n_w n_w^T, and the free degrees of freedom of
     a periodic cell K = sum_d kappa_d g_d g_d^T at a contact with an image m_k (g_d =
     H_d m_k, :func:`_apply_to_cell`)."""
-    k_world = np.empty((3, 3))
-    skew = np.empty((3, 3))
+    _delassus_blocks(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, wall_normals,
+                     wall_inv_mass, images, cell_basis, cell_inv_mass, np.empty((3, 3, 3)), out)
+
+
+# no reference counts on the arrays in the loops (inline helpers): compiled without the Numba
+# runtime (_nrt=False), so it allocates nothing (scratch from the caller)
+@njit(cache=True, _nrt=False)
+def _delassus_blocks(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, wall_normals,
+                     wall_inv_mass, images, cell_basis, cell_inv_mass, scratch, out):
+    """:func:`delassus_kernel` with a scratch array (3, 3, 3) for K, [r] and products."""
+    k_world, skew, product = scratch[0], scratch[1], scratch[2]
     for k in range(body_i.shape[0]):
-        k_world[:, :] = 0.0
+        for d in range(3):
+            for e in range(3):
+                k_world[d, e] = 0.0
         for side in range(2):
             b = body_j[k] if side == 0 else body_i[k]
             if b < 0:
@@ -402,7 +437,15 @@ def delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, 
             skew[1, 0], skew[1, 1], skew[1, 2] = r[2], 0.0, -r[0]
             skew[2, 0], skew[2, 1], skew[2, 2] = -r[1], r[0], 0.0
             # [r]^T I^-1 [r] = -[r] I^-1 [r]
-            k_world -= skew @ inv_inertia[b] @ skew
+            inv = inv_inertia[b]
+            for d in range(3):
+                for e in range(3):
+                    product[d, e] = _dot3(skew[d, 0], skew[d, 1], skew[d, 2],
+                                          inv[0, e], inv[1, e], inv[2, e])
+            for d in range(3):
+                for e in range(3):
+                    k_world[d, e] -= _dot3(product[d, 0], product[d, 1], product[d, 2],
+                                           skew[0, e], skew[1, e], skew[2, e])
             for d in range(3):
                 k_world[d, d] += inv_mass[b]
         mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
@@ -422,10 +465,18 @@ def delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, 
                 k_world[2, 0] += kappa * gz * gx
                 k_world[2, 1] += kappa * gz * gy
                 k_world[2, 2] += kappa * gz * gz
-        w = frame[k] @ k_world @ frame[k].T
-        for d in (1, 2):
-            w[d, d] = max(w[d, d], _WTT_CLAMP * w[0, 0])
-        out[k] = w
+        # W = F K F^T
+        f = frame[k]
+        for d in range(3):
+            for e in range(3):
+                product[d, e] = _dot3(f[d, 0], f[d, 1], f[d, 2],
+                                      k_world[0, e], k_world[1, e], k_world[2, e])
+        for d in range(3):
+            for e in range(3):
+                out[k, d, e] = _dot3(product[d, 0], product[d, 1], product[d, 2],
+                                     f[e, 0], f[e, 1], f[e, 2])
+        for d in range(1, 3):
+            out[k, d, d] = max(out[k, d, d], _WTT_CLAMP * out[k, 0, 0])
 
 
 @njit(cache=True)
@@ -477,7 +528,30 @@ def nlgs_kernel(
         return 0
     delassus_kernel(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, wall_normals,
                     wall_inv_mass, images, cell_basis, cell_inv_mass, delassus)
-    shift = np.empty(n_contacts)
+    return _serial_sweeps(
+        body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities,
+        free_spins, wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
+        mu, gap, dt, images, cell_basis, cell_inv_mass, cell_bounds, free_rate,
+        order, tolerance, max_iterations,
+        impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus, residuals,
+        np.empty(n_contacts), brakes, cell_brakes, np.zeros(n_contacts, dtype=np.int64))
+
+
+@njit(cache=True, _nrt=False)
+def _serial_sweeps(
+    body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
+    wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
+    mu, gap, dt, images, cell_basis, cell_inv_mass, cell_bounds, free_rate,
+    order, tolerance, max_iterations,
+    impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus, residuals,
+    shift, brakes, cell_brakes, open_sweeps,
+):
+    """Warm start, sweeps and checks of :func:`nlgs_kernel` once the velocities, the cell
+    and the Delassus blocks are set up (``free_rate`` (3, 3) [m/s] the cell's free hdot);
+    scratch ``shift`` (C,), wall and cell brakes (W,), (D,), ``open_sweeps`` (C,) int64
+    zeros. Returns the sweeps done. Compiled without the Numba runtime: the inlined scalar
+    laws then take their arrays without atomic reference counting."""
+    n_contacts = body_i.shape[0]
     free_norm2 = 0.0
     for k in range(n_contacts):
         shift[k] = gap[k] / dt
@@ -491,7 +565,6 @@ def nlgs_kernel(
                wall_inv_mass, wall_speeds, images, cell_basis, cell_inv_mass, cell_dofs,
                cell_rate)
     iterations = 0
-    open_sweeps = np.zeros(n_contacts, dtype=np.int64)
     full = True  # visit every contact (SKIP_OPEN, SKIP_REVISIT)
     while iterations < max_iterations:
         iterations += 1
