@@ -143,7 +143,9 @@ def _store(row, bi, bj, mi, mj, g, nx, ny, nz, px, py, pz,
         point[row, 2] = pz
 
 
-@njit(cache=True)
+# no reference counts on the arrays in the loops (inline helpers): compiled without the Numba
+# runtime (_nrt=False), as they allocate nothing
+@njit(cache=True, _nrt=False)
 def pair_contacts_kernel(
     pairs, body_start, world_centres, world_radii, alert, start,
     body_i, body_j, member_i, member_j, point, normal, gap,
@@ -169,7 +171,7 @@ def pair_contacts_kernel(
     return row
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def wall_contacts_kernel(
     wall_points, wall_normals, positions, bounding_radii, body_start, world_centres,
     world_radii, alert, start,

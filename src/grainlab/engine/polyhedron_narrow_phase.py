@@ -57,7 +57,9 @@ def world_polyhedron(n, positions, orientations, shape_ids, vertex_start, vertic
         world_offsets[row] = face_offsets[k] + rx * px + ry * py + rz * pz
 
 
-@njit(cache=True, parallel=True)
+# no reference counts on the arrays in the loop (inline helper): compiled without the Numba
+# runtime (_nrt=False), as it allocates nothing
+@njit(cache=True, parallel=True, _nrt=False)
 def world_polyhedra_kernel(
     positions, orientations, shape_ids, vertex_start, vertices, face_start, face_normals,
     face_offsets, body_vertex_start, body_face_start,

@@ -52,7 +52,9 @@ from grainlab.geometry.polyhedron_contact import MAX_POINTS, signed_distance
 from grainlab.geometry.polyhedron_manifold import pair_manifold, wall_manifold
 
 
-@njit(cache=True)
+# no reference counts on the arrays in the loop (inline helper): compiled without the Numba
+# runtime (_nrt=False), as it allocates nothing
+@njit(cache=True, _nrt=False)
 def world_boundaries_kernel(positions, orientations, bodies, world):
     """Every polyhedron body moved to the world frame, one after the other (``bodies``:
     (shape_ids, vertex_start, vertices, face_start, face_normals, face_offsets); ``world``:
