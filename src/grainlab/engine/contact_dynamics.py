@@ -142,9 +142,9 @@ def _fma(typingctx, a, b, c):
 
 @njit(inline="always")
 def _dot3(a0, a1, a2, b0, b1, b2):
-    """a . b of two 3-vectors as a chain of fused multiply-adds over k = 0, 1, 2 from 0, the
-    summation of one entry of a 3 x 3 product by OpenBLAS's dgemm (which Numba's ``@`` calls):
-    the Delassus blocks below are bit for bit those of ``@``."""
+    """a . b of two 3-vectors as a chain of fused multiply-adds over k = 0, 1, 2 from 0 (one
+    rounding each): the same bits on every processor, and those of one entry of a 3 x 3
+    product by the OpenBLAS dgemm that Numba's ``@`` called here before."""
     return _fma(a2, b2, _fma(a1, b1, _fma(a0, b0, 0.0)))
 
 
