@@ -100,7 +100,7 @@ from grainlab.engine.boundary import BoundaryMotion, DetectionPhases, as_boundar
 from grainlab.engine.contact_colouring import colour_contacts
 from grainlab.engine.gyroscopic import gyroscopic_spins
 from grainlab.engine.narrow_phase import Contacts
-from grainlab.engine.quaternion import quat_to_matrices
+from grainlab.engine.quaternion import quat_to_matrices, turn_quaternions_kernel
 from grainlab.engine.shape_kinds import library_time_step_length
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import ConvergenceError, InputError
@@ -663,18 +663,13 @@ def contact_frames(normals: np.ndarray) -> np.ndarray:
 
 def rotate_quaternions(q: np.ndarray, rotation: np.ndarray) -> np.ndarray:
     """exp(rotation / 2) q, normalised, for unit quaternions q (N, 4) and world rotation
-    vectors (N, 3) [rad]."""
-    angle = np.linalg.norm(rotation, axis=1)
-    half = 0.5 * angle
-    with np.errstate(invalid="ignore", divide="ignore"):
-        factor = np.where(angle > 0.0, np.sin(half) / np.where(angle > 0.0, angle, 1.0), 0.5)
-    dw = np.cos(half)
-    dv = factor[:, None] * rotation
-    w, v = q[:, 0], q[:, 1:]
+    vectors (N, 3) [rad] (:func:`~grainlab.engine.quaternion.turn_quaternions_kernel`: the
+    same bits on every processor)."""
+    q = np.ascontiguousarray(q, dtype=np.float64).reshape(-1, 4)
     out = np.empty_like(q)
-    out[:, 0] = dw * w - np.sum(dv * v, axis=1)
-    out[:, 1:] = dw[:, None] * v + w[:, None] * dv + np.cross(dv, v)
-    return out / np.linalg.norm(out, axis=1)[:, None]
+    turn_quaternions_kernel(q, np.ascontiguousarray(rotation, dtype=np.float64).reshape(-1, 3),
+                            out)
+    return out
 
 
 class ContactDynamicsStep:

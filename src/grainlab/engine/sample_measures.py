@@ -60,6 +60,8 @@ Spheres and aggregates are unchanged (one network point per member contact).
 
 from __future__ import annotations
 
+import math
+
 from typing import Any
 
 import numpy as np
@@ -90,11 +92,21 @@ def world_forces(report: StepReport, dt: float) -> np.ndarray:
     return np.einsum("cji,cj->ci", report.frames, report.impulses) / dt
 
 
+def log_strains(initial_lengths, lengths) -> np.ndarray:
+    """(3,) logarithmic strains ln(L0 / L) [-], compression positive, of lengths (3,) [m]
+    from ``initial_lengths`` (3,) [m], with the C library's logarithm (NumPy's, vectorised
+    by processor, differs in the last bits from one processor to the next: stage ends are
+    decided on these strains)."""
+    ratio = np.asarray(initial_lengths, dtype=np.float64) / np.asarray(lengths,
+                                                                    dtype=np.float64)
+    return np.array([math.log(value) for value in ratio.ravel()]).reshape(ratio.shape)
+
+
 def box_strains(initial_lengths: np.ndarray, lengths: np.ndarray) -> dict[str, float]:
     """The strain columns of a box of ``lengths`` (3,) [m] from ``initial_lengths`` (3,) [m]
     (module docstring): logarithmic eps_xx, eps_yy, eps_zz, eps_vol and eps_q [-], known from
     the walls alone (stage ends are checked on them after every step)."""
-    strains = np.log(np.asarray(initial_lengths) / np.asarray(lengths))
+    strains = log_strains(initial_lengths, lengths)
     row = {f"eps_{label}": float(value)
            for label, value in zip(("xx", "yy", "zz"), strains, strict=True)}
     row.update(strain_invariants(np.diag(strains)))

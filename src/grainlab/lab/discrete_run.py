@@ -471,7 +471,7 @@ def progress_fields(test: DiscreteTest, row: dict) -> tuple[float, str]:
     if stage.moving_axes:
         stop = [c.limit for c in stage.stop if c.quantity == "eps_q"]
         done = row["eps_q"] / stop[0] if stop else max(
-            abs(np.log(test.stage_start_lengths[a] / test.sample.box.lengths[a]))
+            abs(math.log(test.stage_start_lengths[a] / test.sample.box.lengths[a]))
             / abs(stage.targets[a]) for a in stage.moving_axes)
         return min(max(done, 0.0), 1.0), (
             f"{steps}  q/p {row['q_over_trace']:.3f}  packing fraction "

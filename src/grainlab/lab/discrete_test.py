@@ -98,7 +98,7 @@ import numpy as np
 
 from grainlab._validate import at_least
 from grainlab.engine.contact_dynamics import ContactDynamicsStep
-from grainlab.engine.sample_measures import box_strains, sample_measures
+from grainlab.engine.sample_measures import box_strains, log_strains, sample_measures
 from grainlab.engine.shape_kinds import kinds_present, library_time_step_length
 from grainlab.engine.simulation import Periodic, Simulation
 from grainlab.engine.soft_contact import SoftContactStep
@@ -552,7 +552,7 @@ class DiscreteTest:
 
     def _stage_strains(self) -> np.ndarray:
         """(3,) logarithmic strains [-] since the stage began."""
-        return np.log(self.stage_start_lengths / self.sample.box.lengths)
+        return log_strains(self.stage_start_lengths, self.sample.box.lengths)
 
     def wall_end(self) -> tuple[bool, str]:
         """Whether the walls end the current stage now, and why (checked after every step):
