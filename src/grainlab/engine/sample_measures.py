@@ -61,7 +61,6 @@ Spheres and aggregates are unchanged (one network point per member contact).
 from __future__ import annotations
 
 import math
-
 from typing import Any
 
 import numpy as np
