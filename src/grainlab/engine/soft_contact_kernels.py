@@ -296,8 +296,8 @@ def contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, of
     rows' outputs (``gap`` of every row; normal, point and relative velocity of the closed
     ones only; an open row's force, moments, stiffness and springs are zero, written once
     when it opens, or at ``step`` 0); the histories ``xi`` (C, 3) [N] and ``roll`` (C, 3)
-    [N m] are updated; ``virial`` (3, 3) [N m] becomes sum_k f_k (x) l_k over the rows between bodies, f_k the
-    springs' force on j (the elastic normal force and the tangential spring, without the
+    [N m] are updated; ``virial`` (3, 3) [N m] becomes sum_k f_k (x) l_k over the rows
+    between bodies, f_k the springs' force on j (the elastic normal force and the tangential spring, without the
     dashpots), l_k = x_j + h m_k - x_i the branch vector: V sigma of the springs,
     compression positive (summed by blocks of :data:`ROW_BLOCK` rows: ``partial``
     (ceil(C / ROW_BLOCK), 10) scratch); ``stats[0]`` becomes the largest overlap [m] if
