@@ -292,16 +292,15 @@ def contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, of
                           rel_vel, virial, partial, stats):
     """Geometry and force of every row k of the list (module docstring of
     :mod:`grainlab.contact.soft_contact_law`); ``step`` [s] is the time since the last
-    evaluation (0: the force of the current springs, nothing carried forward). Writes the
-    rows' outputs (``gap`` of every row; normal, point and relative velocity of the closed
-    ones only; an open row's force, moments, stiffness and springs are zero, written once
-    when it opens, or at ``step`` 0); the histories ``xi`` (C, 3) [N] and ``roll`` (C, 3)
-    [N m] are updated; ``virial`` (3, 3) [N m] becomes sum_k f_k (x) l_k over the rows
-    between bodies, f_k the springs' force on j (the elastic normal force and the tangential spring, without the
-    dashpots), l_k = x_j + h m_k - x_i the branch vector: V sigma of the springs,
-    compression positive (summed by blocks of :data:`ROW_BLOCK` rows: ``partial``
-    (ceil(C / ROW_BLOCK), 10) scratch); ``stats[0]`` becomes the largest overlap [m] if
-    larger."""
+    evaluation (0: the force of the current springs, nothing carried forward). Writes the rows'
+    outputs (``gap`` of every row; normal, point and relative velocity of the closed ones only;
+    an open row's force, moments, stiffness and springs are zero, written once when it opens, or
+    at ``step`` 0); the histories ``xi`` (C, 3) [N] and ``roll`` (C, 3) [N m] are updated;
+    ``virial`` (3, 3) [N m] becomes sum_k f_k (x) l_k over the rows between bodies, f_k the
+    springs' force on j (the elastic normal force and the tangential spring, without the
+    dashpots), l_k = x_j + h m_k - x_i the branch vector: V sigma of the springs, compression
+    positive (summed by blocks of :data:`ROW_BLOCK` rows: ``partial`` (ceil(C / ROW_BLOCK), 10)
+    scratch); ``stats[0]`` becomes the largest overlap [m] if larger."""
     for blk in range(partial.shape[0]):
         _forces_block(blk, step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
                       rad_j, images, mu, inv_mass, positions, orientations, velocities, spins,
