@@ -629,17 +629,21 @@ class _Run:
         if isinstance(rows, PolyhedronRows):
             return rows.report(self, macro)
         closed = np.flatnonzero(rows.gap < 0.0)
-        contacts = Contacts(
-            body_i=rows.body_i[closed], body_j=rows.body_j[closed],
-            member_i=rows.member_i[closed], member_j=rows.member_j[closed],
-            point=rows.point[closed], normal=rows.normal[closed], gap=rows.gap[closed],
-            contact_type=rows.contact_type[closed])
         c = closed.shape[0]
+        ints = [np.empty(c, dtype=np.int64) for _ in range(4)]
+        kind = np.empty(c, dtype=rows.contact_type.dtype)
+        images = np.empty((c, 3), dtype=rows.images.dtype)
+        gap, normal, point, forces = np.empty(c), np.empty((c, 3)), np.empty((c, 3)), \
+            np.empty((c, 3))
         frames, impulses, relative = np.empty((c, 3, 3)), np.empty((c, 3)), np.empty((c, 3))
-        closed_rows_kernel(closed, rows.normal, rows.force, rows.rel_vel, macro, frames,
-                           impulses, relative)
+        closed_rows_kernel(closed, rows.body_i, rows.body_j, rows.member_i, rows.member_j,
+                           rows.contact_type, rows.images, rows.gap, rows.normal, rows.point,
+                           rows.force, rows.rel_vel, macro, *ints, kind, images, gap, normal,
+                           point, forces, frames, impulses, relative)
+        contacts = Contacts(body_i=ints[0], body_j=ints[1], member_i=ints[2], member_j=ints[3],
+                            point=point, normal=normal, gap=gap, contact_type=kind)
         report = StepReport(
             n_contacts=c, iterations=1, converged=True, change=0.0, residual=0.0,
             max_overlap=float(self.stats[0]), contacts=contacts, frames=frames,
-            impulses=impulses, relative_velocity=relative, images=rows.images[closed])
-        return report, rows.force[closed]
+            impulses=impulses, relative_velocity=relative, images=images)
+        return report, forces

@@ -831,18 +831,31 @@ def _frame(nx, ny, nz):
 
 
 @njit(cache=True, _nrt=False)
-def closed_rows_kernel(rows, normal, force, rel_vel, dt, frames, impulses, relative):
-    """For the rows ``rows`` of the list (the closed contacts): their local frames (C, 3, 3)
-    (rows n, t, s), the impulses force x ``dt`` [N s] and relative velocities [m/s] in those
-    frames (the step report of :mod:`grainlab.engine.soft_contact`)."""
+def closed_rows_kernel(rows, body_i, body_j, member_i, member_j, contact_type, images, gap,
+                       normal, point, force, rel_vel, dt, out_body_i, out_body_j,
+                       out_member_i, out_member_j, out_type, out_images, out_gap, out_normal,
+                       out_point, out_force, frames, impulses, relative):
+    """For the rows ``rows`` of the list (the closed contacts), in one pass: their bodies,
+    members, types, images, gaps, normals, points and forces (C, 3) [N] copied out, their
+    local frames (C, 3, 3) (rows n, t, s), the impulses force x ``dt`` [N s] and relative
+    velocities [m/s] in those frames (the step report of :mod:`grainlab.engine.
+    soft_contact`)."""
     for c in range(rows.shape[0]):
         k = rows[c]
+        out_body_i[c], out_body_j[c] = body_i[k], body_j[k]
+        out_member_i[c], out_member_j[c] = member_i[k], member_j[k]
+        out_type[c], out_gap[c] = contact_type[k], gap[k]
         nx, ny, nz = normal[k, 0], normal[k, 1], normal[k, 2]
+        fx, fy, fz = force[k, 0], force[k, 1], force[k, 2]
+        for a in range(3):
+            out_images[c, a] = images[k, a]
+            out_normal[c, a] = normal[k, a]
+            out_point[c, a] = point[k, a]
+            out_force[c, a] = force[k, a]
         tx, ty, tz, sx, sy, sz = _frame(nx, ny, nz)
         frames[c, 0, 0], frames[c, 0, 1], frames[c, 0, 2] = nx, ny, nz
         frames[c, 1, 0], frames[c, 1, 1], frames[c, 1, 2] = tx, ty, tz
         frames[c, 2, 0], frames[c, 2, 1], frames[c, 2, 2] = sx, sy, sz
-        fx, fy, fz = force[k, 0], force[k, 1], force[k, 2]
         impulses[c, 0] = dt * (nx * fx + ny * fy + nz * fz)
         impulses[c, 1] = dt * (tx * fx + ty * fy + tz * fz)
         impulses[c, 2] = dt * (sx * fx + sy * fy + sz * fz)
