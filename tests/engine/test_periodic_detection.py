@@ -284,8 +284,9 @@ def test_detection_matches_all_pairs_all_images(kind):
     assert_same(keyed(found), keyed(expected))
 
 
+@pytest.mark.parametrize("sphere_rows", [False, True])
 @pytest.mark.parametrize("axis", [0, 1, 2])
-def test_a_pair_at_the_full_reach_across_a_face_is_found(axis):
+def test_a_pair_at_the_full_reach_across_a_face_is_found(axis, sphere_rows):
     # two spheres of the largest radius, as far apart as a contact can be, across a face of
     # a cell as thin as allowed, along the face's normal: the ghost layer must be that deep
     r = 0.5
@@ -298,12 +299,12 @@ def test_a_pair_at_the_full_reach_across_a_face_is_found(axis):
     x0 = cell.matrix @ s0
     x1 = x0 - (cutoff - 1e-9) * normal
     state = BodyState.from_library(library, [0, 0], [x0, x1], 1000.0)
-    found = PeriodicDetection(ALERT).detect(state, library, cell)
+    found = PeriodicDetection(ALERT).detect(state, library, cell, sphere_rows=sphere_rows)
     assert found.n_contacts == 1
     assert found.contacts.gap[0] == pytest.approx(ALERT - 1e-9, abs=1e-12)
     np.testing.assert_array_equal(found.images[0], 0)  # unwrapped x1 is the touching image
     state.positions[1] = cell.wrapped(x1)
-    found = PeriodicDetection(ALERT).detect(state, library, cell)
+    found = PeriodicDetection(ALERT).detect(state, library, cell, sphere_rows=sphere_rows)
     np.testing.assert_array_equal(found.images[0], -np.eye(3, dtype=np.int64)[axis])
 
 
@@ -351,24 +352,6 @@ def test_the_cell_list_of_plain_spheres_matches_the_slow_twin(seed, snap):
     np.testing.assert_array_equal(order, np.arange(found.n_contacts))
     assert (c.body_i < c.body_j).all()
     assert_same(keyed(found), keyed(expected), scale=10.0)
-
-
-@pytest.mark.parametrize("axis", [0, 1, 2])
-def test_the_cell_list_finds_a_pair_at_the_full_reach_across_a_face(axis):
-    r = 0.5
-    library = ShapeLibrary.from_spheres([r])
-    cutoff = 2 * r + ALERT
-    cell = _scaled_cell(SHEARED, cutoff, factor=3.0 + 1e-9)
-    normal = cell.inverse[axis] / np.linalg.norm(cell.inverse[axis])
-    s0 = np.full(3, 0.5)
-    s0[axis] = 1e-12
-    x0 = cell.matrix @ s0
-    x1 = cell.wrapped(x0 - (cutoff - 1e-9) * normal)
-    state = BodyState.from_library(library, [0, 0], [x0, x1], 1000.0)
-    found = PeriodicDetection(ALERT).detect(state, library, cell, sphere_rows=True)
-    assert found.n_contacts == 1
-    assert found.contacts.gap[0] == pytest.approx(ALERT - 1e-9, abs=1e-12)
-    np.testing.assert_array_equal(found.images[0], -np.eye(3, dtype=np.int64)[axis])
 
 
 def test_the_cell_list_keeps_the_general_detections_contacts_in_a_large_sample():

@@ -118,23 +118,11 @@ def _sphere_pairs_kernel(positions, radii, h, h_inv, bins, alert, wrapped, count
         first = row
         xi, yi, zi, ri = wrapped[i, 0], wrapped[i, 1], wrapped[i, 2], radii[i]
         for o0 in range(-1, 2):
-            b0, m0 = cell_of[i, 0] + o0, 0
-            if b0 < 0:
-                b0, m0 = b0 + n0, -1
-            elif b0 >= n0:
-                b0, m0 = b0 - n0, 1
+            b0, m0 = _neighbour_bin(cell_of[i, 0] + o0, n0)
             for o1 in range(-1, 2):
-                b1, m1 = cell_of[i, 1] + o1, 0
-                if b1 < 0:
-                    b1, m1 = b1 + n1, -1
-                elif b1 >= n1:
-                    b1, m1 = b1 - n1, 1
+                b1, m1 = _neighbour_bin(cell_of[i, 1] + o1, n1)
                 for o2 in range(-1, 2):
-                    b2, m2 = cell_of[i, 2] + o2, 0
-                    if b2 < 0:
-                        b2, m2 = b2 + n2, -1
-                    elif b2 >= n2:
-                        b2, m2 = b2 - n2, 1
+                    b2, m2 = _neighbour_bin(cell_of[i, 2] + o2, n2)
                     sx = h[0, 0] * m0 + h[0, 1] * m1 + h[0, 2] * m2
                     sy = h[1, 0] * m0 + h[1, 1] * m1 + h[1, 2] * m2
                     sz = h[2, 0] * m0 + h[2, 1] * m1 + h[2, 2] * m2
@@ -173,6 +161,17 @@ def _sphere_pairs_kernel(positions, radii, h, h_inv, bins, alert, wrapped, count
                     _swap_rows(k - 1, k, body_j, point, normal, gap, images)
                     k -= 1
     return row
+
+
+@njit(inline="always")
+def _neighbour_bin(b, n):
+    """Bin ``b`` in -1 .. n of an axis of ``n`` bins wrapped into 0 .. n - 1, and the image
+    (-1, 0 or 1) of the bodies in it as seen from the bin next to it."""
+    if b < 0:
+        return b + n, -1
+    if b >= n:
+        return b - n, 1
+    return b, 0
 
 
 @njit(inline="always")

@@ -230,7 +230,7 @@ class PolyhedronRows:
             n_steps, h, float(solver.skin), law.code, law.params, law.local_damping,
             solver.gravity, self.bodies, self.library, self.world, self.pairs,
             self.adj_start, self.adj_entry, self.wall_rows, run.inv_mass,
-            np.ascontiguousarray(state.masses, dtype=f64), run.principal, run.isotropic,
+            run.masses, run.principal, run.isotropic,
             run.bounding, np.ascontiguousarray(bounds.wall_points, dtype=f64),
             np.ascontiguousarray(bounds.wall_normals, dtype=f64), run.wall_speed,
             (run.cell_gradient, run.cell_directions, run.cell_scale,
