@@ -98,6 +98,7 @@ from numba.core.extending import intrinsic
 from grainlab._validate import at_least
 from grainlab.engine.boundary import BoundaryMotion, DetectionPhases, as_boundary
 from grainlab.engine.contact_colouring import colour_contacts
+from grainlab.engine.contact_problem import FrictionalContactProblem, assemble_problem
 from grainlab.engine.gyroscopic import gyroscopic_spins
 from grainlab.engine.narrow_phase import Contacts
 from grainlab.engine.quaternion import quat_to_matrices, turn_quaternions_kernel
@@ -626,7 +627,9 @@ class StepReport:
     ``impulses`` (C, 3) local (P_n, P_t, P_s) [N s], end-of-step relative velocities
     ``relative_velocity`` (C, 3) local [m/s] (U, without the gap correction) and, in a
     periodic cell, the ``images`` (C, 3) of body j (contact k is with body j translated by
-    h m_k).
+    h m_k); with ``keep_problem`` on the step, the step's plain ``problem``
+    (:func:`~grainlab.engine.contact_problem.assemble_problem`; its solution is ``impulses``
+    unless a wall or cell speed limit held).
     """
 
     n_contacts: int
@@ -640,6 +643,7 @@ class StepReport:
     impulses: np.ndarray
     relative_velocity: np.ndarray
     images: np.ndarray | None = None
+    problem: FrictionalContactProblem | None = None
 
     @property
     def image_vectors(self) -> np.ndarray:
@@ -750,6 +754,8 @@ class ContactDynamicsStep:
         self._warm_forces = np.zeros((0, 3))
         self.alert_growths = 0
         self._detection: DetectionPhases | None = None
+        self.keep_problem = False
+        """Attach each step's plain problem to its report (``StepReport.problem``)."""
 
     def _phases(self, library: ShapeLibrary, travel: float = 0.0) -> DetectionPhases:
         """Broad and narrow phases; the alert distance grows (never shrinks) to 1.5 x
@@ -850,6 +856,12 @@ class ContactDynamicsStep:
                    np.ascontiguousarray(bounds.cell_inv_mass, dtype=np.float64),
                    np.ascontiguousarray(bounds.cell_free, dtype=np.float64),
                    np.ascontiguousarray(bounds.cell_bounds, dtype=np.float64))
+        problem = None
+        if self.keep_problem:
+            problem = assemble_problem(
+                contacts.body_i, contacts.body_j, frames, arm_i, arm_j, inv_mass, inv_inertia,
+                free_v, free_w, kernel_normals, kernel_inv_mass, walls_in[2], mu, gap_term, h,
+                images, cell_in[1], cell_in[2], cell_in[3], cell_in[4])
         if self.sweep == "serial":
             order = self._rng.permutation(n_contacts).astype(np.int64)
             iterations = nlgs_kernel(
@@ -910,6 +922,7 @@ class ContactDynamicsStep:
             n_contacts=n_contacts, iterations=int(iterations), converged=bool(converged),
             change=change, residual=residual, max_overlap=max_overlap, contacts=contacts,
             frames=frames, impulses=impulses, relative_velocity=relative, images=images,
+            problem=problem,
         )
 
     def warm_start_arrays(self) -> dict[str, np.ndarray]:
