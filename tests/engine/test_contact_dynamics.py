@@ -210,7 +210,7 @@ def test_kernel_with_no_contacts_returns_free_velocities():
     iterations = nlgs_kernel(
         empty_i, empty_i, np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
         np.ones(1), np.eye(3)[None], v_free, w_free, np.zeros((0, 3)), np.zeros(0), np.zeros(0),
-        np.zeros(0), np.zeros(0), np.zeros(0), DT, *NO_CELL, empty_i, TOL, 10,
+        np.zeros(0), np.zeros(0), np.zeros(0), DT, *NO_CELL, empty_i, TOL, TOL, 10,
         np.zeros((0, 3)), velocities, spins, np.zeros(0), np.zeros(0), np.zeros((3, 3)),
         np.zeros((0, 3, 3)), residuals,
     )

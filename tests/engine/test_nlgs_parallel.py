@@ -238,7 +238,7 @@ def test_kernel_with_no_contacts_returns_free_velocities():
         np.ones(1), np.eye(3)[None], v_free, w_free, np.zeros((0, 3)), np.zeros(0), np.zeros(0),
         np.zeros(0), np.zeros(0), np.zeros(0), DT, np.zeros((0, 3)), np.zeros((3, 3)),
         np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0), np.zeros((0, 2)), empty_i,
-        np.zeros(2, dtype=np.int64), 0, 1e-5, 10,
+        np.zeros(2, dtype=np.int64), 0, 1e-5, 1e-5, 10,
         np.zeros((0, 3)), velocities, spins, np.zeros(0), np.zeros(0), np.zeros((3, 3)),
         np.zeros((0, 3, 3)), residuals,
     )

@@ -14,9 +14,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from grainlab.engine.contact_problem import read_fclib
+from grainlab.engine.contact_solvers import solve
 from grainlab.errors import InputError
 from grainlab.lab.discrete_run import (
     CHECKPOINT,
+    PROBLEMS,
     RESULTS,
     SNAPSHOTS,
     export_checkpoint_vtk,
@@ -47,9 +50,23 @@ def small_config(**updates) -> RunConfig:
 @pytest.fixture(scope="module")
 def finished_run(tmp_path_factory):
     folder = tmp_path_factory.mktemp("run") / "triaxial"
-    run = start_run(folder, small_config())
+    run = start_run(folder, small_config(output={"problems_every": 100}))
     result = run.run()
     return folder, result
+
+
+def test_the_contact_problems_of_steps_are_stored_for_the_solvers(finished_run):
+    folder, result = finished_run
+    files = sorted((folder / PROBLEMS).glob("step-*.hdf5"))
+    steps = int(result.metadata["outcome"]["steps"])
+    assert [f.name for f in files] == [f"step-{k:08d}.hdf5" for k in range(100, steps + 1, 100)]
+    for path in files:
+        stored = read_fclib(path)
+        problem = stored.problem
+        assert problem.n_contacts > 20 and stored.reactions.size == 3 * problem.n_contacts
+        np.testing.assert_allclose(problem.velocity(stored.reactions), stored.velocities)
+        solution = solve(problem, "nlgs", tolerance=1e-6, max_iterations=5000)
+        assert solution.converged, (path.name, solution.error)
 
 
 def test_wall_stages_of_the_presets():

@@ -34,10 +34,11 @@ SHEARING = {  # the compaction cut after 10 steps, so that a shear is under way 
 
 def earlier_layout(config: dict) -> dict:
     """A config (current layout, plain data) as the earlier layout spelt it: the per-stage
-    keys flat in [solver], compaction without overlap recovery."""
+    keys flat in [solver], compaction without overlap recovery, no capped-share limits."""
     solver = dict(config["solver"])
     for kind in ("compaction", "shear"):
         table = solver.pop(kind)
+        assert table.pop("capped_share_limit") == 1.0
         if kind == "compaction":
             assert table.pop("overlap_recovery") == 0.0
         for key, value in table.items():

@@ -12,6 +12,7 @@ import h5py
 import pytest
 
 from grainlab.engine.simulation import Periodic
+from grainlab.errors import InputError
 from grainlab.lab.discrete_run import RESULTS_H5, progress_fields, resume_run, start_run
 from grainlab.lab.discrete_test import DiscreteTestSettings
 from grainlab.lab.run_config import RunConfig
@@ -204,3 +205,29 @@ def test_a_dem_stage_whose_servo_lagged_is_not_as_asked():
     held = stage_outcome(record, rows(1.02), settings, {"xx": 1e4, "yy": 1e4})
     assert held.problems() == []
     assert type(held).from_dict(held.to_dict()) == held
+
+
+@pytest.mark.parametrize("limit", [1.0, 0.02])
+def test_the_capped_steps_bound_trips_when_the_cap_is_absurdly_low(tmp_path, limit):
+    # a sweep cap of 2 leaves most compaction steps unconverged: accepted with the default
+    # limit (1: any share, reported), refused with a limit of 2 %
+    config = RunConfig.model_validate(TINY).with_updates(
+        {"solver": {"max_stage_steps": 10, "compaction": {
+            "max_iterations": 2, "capped_share_limit": limit}}})
+    run = start_run(tmp_path / "run", config)
+    capped = run.test.simulation.add(_Capped())
+    outcome = RunOutcome.of_result(run.run())
+    stage, = outcome.stages
+    assert stage.capped_steps == capped.count and stage.capped_share > 0.5
+    assert stage.capped_share_limit == limit
+    capped_problem = [p for p in stage.problems() if "ended at the solver's cap" in p]
+    if limit < 1.0:
+        assert capped_problem and "solver.compaction.capped_share_limit" in capped_problem[0]
+        assert "above the limit of 2 %" in capped_problem[0]
+    else:
+        assert not capped_problem
+
+
+def test_the_capped_share_limit_is_checked():
+    with pytest.raises(InputError, match="capped_share_limit"):
+        RunConfig.model_validate({"solver": {"shear": {"capped_share_limit": 1.5}}})

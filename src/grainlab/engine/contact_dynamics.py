@@ -118,6 +118,8 @@ SKIP_OPEN = 2
 OUTWARD_SPEED_FACTOR = 4.0
 """A speed-limited wall moves out at most this many times its inward limit."""
 SKIP_REVISIT = 10
+CHECK_FACTOR = 2.0
+CHECK_SPACING = 10
 """... except in every SKIP_REVISIT-th sweep, the first, and the one after a failed
 convergence check, which visit every contact; the check pass always covers every contact."""
 
@@ -355,17 +357,27 @@ def brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds):
 def update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                     wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
                     wall_speeds, delassus, images, cell_basis, cell_inv_mass, cell_dofs,
-                    cell_rate):
+                    cell_rate, running):
     """One Gauss-Seidel update (serial and coloured sweeps): local solve of contact k
     against the current body velocities; applies the impulse change to its bodies and
-    returns its squared norm [N^2 s^2]."""
+    returns its squared norm [N^2 s^2]. Before the update it writes the contact's share of
+    the running residual into ``running[k]``: (||natural map||^2, ||w P||^2, ||U'||^2)
+    [m^2/s^2] at the current iterate (module docstring)."""
     w = delassus[k]
     un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
                                     velocities, spins, wall_normals, wall_speeds, images,
                                     cell_rate)
     p0, p1, p2 = impulses[k, 0], impulses[k, 1], impulses[k, 2]
+    vn = un + shift[k]
+    wk = w[0, 0]
+    wn, wt, ws = wk * p0, wk * p1, wk * p2
+    slip = math.sqrt(ut * ut + us * us)
+    cn, ct, cs = project_cone(mu[k], wn - (vn + mu[k] * slip), wt - ut, ws - us)
+    running[k, 0] = (wn - cn) ** 2 + (wt - ct) ** 2 + (ws - cs) ** 2
+    running[k, 1] = wn * wn + wt * wt + ws * ws
+    running[k, 2] = vn * vn + ut * ut + us * us
     # free (P_k = 0) corrected velocity
-    fn = un + shift[k] - (w[0, 0] * p0 + w[0, 1] * p1 + w[0, 2] * p2)
+    fn = vn - (w[0, 0] * p0 + w[0, 1] * p1 + w[0, 2] * p2)
     ft = ut - (w[1, 0] * p0 + w[1, 1] * p1 + w[1, 2] * p2)
     fs = us - (w[2, 0] * p0 + w[2, 1] * p1 + w[2, 2] * p2)
     q0, q1, q2 = local_solve(w, fn, ft, fs, mu[k], p0, p1, p2)
@@ -381,15 +393,19 @@ def update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia
 def skipped_update(k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                    wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
                    wall_speeds, delassus, open_sweeps, images, cell_basis, cell_inv_mass,
-                   cell_dofs, cell_rate):
+                   cell_dofs, cell_rate, running):
     """:func:`update_contact` unless contact k has been open (P = 0) at its last ``skip``
-    visits (then it is left alone and 0 returned); ``open_sweeps[k]`` counts those visits."""
+    visits (then it is left alone, its running-residual share zero, and 0 returned);
+    ``open_sweeps[k]`` counts those visits."""
     if open_sweeps[k] >= skip:
+        running[k, 0] = 0.0
+        running[k, 1] = 0.0
+        running[k, 2] = 0.0
         return 0.0
     change = update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                             wall_normals, wall_inv_mass, mu, shift, impulses, velocities,
                             spins, wall_speeds, delassus, images, cell_basis, cell_inv_mass,
-                            cell_dofs, cell_rate)
+                            cell_dofs, cell_rate, running)
     if impulses[k, 0] == 0.0:
         open_sweeps[k] += 1
     else:
@@ -485,7 +501,7 @@ def nlgs_kernel(
     body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
     wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
     mu, gap, dt, images, cell_fixed, cell_basis, cell_inv_mass, cell_free, cell_bounds,
-    order, tolerance, max_iterations,
+    order, tolerance, change_tolerance, max_iterations,
     impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus, residuals,
 ):
     """Frictional unilateral contact problem on impulses by nonlinear Gauss-Seidel.
@@ -504,7 +520,9 @@ def nlgs_kernel(
     ``cell_fixed`` (3, 3) [m/s], per free degree of freedom d its direction ``cell_basis``
     (D, 3, 3) [m], inverse mass ``cell_inv_mass`` (D,), free value ``cell_free`` (D,) and
     bounds ``cell_bounds`` (D, 2) (:mod:`grainlab.engine.periodic_boundary`); visiting
-    ``order`` (C,) (a permutation).
+    ``order`` (C,) (a permutation); ``tolerance`` on the natural-map residual and
+    ``change_tolerance`` on the relative change (inf: the change is measured, not required;
+    module docstring, "Convergence").
 
     Outputs: ``impulses`` (C, 3) local (P_n, P_t, P_s) [N s] (in: warm start; out: solution);
     ``velocities``, ``spins`` (N, 3) end-of-step velocities; ``wall_speeds`` (W,) end-of-step
@@ -533,9 +551,10 @@ def nlgs_kernel(
         body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities,
         free_spins, wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
         mu, gap, dt, images, cell_basis, cell_inv_mass, cell_bounds, free_rate,
-        order, tolerance, max_iterations,
+        order, tolerance, change_tolerance, max_iterations,
         impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus, residuals,
-        np.empty(n_contacts), brakes, cell_brakes, np.zeros(n_contacts, dtype=np.int64))
+        np.empty(n_contacts), brakes, cell_brakes, np.zeros(n_contacts, dtype=np.int64),
+        np.zeros((n_contacts, 3)))
 
 
 @njit(cache=True, _nrt=False)
@@ -543,14 +562,15 @@ def _serial_sweeps(
     body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
     wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
     mu, gap, dt, images, cell_basis, cell_inv_mass, cell_bounds, free_rate,
-    order, tolerance, max_iterations,
+    order, tolerance, change_tolerance, max_iterations,
     impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus, residuals,
-    shift, brakes, cell_brakes, open_sweeps,
+    shift, brakes, cell_brakes, open_sweeps, running,
 ):
     """Warm start, sweeps and checks of :func:`nlgs_kernel` once the velocities, the cell
     and the Delassus blocks are set up (``free_rate`` (3, 3) [m/s] the cell's free hdot);
     scratch ``shift`` (C,), wall and cell brakes (W,), (D,), ``open_sweeps`` (C,) int64
-    zeros. Returns the sweeps done. Compiled without the Numba runtime: the inlined scalar
+    zeros, ``running`` (C, 3) the running-residual shares. Returns the sweeps done. Compiled
+    without the Numba runtime: the inlined scalar
     laws then take their arrays without atomic reference counting."""
     n_contacts = body_i.shape[0]
     free_norm2 = 0.0
@@ -566,6 +586,7 @@ def _serial_sweeps(
                wall_inv_mass, wall_speeds, images, cell_basis, cell_inv_mass, cell_dofs,
                cell_rate)
     iterations = 0
+    last_check = 0
     full = True  # visit every contact (SKIP_OPEN, SKIP_REVISIT)
     while iterations < max_iterations:
         iterations += 1
@@ -578,16 +599,28 @@ def _serial_sweeps(
                 k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                 wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
                 wall_speeds, delassus, open_sweeps, images, cell_basis, cell_inv_mass,
-                cell_dofs, cell_rate)
+                cell_dofs, cell_rate, running)
             sweep_p2 += impulses[k, 0] ** 2 + impulses[k, 1] ** 2 + impulses[k, 2] ** 2
         brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
         brake_cell(cell_basis, cell_inv_mass, cell_bounds, cell_brakes, cell_dofs, cell_rate)
         full = iterations % SKIP_REVISIT == 0
         change = 0.0 if change2 == 0.0 else math.sqrt(change2 / max(sweep_p2, _TINY))
         residuals[0] = change
-        if change > tolerance and iterations < max_iterations:
-            continue  # the residual pass only once the change is small (or at the cap)
+        if iterations < max_iterations:
+            if change_tolerance < np.inf:
+                if change > change_tolerance:
+                    continue  # the residual pass only once the change is small
+            else:
+                run_res2, run_wp2, run_u2 = 0.0, 0.0, 0.0
+                for k in range(n_contacts):
+                    run_res2 += running[k, 0]
+                    run_wp2 += running[k, 1]
+                    run_u2 += running[k, 2]
+                if not check_due(running_residual(run_res2, run_wp2, run_u2, free_norm2),
+                                 tolerance, iterations, last_check):
+                    continue  # the residual pass only once the running residual is small
         # check pass (no update)
+        last_check = iterations
         p_norm2, wp_norm2, u_norm2, res2 = 0.0, 0.0, 0.0, 0.0
         for k in range(n_contacts):
             un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
@@ -606,10 +639,31 @@ def _serial_sweeps(
         residual = math.sqrt(res2) / scale
         residuals[0] = change
         residuals[1] = residual
-        if change <= tolerance and residual <= tolerance:
+        if change <= change_tolerance and residual <= tolerance:
             break
         full = True
     return iterations
+
+
+@njit(inline="always")
+def running_residual(run_res2, run_wp2, run_u2, free_norm2):
+    """The running residual of a sweep: the natural map summed over the sweep with each
+    contact at its visit (``run_res2``), over max(||U'_free||, ||w P||, ||U'||) (squares
+    ``free_norm2``, ``run_wp2``, ``run_u2``): the residual of the check pass, one sweep
+    late, at no extra pass."""
+    scale = max(math.sqrt(free_norm2), math.sqrt(run_wp2), math.sqrt(run_u2), _TINY)
+    return math.sqrt(run_res2) / scale
+
+
+@njit(inline="always")
+def check_due(running, tolerance, iterations, last_check):
+    """Whether a sweep without a change tolerance is followed by the check pass: once the
+    running residual is below CHECK_FACTOR x ``tolerance`` (it runs a sweep late and above
+    the check's), and at least max(1, ``iterations`` / CHECK_SPACING) sweeps after the last
+    check (``last_check``): the checks cost at most ~1 / CHECK_SPACING of the sweeps and
+    delay convergence by as much."""
+    return (running <= CHECK_FACTOR * tolerance
+            and iterations - last_check >= max(1, iterations // CHECK_SPACING))
 
 
 # --------------------------------------------------------------------------------------------
@@ -686,7 +740,11 @@ class ContactDynamicsStep:
     theta:
         theta-scheme parameter in [0.5, 1].
     tolerance:
-        NLGS tolerance on both the relative change and the residual (> 0, no units).
+        NLGS tolerance on the natural-map residual (> 0, no units).
+    change_tolerance:
+        Tolerance on the relative change of the impulses between two sweeps (> 0); None
+        (default): the same as ``tolerance``; inf: the change is measured and reported, not
+        required (module docstring, "Convergence").
     max_iterations:
         NLGS sweep cap (>= 1).
     gravity:
@@ -720,7 +778,7 @@ class ContactDynamicsStep:
         max_iterations: int = 1000, gravity=(0.0, 0.0, 0.0), friction: float = 0.4,
         alert: float | None = None, gyroscopic: bool = False, strict: bool = False,
         seed: int = 0, sweep: str = "coloured", overlap_recovery: float = 0.0,
-        overlap_recovery_speed: float = math.inf,
+        overlap_recovery_speed: float = math.inf, change_tolerance: float | None = None,
     ) -> None:
         self.dt = at_least("dt", dt)
         theta_value = at_least("theta", theta)
@@ -728,6 +786,8 @@ class ContactDynamicsStep:
             raise InputError("theta", theta, "a number in [0.5, 1]")
         self.theta = theta_value
         self.tolerance = at_least("tolerance", tolerance)
+        self.change_tolerance = change_tolerance if change_tolerance in (None, math.inf) \
+            else at_least("change_tolerance", change_tolerance)
         if isinstance(max_iterations, bool) or not isinstance(max_iterations, int | np.integer) \
                 or max_iterations < 1:
             raise InputError("max_iterations", max_iterations, "an integer >= 1")
@@ -856,6 +916,8 @@ class ContactDynamicsStep:
                    np.ascontiguousarray(bounds.cell_inv_mass, dtype=np.float64),
                    np.ascontiguousarray(bounds.cell_free, dtype=np.float64),
                    np.ascontiguousarray(bounds.cell_bounds, dtype=np.float64))
+        change_tolerance = self.tolerance if self.change_tolerance is None else \
+            self.change_tolerance
         problem = None
         if self.keep_problem:
             problem = assemble_problem(
@@ -867,7 +929,7 @@ class ContactDynamicsStep:
             iterations = nlgs_kernel(
                 contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
                 inv_mass, inv_inertia, free_v, free_w, *walls_in, mu, gap_term, h, *cell_in,
-                order, self.tolerance, self.max_iterations,
+                order, self.tolerance, change_tolerance, self.max_iterations,
                 impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus,
                 residuals,
             )
@@ -884,12 +946,13 @@ class ContactDynamicsStep:
                 contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
                 inv_mass, inv_inertia, free_v, free_w, *walls_in, mu, gap_term, h, *cell_in,
                 colouring.order, colouring.offsets, n_parallel, self.tolerance,
-                self.max_iterations,
+                change_tolerance, self.max_iterations,
                 impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus,
                 residuals,
             )
         change, residual = float(residuals[0]), float(residuals[1])
-        converged = n_contacts == 0 or (change <= self.tolerance and residual <= self.tolerance)
+        converged = n_contacts == 0 or (change <= change_tolerance
+                                        and residual <= self.tolerance)
         if not converged and self.strict:
             raise ConvergenceError(
                 f"NLGS did not converge in {iterations} sweeps: relative change {change:.3e}, "

@@ -48,7 +48,8 @@ reproducible across thread counts.
 ...     body, other, frame, arm_i, arm_j, np.ones(2), inv_inertia, v_free, np.zeros((2, 3)),
 ...     np.array([[0.0, 0, 1]]), np.zeros(1), np.zeros(1), np.full(1, np.inf),
 ...     np.full(2, 0.4), np.zeros(2), 1e-3, *no_cell,
-...     order, offsets, 2, 1e-10, 100, *out[:3], out[3], *cell_out, delassus, residuals)
+...     order, offsets, 2, 1e-10, 1e-10, 100, *out[:3], out[3], *cell_out, delassus,
+...     residuals)
 >>> bool(np.abs(out[1]).max() < 1e-9), out[0][:, 0].round(6).tolist()   # at rest: P_n = 2mv, mv
 (True, [0.02, 0.01])
 """
@@ -67,8 +68,10 @@ from grainlab.engine.contact_dynamics import (
     _relative_velocity,
     brake_cell,
     brake_walls,
+    check_due,
     delassus_kernel,
     project_cone,
+    running_residual,
     skipped_update,
     start_cell,
 )
@@ -105,17 +108,25 @@ def _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_sp
 
 
 @njit(inline="always")
-def _change_block(b, impulses, delta2, partial):
+def _change_block(b, impulses, delta2, running, partial):
     """Sums over the contacts of block b of the sweep's squared impulse changes ``delta2``
-    and squared impulses [N^2 s^2] into ``partial[b, :2]``."""
+    and squared impulses [N^2 s^2] into ``partial[b, :2]``, and of the running-residual
+    shares ``running`` (C, 3) into ``partial[b, 2:5]``."""
     lo = b * _BLOCK
     hi = min(lo + _BLOCK, impulses.shape[0])
     change2, p_norm2 = 0.0, 0.0
+    res2, wp2, u2 = 0.0, 0.0, 0.0
     for k in range(lo, hi):
         change2 += delta2[k]
         p_norm2 += impulses[k, 0] ** 2 + impulses[k, 1] ** 2 + impulses[k, 2] ** 2
+        res2 += running[k, 0]
+        wp2 += running[k, 1]
+        u2 += running[k, 2]
     partial[b, 0] = change2
     partial[b, 1] = p_norm2
+    partial[b, 2] = res2
+    partial[b, 3] = wp2
+    partial[b, 4] = u2
 
 
 @njit(inline="always")
@@ -154,14 +165,15 @@ def _coloured_sweeps(
     body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
     wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
     mu, gap, dt, images, cell_basis, cell_inv_mass, cell_bounds, free_rate,
-    colour_offsets, n_parallel, tolerance, max_iterations,
+    colour_offsets, n_parallel, tolerance, change_tolerance, max_iterations,
     impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus, residuals, shift,
-    delta2, partial, brakes, cell_brakes, open_sweeps,
+    delta2, partial, brakes, cell_brakes, open_sweeps, running,
 ):
     """Warm start, sweeps and checks of :func:`nlgs_coloured_kernel` on contacts already in
     group order (group g = contacts ``colour_offsets[g] .. colour_offsets[g + 1] - 1``, the
     first ``n_parallel`` swept in parallel), with their Delassus blocks given; scratch
-    ``shift`` (C,), ``delta2`` (C,), ``partial`` (n_blocks, 3). Returns the sweeps done.
+    ``shift`` (C,), ``delta2`` (C,), ``partial`` (n_blocks, 5), ``running`` (C, 3). Returns
+    the sweeps done.
 
     Compiled without the Numba runtime (``_nrt=False``): it allocates nothing, and the arrays
     handed to the inlined scalar laws are then not reference-counted. With the runtime, every
@@ -201,6 +213,7 @@ def _coloured_sweeps(
                        wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
                        cell_inv_mass, cell_dofs, cell_rate)
     iterations = 0
+    last_check = 0
     full = True  # the first sweep, every SKIP_REVISIT-th and the one after a failed check
     while iterations < max_iterations:
         iterations += 1
@@ -213,33 +226,45 @@ def _coloured_sweeps(
                         k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                         wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
                         wall_speeds, delassus, open_sweeps, images, cell_basis, cell_inv_mass,
-                        cell_dofs, cell_rate)
+                        cell_dofs, cell_rate, running)
             else:
                 for k in range(lo, hi):
                     delta2[k] = skipped_update(
                         k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                         wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
                         wall_speeds, delassus, open_sweeps, images, cell_basis, cell_inv_mass,
-                        cell_dofs, cell_rate)
+                        cell_dofs, cell_rate, running)
         full = iterations % SKIP_REVISIT == 0
         brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
         brake_cell(cell_basis, cell_inv_mass, cell_bounds, cell_brakes, cell_dofs, cell_rate)
         # relative change of the sweep: sums per block of _BLOCK contacts, then in block order
         if parallel:
             for b in prange(n_blocks):
-                _change_block(b, impulses, delta2, partial)
+                _change_block(b, impulses, delta2, running, partial)
         else:
             for b in range(n_blocks):
-                _change_block(b, impulses, delta2, partial)
+                _change_block(b, impulses, delta2, running, partial)
         change2, p_norm2 = 0.0, 0.0
+        run_res2, run_wp2, run_u2 = 0.0, 0.0, 0.0
         for b in range(n_blocks):
             change2 += partial[b, 0]
             p_norm2 += partial[b, 1]
+            run_res2 += partial[b, 2]
+            run_wp2 += partial[b, 3]
+            run_u2 += partial[b, 4]
         change = 0.0 if change2 == 0.0 else math.sqrt(change2 / max(p_norm2, _TINY))
         residuals[0] = change
-        if change > tolerance and iterations < max_iterations:
-            continue  # the residual pass only once the change is small (or at the cap)
+        if iterations < max_iterations:
+            # the residual pass only once the change (or, without a change tolerance, the
+            # running residual) is small, and at the cap
+            if change_tolerance < np.inf:
+                if change > change_tolerance:
+                    continue
+            elif not check_due(running_residual(run_res2, run_wp2, run_u2, free_norm2),
+                               tolerance, iterations, last_check):
+                continue
         # check pass (no update)
+        last_check = iterations
         if parallel:
             for b in prange(n_blocks):
                 _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins,
@@ -258,7 +283,7 @@ def _coloured_sweeps(
         scale = max(math.sqrt(free_norm2), math.sqrt(wp_norm2), math.sqrt(u_norm2), _TINY)
         residual = math.sqrt(res2) / scale
         residuals[1] = residual
-        if change <= tolerance and residual <= tolerance:
+        if change <= change_tolerance and residual <= tolerance:
             break
         full = True  # a skipped contact may be the one that fails
     return iterations
@@ -269,8 +294,9 @@ def nlgs_coloured_kernel(
     body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
     wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
     mu, gap, dt, images, cell_fixed, cell_basis, cell_inv_mass, cell_free, cell_bounds,
-    colour_order, colour_offsets, n_parallel_colours, tolerance, max_iterations,
-    impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus, residuals,
+    colour_order, colour_offsets, n_parallel_colours, tolerance, change_tolerance,
+    max_iterations, impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus,
+    residuals,
 ):
     """Frictional unilateral contact problem on impulses by coloured (parallel) nonlinear
     Gauss-Seidel.
@@ -340,10 +366,10 @@ def nlgs_coloured_kernel(
         c_body_i, c_body_j, c_frame, c_arm_i, c_arm_j, inv_mass, inv_inertia, free_velocities,
         free_spins, wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
         c_mu, c_gap, dt, c_images, cell_basis, cell_inv_mass, cell_bounds, free_rate,
-        colour_offsets, n_parallel_colours, tolerance, max_iterations,
+        colour_offsets, n_parallel_colours, tolerance, change_tolerance, max_iterations,
         c_impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, c_delassus, residuals,
-        np.empty(n_contacts), np.zeros(n_contacts), np.zeros((n_blocks, 3)), brakes,
-        cell_brakes, np.zeros(n_contacts, dtype=np.int64))
+        np.empty(n_contacts), np.zeros(n_contacts), np.zeros((n_blocks, 5)), brakes,
+        cell_brakes, np.zeros(n_contacts, dtype=np.int64), np.zeros((n_contacts, 3)))
     for m in prange(n_contacts):  # scatter back (a permutation: each row written once)
         k = colour_order[m]
         for a in range(3):

@@ -12,6 +12,8 @@ Layout of a run folder::
     checkpoint.prev.h5 the checkpoint before it
     run.log            what happened, with times, and the outcome in words
     vtk/               ParaView files when output.vtk_every > 0 (particles, contacts, walls)
+    problems/          the contact problems of steps (FCLib HDF5) when output.problems_every
+                       > 0 (contact dynamics; grainlab.engine.contact_problem)
 
 Checkpoints (:mod:`grainlab.lab.run_checkpoint`: two kept, written atomically) are written
 every ``output.checkpoint_every`` steps, at the end of every stage, when the run ends or stops
@@ -86,8 +88,9 @@ RESULTS = "results.csv"
 RESULTS_H5 = "results.h5"
 SNAPSHOTS = "snapshots.h5"
 LOG = "run.log"
+PROBLEMS = "problems"
 RUN_FILES = (CHECKPOINT, PREVIOUS_CHECKPOINT, CHECKPOINT + DAMAGED_SUFFIX, RESULTS, RESULTS_H5,
-             SNAPSHOTS, LOG, "curves.png", "vtk", "vtk-checkpoint")
+             SNAPSHOTS, LOG, "curves.png", "vtk", "vtk-checkpoint", PROBLEMS)
 """What ``--restart`` moves aside (config.toml stays, a copy goes with them)."""
 
 
@@ -165,6 +168,8 @@ class DiscreteRun:
             test.simulation.add(_Every("checkpoint", out.checkpoint_every, self.checkpoint))
         if out.vtk_every:
             test.simulation.add(_Every("vtk", out.vtk_every, self.write_vtk))
+        if out.problems_every and hasattr(test.solver, "keep_problem"):
+            test.simulation.add(_ProblemWriter(folder / PROBLEMS, out.problems_every))
 
     def _stage_ended(self, test: DiscreteTest) -> None:
         ended = test.outcome["stages"][-1]
@@ -417,6 +422,36 @@ class _Every:
 
     def act(self, simulation) -> None:
         self.action()
+
+
+class _ProblemWriter:
+    """Stores the contact problem of every ``period``-th step in FCLib's layout
+    (:func:`~grainlab.engine.contact_problem.write_fclib`): it asks the solver to assemble
+    the problem only on those steps."""
+
+    name = "problems"
+
+    def __init__(self, folder: Path, period: int) -> None:
+        self.folder = folder
+        self.period = period
+
+    @staticmethod
+    def trigger(step_index: int) -> bool:
+        return True
+
+    def act(self, simulation) -> None:
+        from grainlab.engine.contact_problem import write_fclib
+
+        report = simulation.last_report
+        if report is not None and report.problem is not None and report.n_contacts:
+            self.folder.mkdir(exist_ok=True)
+            step = simulation.step_index
+            write_fclib(report.problem, self.folder / f"step-{step:08d}.hdf5",
+                        title=f"grainlab step {step}",
+                        description=f"{report.n_contacts} contacts, {report.iterations} "
+                                    f"sweeps, converged {report.converged}",
+                        reactions=report.impulses)
+        simulation.solver.keep_problem = (simulation.step_index + 1) % self.period == 0
 
 
 class _ProgressBar:

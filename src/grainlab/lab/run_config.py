@@ -16,7 +16,7 @@ every key has a default, an unknown key is an error that names it::
                (0: automatic), theta, sweep, max_stage_steps, at_max_stage_steps
                ("stop" | "next_stage"), wall_mass_factor, wall_servo, seed
     [solver.compaction]   friction, inertia_number, time_step_factor, tolerance,
-    [solver.shear]        max_iterations, overlap_recovery
+    [solver.shear]        max_iterations, overlap_recovery, capped_share_limit
                (:class:`~grainlab.lab.stage_numerics.StageNumerics`: compaction for the
                stages without a strain-controlled axis, shear for the others; defaults
                :data:`~grainlab.lab.stage_numerics.COMPACTION` and
@@ -25,7 +25,8 @@ every key has a default, an unknown key is an error that names it::
                young_modulus [Pa], poisson_ratio, stiffness_ratio, restitution,
                rolling_friction, local_damping, time_step_fraction, rigid_walls
                (:class:`~grainlab.lab.soft_contact_settings.SoftContactSettings`)
-    [output]   record_every, snapshot_every, checkpoint_every, vtk_every (steps; 0: never)
+    [output]   record_every, snapshot_every, checkpoint_every, vtk_every, problems_every
+               (steps; 0: never)
 
 A config of the earlier layout, with the per-stage keys flat in ``[solver]`` (``friction``,
 ``compaction_friction``, ``tolerance``, ``compaction_tolerance``, ...: :data:`EARLIER_SOLVER_KEYS`),
@@ -92,7 +93,7 @@ _FACES_NOTE = ("even: n_f = 2 n_v - 4; Table I of Azéma, Radjaï & Dubois 2013:
                "46, 96, 176, 596")
 
 CHANGEABLE_STAGE_KEYS = ("inertia_number", "time_step_factor", "tolerance",
-                         "max_iterations", "overlap_recovery")
+                         "max_iterations", "overlap_recovery", "capped_share_limit")
 """The keys of ``[solver.compaction]`` and ``[solver.shear]`` a resumed run may change (all but
 the friction)."""
 
@@ -101,7 +102,7 @@ CHANGEABLE_ON_RESUME = (
     "solver.dt", "solver.max_stage_steps", "solver.at_max_stage_steps",
     *(f"solver.{kind}.{key}" for kind in STAGE_KINDS for key in CHANGEABLE_STAGE_KEYS),
     "output.record_every", "output.snapshot_every", "output.checkpoint_every",
-    "output.vtk_every",
+    "output.vtk_every", "output.problems_every",
 )
 """Keys a resumed run may change (module docstring): they take effect from the resumed step
 on, in the stage under way too (a target only in a stage not ended yet). Every per-stage key
@@ -197,6 +198,7 @@ TimeStepFactor = Annotated[float, Field(gt=0, le=0.5)]
 Tolerance = Annotated[float, Field(gt=0, lt=1)]
 SweepCap = Annotated[int, Field(ge=1)]
 OverlapRecovery = Annotated[float, Field(ge=0, le=1)]
+ShareLimit = Annotated[float, Field(ge=0, le=1)]
 
 
 class _StageSection(_Section):
@@ -216,6 +218,7 @@ class CompactionConfig(_StageSection):
     tolerance: Tolerance = COMPACTION.tolerance
     max_iterations: SweepCap = COMPACTION.max_iterations
     overlap_recovery: OverlapRecovery = COMPACTION.overlap_recovery
+    capped_share_limit: ShareLimit = COMPACTION.capped_share_limit
 
 
 class ShearConfig(_StageSection):
@@ -229,6 +232,7 @@ class ShearConfig(_StageSection):
     tolerance: Tolerance = SHEAR.tolerance
     max_iterations: SweepCap = SHEAR.max_iterations
     overlap_recovery: OverlapRecovery = SHEAR.overlap_recovery
+    capped_share_limit: ShareLimit = SHEAR.capped_share_limit
 
 
 class DemConfig(_Section):
@@ -273,15 +277,19 @@ class SolverConfig(_Section):
 
 
 class OutputConfig(_Section):
-    """How often (in steps) to record, snapshot, checkpoint and export VTK (0: never).
-    Contact networks are snapshotted by default (every 500 steps: some 30 over a
-    1000-sphere triaxial test to eps_q = 0.5), so that ``grainlab analyse RUN`` has
-    something to read."""
+    """How often (in steps) to record, snapshot, checkpoint, export VTK and store the
+    contact problem of a step (0: never). Contact networks are snapshotted by default (every
+    500 steps: some 30 over a 1000-sphere triaxial test to eps_q = 0.5), so that ``grainlab
+    analyse RUN`` has something to read. ``problems_every``: the frictional contact problem
+    of every such contact-dynamics step goes to ``problems/step-NNNNNNNN.hdf5`` in FCLib's
+    layout (:mod:`grainlab.engine.contact_problem`), to compare solvers on it
+    (``benchmarks/benchmark_contact_solvers.py``)."""
 
     record_every: int = Field(_RUN_WIDE.record_every, ge=1)
     snapshot_every: int = Field(500, ge=0)
     checkpoint_every: int = Field(500, ge=0)
     vtk_every: int = Field(0, ge=0)
+    problems_every: int = Field(0, ge=0)
 
 
 class RunConfig(_Section):

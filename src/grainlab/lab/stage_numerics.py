@@ -74,6 +74,11 @@ class StageNumerics:
     overlap_recovery:
         beta [-] in [0, 1]: the fraction of an overlap the solver asks to open per step
         (0: overlaps are never pushed back).
+    capped_share_limit:
+        Largest share [-] in [0, 1] of a stage's steps that may end at the sweep cap
+        unconverged: above it the stage is not as asked (:mod:`grainlab.lab.run_outcome`;
+        the command line exits with status 3). 1 (default): any share is accepted, and
+        reported.
     """
 
     friction: float
@@ -82,6 +87,7 @@ class StageNumerics:
     tolerance: float
     max_iterations: int
     overlap_recovery: float
+    capped_share_limit: float = 1.0
 
     def __post_init__(self) -> None:
         at_least("friction", self.friction, strict=False)
@@ -96,6 +102,8 @@ class StageNumerics:
             raise InputError("max_iterations", value, "an integer >= 1")
         if not 0.0 <= self.overlap_recovery <= 1.0:
             raise InputError("overlap_recovery", self.overlap_recovery, "a number in [0, 1]")
+        if not 0.0 <= self.capped_share_limit <= 1.0:
+            raise InputError("capped_share_limit", self.capped_share_limit, "a number in [0, 1]")
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data (the keys of a ``[solver.compaction]`` or ``[solver.shear]`` table)."""
