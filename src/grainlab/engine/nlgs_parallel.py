@@ -12,7 +12,7 @@ after the other, then the serial group (contacts of mobile walls, which all shar
 in a plain loop. The caller chooses how many leading colours go parallel
 (:func:`parallel_colours`): a colour of fewer than :data:`MIN_PARALLEL` contacts, and every
 colour with one thread, is swept in a plain loop, since waking the threads costs more than
-such a colour's work (~80 us per launch on the 2-core VM); the result is the same either way.
+such a colour's work; the result is the same either way.
 
 Layout. The per-contact arrays are first gathered into colour order (one parallel copy per
 step, like one sweep), so that each colour is a contiguous range: a sweep streams through
@@ -69,6 +69,7 @@ from grainlab.engine.contact_dynamics import (
     brake_cell,
     brake_walls,
     check_due,
+    check_spaced,
     delassus_kernel,
     project_cone,
     running_residual,
@@ -78,10 +79,13 @@ from grainlab.engine.contact_dynamics import (
 
 _TINY = 1e-300  # as in contact_dynamics
 _BLOCK = 1024  # contacts per block of the parallel reductions (fixed: thread-independent)
-MIN_PARALLEL = 8192
-"""Colours with fewer contacts are swept in a plain loop (:func:`parallel_colours`): one
-``prange`` launch costs ~80 us with the workqueue layer on the 2-core VM (measured), half the
-work of ~2500 contacts at ~65 ns each; 8192 keeps the launches below ~20 % of a colour."""
+MIN_PARALLEL = 1024
+"""Colours with fewer contacts are swept in a plain loop (:func:`parallel_colours`). Measured
+with the TBB layer on 2 cores (``benchmarks/benchmark_engine_contact_dynamics.py``, one
+thread 109-138 ns per contact update at 10^4 spheres): colours of ~2600 contacts in parallel
+take 10^4 spheres from 127 ns (all colours in a loop, the former threshold of 8192 set for the
+workqueue layer's ~80 us launches) to 63-74 ns per update; colours of 250-500 contacts (1000
+spheres) lose: 47 ns in a loop, 65 ns in parallel."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -119,9 +123,10 @@ def _change_block(b, impulses, delta2, running, partial):
     for k in range(lo, hi):
         change2 += delta2[k]
         p_norm2 += impulses[k, 0] ** 2 + impulses[k, 1] ** 2 + impulses[k, 2] ** 2
-        res2 += running[k, 0]
-        wp2 += running[k, 1]
-        u2 += running[k, 2]
+        if running.shape[0] > 0:
+            res2 += running[k, 0]
+            wp2 += running[k, 1]
+            u2 += running[k, 2]
     partial[b, 0] = change2
     partial[b, 1] = p_norm2
     partial[b, 2] = res2
@@ -172,8 +177,8 @@ def _coloured_sweeps(
     """Warm start, sweeps and checks of :func:`nlgs_coloured_kernel` on contacts already in
     group order (group g = contacts ``colour_offsets[g] .. colour_offsets[g + 1] - 1``, the
     first ``n_parallel`` swept in parallel), with their Delassus blocks given; scratch
-    ``shift`` (C,), ``delta2`` (C,), ``partial`` (n_blocks, 5), ``running`` (C, 3). Returns
-    the sweeps done.
+    ``shift`` (C,), ``delta2`` (C,), ``partial`` (n_blocks, 5), ``running`` (C, 3) ((0, 3)
+    with a finite ``change_tolerance``: not measured). Returns the sweeps done.
 
     Compiled without the Numba runtime (``_nrt=False``): it allocates nothing, and the arrays
     handed to the inlined scalar laws are then not reference-counted. With the runtime, every
@@ -258,7 +263,7 @@ def _coloured_sweeps(
             # the residual pass only once the change (or, without a change tolerance, the
             # running residual) is small, and at the cap
             if change_tolerance < np.inf:
-                if change > change_tolerance:
+                if change > change_tolerance or not check_spaced(iterations, last_check):
                     continue
             elif not check_due(running_residual(run_res2, run_wp2, run_u2, free_norm2),
                                tolerance, iterations, last_check):
@@ -362,6 +367,7 @@ def nlgs_coloured_kernel(
         delassus_kernel(c_body_i[lo:hi], c_body_j[lo:hi], c_frame[lo:hi], c_arm_i[lo:hi],
                         c_arm_j[lo:hi], inv_mass, inv_inertia, wall_normals, wall_inv_mass,
                         c_images[lo:hi], cell_basis, cell_inv_mass, c_delassus[lo:hi])
+    measured = n_contacts if change_tolerance == np.inf else 0  # running residual rows
     iterations = _coloured_sweeps(
         c_body_i, c_body_j, c_frame, c_arm_i, c_arm_j, inv_mass, inv_inertia, free_velocities,
         free_spins, wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
@@ -369,7 +375,8 @@ def nlgs_coloured_kernel(
         colour_offsets, n_parallel_colours, tolerance, change_tolerance, max_iterations,
         c_impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, c_delassus, residuals,
         np.empty(n_contacts), np.zeros(n_contacts), np.zeros((n_blocks, 5)), brakes,
-        cell_brakes, np.zeros(n_contacts, dtype=np.int64), np.zeros((n_contacts, 3)))
+        cell_brakes, np.zeros(n_contacts, dtype=np.int64),
+        np.zeros((measured, 3)))
     for m in prange(n_contacts):  # scatter back (a permutation: each row written once)
         k = colour_order[m]
         for a in range(3):

@@ -21,8 +21,9 @@ otherwise; :meth:`DiscreteTestSettings.numerics_for`):
   diameter or, for polyhedra, the smallest inscribed diameter (twice the smallest distance from
   a centre of mass to a face plane; :func:`time_step_length`) (research/cd_engines.md pitfall
   6: v h <= 0.01-0.05 d_min), unless ``dt`` is given. In triaxial shear the solver ends each
-  step with small velocity violations (the NLGS residual stalls near 1e-5 relative however
-  many sweeps) and contact dynamics never pushes an overlap back, so overlaps accumulate at a
+  step with small velocity violations (the NLGS residual stalls near the tolerance however
+  many sweeps: docs/discrete_engine.md, "The contact problem on its own") and contact
+  dynamics never pushes an overlap back, so overlaps accumulate at a
   rate that falls faster than h: with 0.01 the largest overlap reached 6-9 % of <d> at
   eps_q = 0.1 on 200 spheres, with 0.003 below 1 %;
 * NLGS tolerance, sweep cap and overlap recovery (0 in compaction by default);
