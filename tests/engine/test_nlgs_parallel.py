@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 import grainlab.engine.nlgs_parallel as nlgs_parallel
-from grainlab.engine.contact_colouring import colour_contacts, colour_contacts_slow
+from grainlab.engine.contact_colouring import colour_contacts, colour_contacts_slow, slab_contacts
 from grainlab.engine.contact_dynamics import ContactDynamicsStep
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
@@ -238,7 +238,8 @@ def test_kernel_with_no_contacts_returns_free_velocities():
         np.ones(1), np.eye(3)[None], v_free, w_free, np.zeros((0, 3)), np.zeros(0), np.zeros(0),
         np.zeros(0), np.zeros(0), np.zeros(0), DT, np.zeros((0, 3)), np.zeros((3, 3)),
         np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0), np.zeros((0, 2)), empty_i,
-        np.zeros(2, dtype=np.int64), 0, 1e-5, 1e-5, 10,
+        np.zeros(2, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64),
+        0, 1e-5, 1e-5, 10,
         np.zeros((0, 3)), velocities, spins, np.zeros(0), np.zeros(0), np.zeros((3, 3)),
         np.zeros((0, 3, 3)), residuals,
     )
@@ -260,3 +261,64 @@ def test_parallel_colours_picks_the_large_leading_colours():
 def test_unknown_sweep_is_an_input_error():
     with pytest.raises(InputError, match="sweep"):
         ContactDynamicsStep(dt=DT, sweep="red-black")
+
+
+# --------------------------------------------------------------------------------------------
+# Slabs: packings too small for parallel colours
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("n_slabs", [2, 3, 5])
+def test_slab_chains_of_a_parallel_group_share_no_body(n_slabs):
+    sample = fcc_sample(cells=(3, 2, 2))
+    _, _, reports = run("coloured", 1, sample)
+    contacts = reports[0].contacts
+    _, state, box = sample
+    wall_inv_mass = box.inverse_masses()
+    slabs = slab_contacts(contacts.body_i, contacts.body_j, state.positions, wall_inv_mass,
+                          n_slabs=n_slabs)
+    n = contacts.n_contacts
+    assert np.array_equal(np.sort(slabs.order), np.arange(n))  # every contact once
+    assert slabs.chains[0] == 0 and slabs.chains[-1] == n
+    body_i, body_j = contacts.body_i[slabs.order], contacts.body_j[slabs.order]
+    mobile = (body_i < 0) & (wall_inv_mass[np.maximum(-1 - body_i, 0)] > 0.0)
+    serial_rows = np.arange(slabs.chains[slabs.offsets[3]], n)
+    assert mobile.any() and np.all(np.isin(np.flatnonzero(mobile), serial_rows))
+    for group in range(3):
+        seen: set[int] = set()
+        for chain in range(slabs.offsets[group], slabs.offsets[group + 1]):
+            rows = slice(slabs.chains[chain], slabs.chains[chain + 1])
+            bodies = set(body_j[rows]) | set(body_i[rows][body_i[rows] >= 0])
+            assert not bodies & seen  # chains of one group touch disjoint bodies
+            seen |= bodies
+    inside = slabs.chains[slabs.offsets[1]]
+    assert inside > 0.5 * n  # most contacts lie inside a slab
+
+
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two Numba threads")
+def test_slab_sweep_obeys_the_laws_and_does_not_depend_on_the_threads(monkeypatch):
+    # a small packing swept in slabs (MIN_SLABS lowered to reach it), on 1 and 2 threads
+    monkeypatch.setattr(nlgs_parallel, "MIN_SLABS", 16)
+    sample = fcc_sample(cells=(3, 2, 2), seed=5)
+    threads = numba.get_num_threads()
+    outcomes = []
+    try:
+        for n_threads in (1, 2):
+            numba.set_num_threads(n_threads)
+            outcomes.append(run("coloured", 3, sample, tolerance=1e-7))
+    finally:
+        numba.set_num_threads(threads)
+    (state_1, box_1, reports_1), (state_2, box_2, reports_2) = outcomes
+    np.testing.assert_array_equal(state_2.velocities, state_1.velocities)
+    np.testing.assert_array_equal(state_2.positions, state_1.positions)
+    np.testing.assert_array_equal(box_2.speeds, box_1.speeds)
+    for report_1, report_2 in zip(reports_1, reports_2, strict=True):
+        assert report_1.iterations == report_2.iterations
+        np.testing.assert_array_equal(report_2.impulses, report_1.impulses)
+        assert_coulomb_signorini(report_2)
+    assert_complementarity(reports_2[-1], state_2, box_2)
+    # the same solution as the serial sweep, within the tolerance
+    state_s, _, _ = run("serial", 3, sample, tolerance=1e-7)
+    scale = float(np.abs(state_s.velocities).max())
+    np.testing.assert_allclose(state_2.velocities, state_s.velocities, rtol=0,
+                               atol=1e-4 * scale)

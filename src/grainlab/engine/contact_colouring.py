@@ -26,6 +26,14 @@ grouped by colour (ascending contact index inside a group); ``offsets`` (G + 2,)
 colour c at rows ``offsets[c] .. offsets[c + 1] - 1`` of ``order`` for c < G = ``n_colours``,
 and the serial group at rows ``offsets[G] .. offsets[G + 1] - 1`` (possibly empty).
 
+Slabs (:func:`slab_contacts`), for packings too small for parallel colours (a colour of a
+few hundred contacts is less work than waking the threads): the bodies are cut into S slabs
+along the longest extent of the packing, and each group holds *chains* swept one contact after
+another, the chains of a group in parallel: the contacts inside each slab (S chains: no two
+slabs share a body), then those between slabs 0-1, 2-3, ..., then 1-2, 3-4, ..., then the
+serial group. One sweep wakes the threads twice or three times, each for a whole slab's work.
+A colouring is the special case of one contact per chain (:attr:`ContactColouring.chains`).
+
 >>> import numpy as np
 >>> body_i = np.array([0, 1, 2, -1, -2])   # three pairs in a chain, a driven and a mobile wall
 >>> body_j = np.array([1, 2, 3, 0, 3])
@@ -132,6 +140,11 @@ class ContactColouring:
     colour: np.ndarray
 
     @property
+    def chains(self) -> np.ndarray:
+        """Chain offsets (C + 1,): one contact per chain (module docstring, "Slabs")."""
+        return np.arange(self.order.shape[0] + 1, dtype=np.int64)
+
+    @property
     def serial(self) -> np.ndarray:
         """Contact indices of the serial group (contacts of mobile walls)."""
         return self.order[self.offsets[self.n_colours]:self.offsets[self.n_colours + 1]]
@@ -183,3 +196,112 @@ def colour_contacts_slow(body_i, body_j, wall_inv_mass) -> np.ndarray:
         for b in bodies:
             used.setdefault(b, set()).add(c)
     return colour
+
+
+# --------------------------------------------------------------------------------------------
+# Slabs
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class ContactSlabs:
+    """Contacts in chains (module docstring, "Slabs"): ``order`` (C,) the contact indices,
+    chain c at rows ``chains[c] .. chains[c + 1] - 1``; group g the chains ``offsets[g] ..
+    offsets[g + 1] - 1``: 0 the slabs' insides, 1 and 2 the interfaces, 3 the serial group
+    (one chain); ``body_order`` (N,) the bodies sorted along the slabs' axis (the kernel's
+    memory order: :func:`~grainlab.engine.nlgs_parallel.nlgs_coloured_kernel`);
+    ``n_colours`` = 3, the groups whose chains may run in parallel."""
+
+    order: np.ndarray
+    offsets: np.ndarray
+    chains: np.ndarray
+    body_order: np.ndarray
+    n_colours: int = 3
+
+
+@njit(cache=True)
+def slab_contacts_kernel(body_i, body_j, slab, wall_inv_mass, serial, n_slabs, order, chains):
+    """Chains of :class:`ContactSlabs` for contacts (``body_i``, ``body_j``) (C,) of bodies in
+    slabs ``slab`` (N,) int64 in 0 .. S - 1 (``n_slabs``); mobile walls (``wall_inv_mass`` >
+    0), ``serial`` (C,) contacts and contacts between slabs more than one apart go to the
+    serial chain. Outputs ``order`` (C,), ``chains`` (2 S + 1,) (chains: S insides, S - 1
+    interfaces in the order 0-1, 2-3, ..., 1-2, 3-4, ..., then the serial one)."""
+    n_contacts = body_i.shape[0]
+    n_chains = 2 * n_slabs
+    chain_of = np.empty(n_contacts, dtype=np.int64)
+    for k in range(n_contacts):
+        i, j = body_i[k], body_j[k]
+        sj = slab[j]
+        if serial[k] or (i < 0 and wall_inv_mass[-1 - i] > 0.0):
+            chain_of[k] = n_chains - 1
+            continue
+        si = sj if i < 0 else slab[i]
+        low = min(si, sj)
+        if si == sj:
+            chain_of[k] = si
+        elif max(si, sj) - low == 1:
+            # interfaces low-(low+1): even ones first, then odd ones
+            chain_of[k] = n_slabs + (low // 2 if low % 2 == 0 else (n_slabs // 2) + low // 2)
+        else:
+            chain_of[k] = n_chains - 1
+    counts = np.zeros(n_chains + 1, dtype=np.int64)
+    for k in range(n_contacts):
+        counts[chain_of[k] + 1] += 1
+    for c in range(n_chains):
+        counts[c + 1] += counts[c]
+    chains[:] = counts
+    fill = counts[:n_chains].copy()
+    for k in range(n_contacts):
+        c = chain_of[k]
+        order[fill[c]] = k
+        fill[c] += 1
+
+
+def slab_contacts(body_i, body_j, positions, wall_inv_mass, serial=None,
+                  n_slabs: int = 2) -> ContactSlabs:
+    """Contacts in chains of ``n_slabs`` slabs (>= 2) of the bodies at ``positions`` (N, 3)
+    [m], cut evenly along their longest extent (module docstring, "Slabs"); ``serial`` (C,)
+    bool as in :func:`colour_contacts`."""
+    x = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    bi = np.ascontiguousarray(body_i, dtype=np.int64)
+    bj = np.ascontiguousarray(body_j, dtype=np.int64)
+    n_contacts = bi.shape[0]
+    if x.shape[0]:
+        extent = x.max(axis=0) - x.min(axis=0)
+        axis = int(np.argmax(extent))
+        low, width = float(x[:, axis].min()), float(extent[axis])
+        slab = np.floor((x[:, axis] - low) / max(width, 1e-300) * n_slabs).astype(np.int64)
+        slab = np.clip(slab, 0, n_slabs - 1)
+        body_order = np.argsort(x[:, axis], kind="stable").astype(np.int64)
+    else:
+        slab = np.zeros(0, dtype=np.int64)
+        body_order = np.zeros(0, dtype=np.int64)
+    serial = np.zeros(n_contacts, dtype=np.bool_) if serial is None else \
+        np.ascontiguousarray(serial, dtype=np.bool_)
+    order = np.empty(n_contacts, dtype=np.int64)
+    chains = np.empty(2 * n_slabs + 1, dtype=np.int64)
+    slab_contacts_kernel(bi, bj, slab, np.ascontiguousarray(wall_inv_mass, dtype=np.float64)
+                         .reshape(-1), serial, int(n_slabs), order, chains)
+    even = n_slabs // 2  # interfaces 0-1, 2-3, ...: (n_slabs) // 2 of them
+    odd = (n_slabs - 1) // 2
+    offsets = np.array([0, n_slabs, n_slabs + even, n_slabs + even + odd, 2 * n_slabs],
+                       dtype=np.int64)
+    return ContactSlabs(order=order, offsets=offsets, chains=chains, body_order=body_order)
+
+
+def spatial_order(positions, bits: int = 10) -> np.ndarray:
+    """The bodies at ``positions`` (N, 3) [m] sorted along a Morton (Z-order) curve on a
+    grid of 2^``bits`` cells per axis over their bounding box (stable in the body index):
+    bodies near in space end up near in memory (:func:`~grainlab.engine.nlgs_parallel.
+    nlgs_coloured_kernel`'s ``body_order``)."""
+    x = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    if x.shape[0] == 0:
+        return np.zeros(0, dtype=np.int64)
+    low = x.min(axis=0)
+    width = np.maximum(x.max(axis=0) - low, 1e-300)
+    cells = np.clip(((x - low) / width * (1 << bits)).astype(np.int64), 0, (1 << bits) - 1)
+    code = np.zeros(x.shape[0], dtype=np.int64)
+    for bit in range(bits):
+        for axis in range(3):
+            code |= ((cells[:, axis] >> bit) & 1) << (3 * bit + axis)
+    return np.argsort(code, kind="stable").astype(np.int64)

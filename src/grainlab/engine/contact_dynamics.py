@@ -54,9 +54,14 @@ Sweeps. ``sweep="serial"`` runs :func:`nlgs_kernel` in the seeded random order a
 share a body (:mod:`~grainlab.engine.contact_colouring`, linear in C) and runs
 :func:`~grainlab.engine.nlgs_parallel.nlgs_coloured_kernel`: the colours one after the other,
 the contacts of a colour in parallel (``numba.prange``), the contacts of mobile
-(stress-controlled) walls last in a serial loop, as they all share their wall. The same local
-solver and convergence measures, in a fixed order: the solution agrees with the serial sweep
-within the tolerance and does not depend on the number of threads.
+(stress-controlled) walls last in a serial loop, as they all share their wall. When every
+colour is below :data:`~grainlab.engine.nlgs_parallel.MIN_PARALLEL` contacts (too little work
+to wake the threads: ~1000 spheres) and there are at least
+:data:`~grainlab.engine.nlgs_parallel.MIN_SLABS` contacts, the contacts are swept in two slabs
+of the packing instead (:func:`~grainlab.engine.contact_colouring.slab_contacts`): each slab's
+inside by one thread, then the contacts between the slabs, then the mobile walls'. The same
+local solver and convergence measures, in a fixed order: the solution agrees with the serial
+sweep within the tolerance and does not depend on the number of threads.
 
 Skipping open contacts (LMGC90's iskip idea): a contact found open (P = 0) at
 :data:`SKIP_OPEN` visits in a row is left out of the sweeps, except the first sweep, every
@@ -97,7 +102,7 @@ from numba.core.extending import intrinsic
 
 from grainlab._validate import at_least
 from grainlab.engine.boundary import BoundaryMotion, DetectionPhases, as_boundary
-from grainlab.engine.contact_colouring import colour_contacts
+from grainlab.engine.contact_colouring import colour_contacts, slab_contacts, spatial_order
 from grainlab.engine.contact_problem import FrictionalContactProblem, assemble_problem
 from grainlab.engine.gyroscopic import gyroscopic_spins
 from grainlab.engine.narrow_phase import Contacts
@@ -119,6 +124,10 @@ OUTWARD_SPEED_FACTOR = 4.0
 """A speed-limited wall moves out at most this many times its inward limit."""
 SKIP_REVISIT = 10
 CHECK_FACTOR = 2.0
+SPATIAL_ORDER_BODIES = 4096
+"""From this many bodies, the coloured sweep works on the bodies in Morton order
+(:func:`~grainlab.engine.contact_colouring.spatial_order`: the same results, better use of the
+caches)."""
 CHECK_SPACING = 10
 """... except in every SKIP_REVISIT-th sweep, the first, and the one after a failed
 convergence check, which visit every contact; the check pass always covers every contact."""
@@ -948,17 +957,35 @@ class ContactDynamicsStep:
             )
         else:
             # imported here: nlgs_parallel reuses this module's scalar laws
-            from grainlab.engine.nlgs_parallel import nlgs_coloured_kernel, parallel_colours
+            from grainlab.engine.nlgs_parallel import (
+                MIN_PARALLEL,
+                MIN_SLABS,
+                nlgs_coloured_kernel,
+                parallel_colours,
+            )
 
             serial = crossing if bounds.has_free_cell else None
             colouring = colour_contacts(contacts.body_i, contacts.body_j, kernel_inv_mass,
                                         n_bodies, serial=serial)
-            n_parallel = parallel_colours(colouring.offsets, colouring.n_colours,
-                                          get_num_threads())
+            sizes = np.diff(colouring.offsets[: colouring.n_colours + 1])
+            if n_contacts >= MIN_SLABS and (sizes.size == 0 or sizes.max() < MIN_PARALLEL):
+                # colours too small to share between threads: two slabs instead (the same
+                # order whatever the number of threads)
+                groups = slab_contacts(contacts.body_i, contacts.body_j, x_m,
+                                       kernel_inv_mass, serial=serial)
+                n_parallel = groups.n_colours if get_num_threads() > 1 else 0
+                body_order = groups.body_order
+            else:
+                groups = colouring
+                n_parallel = parallel_colours(colouring.offsets, colouring.n_colours,
+                                              get_num_threads())
+                body_order = spatial_order(x_m) if n_bodies >= SPATIAL_ORDER_BODIES else \
+                    np.arange(n_bodies, dtype=np.int64)
             iterations = nlgs_coloured_kernel(
                 contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
                 inv_mass, inv_inertia, free_v, free_w, *walls_in, mu, gap_term, h, *cell_in,
-                colouring.order, colouring.offsets, n_parallel, self.tolerance,
+                groups.order, groups.offsets, groups.chains, body_order, n_parallel,
+                self.tolerance,
                 change_tolerance, self.max_iterations,
                 impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus,
                 residuals,

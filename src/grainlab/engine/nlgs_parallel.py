@@ -39,6 +39,8 @@ reproducible across thread counts.
 >>> arm_j = np.array([[0, 0, -0.5], [0, 0, -0.5]]); inv_inertia = np.tile(np.eye(3), (2, 1, 1))
 >>> v_free = np.array([[0, 0, -0.01], [0, 0, -0.01]])
 >>> order, offsets = np.array([0, 1]), np.array([0, 1, 2, 2])  # colours {0}, {1}, no serial
+>>> chains = np.array([0, 1, 2])                                # one contact per chain
+>>> bodies = np.array([0, 1])                                   # bodies in their own order
 >>> out = np.zeros((2, 3)), np.empty((2, 3)), np.empty((2, 3)), np.zeros(1)
 >>> delassus, residuals = np.empty((2, 3, 3)), np.zeros(2)
 >>> no_cell = (np.zeros((2, 3)), np.zeros((3, 3)), np.zeros((0, 3, 3)), np.zeros(0),
@@ -48,8 +50,8 @@ reproducible across thread counts.
 ...     body, other, frame, arm_i, arm_j, np.ones(2), inv_inertia, v_free, np.zeros((2, 3)),
 ...     np.array([[0.0, 0, 1]]), np.zeros(1), np.zeros(1), np.full(1, np.inf),
 ...     np.full(2, 0.4), np.zeros(2), 1e-3, *no_cell,
-...     order, offsets, 2, 1e-10, 1e-10, 100, *out[:3], out[3], *cell_out, delassus,
-...     residuals)
+...     order, offsets, chains, bodies, 2, 1e-10, 1e-10, 100, *out[:3], out[3], *cell_out,
+...     delassus, residuals)
 >>> bool(np.abs(out[1]).max() < 1e-9), out[0][:, 0].round(6).tolist()   # at rest: P_n = 2mv, mv
 (True, [0.02, 0.01])
 """
@@ -79,6 +81,11 @@ from grainlab.engine.contact_dynamics import (
 
 _TINY = 1e-300  # as in contact_dynamics
 _BLOCK = 1024  # contacts per block of the parallel reductions (fixed: thread-independent)
+_PARALLEL_BLOCKS = 8  # fewer blocks: the reductions in a plain loop (the same sums)
+MIN_SLABS = 1024
+"""From this many contacts, a step whose colours are all below :data:`MIN_PARALLEL` is swept
+in two slabs (:func:`~grainlab.engine.contact_colouring.slab_contacts`) rather than colour by
+colour, so that two threads share it; below it, colours (too little work to wake threads)."""
 MIN_PARALLEL = 1024
 """Colours with fewer contacts are swept in a plain loop (:func:`parallel_colours`). Measured
 with the TBB layer on 2 cores (``benchmarks/benchmark_engine_contact_dynamics.py``, one
@@ -170,13 +177,14 @@ def _coloured_sweeps(
     body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
     wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
     mu, gap, dt, images, cell_basis, cell_inv_mass, cell_bounds, free_rate,
-    colour_offsets, n_parallel, tolerance, change_tolerance, max_iterations,
+    colour_offsets, chains, n_parallel, tolerance, change_tolerance, max_iterations,
     impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus, residuals, shift,
     delta2, partial, brakes, cell_brakes, open_sweeps, running,
 ):
     """Warm start, sweeps and checks of :func:`nlgs_coloured_kernel` on contacts already in
-    group order (group g = contacts ``colour_offsets[g] .. colour_offsets[g + 1] - 1``, the
-    first ``n_parallel`` swept in parallel), with their Delassus blocks given; scratch
+    group order (group g = chains ``colour_offsets[g] .. colour_offsets[g + 1] - 1``, chain c
+    = contacts ``chains[c] .. chains[c + 1] - 1``; the chains of each of the first
+    ``n_parallel`` groups swept in parallel), with their Delassus blocks given; scratch
     ``shift`` (C,), ``delta2`` (C,), ``partial`` (n_blocks, 5), ``running`` (C, 3) ((0, 3)
     with a finite ``change_tolerance``: not measured). Returns the sweeps done.
 
@@ -188,7 +196,8 @@ def _coloured_sweeps(
     """
     n_blocks = partial.shape[0]
     n_groups = colour_offsets.shape[0] - 1
-    parallel = n_parallel > 0
+    # the reductions in parallel too, when they are worth waking the threads for
+    parallel = n_parallel > 0 and n_blocks >= _PARALLEL_BLOCKS
     # gap shifts and ||U'_free||^2 per block
     if parallel:
         for b in prange(n_blocks):
@@ -203,16 +212,17 @@ def _coloured_sweeps(
     free_norm2 = 0.0
     for b in range(n_blocks):
         free_norm2 += partial[b, 0]
-    for c in range(n_groups):  # warm start, group by group
-        lo, hi = colour_offsets[c], colour_offsets[c + 1]
-        if c < n_parallel:
-            for k in prange(lo, hi):
-                _apply(k, impulses[k, 0], impulses[k, 1], impulses[k, 2], body_i, body_j,
-                       frame, arm_i, arm_j, inv_mass, inv_inertia, velocities, spins,
-                       wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
-                       cell_inv_mass, cell_dofs, cell_rate)
+    for g in range(n_groups):  # warm start, group by group
+        lo, hi = colour_offsets[g], colour_offsets[g + 1]
+        if g < n_parallel and hi - lo > 1:
+            for c in prange(lo, hi):
+                for k in range(chains[c], chains[c + 1]):
+                    _apply(k, impulses[k, 0], impulses[k, 1], impulses[k, 2], body_i, body_j,
+                           frame, arm_i, arm_j, inv_mass, inv_inertia, velocities, spins,
+                           wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
+                           cell_inv_mass, cell_dofs, cell_rate)
         else:
-            for k in range(lo, hi):
+            for k in range(chains[lo], chains[hi]):
                 _apply(k, impulses[k, 0], impulses[k, 1], impulses[k, 2], body_i, body_j,
                        frame, arm_i, arm_j, inv_mass, inv_inertia, velocities, spins,
                        wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
@@ -223,17 +233,18 @@ def _coloured_sweeps(
     while iterations < max_iterations:
         iterations += 1
         skip = SKIP_OPEN if not full else max_iterations + 1
-        for c in range(n_groups):
-            lo, hi = colour_offsets[c], colour_offsets[c + 1]
-            if c < n_parallel:
-                for k in prange(lo, hi):
-                    delta2[k] = skipped_update(
-                        k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-                        wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
-                        wall_speeds, delassus, open_sweeps, images, cell_basis, cell_inv_mass,
-                        cell_dofs, cell_rate, running)
+        for g in range(n_groups):
+            lo, hi = colour_offsets[g], colour_offsets[g + 1]
+            if g < n_parallel and hi - lo > 1:
+                for c in prange(lo, hi):
+                    for k in range(chains[c], chains[c + 1]):
+                        delta2[k] = skipped_update(
+                            k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass,
+                            inv_inertia, wall_normals, wall_inv_mass, mu, shift, impulses,
+                            velocities, spins, wall_speeds, delassus, open_sweeps, images,
+                            cell_basis, cell_inv_mass, cell_dofs, cell_rate, running)
             else:
-                for k in range(lo, hi):
+                for k in range(chains[lo], chains[hi]):
                     delta2[k] = skipped_update(
                         k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                         wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
@@ -299,22 +310,30 @@ def nlgs_coloured_kernel(
     body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
     wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
     mu, gap, dt, images, cell_fixed, cell_basis, cell_inv_mass, cell_free, cell_bounds,
-    colour_order, colour_offsets, n_parallel_colours, tolerance, change_tolerance,
-    max_iterations, impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus,
-    residuals,
+    colour_order, colour_offsets, chains, body_order, n_parallel_colours, tolerance,
+    change_tolerance, max_iterations, impulses, velocities, spins, wall_speeds, cell_dofs,
+    cell_rate, delassus, residuals,
 ):
     """Frictional unilateral contact problem on impulses by coloured (parallel) nonlinear
     Gauss-Seidel.
 
     Arguments as :func:`~grainlab.engine.contact_dynamics.nlgs_kernel`, with its visiting
-    ``order`` replaced by a colouring (:mod:`~grainlab.engine.contact_colouring`):
-    ``colour_order`` (C,) int64, the contacts grouped; ``colour_offsets`` (G + 1,) int64,
-    group g at rows ``colour_offsets[g] .. colour_offsets[g + 1] - 1`` of ``colour_order``;
-    the groups are visited in order, the first ``n_parallel_colours`` each with ``prange``,
-    the others in a plain loop (results do not depend on ``n_parallel_colours``; see
-    :func:`parallel_colours`). Contacts of a parallel group must not share a body >= 0 nor
-    a mobile wall, nor (with free cell degrees of freedom) have an image (the kernel does not
-    check: a conflict would race).
+    ``order`` replaced by a colouring or slabs (:mod:`~grainlab.engine.contact_colouring`):
+    ``colour_order`` (C,) int64, the contacts grouped; ``chains`` (K + 1,) int64, chain c at
+    rows ``chains[c] .. chains[c + 1] - 1`` of ``colour_order`` (a colouring: one contact
+    per chain); ``colour_offsets`` (G + 1,) int64, group g the chains ``colour_offsets[g] ..
+    colour_offsets[g + 1] - 1``. The groups are visited in order; the chains of each of the
+    first ``n_parallel_colours`` groups with ``prange``, each chain's contacts one after the
+    other; the other groups in a plain loop (results do not depend on
+    ``n_parallel_colours``; see :func:`parallel_colours`). Chains of a parallel group must
+    not share a body >= 0 nor a mobile wall, nor (with free cell degrees of freedom) have an
+    image (the kernel does not check: a conflict would race). ``body_order`` (N,) int64, a
+    permutation of the bodies: the sweeps work on the bodies' arrays gathered in that order
+    (row r holds body ``body_order[r]``) and scattered back at the end; the same arithmetic,
+    so the same bits whatever the order. Bodies in slab order keep the threads of a slab sweep
+    off each other's cache lines (with bodies numbered at random in space, two threads
+    updating neighbours in memory shared their lines: the slabs were no faster than one
+    thread).
 
     Outputs: ``impulses`` (C, 3) local (P_n, P_t, P_s) [N s] (in: warm start; out: solution);
     ``velocities``, ``spins`` (N, 3) end-of-step velocities [m/s], [rad/s]; ``wall_speeds``
@@ -323,6 +342,7 @@ def nlgs_coloured_kernel(
     Returns the number of sweeps done (``max_iterations`` when not converged).
     """
     n_contacts = body_i.shape[0]
+    n_bodies = inv_mass.shape[0]
     velocities[:, :] = free_velocities
     spins[:, :] = free_spins
     wall_speeds[:] = wall_free_speeds
@@ -336,6 +356,25 @@ def nlgs_coloured_kernel(
         brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
         brake_cell(cell_basis, cell_inv_mass, cell_bounds, cell_brakes, cell_dofs, cell_rate)
         return 0
+    # gather the bodies into body_order (row r holds body body_order[r]; rank: its inverse)
+    rank = np.empty(n_bodies, dtype=np.int64)
+    b_inv_mass = np.empty(n_bodies)
+    b_inv_inertia = np.empty((n_bodies, 3, 3))
+    b_free_v = np.empty((n_bodies, 3))
+    b_free_w = np.empty((n_bodies, 3))
+    b_velocities = np.empty((n_bodies, 3))
+    b_spins = np.empty((n_bodies, 3))
+    for r in prange(n_bodies):
+        b = body_order[r]
+        rank[b] = r
+        b_inv_mass[r] = inv_mass[b]
+        for a in range(3):
+            b_free_v[r, a] = free_velocities[b, a]
+            b_free_w[r, a] = free_spins[b, a]
+            b_velocities[r, a] = free_velocities[b, a]
+            b_spins[r, a] = free_spins[b, a]
+            for e in range(3):
+                b_inv_inertia[r, a, e] = inv_inertia[b, a, e]
     # gather the contacts into colour order (row m holds contact colour_order[m])
     c_body_i = np.empty(n_contacts, dtype=np.int64)
     c_body_j = np.empty(n_contacts, dtype=np.int64)
@@ -349,8 +388,8 @@ def nlgs_coloured_kernel(
     c_delassus = np.empty((n_contacts, 3, 3))
     for m in prange(n_contacts):
         k = colour_order[m]
-        c_body_i[m] = body_i[k]
-        c_body_j[m] = body_j[k]
+        c_body_i[m] = rank[body_i[k]] if body_i[k] >= 0 else body_i[k]
+        c_body_j[m] = rank[body_j[k]]
         c_mu[m] = mu[k]
         c_gap[m] = gap[k]
         for a in range(3):
@@ -365,18 +404,25 @@ def nlgs_coloured_kernel(
         lo = b * _BLOCK
         hi = min(lo + _BLOCK, n_contacts)
         delassus_kernel(c_body_i[lo:hi], c_body_j[lo:hi], c_frame[lo:hi], c_arm_i[lo:hi],
-                        c_arm_j[lo:hi], inv_mass, inv_inertia, wall_normals, wall_inv_mass,
-                        c_images[lo:hi], cell_basis, cell_inv_mass, c_delassus[lo:hi])
+                        c_arm_j[lo:hi], b_inv_mass, b_inv_inertia, wall_normals,
+                        wall_inv_mass, c_images[lo:hi], cell_basis, cell_inv_mass,
+                        c_delassus[lo:hi])
     measured = n_contacts if change_tolerance == np.inf else 0  # running residual rows
     iterations = _coloured_sweeps(
-        c_body_i, c_body_j, c_frame, c_arm_i, c_arm_j, inv_mass, inv_inertia, free_velocities,
-        free_spins, wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
+        c_body_i, c_body_j, c_frame, c_arm_i, c_arm_j, b_inv_mass, b_inv_inertia, b_free_v,
+        b_free_w, wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
         c_mu, c_gap, dt, c_images, cell_basis, cell_inv_mass, cell_bounds, free_rate,
-        colour_offsets, n_parallel_colours, tolerance, change_tolerance, max_iterations,
-        c_impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, c_delassus, residuals,
-        np.empty(n_contacts), np.zeros(n_contacts), np.zeros((n_blocks, 5)), brakes,
+        colour_offsets, chains, n_parallel_colours, tolerance, change_tolerance,
+        max_iterations,
+        c_impulses, b_velocities, b_spins, wall_speeds, cell_dofs, cell_rate, c_delassus,
+        residuals, np.empty(n_contacts), np.zeros(n_contacts), np.zeros((n_blocks, 5)), brakes,
         cell_brakes, np.zeros(n_contacts, dtype=np.int64),
         np.zeros((measured, 3)))
+    for r in prange(n_bodies):  # scatter the bodies back
+        b = body_order[r]
+        for a in range(3):
+            velocities[b, a] = b_velocities[r, a]
+            spins[b, a] = b_spins[r, a]
     for m in prange(n_contacts):  # scatter back (a permutation: each row written once)
         k = colour_order[m]
         for a in range(3):
