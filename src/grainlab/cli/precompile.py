@@ -5,7 +5,8 @@ for every later process; on two cores the first discrete run spends one to two m
 compiling. This command runs tiny versions of every kind of work once, so that the compilation
 happens now, with a message, instead of inside a user's first test, and can be split over
 processes: ``--part discrete`` (contact dynamics of the sphere-based shape kinds, spheres and
-aggregates, sample measures, snapshots, microstructure analysis, ParaView export),
+aggregates, sample measures, snapshots, microstructure analysis, ParaView export, the solvers
+of the plain contact problem),
 ``--part polyhedra`` (the kinds of the polyhedron family: contact geometry and dynamics;
 :data:`FAMILY_PARTS`), ``--part theories`` (the regular-packing and micro-element
 models) and ``--part dem`` (the soft-contact solver, in a box of walls and in a periodic
@@ -92,6 +93,13 @@ def _discrete_runs(folder: Path) -> None:
     first = folder / f"{kinds[0].name}_serial"
     TrajectoryAnalysis().run(read_snapshots(first / "snapshots.h5"))
     export_checkpoint_vtk(first, folder / "vtk")
+    # the solvers of the plain contact problem (engine/contact_solvers.py)
+    from grainlab.engine.contact_problem import FrictionalContactProblem
+    from grainlab.engine.contact_solvers import METHODS, solve
+
+    problem = FrictionalContactProblem(np.eye(3), [-1.0, 0.5, 0.0], [0.4])
+    for method in METHODS:
+        solve(problem, method, max_iterations=2)
 
 
 def _polyhedra_runs(folder: Path) -> None:
