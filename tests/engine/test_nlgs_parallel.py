@@ -215,17 +215,22 @@ def test_coloured_sweep_does_not_depend_on_the_threads(monkeypatch):
                 outcomes.append(run("coloured", 2, sample, tolerance=1e-6))
     finally:
         numba.set_num_threads(threads)
-    reference_state, reference_box, reference_reports = outcomes[0]
-    for state, box, reports in outcomes[1:]:
-        np.testing.assert_array_equal(state.velocities, reference_state.velocities)
-        np.testing.assert_array_equal(state.angular_velocities,
-                                      reference_state.angular_velocities)
-        np.testing.assert_array_equal(state.positions, reference_state.positions)
-        np.testing.assert_array_equal(box.speeds, reference_box.speeds)
-        for report, reference in zip(reports, reference_reports, strict=True):
-            assert report.iterations == reference.iterations
-            np.testing.assert_array_equal(report.impulses, reference.impulses)
-            assert_coulomb_signorini(report)
+    for outcome in outcomes[1:]:
+        assert_same_run(outcome, outcomes[0])
+
+
+def assert_same_run(outcome, reference):
+    """Two runs (state, box, reports) bit for bit the same, each step obeying Coulomb and
+    Signorini."""
+    (state, box, reports), (state_0, box_0, reports_0) = outcome, reference
+    np.testing.assert_array_equal(state.velocities, state_0.velocities)
+    np.testing.assert_array_equal(state.angular_velocities, state_0.angular_velocities)
+    np.testing.assert_array_equal(state.positions, state_0.positions)
+    np.testing.assert_array_equal(box.speeds, box_0.speeds)
+    for report, report_0 in zip(reports, reports_0, strict=True):
+        assert report.iterations == report_0.iterations
+        np.testing.assert_array_equal(report.impulses, report_0.impulses)
+        assert_coulomb_signorini(report)
 
 
 def test_kernel_with_no_contacts_returns_free_velocities():
@@ -308,14 +313,8 @@ def test_slab_sweep_obeys_the_laws_and_does_not_depend_on_the_threads(monkeypatc
             outcomes.append(run("coloured", 3, sample, tolerance=1e-7))
     finally:
         numba.set_num_threads(threads)
-    (state_1, box_1, reports_1), (state_2, box_2, reports_2) = outcomes
-    np.testing.assert_array_equal(state_2.velocities, state_1.velocities)
-    np.testing.assert_array_equal(state_2.positions, state_1.positions)
-    np.testing.assert_array_equal(box_2.speeds, box_1.speeds)
-    for report_1, report_2 in zip(reports_1, reports_2, strict=True):
-        assert report_1.iterations == report_2.iterations
-        np.testing.assert_array_equal(report_2.impulses, report_1.impulses)
-        assert_coulomb_signorini(report_2)
+    assert_same_run(outcomes[1], outcomes[0])
+    state_2, box_2, reports_2 = outcomes[1]
     assert_complementarity(reports_2[-1], state_2, box_2)
     # the same solution as the serial sweep, within the tolerance
     state_s, _, _ = run("serial", 3, sample, tolerance=1e-7)

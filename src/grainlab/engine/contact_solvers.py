@@ -55,7 +55,11 @@ from numba import njit
 
 from grainlab._validate import at_least
 from grainlab.engine.contact_dynamics import local_solve, project_cone
-from grainlab.engine.contact_problem import FrictionalContactProblem, natural_map_error
+from grainlab.engine.contact_problem import (
+    FrictionalContactProblem,
+    natural_map_error,
+    problem_scale,
+)
 from grainlab.errors import InputError
 
 METHODS = ("nlgs", "psor", "apgd", "jacobi")
@@ -148,8 +152,7 @@ def solve(problem: FrictionalContactProblem, method: str = "nlgs", *,
     if not 0.0 < omega < 2.0:
         raise InputError("relaxation", relaxation, "a number in (0, 2)")
     q = problem.free_velocity.reshape(n, 3)
-    scale = float(np.linalg.norm(problem.free_velocity))
-    scale = scale if scale > np.finfo(np.float64).eps else 1.0
+    scale = problem_scale(problem)
     errors = np.zeros(max_iterations)
     if n == 0:
         return ContactSolution(r.ravel(), np.zeros(0), 0, 0.0, True, errors[:0], 0.0, method)
@@ -177,11 +180,11 @@ def _largest_scaled_eigenvalue(w: BlockDelassus, n: int) -> float:
     """lambda_max of D W, D = diag(1 / W_nn,a) per contact (power iteration)."""
     vector = np.ones((n, 3))
     out = np.empty((n, 3))
+    normal = w.blocks[w.diagonal, 0, 0][:, None]  # W_nn per contact
     value = 1.0
     for _ in range(_POWER_ITERATIONS):
         _product(w.indptr, w.indices, w.blocks, vector, out)
-        for_scaling = w.blocks[w.diagonal, 0, 0]
-        out /= for_scaling[:, None]
+        out /= normal
         value = float(np.linalg.norm(out)) / max(float(np.linalg.norm(vector)), _TINY)
         vector = out / max(float(np.linalg.norm(out)), _TINY)
     return max(value, _TINY)
@@ -192,19 +195,28 @@ def _largest_scaled_eigenvalue(w: BlockDelassus, n: int) -> float:
 # --------------------------------------------------------------------------------------------
 
 
+@njit(inline="always")
+def _row(a, indptr, indices, blocks, r, skip):
+    """(W r)_a, the 3 x 3 blocks of row a times the impulses r (C, 3), leaving out column
+    ``skip`` (-1: none)."""
+    u0, u1, u2 = 0.0, 0.0, 0.0
+    for p in range(indptr[a], indptr[a + 1]):
+        b = indices[p]
+        if b == skip:
+            continue
+        block = blocks[p]
+        r0, r1, r2 = r[b, 0], r[b, 1], r[b, 2]
+        u0 += block[0, 0] * r0 + block[0, 1] * r1 + block[0, 2] * r2
+        u1 += block[1, 0] * r0 + block[1, 1] * r1 + block[1, 2] * r2
+        u2 += block[2, 0] * r0 + block[2, 1] * r1 + block[2, 2] * r2
+    return u0, u1, u2
+
+
 @njit(cache=True)
 def _product(indptr, indices, blocks, r, out):
     """out = W r over the 3 x 3 blocks (r, out (C, 3))."""
     for a in range(indptr.shape[0] - 1):
-        u0, u1, u2 = 0.0, 0.0, 0.0
-        for p in range(indptr[a], indptr[a + 1]):
-            b = indices[p]
-            block = blocks[p]
-            r0, r1, r2 = r[b, 0], r[b, 1], r[b, 2]
-            u0 += block[0, 0] * r0 + block[0, 1] * r1 + block[0, 2] * r2
-            u1 += block[1, 0] * r0 + block[1, 1] * r1 + block[1, 2] * r2
-            u2 += block[2, 0] * r0 + block[2, 1] * r1 + block[2, 2] * r2
-        out[a, 0], out[a, 1], out[a, 2] = u0, u1, u2
+        out[a, 0], out[a, 1], out[a, 2] = _row(a, indptr, indices, blocks, r, -1)
 
 
 @njit(cache=True)
@@ -225,17 +237,9 @@ def _error(indptr, indices, blocks, q, mu, r, u, scale):
 @njit(inline="always")
 def _local(a, indptr, indices, blocks, diagonal, q, mu, r):
     """Contact a solved exactly against the current impulses of the others."""
-    u0, u1, u2 = q[a, 0], q[a, 1], q[a, 2]
-    for p in range(indptr[a], indptr[a + 1]):
-        b = indices[p]
-        if b == a:
-            continue
-        block = blocks[p]
-        r0, r1, r2 = r[b, 0], r[b, 1], r[b, 2]
-        u0 += block[0, 0] * r0 + block[0, 1] * r1 + block[0, 2] * r2
-        u1 += block[1, 0] * r0 + block[1, 1] * r1 + block[1, 2] * r2
-        u2 += block[2, 0] * r0 + block[2, 1] * r1 + block[2, 2] * r2
-    return local_solve(blocks[diagonal[a]], u0, u1, u2, mu[a], r[a, 0], r[a, 1], r[a, 2])
+    u0, u1, u2 = _row(a, indptr, indices, blocks, r, a)
+    return local_solve(blocks[diagonal[a]], q[a, 0] + u0, q[a, 1] + u1, q[a, 2] + u2, mu[a],
+                       r[a, 0], r[a, 1], r[a, 2])
 
 
 @njit(cache=True)
