@@ -17,7 +17,7 @@ import pytest
 SOURCE = Path(__file__).resolve().parents[1] / "src" / "grainlab"
 
 LAYERS = ("result", "geometry", "contact", "analysis", "engine", "micromech", "prep", "lab",
-          "report", "cli")
+          "report", "study", "cli")
 """Lowest first: a module of layer k may import layers 0..k only."""
 
 SHARED = ("errors", "_validate", "_version", "_numba_setup")

@@ -132,6 +132,10 @@ def test_every_readme_command_runs_as_typed(shard, tmp_path, monkeypatch):
             arguments += ["--size-ratio", "1.2", "--inertia", "0.01", "--config", "fast.toml"]
             if arguments[0] == "test":
                 arguments += ["--gamma", "0.02"]
+        if arguments[0] == "study" and arguments[1] in ("angularity", "nonconvexity"):
+            arguments += ["-n", "16", "--no-progress"]  # two samples of a few particles
+            if "--only" not in arguments:
+                arguments += ["--only", "eta-0.0,eta-0.4"]
         if arguments[0] == "compare":  # both solvers: a quicker compaction
             arguments += ["--config", "fast.toml"]
         if "dem" in arguments:  # soft-contact DEM: softer grains, a quicker compaction

@@ -6,7 +6,16 @@ import typer
 from rich.console import Console
 
 from grainlab._version import __version__
-from grainlab.cli import analyse, compare, demo, discrete, microelement, packing2d, precompile
+from grainlab.cli import (
+    analyse,
+    compare,
+    demo,
+    discrete,
+    microelement,
+    packing2d,
+    precompile,
+    study,
+)
 
 app = typer.Typer(
     help=(
@@ -31,6 +40,7 @@ app.command("resume")(discrete.resume_command)
 app.command("vtk")(discrete.vtk_command)
 app.command("demo")(demo.demo)
 app.command("compile")(precompile.compile_command)
+app.add_typer(study.app, name="study")
 console = Console()
 
 

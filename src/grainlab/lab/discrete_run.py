@@ -161,6 +161,8 @@ class DiscreteRun:
         """Wall time [s] of the finished sessions (and of the run before its checkpoint)."""
         self._clock: float | None = None
         """``time.perf_counter()`` when the running session started; None between runs."""
+        self._interrupted: list[int] = []
+        """Why the running :meth:`run` was asked to stop (signal numbers; 0: a caller)."""
         test.on_snapshot = self._write_snapshot
         test.on_stage_end = self._stage_ended
         out = config.output
@@ -307,18 +309,26 @@ class DiscreteRun:
         return path
 
     # -- running ------------------------------------------------------------------------------
+    def request_interrupt(self, reason: int = 0) -> None:
+        """Stop the running :meth:`run` as Ctrl-C does: the step in progress finishes, a
+        checkpoint is written and :class:`RunInterrupted` is raised. Safe to call from a
+        record callback (``test.on_record``) of the thread that runs the run (a study's
+        sample asked to stop by its study)."""
+        self._interrupted.append(reason)
+        self.test.simulation.request_stop()
+
     def run(self, progress: bool = False, max_steps: int | None = None) -> TestResult:
         """Run to the end, or until the test halts in a stage (its outcome says why), or
         ``max_steps`` more steps. Ctrl-C / SIGTERM let the current step finish, checkpoint and
         raise :class:`RunInterrupted`; a blow-up is logged and re-raised with its diagnosis
         and the last good checkpoint kept."""
         test = self.test
-        interrupted: list[int] = []
+        interrupted = self._interrupted
+        interrupted.clear()
 
         def on_signal(signum, frame):
             # deferred: the step in progress finishes, so the checkpoint is consistent
-            interrupted.append(signum)
-            test.simulation.request_stop()
+            self.request_interrupt(signum)
 
         previous = {}
         for signum in (signal.SIGTERM, signal.SIGINT):

@@ -1,0 +1,146 @@
+"""``grainlab study``: the shape series of seeds 002 and 003 (or any series a TOML file lists)
+as one resumable study on Dask, with its summary table, figures and report."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.console import Console
+
+from grainlab.cli.errors import friendly_errors
+from grainlab.errors import InputError
+from grainlab.study.series_presets import LENGTHS, series_spec
+from grainlab.study.study_runner import SPEC, Study, StudyInterrupted
+from grainlab.study.study_spec import StudySpec
+
+console = Console()
+app = typer.Typer(
+    help=("Studies: a series of samples that differ by one shape parameter, prepared as the "
+          "papers did (one sphere packing built layer by layer, every shape inscribed in "
+          "it), each run as its own run folder on a Dask cluster (local by default), resumed "
+          "where it stopped when the command is run again, then summarised in summary.csv "
+          "and report/ (figures against the shape parameter, report.md)."),
+    no_args_is_help=True)
+
+_SCHEDULER = typer.Option(None, "--scheduler", help=(
+    "Address of a running Dask scheduler (tcp://host:8786) to send the samples to; the study "
+    "folder must be at the same path on every worker. Default: a local cluster."))
+_WORKERS = typer.Option(None, "--workers", min=1, help=(
+    "Local cluster: samples run at once (default: cores / threads)."))
+_THREADS = typer.Option(1, "--threads", min=1, help="Numba threads per sample.")
+_PROGRESS = typer.Option(True, "--progress/--no-progress", help="Show the study's display.")
+_N = typer.Option(None, "--n-particles", "-n", min=2, help=(
+    "Particles per sample (default: 60 for --length short, 1000 for full)."))
+_LENGTH = typer.Option("short", "--length", help=(
+    "short: to eps_q = 0.3, window [0.2, 0.3] (minutes); full: the papers' strain, eps_q = "
+    "0.9, window [0.6, 0.9] (002) or [0.5, 0.9] (003) (hours at 1000 particles)."))
+_ONLY = typer.Option(None, "--only", help=(
+    "Run only these samples (comma-separated names, e.g. S1,S8); the others are left as they "
+    "are, and the report covers every sample that has ended."))
+_SEED = typer.Option(0, "--seed", min=0, help="Seed of the sphere packing shared by the "
+                                              "samples, and of their shapes.")
+
+
+def _run_study(study: Study, scheduler, workers, threads, progress, only) -> None:
+    console.print(f"study {study.spec.study.name} in {study.folder}: "
+                  f"{len(study.spec.samples)} samples ({study.spec.study.description})")
+    names = [n.strip() for n in only.split(",") if n.strip()] if only else None
+    try:
+        outcome = study.run(scheduler=scheduler, workers=workers, threads=threads,
+                            progress=progress, only=names)
+    except StudyInterrupted as error:
+        console.print(str(error))
+        raise typer.Exit(code=130) from None
+    console.print(outcome.summary())
+    ended = sum(state == "ended" for state in study.states().values())
+    if ended < len(study.spec.samples):
+        console.print(f"{ended} of {len(study.spec.samples)} samples have ended")
+    _report(study)
+    if not outcome.complete:
+        console.print("the study is not complete: run the same command again to go on")
+        raise typer.Exit(code=3)
+
+
+def _report(study: Study) -> None:
+    from grainlab.report.study_report import write_study_report
+    from grainlab.study.study_summary import study_summary
+
+    table = study_summary(study)
+    if not len(table):
+        console.print("no sample has ended yet: no summary or report")
+        return
+    path = write_study_report(study, table)
+    console.print(f"summary: {study.folder / 'summary.csv'}\nreport: {path}")
+
+
+def _preset(series: str, out: Path, n_particles, length, seed, scheduler, workers, threads,
+            progress, only, **options) -> None:
+    if length not in LENGTHS:
+        raise InputError("--length", length, "one of " + ", ".join(LENGTHS))
+    spec = series_spec(series, n_particles=n_particles, length=length, seed=seed, **options)
+    _run_study(Study.create(out, spec), scheduler, workers, threads, progress, only)
+
+
+@app.command("angularity")
+@friendly_errors
+def angularity_command(
+    out: Path = typer.Option(Path("study-angularity"), "--out", "-o", help="Study folder."),
+    n_particles: int = _N, length: str = _LENGTH, seed: int = _SEED,
+    templates: int = typer.Option(None, "--templates", min=0, help=(
+        "Polyhedra drawn once and reused in random orientations (0: every particle its own, "
+        "as the paper; default 12 for short, 0 for full).")),
+    scheduler: str = _SCHEDULER, workers: int = _WORKERS, threads: int = _THREADS,
+    only: str = _ONLY, progress: bool = _PROGRESS,
+) -> None:
+    """Seed 002's angularity series: spheres (S1) and polyhedra of 596, 176, 96, 46, 30, 20
+    and 8 faces (S2 ... S8) inscribed in one sphere packing; triaxial compression after a
+    frictionless isotropic compaction. Run it again to resume."""
+    _preset("angularity", out, n_particles, length, seed, scheduler, workers, threads,
+            progress, only, templates=templates)
+
+
+@app.command("nonconvexity")
+@friendly_errors
+def nonconvexity_command(
+    out: Path = typer.Option(Path("study-nonconvexity"), "--out", "-o", help="Study folder."),
+    n_particles: int = _N, length: str = _LENGTH, seed: int = _SEED,
+    scheduler: str = _SCHEDULER, workers: int = _WORKERS, threads: int = _THREADS,
+    only: str = _ONLY, progress: bool = _PROGRESS,
+) -> None:
+    """Seed 003's non-convexity series: aggregates of four spheres with eta = 0, 0.1, ...,
+    0.7 inscribed in one sphere packing; triaxial compression after a frictionless
+    isotropic compaction. Run it again to resume."""
+    _preset("nonconvexity", out, n_particles, length, seed, scheduler, workers, threads,
+            progress, only)
+
+
+@app.command("run")
+@friendly_errors
+def run_command(
+    source: Path = typer.Argument(..., help=(
+        "A study TOML file (see the docs: [study], [base], [[samples]]) or a study folder to "
+        "go on with.")),
+    out: Path = typer.Option(None, "--out", "-o", help=(
+        "Study folder for a TOML file (default: the file's name without .toml).")),
+    scheduler: str = _SCHEDULER, workers: int = _WORKERS, threads: int = _THREADS,
+    only: str = _ONLY, progress: bool = _PROGRESS,
+) -> None:
+    """Run (or go on with) any study: a TOML file listing samples, or a study folder."""
+    if source.is_dir():
+        study = Study.open(source)
+    else:
+        spec = StudySpec.read(source)
+        study = Study.create(out or source.with_suffix(""), spec)
+    _run_study(study, scheduler, workers, threads, progress, only)
+
+
+@app.command("report")
+@friendly_errors
+def report_command(
+    folder: Path = typer.Argument(..., help="A study folder."),
+) -> None:
+    """Write (again) the summary, figures and report of a study from its ended samples."""
+    if not (folder / SPEC).exists():
+        raise InputError("FOLDER", str(folder), f"a study folder with a {SPEC}")
+    _report(Study.open(folder))

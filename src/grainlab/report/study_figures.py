@@ -1,0 +1,279 @@
+"""The figures of a study, against its shape parameter, as seeds 002 and 003 draw them: every
+residual value with its standard deviation over the residual window as an error bar.
+
+Each function takes the study's summary table (:mod:`grainlab.study.study_summary`: one row
+per sample, columns ``X_initial``, ``X_residual``, ``X_residual_std``, ``q_over_trace_peak``
+...) and the shape parameter's symbol, and returns a figure, or None when the table holds none
+of its columns (a study without snapshots has no microstructure figures).
+
+=================================  =========================  =========================
+figure                             seed 002 (angularity)      seed 003 (non-convexity)
+=================================  =========================  =========================
+:func:`curves_figure`              Figs. 5, 7                 Figs. 3, 5
+:func:`strength_figure`            Fig. 6 (with eq. 12's fit) Fig. 4
+:func:`packing_fraction_figure`    Fig. 8                     Fig. 7
+:func:`connectivity_figure`        Fig. 10                    Fig. 9
+:func:`contact_types_figure`       Fig. 11                    Fig. 10
+:func:`anisotropies_figure`        Figs. 15-17                Figs. 12-14, 16
+:func:`sliding_figure`             Fig. 19                    Figs. 17-18
+:func:`stress_dilatancy_figure`    Fig. 20 (eqs. 27a, 27b,    Figs. 19-20 (eqs. 30-31)
+                                   B1)
+:func:`partial_strength_figure`    Figs. 22-24                Figs. 22-23
+=================================  =========================  =========================
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from grainlab.report.curves import new_figure_axes
+
+ANISOTROPIES = (
+    ("a_c", "$a_c$"), ("a_c_branch", "$a'_c$"), ("a_ln", "$a_{ln}$"), ("a_lt", "$a_{lt}$"),
+    ("a_ln_branch", "$a_{ln'}$"), ("a_fn", "$a_n$"), ("a_ft", "$a_t$"),
+    ("a_fn_branch", "$a'_n$"), ("a_ft_branch", "$a'_t$"))
+"""The anisotropies of seeds 002 (eqs. 16-26) and 003, summary column stem and label."""
+
+STRESS_DILATANCY = (("q_over_trace_27a", "eq. 27a"), ("q_over_trace_27b", "eq. 27b"),
+                    ("q_over_trace_B1", "eq. B1"))
+"""q/p predicted from the anisotropies (seed 002 eqs. 27a, 27b, B1)."""
+
+CONTACT_TYPE_ORDER = ("point", "fv", "ee", "fe", "ff", "s", "ds", "d", "t", "q", "m")
+"""Contact types in the papers' order (002: fv, ee, fe, ff; 003: s, ds, d, t, q and m for
+five or more)."""
+
+
+def _x(table: pd.DataFrame) -> np.ndarray:
+    return table["measured"].to_numpy(float)
+
+
+def _has(table: pd.DataFrame, column: str) -> bool:
+    return column in table and np.isfinite(table[column].to_numpy(float)).any()
+
+
+def _errorbar(ax, table: pd.DataFrame, stem: str, label: str, marker: str = "o",
+              state: str = "residual") -> bool:
+    """Plot ``stem_state`` (with ``stem_state_std`` as error bars where it exists) against
+    the shape parameter; False when the column is missing."""
+    column = f"{stem}_{state}"
+    if not _has(table, column):
+        return False
+    std = table.get(f"{column}_std")
+    ax.errorbar(_x(table), table[column].to_numpy(float),
+                yerr=None if std is None else std.to_numpy(float), marker=marker,
+                capsize=3, label=label)
+    return True
+
+
+def _finish(figure: Figure, axes: Sequence, symbol: str) -> Figure:
+    for ax in axes:
+        ax.set_xlabel(symbol)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+    figure.tight_layout()
+    return figure
+
+
+def curves_figure(curves: dict[str, pd.DataFrame], labels: dict[str, str]) -> Figure | None:
+    """q/p, the volumetric strain eps_p and the packing fraction against eps_q, one line per
+    sample (seed 002 Figs. 5, 7; seed 003 Figs. 3, 5). ``curves``: each sample's shear rows
+    (from the end of the compaction, :func:`~grainlab.report.run_curves.shear_from_its_start`)."""
+    if not curves:
+        return None
+    figure, axes = new_figure_axes(1, 3, figsize=(13.0, 3.8))
+    for name, table in curves.items():
+        for ax, column in zip(axes, ("q_over_trace", "eps_vol", "packing_fraction"),
+                              strict=True):
+            if column in table:
+                ax.plot(table["eps_q"], table[column], label=labels.get(name, name), lw=1)
+    for ax, text in zip(axes, ("q/p", "$\\varepsilon_p$ (compression > 0)", "packing fraction"),
+                        strict=True):
+        ax.set_xlabel("$\\varepsilon_q$")
+        ax.set_ylabel(text)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7, ncol=2)
+    figure.tight_layout()
+    return figure
+
+
+def exponential_saturation(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float] | None:
+    """Least-squares fit of seed 002 eq. 12, y = y0 + (y1 - y0)(1 - exp(-x / x_c)); returns
+    (y0, y1, x_c) or None with fewer than four finite points or no convergence."""
+    from scipy.optimize import curve_fit
+
+    ok = np.isfinite(x) & np.isfinite(y)
+    x, y = x[ok], y[ok]
+    if x.size < 4 or np.ptp(x) <= 0.0:
+        return None
+
+    def model(x, y0, y1, xc):
+        return y0 + (y1 - y0) * (1.0 - np.exp(-x / xc))
+
+    try:
+        params, _ = curve_fit(model, x, y, p0=(y[np.argmin(x)], y.max(), 0.4 * np.ptp(x)),
+                              bounds=([-np.inf, -np.inf, 1e-6 * np.ptp(x)],
+                                      [np.inf, np.inf, 1e3 * np.ptp(x)]), maxfev=5000)
+    except (RuntimeError, ValueError):
+        return None
+    return float(params[0]), float(params[1]), float(params[2])
+
+
+def strength_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
+    """(q/p) at the peak and in the residual state; the friction angle phi* with seed 002 eq.
+    12's exponential fit (seed 002 Fig. 6; seed 003 Fig. 4)."""
+    if not _has(table, "q_over_trace_peak") and not _has(table, "q_over_trace_residual"):
+        return None
+    figure, (left, right) = new_figure_axes(1, 2, figsize=(10.0, 3.8))
+    if _has(table, "q_over_trace_peak"):
+        left.plot(_x(table), table["q_over_trace_peak"], "s-", label="peak $(q/p)^+$")
+    _errorbar(left, table, "q_over_trace", "residual $(q/p)^*$")
+    left.set_ylabel("q/p")
+    if _has(table, "phi_residual"):
+        phi = table["phi_residual"].to_numpy(float)
+        q = table["q_over_trace_residual"].to_numpy(float)
+        dq = table["q_over_trace_residual_std"].to_numpy(float)
+        # d phi / d (q/p) = 6 / ((2 + q)^2 cos phi)  (eq. 11), for the error bar
+        dphi = 6.0 / ((2.0 + q) ** 2 * np.cos(phi)) * dq
+        right.errorbar(_x(table), phi, yerr=dphi, marker="o", capsize=3,
+                       label="$\\varphi^*$ (eq. 11)")
+        fit = exponential_saturation(_x(table), phi)
+        if fit is not None:
+            y0, y1, xc = fit
+            xs = np.linspace(0.0, np.nanmax(_x(table)), 100)
+            right.plot(xs, y0 + (y1 - y0) * (1 - np.exp(-xs / xc)), "--",
+                       label=f"eq. 12: {y0:.3f} + ({y1:.3f} - {y0:.3f})"
+                             f"(1 - exp(-x/{xc:.3g}))")
+        right.set_ylabel("$\\varphi^*$ [rad]")
+    return _finish(figure, (left, right), symbol)
+
+
+def _initial_residual(table: pd.DataFrame, symbol: str, stems: Sequence[tuple[str, str]],
+                      ylabel: str) -> Figure | None:
+    if not any(_has(table, f"{s}_initial") or _has(table, f"{s}_residual") for s, _ in stems):
+        return None
+    figure, ax = new_figure_axes()
+    markers = "osD^v<>"
+    for k, (stem, label) in enumerate(stems):
+        if _has(table, f"{stem}_initial"):
+            ax.plot(_x(table), table[f"{stem}_initial"], markers[k % 7] + "--", mfc="none",
+                    label=f"{label} initial")
+        _errorbar(ax, table, stem, f"{label} residual", marker=markers[k % 7])
+    ax.set_ylabel(ylabel)
+    return _finish(figure, (ax,), symbol)
+
+
+def packing_fraction_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
+    """Packing fraction after the isotropic compaction and in the residual state (seed 002
+    Fig. 8: nu0, nu*; seed 003 Fig. 7: rho0, rho*)."""
+    return _initial_residual(table, symbol, (("packing_fraction", "packing fraction"),),
+                             "packing fraction")
+
+
+def connectivity_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
+    """Coordination z and connectivity z_c, initial and residual (seed 002 Fig. 10; seed 003
+    Fig. 9); the results table's z counts neighbours, z_c contact points (eq. 14)."""
+    return _initial_residual(table, symbol, (("z", "z"), ("z_c", "$z_c$")), "z, $z_c$")
+
+
+def contact_type_columns(table: pd.DataFrame) -> list[str]:
+    """The contact types with a proportion ``k_TYPE_residual`` or ``k_TYPE_initial``, in the
+    papers' order."""
+    found = {c[2:].rsplit("_", 1)[0] for c in table.columns
+             if c.startswith("k_") and c.endswith(("_residual", "_initial"))}
+    ordered = [t for t in CONTACT_TYPE_ORDER if t in found]
+    return ordered + sorted(found - set(ordered))
+
+
+def contact_types_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
+    """Proportions of the contact types, initial (left) and residual (right) (seed 002 Fig.
+    11: fv, ee, fe, ff; seed 003 Fig. 10: s, ds, d, t, q)."""
+    types = contact_type_columns(table)
+    if not types:
+        return None
+    figure, axes = new_figure_axes(1, 2, figsize=(10.0, 3.8), sharey=True)
+    for ax, state in zip(axes, ("initial", "residual"), strict=True):
+        for t in types:
+            _errorbar(ax, table, f"k_{t}", t, state=state)
+        ax.set_title(f"{state} state")
+        ax.set_ylabel("proportion")
+    return _finish(figure, axes, symbol)
+
+
+def anisotropies_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
+    """Fabric, branch-length and force anisotropies in the residual state (seed 002 Figs.
+    15-17; seed 003 Figs. 12-14, 16)."""
+    groups = (ANISOTROPIES[:2], ANISOTROPIES[2:5], ANISOTROPIES[5:])
+    if not any(_has(table, f"{s}_residual") for s, _ in ANISOTROPIES):
+        return None
+    figure, axes = new_figure_axes(1, 3, figsize=(13.0, 3.8))
+    titles = ("fabric", "branch lengths", "forces")
+    for ax, group, title in zip(axes, groups, titles, strict=True):
+        for stem, label in group:
+            _errorbar(ax, table, stem, label)
+        ax.set_title(title)
+    return _finish(figure, axes, symbol)
+
+
+def sliding_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
+    """Proportion of sliding contacts and the friction mobilisation index in the residual
+    state (seed 002 Fig. 19; seed 003 Figs. 17-18)."""
+    stems = (("sliding_proportion", "sliding proportion"),
+             ("mobilisation_index", "mobilisation index"))
+    if not any(_has(table, f"{s}_residual") for s, _ in stems):
+        return None
+    figure, ax = new_figure_axes()
+    for stem, label in stems:
+        _errorbar(ax, table, stem, label)
+    return _finish(figure, (ax,), symbol)
+
+
+def stress_dilatancy_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
+    """Residual q/p measured and predicted from the anisotropies (seed 002 eqs. 27a, 27b, B1;
+    Fig. 20)."""
+    if not any(_has(table, f"{s}_residual") for s, _ in STRESS_DILATANCY):
+        return None
+    figure, ax = new_figure_axes()
+    _errorbar(ax, table, "q_over_trace", "measured")
+    for stem, label in STRESS_DILATANCY:
+        _errorbar(ax, table, stem, label, marker="s")
+    ax.set_ylabel("$(q/p)^*$")
+    return _finish(figure, (ax,), symbol)
+
+
+def partial_strength_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
+    """Residual q/p carried by each contact type (partial stresses; seed 002 Figs. 22-24,
+    seed 003 Figs. 22-23)."""
+    types = [t for t in contact_type_columns(table)
+             if _has(table, f"q_over_trace_{t}_residual")]
+    if not types:
+        return None
+    figure, ax = new_figure_axes()
+    for t in types:
+        _errorbar(ax, table, f"q_over_trace_{t}", t)
+    ax.set_ylabel("partial $(q/p)^*$")
+    return _finish(figure, (ax,), symbol)
+
+
+STUDY_FIGURES = (
+    ("strength", strength_figure, "Shear strength"),
+    ("packing_fraction", packing_fraction_figure, "Packing fraction"),
+    ("connectivity", connectivity_figure, "Coordination and connectivity"),
+    ("contact_types", contact_types_figure, "Contact types"),
+    ("anisotropies", anisotropies_figure, "Anisotropies"),
+    ("sliding", sliding_figure, "Friction mobilisation"),
+    ("stress_dilatancy", stress_dilatancy_figure, "Strength from the anisotropies"),
+    ("partial_strength", partial_strength_figure, "Strength by contact type"),
+)
+"""The figures against the shape parameter, in the report's order: (file stem, function,
+title)."""
+
+
+def finite(value: float) -> bool:
+    """Whether a summary value can be printed as a number."""
+    return value is not None and isinstance(value, int | float) and math.isfinite(value)

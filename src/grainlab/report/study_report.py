@@ -1,0 +1,169 @@
+"""The report of a study: ``report/report.md`` in the study folder with its figures as PNG
+files beside it, readable without grainlab (any Markdown viewer, or as plain text).
+
+It holds: what the study is (series, protocol, window), a table of every sample (its outcome
+and cost, the peak and residual values with their standard deviations over the window), the
+papers' values for the same series where the study is one of the presets, the figures of
+:mod:`grainlab.report.study_figures`, and radial-force networks of the first, middle and last
+sample at the end of their runs (seed 002 Figs. 12, 18, 21).
+"""
+
+from __future__ import annotations
+
+import math
+from datetime import UTC, datetime
+from pathlib import Path
+
+import pandas as pd
+
+from grainlab.report.curves import save_figure
+from grainlab.report.study_figures import STUDY_FIGURES, curves_figure, finite
+
+REPORT = "report"
+
+PAPERS = {
+    "mean_angularity": (
+        "Azéma, Radjaï & Dubois 2013 (seed 002), 40 000 particles: (q/p)* rises from about "
+        "0.2 (spheres) and saturates near 0.4; (q/p) at the peak rises to a maximum near "
+        "<alpha> = 0.5 then falls; phi* follows eq. 12 with alpha_c ~ 0.4; nu0 peaks near "
+        "<alpha> = 0.5, nu* falls from 0.58 to 0.54; z0 about 6 for spheres and z_c0 about 12 "
+        "for polyhedra; residual z from 4 to 5.5 and z_c from 4 to 7; sliding proportion up "
+        "to 0.6."),
+    "eta": (
+        "Azéma, Radjaï, Saint-Cyr, Delenne & Sornay 2013 (seed 003), 12 000 aggregates: "
+        "(q/p)* and sin phi* rise with eta at a decreasing rate; rho0 peaks near eta = 0.3 "
+        "(about 0.70); rho* falls to about 0.55 at eta = 0.7; Z_c0 jumps from 6 (spheres) to "
+        "about 12; residual Z_c from 3.5 to 5.5; a_c from 0.2 to about 0.3 and a'_c to 0.36 "
+        "beyond eta = 0.4; the sliding proportion S from 0.23 to 0.7."),
+}
+"""What the papers report for the preset series (keyed by the study's parameter)."""
+
+COLUMNS = (
+    ("value", "parameter", "{:.3g}"), ("measured", "measured", "{:.3g}"),
+    ("status", "outcome", "{}"), ("wall_time", "wall time [s]", "{:.0f}"),
+    ("capped_share", "capped steps", "{:.0%}"),
+    ("q_over_trace_peak", "(q/p)+", "{:.3f}"), ("q_over_trace_residual", "(q/p)*", "pm"),
+    ("phi_residual", "phi* [rad]", "{:.3f}"),
+    ("packing_fraction_initial", "nu0", "{:.3f}"), ("packing_fraction_residual", "nu*", "pm"),
+    ("z_initial", "z0", "{:.2f}"), ("z_residual", "z*", "pm"),
+    ("z_c_initial", "z_c0", "{:.2f}"), ("z_c_residual", "z_c*", "pm"),
+    ("a_c_residual", "a_c*", "pm"), ("sliding_proportion_residual", "sliding*", "pm"),
+)
+"""The report's table: summary column, heading, format ("pm": mean ± std)."""
+
+
+def _cell(row: pd.Series, column: str, fmt: str) -> str:
+    if column not in row or row[column] is None:
+        return "-"
+    value = row[column]
+    if fmt == "{}":
+        return str(value)
+    if not finite(float(value)):
+        return "-"
+    if fmt == "pm":
+        std = row.get(f"{column}_std", math.nan)
+        return f"{value:.3f} ± {std:.3f}" if finite(float(std)) else f"{value:.3f}"
+    return fmt.format(value)
+
+
+def summary_markdown(table: pd.DataFrame) -> str:
+    """The report's table of samples (Markdown)."""
+    columns = [c for c in COLUMNS if c[0] in table]
+    lines = ["| sample | " + " | ".join(h for _, h, _ in columns) + " |",
+             "|---" * (len(columns) + 1) + "|"]
+    for _, row in table.iterrows():
+        cells = [_cell(row, c, f) for c, _, f in columns]
+        lines.append(f"| {row['name']} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def write_study_report(study, table: pd.DataFrame) -> Path:
+    """Write the study's figures and ``report/report.md`` (module docstring) from its summary
+    table (:func:`~grainlab.study.study_summary.study_summary`); returns the report's path."""
+    from grainlab.lab.discrete_run import RESULTS_H5
+    from grainlab.report.run_curves import shear_from_its_start
+    from grainlab.result.test_result import read_test_result
+
+    spec = study.spec
+    out = study.folder / REPORT
+    out.mkdir(exist_ok=True)
+    symbol = spec.symbol
+    labels = {r["name"]: f"{r['name']} ({symbol} = {r['measured']:.3g})"
+              for _, r in table.iterrows()}
+    curves = {}
+    for name in table["name"]:
+        result = read_test_result(study.sample_folder(name) / RESULTS_H5)
+        curves[name] = shear_from_its_start(result.table)
+    figures: list[tuple[str, str]] = []
+    figure = curves_figure(curves, labels)
+    if figure is not None:
+        save_figure(figure, out / "curves.png")
+        figures.append(("Stress, volume change and packing fraction against eps_q",
+                        "curves.png"))
+    for stem, make, title in STUDY_FIGURES:
+        figure = make(table, symbol)
+        if figure is not None:
+            save_figure(figure, out / f"{stem}.png")
+            figures.append((title, f"{stem}.png"))
+    networks = _force_networks(study, table, out)
+    lo, hi = spec.study.window
+    total = float(pd.to_numeric(table["wall_time"], errors="coerce").sum())
+    text = [
+        f"# Study: {spec.study.name}", "",
+        spec.study.description or "", "",
+        f"- samples: {len(spec.samples)} ({len(table)} ended)",
+        f"- shape parameter: {symbol} (`{spec.study.parameter}`)",
+        f"- residual window: eps_q in [{lo:g}, {hi:g}]; residual values are the mean ± the "
+        "standard deviation (population) of the recorded rows, or of the snapshots for the "
+        "microstructure, in the window",
+        f"- wall time of the runs: {total:.0f} s in all",
+        f"- written {datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}", "",
+        "## Samples", "", summary_markdown(table), "",
+    ]
+    notes = [f"- {r['name']}: {r['note']}" for _, r in table.iterrows() if r.get("note")]
+    late = [f"- {r['name']}: outcome {r['status']}" for _, r in table.iterrows()
+            if not r.get("as_asked", True)]
+    if notes or late:
+        text += ["Samples to read with care:", "", *notes, *late, ""]
+    if spec.study.parameter in PAPERS:
+        text += ["## The papers' values", "", PAPERS[spec.study.parameter], "",
+                 f"The samples here hold {int(table['n_particles'].max())} particles at most, "
+                 "in a box of walls a few tens of diameters wide: the walls order the "
+                 "particles next to them (the packing fraction and z include that layer), "
+                 "and the residual values fluctuate more than in the papers' boxes (the error "
+                 "bars), so trends are to be compared, not the third decimal.", ""]
+    text += ["## Figures", ""]
+    for title, name in figures + networks:
+        text += [f"### {title}", "", f"![{title}]({name})", ""]
+    text += ["The full table (every column, with standard deviations) is `summary.csv` in the "
+             "study folder; each sample's run folder is `samples/NAME/` (results.csv, "
+             "snapshots.h5, run.log).", ""]
+    path = out / "report.md"
+    path.write_text("\n".join(text), encoding="utf-8")
+    return path
+
+
+def _force_networks(study, table: pd.DataFrame, out: Path) -> list[tuple[str, str]]:
+    """Radial-force networks of the last snapshot of the first, middle and last sample."""
+    from grainlab.analysis.snapshot_files import count_snapshots, read_snapshots
+    from grainlab.lab.discrete_run import SNAPSHOTS
+    from grainlab.report.microstructure_figures import force_network_figure
+
+    names = list(table["name"])
+    picked = list(dict.fromkeys([names[0], names[len(names) // 2], names[-1]]))
+    figures = []
+    for name in picked:
+        path = study.sample_folder(name) / SNAPSHOTS
+        if not path.exists() or count_snapshots(path) == 0:
+            continue
+        last = None
+        for last in read_snapshots(path):
+            pass
+        if last is None or last.n_pairs == 0:
+            continue
+        figure = force_network_figure(last, color_by="type")
+        file = f"force_network_{name}.png"
+        save_figure(figure, out / file)
+        eps = last.state.get("eps_q", math.nan)
+        figures.append((f"Radial forces, {name}, eps_q = {eps:.2f}", file))
+    return figures

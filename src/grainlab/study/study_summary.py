@@ -1,0 +1,136 @@
+"""One row per sample of a study: the shape parameter, the initial (isotropic) state, the peak
+and the residual state averaged over the study's window with its standard deviation (seeds
+002 and 003 draw these as error bars).
+
+Columns (SI, dimensionless unless stated):
+
+* ``name``, ``value`` (the shape parameter as the study gives it), ``measured`` (the sample's
+  measured parameter where its description has one: the mean angularity <alpha> [rad] of
+  polyhedra; else ``value``), ``shape``, ``n_particles``;
+* ``status``, ``as_asked``, ``wall_time`` [s], ``steps``, ``capped_share`` (steps ended at
+  the solver's cap / steps), ``eps_q_end`` (the largest eps_q reached);
+* the macroscopic state: for X in q_over_trace (the papers' q/p, q = (sigma_1 - sigma_3)/3
+  and p the mean stress: :mod:`grainlab.result.columns`), sin_phi, packing_fraction, z, z_c,
+  eps_vol:
+  ``X_initial`` (end of the isotropic compaction), ``X_residual`` and ``X_residual_std``
+  (mean and population standard deviation of the recorded rows with eps_q in the window),
+  and ``q_over_trace_peak``, ``eps_q_peak``;
+* ``phi_residual`` [rad]: the internal angle of friction of seed 002 eq. 11, sin phi* =
+  3 (q/p)* / (2 + (q/p)*), from the residual mean of q/p;
+* the microstructure (:mod:`grainlab.analysis.window_average`): ``M_initial`` from the
+  snapshot nearest the end of the compaction and ``M_residual``, ``M_residual_std`` over the
+  snapshots in the window, for every scalar descriptor M of the snapshot analysis.
+
+A row is written for an ended sample only; a sample whose run did not reach the window has
+NaN residual values and says so in ``note``.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from grainlab.lab.discrete_run import RESULTS_H5, SNAPSHOTS
+from grainlab.report.run_curves import shear_from_its_start
+from grainlab.result.test_result import read_test_result
+from grainlab.study.sample_task import sample_state
+
+MACRO = ("q_over_trace", "sin_phi", "packing_fraction", "z", "z_c", "eps_vol")
+"""The results-table columns of the summary's macroscopic state."""
+
+SUMMARY = "summary.csv"
+
+
+def friction_angle(q_over_p: float) -> float:
+    """Internal angle of friction phi [rad] of a triaxial test from the papers' q/p (q =
+    (sigma_1 - sigma_3)/3; seed 002 eq. 11): sin phi = 3 (q/p) / (2 + q/p)."""
+    s = 3.0 * q_over_p / (2.0 + q_over_p)
+    return math.asin(s) if -1.0 <= s <= 1.0 else math.nan
+
+
+def sample_row(folder: str | Path, window: tuple[float, float], value: float,
+               microstructure: bool = True) -> dict[str, Any]:
+    """The summary row of the ended run in ``folder`` (module docstring)."""
+    folder = Path(folder)
+    result = read_test_result(folder / RESULTS_H5)
+    specimen, outcome = result.specimen, result.outcome
+    cost = result.metadata.get("cost", {})
+    table = shear_from_its_start(result.table)
+    lo, hi = window
+    row: dict[str, Any] = {
+        "name": folder.name, "value": value,
+        "measured": float(specimen.get("mean_angularity", value)),
+        "shape": specimen.get("shape", ""), "n_particles": specimen.get("n_particles"),
+        "status": outcome.get("status", ""), "as_asked": bool(outcome.get("as_asked")),
+        "wall_time": cost.get("wall_time", math.nan), "steps": outcome.get("steps"),
+        "capped_share": _capped_share(outcome),
+        "eps_q_end": float(table["eps_q"].max()) if len(table) else math.nan, "note": ""}
+    in_window = table[(table["eps_q"] >= lo) & (table["eps_q"] <= hi)] if len(table) else table
+    for column in MACRO:
+        values = table[column].to_numpy(float) if column in table else np.array([])
+        row[f"{column}_initial"] = float(values[0]) if values.size else math.nan
+        window_values = in_window[column].to_numpy(float) if column in in_window else values[:0]
+        row[f"{column}_residual"] = float(np.mean(window_values)) if window_values.size \
+            else math.nan
+        row[f"{column}_residual_std"] = float(np.std(window_values)) if window_values.size \
+            else math.nan
+    if len(table):
+        k = int(np.argmax(table["q_over_trace"].to_numpy(float)))
+        row["q_over_trace_peak"] = float(table["q_over_trace"].iloc[k])
+        row["eps_q_peak"] = float(table["eps_q"].iloc[k])
+    else:
+        row["q_over_trace_peak"] = row["eps_q_peak"] = math.nan
+    row["phi_residual"] = friction_angle(row["q_over_trace_residual"])
+    if not len(in_window):
+        row["note"] = (f"the run reached eps_q = {row['eps_q_end']:.3g}, not the window "
+                       f"[{lo:g}, {hi:g}]")
+    if microstructure and (folder / SNAPSHOTS).exists():
+        row.update(_microstructure(folder / SNAPSHOTS, window))
+    return row
+
+
+def _capped_share(outcome: dict[str, Any]) -> float:
+    steps = sum(s.get("steps", 0) for s in outcome.get("stages", []))
+    capped = sum(s.get("capped_steps", 0) or 0 for s in outcome.get("stages", []))
+    return capped / steps if steps else math.nan
+
+
+def _microstructure(snapshots: Path, window: tuple[float, float]) -> dict[str, float]:
+    """``M_initial``, ``M_residual`` and ``M_residual_std`` of every scalar descriptor (module
+    docstring); {} when the file has no snapshot to use."""
+    from grainlab.analysis.window_average import initial_state, window_average
+    from grainlab.errors import InputError
+
+    out: dict[str, float] = {}
+    try:
+        initial = initial_state(snapshots)
+    except InputError:
+        initial = {}
+    for name, value in initial.items():
+        out[f"{name}_initial"] = value
+    try:
+        averages = window_average(snapshots, window)
+    except InputError:
+        return out
+    for name, (mean, std) in averages.scalar_pairs().items():
+        out[f"{name}_residual"] = mean
+        out[f"{name}_residual_std"] = std
+    return out
+
+
+def study_summary(study, microstructure: bool = True) -> pd.DataFrame:
+    """The summary table of a :class:`~grainlab.study.study_runner.Study`: a row per ended
+    sample, in the study's order; written to ``summary.csv`` in the study folder."""
+    rows = []
+    for sample in study.spec.samples:
+        folder = study.sample_folder(sample.name)
+        if sample_state(folder) != "ended":
+            continue
+        rows.append(sample_row(folder, study.spec.study.window, sample.value, microstructure))
+    table = pd.DataFrame(rows)
+    table.to_csv(study.folder / SUMMARY, index=False)
+    return table

@@ -1,0 +1,92 @@
+"""Study figures: seed 002 eq. 12's fit, eq. 11's friction angle, the figures and the report
+table from a summary table made by hand."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from grainlab.report.study_figures import (
+    STUDY_FIGURES,
+    contact_type_columns,
+    exponential_saturation,
+)
+from grainlab.report.study_report import summary_markdown
+from grainlab.study.study_summary import friction_angle
+
+
+def test_exponential_fit_recovers_equation_12():
+    # seed 002: phi* = phi0 + (phi1 - phi0)(1 - exp(-alpha / alpha_c)), alpha_c ~ 0.4
+    alpha = np.array([0.0, 0.135, 0.248, 0.339, 0.496, 0.631, 0.772, 1.181])
+    phi = 0.3 + (0.5 - 0.3) * (1.0 - np.exp(-alpha / 0.4))
+    y0, y1, xc = exponential_saturation(alpha, phi)
+    assert (y0, y1, xc) == pytest.approx((0.3, 0.5, 0.4), rel=1e-6)
+
+
+def test_exponential_fit_needs_four_points():
+    assert exponential_saturation(np.array([0.0, 0.1, 0.2]), np.array([1.0, 2.0, 3.0])) is None
+
+
+@pytest.mark.parametrize(("s1", "s3"), [(3.0, 1.0), (2.0, 1.0), (1.0, 1.0), (5.0, 2.0)])
+def test_friction_angle_is_mohr_coulomb_for_triaxial_stresses(s1, s3):
+    # q/p of the seeds: q = (s1 - s3)/3, p = (s1 + 2 s3)/3; Mohr-Coulomb: sin phi =
+    # (s1 - s3)/(s1 + s3)
+    q_over_p = (s1 - s3) / (s1 + 2.0 * s3)
+    assert friction_angle(q_over_p) == pytest.approx(math.asin((s1 - s3) / (s1 + s3)),
+                                                     abs=1e-14)
+
+
+def summary_by_hand(with_micro: bool) -> pd.DataFrame:
+    x = np.array([0.0, 0.2, 0.4, 0.6])
+    table = pd.DataFrame({
+        "name": ["A", "B", "C", "D"], "value": x, "measured": x, "status": "as asked",
+        "as_asked": True, "wall_time": [1.0, 2.0, 3.0, 4.0], "capped_share": 0.1,
+        "n_particles": 60,
+        "q_over_trace_peak": [0.3, 0.4, 0.45, 0.5],
+        "q_over_trace_residual": [0.2, 0.3, 0.35, 0.37],
+        "q_over_trace_residual_std": [0.01, 0.02, 0.02, 0.03],
+        "packing_fraction_initial": [0.64, 0.66, 0.67, 0.65],
+        "packing_fraction_residual": [0.60, 0.59, 0.58, 0.57],
+        "packing_fraction_residual_std": 0.005,
+        "z_initial": 6.0, "z_residual": 4.0, "z_residual_std": 0.1,
+        "z_c_initial": [6.0, 12.0, 12.0, 12.0], "z_c_residual": 4.5, "z_c_residual_std": 0.2,
+    })
+    table["phi_residual"] = [friction_angle(q) for q in table["q_over_trace_residual"]]
+    if with_micro:
+        for t in ("s", "ds", "d"):
+            table[f"k_{t}_initial"] = 1 / 3
+            table[f"k_{t}_residual"] = 1 / 3
+            table[f"k_{t}_residual_std"] = 0.01
+            table[f"q_over_trace_{t}_residual"] = 0.1
+        for stem in ("a_c", "a_c_branch", "a_fn", "a_ft", "sliding_proportion",
+                     "q_over_trace_27a"):
+            table[f"{stem}_residual"] = 0.2
+            table[f"{stem}_residual_std"] = 0.01
+    return table
+
+
+def test_every_figure_is_drawn_from_a_full_summary():
+    table = summary_by_hand(with_micro=True)
+    assert contact_type_columns(table) == ["s", "ds", "d"]
+    for stem, make, _ in STUDY_FIGURES:
+        figure = make(table, "eta")
+        assert figure is not None, stem
+        assert any(ax.has_data() for ax in figure.axes), stem
+
+
+def test_microstructure_figures_are_left_out_without_snapshots():
+    table = summary_by_hand(with_micro=False)
+    drawn = {stem for stem, make, _ in STUDY_FIGURES if make(table, "eta") is not None}
+    assert drawn == {"strength", "packing_fraction", "connectivity"}
+
+
+def test_report_table_gives_mean_and_standard_deviation():
+    text = summary_markdown(summary_by_hand(with_micro=False))
+    rows = [line for line in text.splitlines() if line.startswith("| B |")]
+    assert len(rows) == 1
+    assert "0.300 ± 0.020" in rows[0]  # (q/p)* of B
+    assert "0.590 ± 0.005" in rows[0]  # nu* of B
+    assert "10%" in rows[0]

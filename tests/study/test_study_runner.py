@@ -1,0 +1,108 @@
+"""A study of tiny samples on a local Dask cluster: it runs end to end, survives a worker
+killed mid-run, and an interrupted study goes on without rerunning the samples that ended."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import h5py
+import numpy as np
+import pytest
+
+from grainlab.errors import InputError
+from grainlab.lab.discrete_run import RESULTS_H5
+from grainlab.lab.run_checkpoint import CHECKPOINT
+from grainlab.report.study_report import write_study_report
+from grainlab.study import study_runner
+from grainlab.study.study_runner import Study, StudyInterrupted
+from grainlab.study.study_spec import StudySpec
+from grainlab.study.study_summary import study_summary
+
+pytestmark = pytest.mark.long
+
+
+def tiny_spec(names=("a", "b")) -> StudySpec:
+    return StudySpec.model_validate({
+        "study": {"name": "tiny", "parameter": "eta", "window": [0.1, 0.2]},
+        "base": {"sample": {"n_particles": 30, "seed": 3, "size_ratio": 3.0},
+                 "test": {"eps_q_max": 0.2},
+                 "output": {"snapshot_every": 25, "checkpoint_every": 10}},
+        "samples": [{"name": n, "value": 0.1 * k, "set": {"sample": {"seed": 3 + k}}}
+                    for k, n in enumerate(names)]})
+
+
+def results_stamp(study: Study, name: str) -> tuple[int, int]:
+    stat = os.stat(study.sample_folder(name) / RESULTS_H5)
+    return stat.st_mtime_ns, stat.st_ino
+
+
+def test_worker_killed_mid_run_resumes_and_ended_samples_are_not_rerun(tmp_path, monkeypatch):
+    # the study looks at its samples every 0.05 s: a sample says it runs from its first
+    # record, with a checkpoint every 10 steps, for hundreds of steps
+    monkeypatch.setattr(study_runner, "DISPLAY_PERIOD", 0.05)
+    study = Study.create(tmp_path / "s", tiny_spec())
+    killed: list[int] = []
+
+    def kill_once(progress):
+        a = progress["a"]
+        if killed or a.get("state") != "running":
+            return
+        if (study.sample_folder("a") / CHECKPOINT).exists():
+            killed.append(a["pid"])
+            os.kill(a["pid"], signal.SIGKILL)
+
+    outcome = study.run(workers=2, progress=False, on_update=kill_once)
+    assert killed, "the test never saw sample a running with a checkpoint"
+    assert outcome.complete and sorted(outcome.ran) == ["a", "b"]
+    assert "a" in outcome.resumed
+    assert "resumed from" in (study.sample_folder("a") / "run.log").read_text()
+    with h5py.File(study.sample_folder("a") / RESULTS_H5) as f:
+        assert f.attrs["outcome_status"] == "as asked"
+    stamps = {n: results_stamp(study, n) for n in ("a", "b")}
+    again = Study.create(tmp_path / "s", tiny_spec()).run(progress=False)
+    assert sorted(again.skipped) == ["a", "b"] and not again.ran
+    assert {n: results_stamp(study, n) for n in ("a", "b")} == stamps
+
+    table = study_summary(study)
+    assert list(table["name"]) == ["a", "b"]
+    assert np.all(table["eps_q_end"] >= 0.2)
+    assert np.all(np.isfinite(table["q_over_trace_residual"]))
+    report = write_study_report(study, table)
+    text = report.read_text()
+    assert "| a |" in text and "| b |" in text
+    for line in text.splitlines():
+        if line.startswith("!["):
+            assert (report.parent / line.split("(")[-1].rstrip(")")).exists()
+
+
+def test_interrupted_study_goes_on_where_it_stopped(tmp_path):
+    study = Study.create(tmp_path / "s", tiny_spec(("a", "b")))
+
+    def interrupt_after_a(progress):
+        if progress["a"].get("state") == "ended" and progress["b"].get("state") == "running":
+            raise KeyboardInterrupt
+
+    with pytest.raises(StudyInterrupted):
+        study.run(workers=1, progress=False, on_update=interrupt_after_a)
+    states = study.states()
+    assert states["a"] == "ended"
+    assert states["b"] in ("partial", "started", "new")
+    stamp = results_stamp(study, "a")
+    # go on, this time on a cluster the user started (its scheduler's address)
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster:
+        outcome = study.run(scheduler=cluster.scheduler_address, progress=False)
+    assert outcome.skipped == ["a"] and outcome.ran == ["b"]
+    assert results_stamp(study, "a") == stamp
+    assert study.states() == {"a": "ended", "b": "ended"}
+
+
+def test_a_folder_holding_another_study_is_refused(tmp_path):
+    Study.create(tmp_path / "s", tiny_spec())
+    with pytest.raises(InputError) as caught:
+        Study.create(tmp_path / "s", tiny_spec(("a", "c")))
+    assert caught.value.field == "study folder"
+    assert "samples" in caught.value.allowed

@@ -1,0 +1,90 @@
+"""Study files: validation names the key, presets are the papers' series."""
+
+from __future__ import annotations
+
+import pytest
+
+from grainlab.errors import InputError
+from grainlab.geometry.polyhedron import TABLE_I
+from grainlab.study.series_presets import ETAS, series_spec
+from grainlab.study.study_spec import StudySpec
+
+BASE = {"sample": {"n_particles": 40}, "test": {"eps_q_max": 0.2}}
+
+
+def spec(samples, **study):
+    header = {"name": "s", "parameter": "eta", "window": [0.1, 0.2], **study}
+    return StudySpec.model_validate({"study": header, "base": BASE, "samples": samples})
+
+
+def test_sample_config_is_base_with_its_keys_over_it():
+    s = spec([{"name": "a", "value": 0.3,
+               "set": {"sample": {"shape": "aggregate", "eta": 0.3}}},
+              {"name": "b", "value": 0.0}])
+    a, b = s.sample_config("a"), s.sample_config("b")
+    assert (a.sample.shape, a.sample.eta, a.sample.n_particles) == ("aggregate", 0.3, 40)
+    assert (b.sample.shape, b.test.eps_q_max) == ("sphere", 0.2)
+
+
+def test_round_trip_through_toml(tmp_path):
+    s = series_spec("nonconvexity", n_particles=30)
+    path = s.write(tmp_path / "study.toml")
+    assert StudySpec.read(path) == s
+
+
+@pytest.mark.parametrize(("samples", "study", "field"), [
+    ([{"name": "a", "value": 0, "set": {"sample": {"eta": 5.0}}}], {}, "samples[0].set.sample.eta"),
+    ([{"name": "a", "value": 0, "set": {"sample": {"n_particle": 5}}}], {},
+     "samples[0].set.sample.n_particle"),
+    ([{"name": "a", "value": 0}, {"name": "a", "value": 1}], {}, "samples[1].name"),
+    ([{"name": "../a", "value": 0}], {}, "samples[0].name"),
+    ([{"name": "a", "value": 0}], {"window": [0.3, 0.2]}, "study.window"),
+    ([], {}, "samples"),
+])
+def test_bad_input_names_the_key(samples, study, field):
+    with pytest.raises(InputError) as caught:
+        spec(samples, **study)
+    assert caught.value.field == field
+
+
+def test_bad_base_key_is_named_in_base():
+    with pytest.raises(InputError) as caught:
+        StudySpec.model_validate({"study": {"name": "s"}, "base": {"test": {"sigma0": -1}},
+                                  "samples": [{"name": "a", "value": 0}]})
+    assert caught.value.field == "base.test.sigma0"
+
+
+def test_angularity_preset_is_table_one():
+    s = series_spec("angularity", n_particles=50, length="full")
+    assert s.names == [f"S{k}" for k in range(1, 9)]
+    faces = [s.sample_config(n).sample.n_faces for n in s.names[1:]]
+    assert faces == [596, 176, 96, 46, 30, 20, 8]
+    assert [x.value for x in s.samples[1:]] == [TABLE_I[f] for f in faces]
+    config = s.sample_config("S5")
+    assert config.sample.preparation == "deposition"
+    assert (config.sample.size_ratio, config.sample.templates) == (2.0, 0)
+    assert (config.solver.compaction.friction, config.solver.shear.friction) == (0.0, 0.4)
+    assert config.sample.wall_friction == 0.0
+    assert config.solver.shear.inertia_number == 1e-3
+    assert (config.test.eps_q_max, s.study.window) == (0.9, (0.6, 0.9))
+
+
+def test_nonconvexity_preset_is_seed_003():
+    s = series_spec("nonconvexity", length="full")
+    configs = [s.sample_config(n) for n in s.names]
+    assert [c.sample.shape for c in configs] == ["sphere"] + ["aggregate"] * 7
+    assert [c.sample.eta for c in configs[1:]] == list(ETAS[1:])
+    assert all(c.sample.size_ratio == 3.0 for c in configs)
+    assert all(c.sample.n_particles == 1000 for c in configs)
+    assert s.study.window == (0.5, 0.9)
+    # one skeleton per series: every sample has the same seed and sizes
+    assert len({(c.sample.seed, c.sample.d_min, c.sample.size_ratio) for c in configs}) == 1
+
+
+def test_unknown_series_and_length():
+    with pytest.raises(InputError) as caught:
+        series_spec("elongation")
+    assert caught.value.field == "series"
+    with pytest.raises(InputError) as caught:
+        series_spec("angularity", length="long")
+    assert caught.value.field == "length"
