@@ -8,11 +8,13 @@ makers of :mod:`grainlab.prep.sample_shapes` scale each shape about its centre o
 that max |v| = R_i over the vertices v of a polyhedron (body frame, origin at the centre of
 mass) and max(|c_k| + r_k) = R_i over the member spheres of an aggregate (the tetrahedral
 aggregate's centre of mass is its centre). Every point of particle i is thus within R_i of
-c_i, whatever the orientation: particles inscribed in non-overlapping spheres do not overlap.
-(For a seed 002 polyhedron this sphere about the centre of mass is up to ~1 % larger than its
-generating sphere, so the polyhedron is that much smaller than one inscribed in its smallest
-enclosing sphere.) Orientations are uniform on SO(3) (:func:`~grainlab.prep.loose_sample.
-random_orientations`); spheres keep the identity.
+c_i, whatever the orientation: particles inscribed in non-overlapping spheres do not
+overlap. (For a seed 002 polyhedron this sphere about the centre of mass is somewhat larger
+than the sphere its vertices were drawn on, whose centre is off the centre of mass by up to
+~10 % of the radius for n_f = 8, so the polyhedron is that much smaller than one inscribed
+with its generating sphere on the skeleton's sphere; the centre of mass is what the engine
+places.) Orientations are uniform on SO(3)
+(:func:`~grainlab.prep.loose_sample.random_orientations`); spheres keep the identity.
 
 Shared skeleton. The random numbers of a sample come from two independent streams spawned
 from its seed (:func:`sample_streams`): the first makes the skeleton (sizes and drops of the
