@@ -4,9 +4,9 @@ grainlab's kernels are compiled by Numba on their first call and cached on disk 
 for every later process; on two cores the first discrete run spends one to two minutes
 compiling. This command runs tiny versions of every kind of work once, so that the compilation
 happens now, with a message, instead of inside a user's first test, and can be split over
-processes: ``--part discrete`` (contact dynamics of the sphere-based shape kinds, spheres and
-aggregates, sample measures, snapshots, microstructure analysis, ParaView export, the solvers
-of the plain contact problem),
+processes: ``--part discrete`` (contact dynamics of the sphere-based shape kinds, spheres
+and aggregates, the deposition of dense samples, sample measures, snapshots, microstructure
+analysis, ParaView export, the solvers of the plain contact problem),
 ``--part polyhedra`` (the kinds of the polyhedron family: contact geometry and dynamics;
 :data:`FAMILY_PARTS`), ``--part theories`` (the regular-packing and micro-element
 models) and ``--part dem`` (the soft-contact solver, in a box of walls and in a periodic
@@ -81,10 +81,13 @@ def _kinds_of(part: str) -> tuple[ShapeKind, ...]:
 
 def _discrete_runs(folder: Path) -> None:
     """Each sphere-based kind with the serial sweep, the first also with the coloured one;
-    then the analyses and the ParaView export of the first."""
+    then the analyses and the ParaView export of the first; the sample deposition."""
     from grainlab.analysis.snapshot_files import read_snapshots
     from grainlab.analysis.trajectory import TrajectoryAnalysis
     from grainlab.lab.discrete_run import export_checkpoint_vtk, start_run
+    from grainlab.prep.deposition import deposited_packing
+
+    deposited_packing(n_particles=20, d_min=1e-3, seed=1)
 
     kinds = _kinds_of("discrete")
     runs = [(kind, "serial") for kind in kinds] + [(kinds[0], "coloured")]

@@ -77,7 +77,9 @@ from grainlab.lab.run_checkpoint import (
 from grainlab.lab.run_config import CHANGEABLE_ON_RESUME, RunConfig, parse_assignments
 from grainlab.lab.run_outcome import RunCost, RunOutcome
 from grainlab.lab.wall_stages import QuasiStaticCriteria, wall_stages
+from grainlab.prep.inscribed_sample import deposited_sample, inscribed_sample
 from grainlab.prep.loose_sample import loose_sample
+from grainlab.prep.sphere_skeleton import read_skeleton
 from grainlab.result.test_result import TestResult
 
 __all__ = ["CHECKPOINT", "PREVIOUS_CHECKPOINT", "DiscreteRun", "RunCannotGoOn",
@@ -126,17 +128,40 @@ def _logger(folder: Path) -> logging.Logger:
 
 
 def build_sample(config: RunConfig) -> DiscreteSample:
-    """The loose random sample of ``config.sample``."""
+    """The sample of ``config.sample``: loose, inscribed in a deposited sphere packing or in
+    the spheres of a skeleton file (``sample.preparation``)."""
     s = config.sample
     try:
-        return loose_sample(shape=s.shape, n_particles=s.n_particles, d_min=s.d_min,
-                            size_ratio=s.size_ratio, eta=s.eta, n_faces=s.n_faces,
-                            templates=s.templates, density=s.density,
-                            packing_fraction=s.packing_fraction,
-                            aspect=(1.0, 1.0, s.height_ratio),
-                            wall_friction=s.wall_friction, seed=s.seed, boundary=s.boundary)
+        if s.preparation == "loose":
+            return loose_sample(shape=s.shape, n_particles=s.n_particles, d_min=s.d_min,
+                                size_ratio=s.size_ratio, eta=s.eta, n_faces=s.n_faces,
+                                templates=s.templates, density=s.density,
+                                packing_fraction=s.packing_fraction,
+                                aspect=(1.0, 1.0, s.height_ratio),
+                                wall_friction=s.wall_friction, seed=s.seed,
+                                boundary=s.boundary)
+        if s.boundary != "walls":
+            raise InputError("preparation", s.preparation,
+                             '"loose" with boundary = "periodic" (a deposition fills a box '
+                             'of walls on a floor; use boundary = "walls")')
+        shapes = {"shape": s.shape, "eta": s.eta, "n_faces": s.n_faces,
+                  "templates": s.templates, "density": s.density,
+                  "wall_friction": s.wall_friction, "seed": s.seed}
+        if s.preparation == "deposition":
+            return deposited_sample(n_particles=s.n_particles, d_min=s.d_min,
+                                    size_ratio=s.size_ratio, height_ratio=s.height_ratio,
+                                    **shapes)
+        if not s.skeleton_file:
+            raise InputError("skeleton_file", s.skeleton_file,
+                             'the path of a .npz or .csv file of spheres (preparation = '
+                             '"file")')
+        sample = inscribed_sample(read_skeleton(s.skeleton_file, field="skeleton_file"),
+                                  **shapes)
+        sample.description.update({"preparation": "file", "skeleton_file": s.skeleton_file})
+        return sample
     except InputError as error:
-        if error.field not in type(s).model_fields:
+        key = error.field.split(" ")[0]
+        if key not in type(s).model_fields:
             raise
         # the keywords are the keys of [sample]: name the key as the config spells it
         raise InputError(f"sample.{error.field}", error.value, error.allowed) from None

@@ -7,7 +7,8 @@ every key has a default, an unknown key is an error that names it::
                "sphere" | "aggregate" | "polyhedron"), n_particles, d_min [m],
                size_ratio, eta (aggregates), n_faces and templates (polyhedra), density
                [kg/m^3], packing_fraction (loose start), wall_friction, seed, boundary
-               ("walls" | "periodic"), height_ratio (the start box's height / width)
+               ("walls" | "periodic"), height_ratio (the start box's height / width),
+               preparation ("loose" | "deposition" | "file"), skeleton_file (for "file")
     [test]     kind (:data:`TEST_KINDS`), sigma0 [Pa], eps_q_max (triaxial, extension,
                true_triaxial), axial_strain and unload_strain (oedometer), b (true_triaxial),
                gamma_max (simple_shear), q_ratio and circle_points (circular),
@@ -131,7 +132,13 @@ class _Section(BaseModel):
 
 
 class SampleConfig(_Section):
-    """Particles of a loose random sample (:func:`grainlab.prep.loose_sample.loose_sample`).
+    """Particles of a sample: ``preparation`` "loose" (a loose random sample,
+    :func:`grainlab.prep.loose_sample.loose_sample`), "deposition" (the particles inscribed in
+    a dense deposited sphere packing, seeds 002/003 §II,
+    :func:`grainlab.prep.inscribed_sample.deposited_sample`; a box of walls only) or "file"
+    (inscribed in the spheres of ``skeleton_file``, a .npz or .csv file of
+    :mod:`grainlab.prep.sphere_skeleton`; n_particles, d_min, size_ratio and height_ratio
+    then come from the file).
 
     ``n_faces`` (even, in [8, 1000]; seed 002 Table I: 8, 20, 30, 46, 96, 176, 596) and
     ``templates`` (0: every polyhedron its own, as seed 002; K > 0: K shapes reused in random
@@ -151,6 +158,8 @@ class SampleConfig(_Section):
     seed: int = Field(0, ge=0, le=MAX_SEED)
     boundary: Literal["walls", "periodic"] = "walls"
     height_ratio: float = Field(1.0, ge=0.25, le=4.0)
+    preparation: Literal["loose", "deposition", "file"] = "loose"
+    skeleton_file: str = ""
 
     @field_validator("shape", mode="before")
     @classmethod

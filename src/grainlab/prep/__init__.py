@@ -1,4 +1,5 @@
-"""Making specimens: regular lattices, packings read from files (later: deposition, inscription)."""
+"""Making specimens: regular lattices, packings read from files, loose random samples, dense
+deposited sphere packings and the shapes inscribed in them."""
 
 from grainlab.prep.packing_files import read_packing, write_packing
 from grainlab.prep.regular_packings import named_packing, packing_names
