@@ -6,7 +6,16 @@ import typer
 from rich.console import Console
 
 from grainlab._version import __version__
-from grainlab.cli import analyse, compare, demo, discrete, microelement, packing2d, precompile
+from grainlab.cli import (
+    analyse,
+    compare,
+    demo,
+    discrete,
+    microelement,
+    packing2d,
+    precompile,
+    report,
+)
 
 app = typer.Typer(
     help=(
@@ -29,6 +38,7 @@ app.command("test")(discrete.lab_test_command)
 app.command("compare")(compare.compare_command)
 app.command("resume")(discrete.resume_command)
 app.command("vtk")(discrete.vtk_command)
+app.command("report")(report.report_command)
 app.command("demo")(demo.demo)
 app.command("compile")(precompile.compile_command)
 console = Console()
