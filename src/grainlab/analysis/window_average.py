@@ -193,14 +193,13 @@ class WindowAverage:
                 raise InputError("window", window, "(low, high) or a StrainWindow") from None
             window = StrainWindow(float(low), float(high))
         self.window = window
-        n_bins = int(snapshot_options.get("n_force_bins", 40))
+        n_bins = SnapshotAnalysis(**snapshot_options).n_force_bins  # a wrong keyword fails now
         if linear_edges is None:
             linear_edges = np.linspace(*LINEAR_RATIO_RANGE, n_bins + 1)
         if log_edges is None:
             log_edges = np.geomspace(*LOG_RATIO_RANGE, n_bins + 1)
         self.snapshot_options = {**snapshot_options, "force_linear_edges": linear_edges,
                                  "force_log_edges": log_edges}
-        SnapshotAnalysis(**self.snapshot_options)  # a wrong keyword fails now, not mid-run
         self._done = False
 
     # -- the three stages ---------------------------------------------------------------------

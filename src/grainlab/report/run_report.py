@@ -92,7 +92,7 @@ TARGETS = {
 def number(value: Any) -> str:
     """A number as the report prints it: 4 significant digits, ``—`` for NaN or None.
 
-    >>> number(0.123456), number(float("nan")), number(12345.0)
+    >>> number(0.123456), number(float("nan")), number(12346.0)
     ('0.1235', '—', '1.235e+04')
     """
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
