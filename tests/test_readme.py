@@ -99,7 +99,8 @@ def _chains() -> list[list[str]]:
     return chains
 
 
-LEFT_BEHIND = {"runs/tri": ("snapshots.h5", "vtk-checkpoint"), "analysis": ("analysis.csv",),
+LEFT_BEHIND = {"runs/tri": ("snapshots.h5", "vtk-checkpoint", "report/report.md"),
+               "analysis": ("analysis.csv",),
                "runs/cmp": ("cd/results.h5", "dem/results.h5", "compare.png", "compare.csv")}
 """What the README says some commands leave behind, by their --out folder."""
 

@@ -30,6 +30,7 @@ from grainlab.analysis.snapshot_files import (
 )
 from grainlab.analysis.synthetic import synthetic_network
 from grainlab.analysis.trajectory import TrajectoryAnalysis
+from grainlab.analysis.window_average import StrainWindow, WindowAverage
 
 __all__ = [
     "AngularDistributions",
@@ -42,8 +43,10 @@ __all__ = [
     "NotComputedError",
     "PartialStresses",
     "SnapshotAnalysis",
+    "StrainWindow",
     "StressState",
     "TrajectoryAnalysis",
+    "WindowAverage",
     "append_snapshot",
     "find_rattlers",
     "packing_fraction",

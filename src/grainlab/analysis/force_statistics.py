@@ -30,7 +30,7 @@ from grainlab.errors import InputError
 
 
 def probability_density(
-    values: np.ndarray, n_bins: int, scale: str = "linear"
+    values: np.ndarray, n_bins: int, scale: str = "linear", edges: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Histogram density of ``values`` on ``n_bins`` bins.
 
@@ -44,13 +44,19 @@ def probability_density(
         ``"linear"``: equal-width bins on [min(0, min), max]; ``"log"``: bins of equal width in
         log(value) on [min, max] of the positive values only (non-positive values are left
         out of the log histogram and of its normalisation).
+    edges:
+        Fixed (n_bins + 1,) increasing bin edges (positive for log bins) instead of the
+        data's range, so that histograms of several snapshots share their bins (window
+        averages). Values outside the edges are left out of the counts but kept in the
+        normalisation: sum(density x width) is then the share of the values inside.
 
     Returns
     -------
     centres, density, edges:
         (n_bins,) bin centres (arithmetic for linear, geometric for log bins), (n_bins,)
         densities with sum(density x width) = 1 over the values binned, (n_bins + 1,) edges.
-        All empty when there is nothing to bin. A range of zero width is widened (by +-0.5 on
+        All empty when there is nothing to bin (with fixed ``edges``: NaN densities on
+        those bins). A range of zero width is widened (by +-0.5 on
         linear bins, by a factor 2 on log bins) so that equal values still give a density.
 
     >>> centres, density, edges = probability_density(np.array([0.5, 1.5, 1.5, 2.0]), 2)
@@ -62,6 +68,8 @@ def probability_density(
         values = values[values > 0]
     elif scale != "linear":
         raise InputError("scale", scale, '"linear" or "log"')
+    if edges is not None:
+        return _fixed_bins_density(values, check_edges(edges, n_bins, scale), scale)
     if values.size == 0:
         empty = np.empty(0)
         return empty, empty.copy(), empty.copy()
@@ -84,8 +92,33 @@ def probability_density(
     return centres, density, edges
 
 
-def _pdf_frame(ratios: np.ndarray, n_bins: int, scale: str) -> pd.DataFrame:
-    centres, density, edges = probability_density(ratios, n_bins, scale)
+def check_edges(edges, n_bins: int, scale: str) -> np.ndarray:
+    """``edges`` as a float array of n_bins + 1 strictly increasing values (positive for
+    ``scale = "log"``), else an :class:`InputError`."""
+    edges = np.asarray(edges, dtype=float).reshape(-1)
+    if (edges.size != n_bins + 1 or not np.all(np.isfinite(edges))
+            or not np.all(np.diff(edges) > 0) or (scale == "log" and edges[0] <= 0)):
+        raise InputError(f"{scale} bin edges", edges.tolist(),
+                         f"{n_bins + 1} increasing finite values"
+                         + (", all positive" if scale == "log" else ""))
+    return edges
+
+
+def _fixed_bins_density(values: np.ndarray, edges: np.ndarray, scale: str
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    if scale == "linear":
+        centres = 0.5 * (edges[1:] + edges[:-1])
+    else:
+        centres = np.sqrt(edges[1:] * edges[:-1])
+    counts, _ = np.histogram(values, bins=edges)
+    if values.size == 0:
+        return centres, np.full(centres.size, np.nan), edges.copy()
+    return centres, counts / (values.size * np.diff(edges)), edges.copy()
+
+
+def _pdf_frame(ratios: np.ndarray, n_bins: int, scale: str,
+               edges: np.ndarray | None = None) -> pd.DataFrame:
+    centres, density, edges = probability_density(ratios, n_bins, scale, edges)
     frame = pd.DataFrame({"force_ratio": centres, "density": density})
     frame.attrs["bin_edges"] = edges
     frame.attrs["scale"] = scale
@@ -125,6 +158,11 @@ class ForceStatistics(Compute):
     ----------
     n_bins:
         Number of bins of every PDF (integer >= 1), default 40.
+    linear_edges, log_edges:
+        Fixed (n_bins + 1,) edges of the linear and logarithmic bins of f / <f> [-]
+        (:func:`probability_density`); default None: bins over each snapshot's own range.
+        Fixed edges make the PDFs of several snapshots comparable bin by bin; ratios outside
+        them are left out of the counts, not of the normalisation.
 
     Properties after :meth:`compute`:
 
@@ -139,7 +177,7 @@ class ForceStatistics(Compute):
     * ``max_normal_ratio``, ``max_radial_ratio``: largest f / <f> [-];
     * ``pearson_length_force``: C_lf over the active pairs [-].
 
-    Quantities over an empty set are NaN (and the PDFs empty).
+    Quantities over an empty set are NaN (and the PDFs empty, or NaN on fixed edges).
 
     >>> from grainlab.analysis.contact_network import ContactNetwork
     >>> net = ContactNetwork.from_arrays(
@@ -152,11 +190,15 @@ class ForceStatistics(Compute):
     (2.0, 0.5)
     """
 
-    def __init__(self, n_bins: int = 40) -> None:
+    def __init__(self, n_bins: int = 40, linear_edges: np.ndarray | None = None,
+                 log_edges: np.ndarray | None = None) -> None:
         super().__init__()
         if isinstance(n_bins, bool) or not isinstance(n_bins, int | np.integer) or n_bins < 1:
             raise InputError("n_bins", n_bins, "an integer >= 1")
         self.n_bins = int(n_bins)
+        self.edges = {
+            scale: None if edges is None else check_edges(edges, self.n_bins, scale)
+            for scale, edges in (("linear", linear_edges), ("log", log_edges))}
 
     def _compute(self, network) -> None:
         normal = network.point_normal_forces[network.active_points()]
@@ -172,8 +214,9 @@ class ForceStatistics(Compute):
                 f"fraction_{name}_above_mean":
                     float(np.mean(forces > mean)) if forces.size else float("nan"),
                 f"max_{name}_ratio": float(ratios.max()) if ratios.size else float("nan"),
-                f"{name}_pdf_linear": _pdf_frame(ratios, self.n_bins, "linear"),
-                f"{name}_pdf_log": _pdf_frame(ratios, self.n_bins, "log"),
+                f"{name}_pdf_linear": _pdf_frame(ratios, self.n_bins, "linear",
+                                                 self.edges["linear"]),
+                f"{name}_pdf_log": _pdf_frame(ratios, self.n_bins, "log", self.edges["log"]),
             })
         self._store(pearson_length_force=pearson_correlation(lengths, magnitudes))
 

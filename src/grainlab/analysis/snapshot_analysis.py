@@ -53,6 +53,10 @@ class SnapshotAnalysis(Compute):
         A contact slides when |f_t| >= (1 - tolerance) mu f_n.
     n_force_bins, n_angle_bins:
         Bins of the force PDFs and of the angular distributions.
+    force_linear_edges, force_log_edges:
+        Fixed (n_force_bins + 1,) edges of the force PDFs' linear and log bins of f / <f>
+        [-] (:class:`~grainlab.analysis.force_statistics.ForceStatistics`); None: each
+        snapshot's own range.
 
     >>> from grainlab.analysis.synthetic import synthetic_network
     >>> analysis = SnapshotAnalysis().compute(synthetic_network(2000, a_c=0.2, seed=1))
@@ -67,6 +71,8 @@ class SnapshotAnalysis(Compute):
         friction_tolerance: float = 1e-3,
         n_force_bins: int = 40,
         n_angle_bins: int = 18,
+        force_linear_edges: np.ndarray | None = None,
+        force_log_edges: np.ndarray | None = None,
     ) -> None:
         super().__init__()
         self.min_contacts = min_contacts
@@ -74,6 +80,8 @@ class SnapshotAnalysis(Compute):
         self.friction_tolerance = friction_tolerance
         self.n_force_bins = n_force_bins
         self.n_angle_bins = n_angle_bins
+        self.force_linear_edges = force_linear_edges
+        self.force_log_edges = force_log_edges
 
     def _compute(self, network: ContactNetwork) -> None:
         parts: dict[str, Any] = {
@@ -81,7 +89,9 @@ class SnapshotAnalysis(Compute):
             "connectivity": Connectivity(min_contacts=self.min_contacts).compute(network),
             "angular": AngularDistributions(n_bins=self.n_angle_bins,
                                             frame_level=self.frame_level).compute(network),
-            "forces": ForceStatistics(n_bins=self.n_force_bins).compute(network),
+            "forces": ForceStatistics(n_bins=self.n_force_bins,
+                                      linear_edges=self.force_linear_edges,
+                                      log_edges=self.force_log_edges).compute(network),
             "friction": None,
             "partial": None,
         }

@@ -119,8 +119,24 @@ def _summary(result) -> None:
                       f"{_type_fractions(late.mean(numeric_only=True))}")
 
 
+def _report(folder: Path) -> None:
+    """Write the run's report (:func:`~grainlab.report.run_report.write_run_report`); a
+    failure is a warning, never the run's failure: the results are already on disk and
+    `grainlab report RUN` writes it again."""
+    from grainlab.report.run_report import write_run_report
+
+    try:
+        path = write_run_report(folder)
+    except Exception as error:  # the run's files are written: a report that fails warns
+        console.print(f"[bold yellow]warning:[/] the report was not written ({error}); "
+                      f"try `grainlab report {folder}`")
+        return
+    console.print(f"report: {path}")
+
+
 def complete_run(folder: Path, run, progress: bool) -> tuple[Any, list[Path], Any]:
-    """Run to the end, print the summary, the outcome in words and the figures. Returns the
+    """Run to the end, print the summary, the outcome in words and the figures, and write
+    the report (RUN/report/report.md) of a run that finished. Returns the
     result, the figures and the :class:`~grainlab.lab.run_outcome.RunOutcome`; a blow-up is
     printed and returns (None, [], None)."""
     from grainlab.engine.simulation import SimulationBlowUp
@@ -140,6 +156,8 @@ def complete_run(folder: Path, run, progress: bool) -> tuple[Any, list[Path], An
         figures = _figures(folder, result)
         for path in figures:
             console.print(f"figure: {path}")
+    if outcome.finished:
+        _report(folder)
     words = outcome.summary().replace("grainlab resume RUN", f"grainlab resume {folder}")
     head, *lines = words.splitlines()
     console.print(f"[bold {'green' if outcome.as_asked else 'red'}]{head}[/]",

@@ -14,6 +14,7 @@ from grainlab.cli import (
     microelement,
     packing2d,
     precompile,
+    report,
     study,
 )
 
@@ -38,6 +39,7 @@ app.command("test")(discrete.lab_test_command)
 app.command("compare")(compare.compare_command)
 app.command("resume")(discrete.resume_command)
 app.command("vtk")(discrete.vtk_command)
+app.command("report")(report.report_command)
 app.command("demo")(demo.demo)
 app.command("compile")(precompile.compile_command)
 app.add_typer(study.app, name="study")

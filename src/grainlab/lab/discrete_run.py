@@ -11,6 +11,8 @@ Layout of a run folder::
                        config
     checkpoint.prev.h5 the checkpoint before it
     run.log            what happened, with times, and the outcome in words
+    report/            report.md with its figures and tables, written when a run started
+                       from the command line finishes (grainlab.report.run_report)
     vtk/               ParaView files when output.vtk_every > 0 (particles, contacts, walls)
     problems/          the contact problems of steps (FCLib HDF5) when output.problems_every
                        > 0 (contact dynamics; grainlab.engine.contact_problem)
@@ -92,7 +94,7 @@ SNAPSHOTS = "snapshots.h5"
 LOG = "run.log"
 PROBLEMS = "problems"
 RUN_FILES = (CHECKPOINT, PREVIOUS_CHECKPOINT, CHECKPOINT + DAMAGED_SUFFIX, RESULTS, RESULTS_H5,
-             SNAPSHOTS, LOG, "curves.png", "vtk", "vtk-checkpoint", PROBLEMS)
+             SNAPSHOTS, LOG, "curves.png", "vtk", "vtk-checkpoint", PROBLEMS, "report")
 """What ``--restart`` moves aside (config.toml stays, a copy goes with them)."""
 
 

@@ -2,6 +2,8 @@
 
 * polar diagrams of the angular distributions with their harmonic fits (002 Fig. 14);
 * force PDFs, log-linear and log-log (003 Figs. 14, 16);
+* both, averaged over a strain window with the standard deviation as error bars (the residual
+  state of 002/003; :class:`~grainlab.analysis.window_average.WindowAverage`);
 * the radial ("neighbour") force network, lines scaled by force and coloured by contact type or
   by sliding (002 Figs. 12, 18, 21; 003 Fig. 15);
 * anisotropies and q/p (direct and harmonic) against strain (002 Figs. 16–20).
@@ -22,51 +24,118 @@ from grainlab.report.curves import new_figure_axes
 _FRAMES = (("contact_frame", "contact frame (n, t)"), ("branch_frame", "branch frame (n', t')"))
 
 
-def polar_distributions_figure(angular: AngularDistributions) -> Figure:
-    """Polar diagrams of P(theta), <l>(theta), <f>(theta) in both frames, data as symbols and
-    the harmonic approximation (seed 002 eq. 26) as lines; theta from the major principal
-    stress direction (vertical in the plots)."""
-    frames = [(getattr(angular, attr), title) for attr, title in _FRAMES]
-    quantities = [c for c in frames[0][0].columns if f"{c}_harmonic" in frames[0][0].columns]
+def _polar_panel(ax, theta: np.ndarray, values: np.ndarray, fit: np.ndarray,
+                 errors: np.ndarray | None = None) -> None:
+    """One polar diagram: data (|values|, with error bars when given) unfolded by symmetry
+    over the full circle, the compression axis vertical, and the harmonic fit as a line."""
+    for sign in (1, -1):
+        for shift in (0.0, np.pi):
+            angle = np.pi / 2 - sign * theta + shift
+            if errors is None:
+                ax.plot(angle, np.abs(values), "o", ms=2.5, color="tab:blue")
+            else:
+                ax.errorbar(angle, np.abs(values), yerr=np.nan_to_num(errors), fmt="o", ms=2.5,
+                            color="tab:blue", elinewidth=0.8, capsize=1.5)
+            ax.plot(angle, np.abs(fit), "-", lw=1.0, color="tab:red")
+    ax.set_xticklabels([])
+    ax.tick_params(labelsize="x-small")
+
+
+def _polar_grid(frames: list[tuple[pd.DataFrame, str]], suffixes: tuple[str, str, str | None]
+                ) -> Figure:
+    """Rows of polar diagrams, one row per frame, one panel per quantity with a harmonic
+    column; ``suffixes`` name the data, fit and error columns (``"", "_harmonic", None`` for
+    one snapshot's table)."""
+    data, harmonic, error = suffixes
+    columns = set(frames[0][0].columns)
+    bases = [c[:len(c) - len(data)] for c in frames[0][0].columns if c.endswith(data)]
+    quantities = [c for c in bases if f"{c}{harmonic}{data}" in columns]
     figure = Figure(figsize=(3.0 * max(len(quantities), 1), 6.2))
     for row, (table, title) in enumerate(frames):
-        columns = [c for c in quantities if c in table.columns]
+        columns = [c for c in quantities if f"{c}{data}" in table.columns]
         for k, column in enumerate(columns):
             ax = figure.add_subplot(2, len(quantities), row * len(quantities) + k + 1,
                                     projection="polar")
-            theta = np.radians(table["theta_deg"].to_numpy())
-            values = table[column].to_numpy()
-            fit = table[f"{column}_harmonic"].to_numpy()
-            # Unfold the data by symmetry over the full circle, vertical = compression axis.
-            for sign in (1, -1):
-                for shift in (0.0, np.pi):
-                    angle = np.pi / 2 - sign * theta + shift
-                    ax.plot(angle, np.abs(values), "o", ms=2.5, color="tab:blue")
-                    ax.plot(angle, np.abs(fit), "-", lw=1.0, color="tab:red")
+            _polar_panel(ax, np.radians(table["theta_deg"].to_numpy()),
+                         table[f"{column}{data}"].to_numpy(),
+                         table[f"{column}{harmonic}{data}"].to_numpy(),
+                         None if error is None else table[f"{column}{error}"].to_numpy())
             ax.set_title(f"{column}\n{title}", fontsize="small")
-            ax.set_xticklabels([])
-            ax.tick_params(labelsize="x-small")
     figure.set_layout_engine("tight")
     return figure
 
 
-def force_pdf_figure(forces: ForceStatistics) -> Figure:
-    """PDFs of normal and radial forces normalised by their means: log-linear and log-log."""
-    figure, axes = new_figure_axes(1, 2, figsize=(9.5, 3.8))
-    for name, label, marker in (("normal", "f_n / <f_n>", "o"), ("radial", "f_n' / <f_n'>", "s")):
-        linear: pd.DataFrame = getattr(forces, f"{name}_pdf_linear")
-        logarithmic: pd.DataFrame = getattr(forces, f"{name}_pdf_log")
-        keep = linear["density"] > 0
-        axes[0].semilogy(linear["force_ratio"][keep], linear["density"][keep], marker, ms=3,
-                         label=label)
-        keep = logarithmic["density"] > 0
-        axes[1].loglog(logarithmic["force_ratio"][keep], logarithmic["density"][keep], marker,
-                       ms=3, label=label)
+def polar_distributions_figure(angular: AngularDistributions) -> Figure:
+    """Polar diagrams of P(theta), <l>(theta), <f>(theta) in both frames, data as symbols and
+    the harmonic approximation (seed 002 eq. 26) as lines; theta from the major principal
+    stress direction (vertical in the plots)."""
+    return _polar_grid([(getattr(angular, attr), title) for attr, title in _FRAMES],
+                       ("", "_harmonic", None))
+
+
+def averaged_polar_figure(distributions: dict[str, pd.DataFrame]) -> Figure:
+    """:func:`polar_distributions_figure` of a window average
+    (:class:`~grainlab.analysis.window_average.WindowAverage` ``.distributions``): the mean
+    over the window's snapshots of each bin, the standard deviation as error bars, and the
+    mean of the snapshots' harmonic curves as lines."""
+    return _polar_grid([(distributions[attr], title) for attr, title in _FRAMES],
+                       ("_mean", "_harmonic", "_std"))
+
+
+def _pdf_axes(figure_axes, curves) -> None:
+    """Draw PDFs on the log-linear and log-log axes: ``curves`` yields (linear, log, label,
+    marker), each table with force_ratio, a density and optionally its deviation."""
+    axes = figure_axes
+    for linear, logarithmic, label, marker in curves:
+        for ax, table, draw in ((axes[0], linear, "semilogy"), (axes[1], logarithmic,
+                                                                "loglog")):
+            x, y, err = table
+            keep = np.isfinite(y) & (y > 0)
+            if err is None:
+                getattr(ax, draw)(x[keep], y[keep], marker, ms=3, label=label)
+            else:
+                ax.errorbar(x[keep], y[keep], yerr=np.nan_to_num(err[keep]), fmt=marker, ms=3,
+                            elinewidth=0.8, capsize=1.5, label=label)
+                ax.set_yscale("log")
+                if draw == "loglog":
+                    ax.set_xscale("log")
     for ax in axes:
         ax.set_xlabel("force / mean force")
         ax.set_ylabel("probability density")
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize="small")
+
+
+_PDFS = (("normal", "f_n / <f_n>", "o"), ("radial", "f_n' / <f_n'>", "s"))
+
+
+def force_pdf_figure(forces: ForceStatistics) -> Figure:
+    """PDFs of normal and radial forces normalised by their means: log-linear and log-log."""
+    figure, axes = new_figure_axes(1, 2, figsize=(9.5, 3.8))
+
+    def table(frame: pd.DataFrame):
+        return frame["force_ratio"].to_numpy(), frame["density"].to_numpy(), None
+
+    _pdf_axes(axes, [(table(getattr(forces, f"{name}_pdf_linear")),
+                      table(getattr(forces, f"{name}_pdf_log")), label, marker)
+                     for name, label, marker in _PDFS])
+    figure.set_layout_engine("tight")
+    return figure
+
+
+def averaged_force_pdf_figure(distributions: dict[str, pd.DataFrame]) -> Figure:
+    """:func:`force_pdf_figure` of a window average: the mean density of each fixed bin over
+    the window's snapshots, the standard deviation as error bars (bins with a zero mean are
+    not drawn on the log axes)."""
+    figure, axes = new_figure_axes(1, 2, figsize=(9.5, 3.8))
+
+    def table(frame: pd.DataFrame):
+        return (frame["force_ratio"].to_numpy(), frame["density_mean"].to_numpy(),
+                frame["density_std"].to_numpy())
+
+    _pdf_axes(axes, [(table(distributions[f"{name}_pdf_linear"]),
+                      table(distributions[f"{name}_pdf_log"]), label, marker)
+                     for name, label, marker in _PDFS])
     figure.set_layout_engine("tight")
     return figure
 
