@@ -68,6 +68,10 @@ def test_worker_killed_mid_run_resumes_and_ended_samples_are_not_rerun(tmp_path,
     assert list(table["name"]) == ["a", "b"]
     assert np.all(table["eps_q_end"] >= 0.2)
     assert np.all(np.isfinite(table["q_over_trace_residual"]))
+    # the microstructure: from the compaction's last snapshot and the shear's in the window
+    assert np.all(np.isfinite(table["coordination_number_initial"]))
+    assert np.all(np.isfinite(table["a_c_residual"]))
+    assert np.all(table["a_c_residual_std"] >= 0.0)
     report = write_study_report(study, table)
     text = report.read_text()
     assert "| a |" in text and "| b |" in text

@@ -114,7 +114,7 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
         f"- samples: {len(spec.samples)} ({len(table)} ended)",
         f"- shape parameter: {symbol} (`{spec.study.parameter}`)",
         f"- residual window: eps_q in [{lo:g}, {hi:g}]; residual values are the mean ± the "
-        "standard deviation (population) of the recorded rows, or of the snapshots for the "
+        "sample standard deviation of the recorded rows, or of the snapshots for the "
         "microstructure, in the window",
         f"- wall time of the runs: {total:.0f} s in all",
         f"- written {datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}", "",
@@ -157,8 +157,8 @@ def _force_networks(study, table: pd.DataFrame, out: Path) -> list[tuple[str, st
         if not path.exists() or count_snapshots(path) == 0:
             continue
         last = None
-        for last in read_snapshots(path):
-            pass
+        for network in read_snapshots(path):
+            last = network
         if last is None or last.n_pairs == 0:
             continue
         figure = force_network_figure(last, color_by="type")

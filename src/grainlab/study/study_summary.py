@@ -13,13 +13,14 @@ Columns (SI, dimensionless unless stated):
   and p the mean stress: :mod:`grainlab.result.columns`), sin_phi, packing_fraction, z, z_c,
   eps_vol:
   ``X_initial`` (end of the isotropic compaction), ``X_residual`` and ``X_residual_std``
-  (mean and population standard deviation of the recorded rows with eps_q in the window),
+  (mean and sample standard deviation, ddof = 1, of the recorded rows with eps_q in the
+  window, as :mod:`grainlab.analysis.window_average` for the snapshots),
   and ``q_over_trace_peak``, ``eps_q_peak``;
 * ``phi_residual`` [rad]: the internal angle of friction of seed 002 eq. 11, sin phi* =
   3 (q/p)* / (2 + (q/p)*), from the residual mean of q/p;
 * the microstructure (:mod:`grainlab.analysis.window_average`): ``M_initial`` from the
-  snapshot nearest the end of the compaction and ``M_residual``, ``M_residual_std`` over the
-  snapshots in the window, for every scalar descriptor M of the snapshot analysis.
+  snapshot taken at the end of the compaction and ``M_residual``, ``M_residual_std`` over the
+  shear's snapshots in the window, for every scalar descriptor M of the snapshot analysis.
 
 A row is written for an ended sample only; a sample whose run did not reach the window has
 NaN residual values and says so in ``note``.
@@ -76,8 +77,8 @@ def sample_row(folder: str | Path, window: tuple[float, float], value: float,
         window_values = in_window[column].to_numpy(float) if column in in_window else values[:0]
         row[f"{column}_residual"] = float(np.mean(window_values)) if window_values.size \
             else math.nan
-        row[f"{column}_residual_std"] = float(np.std(window_values)) if window_values.size \
-            else math.nan
+        row[f"{column}_residual_std"] = float(np.std(window_values, ddof=1)) \
+            if window_values.size > 1 else math.nan
     if len(table):
         k = int(np.argmax(table["q_over_trace"].to_numpy(float)))
         row["q_over_trace_peak"] = float(table["q_over_trace"].iloc[k])
@@ -101,24 +102,28 @@ def _capped_share(outcome: dict[str, Any]) -> float:
 
 def _microstructure(snapshots: Path, window: tuple[float, float]) -> dict[str, float]:
     """``M_initial``, ``M_residual`` and ``M_residual_std`` of every scalar descriptor (module
-    docstring); {} when the file has no snapshot to use."""
-    from grainlab.analysis.window_average import initial_state, window_average
+    docstring); the residual part is left out when no snapshot lies in the window."""
+    from grainlab.analysis.snapshot_analysis import SnapshotAnalysis
+    from grainlab.analysis.snapshot_files import read_snapshots
+    from grainlab.analysis.window_average import WindowAverage
     from grainlab.errors import InputError
 
     out: dict[str, float] = {}
+    initial = None
+    for network in read_snapshots(snapshots):  # the compaction's last: its end
+        if network.state.get("stage") == "compaction":
+            initial = network
+    if initial is not None:
+        for name, value in SnapshotAnalysis().compute(initial).descriptors.items():
+            if isinstance(value, int | float) and not isinstance(value, bool):
+                out[f"{name}_initial"] = float(value)
     try:
-        initial = initial_state(snapshots)
-    except InputError:
-        initial = {}
-    for name, value in initial.items():
-        out[f"{name}_initial"] = value
-    try:
-        averages = window_average(snapshots, window)
+        averages = WindowAverage(window).run(snapshots)
     except InputError:
         return out
-    for name, (mean, std) in averages.scalar_pairs().items():
-        out[f"{name}_residual"] = mean
-        out[f"{name}_residual_std"] = std
+    for _, row in averages.scalars.iterrows():
+        out[f"{row['descriptor']}_residual"] = float(row["mean"])
+        out[f"{row['descriptor']}_residual_std"] = float(row["std"])
     return out
 
 
