@@ -543,6 +543,11 @@ class BodyState:
         rotation = 0.5 * float(np.sum(self.angular_velocities * spin))
         return translation + rotation
 
+    def rotational_energies(self) -> np.ndarray:
+        """Rotational kinetic energy of each body (n,) [J]: omega . I_world omega / 2."""
+        spin = self._world_inertia_times(self.angular_velocities)
+        return 0.5 * np.sum(self.angular_velocities * spin, axis=1)
+
     def momentum(self) -> np.ndarray:
         """Total linear momentum (3,) [kg m/s]."""
         return np.sum(self.masses[:, None] * self.velocities, axis=0)

@@ -51,7 +51,11 @@ class QuasiStaticCriteria:
       and |p_contacts - p_walls| / p_walls (contacts and walls agree);
     * ``unbalanced_force``: mean |net force| of the particles / mean normal contact force;
     * ``kinetic_energy``: E_k / (N p <d>^3), kinetic energy per particle over the work scale
-      (of order I^2 for particle speeds I <d> sqrt(p / rho): 1e-6 is I ~ 1e-3).
+      (of order I^2 for particle speeds I <d> sqrt(p / rho): 1e-6 is I ~ 1e-3). E_k leaves
+      out the spin of the bodies that bear no load (no contact with a positive normal force):
+      in a frictionless compaction a non-spherical rattler keeps the spin it was given, for
+      thousands of steps, though it exchanges no force with the packing (the results'
+      ``kinetic_energy`` column is the whole energy).
     """
 
     stress_tolerance: float = 0.01

@@ -41,10 +41,16 @@ LENGTHS = {
 }
 """How far the samples are sheared (eps_q) and the residual window of each series."""
 
-SHORT_PARTICLES = 60
+SHORT_PARTICLES = 100
 FULL_PARTICLES = 1000
 """Default particles per sample: a study in minutes, and the papers' protocol at the size a
 2-core machine runs in hours (the papers used 40 000 polyhedra and 12 000 aggregates)."""
+
+HEIGHT_RATIO = {"short": 1.5, "full": 1.0}
+"""Height / width of the deposited packing: a short study's few particles, with seed 003's
+radii up to 3 R_min, would otherwise stand only three or four of the largest high, and the
+triaxial compression flattens the box by eps_q (a box is refused, or blows up, when it is
+squeezed to one or two layers)."""
 
 ETAS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7)
 """Seed 003's eight packings."""
@@ -56,7 +62,8 @@ def _protocol(n_particles: int, length: str, seed: int, size_ratio: float,
     eps_q_max = LENGTHS[length]["eps_q_max"]
     return {
         "sample": {"n_particles": n_particles, "size_ratio": size_ratio, "seed": seed,
-                   "preparation": "deposition", "wall_friction": 0.0},
+                   "preparation": "deposition", "wall_friction": 0.0,
+                   "height_ratio": HEIGHT_RATIO[length]},
         "test": {"kind": "triaxial", "eps_q_max": eps_q_max},
         "solver": {"compaction": {"friction": 0.0}, "shear": {"friction": 0.4,
                                                               "inertia_number": 1e-3}},
