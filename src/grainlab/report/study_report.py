@@ -126,12 +126,14 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
     if notes or late:
         text += ["Samples to read with care:", "", *notes, *late, ""]
     if spec.study.parameter in PAPERS:
+        n = int(table["n_particles"].max())
         text += ["## The papers' values", "", PAPERS[spec.study.parameter], "",
-                 f"The samples here hold {int(table['n_particles'].max())} particles at most, "
-                 "in a box of walls a few tens of diameters wide: the walls order the "
-                 "particles next to them (the packing fraction and z include that layer), "
-                 "and the residual values fluctuate more than in the papers' boxes (the error "
-                 "bars), so trends are to be compared, not the third decimal.", ""]
+                 f"The samples here hold {n} particles at most, in a box of walls about "
+                 f"{n ** (1 / 3):.0f} particles wide, where the papers' held 12 000 to "
+                 "40 000: the walls order the particles next to them (the packing fraction "
+                 "and z include that layer, and z counts the rattlers), and the residual "
+                 "values fluctuate more (the error bars), so trends are to be compared, not "
+                 "values to the second decimal.", ""]
     text += ["## Figures", ""]
     for title, name in figures + networks:
         text += [f"### {title}", "", f"![{title}]({name})", ""]
