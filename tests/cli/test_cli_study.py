@@ -1,4 +1,5 @@
-"""``grainlab study`` as a user runs it."""
+"""``grainlab study`` as a user runs it: bad input (a study run from its folder by the command
+line, with its report: tests/study/test_study_runner.py; the preset commands: the README's)."""
 
 from __future__ import annotations
 
@@ -32,23 +33,6 @@ name = "eta-0.4"
 value = 0.4
 set = { sample = { shape = "aggregate", eta = 0.4 } }
 """
-
-
-@pytest.mark.long
-def test_a_study_file_runs_reports_and_resumes(tmp_path):
-    path = tmp_path / "tiny.toml"
-    path.write_text(TINY)
-    result = runner.invoke(app, ["study", "run", str(path), "--no-progress"])
-    assert result.exit_code == 0, result.output
-    folder = tmp_path / "tiny"
-    assert (folder / "summary.csv").exists()
-    report = (folder / "report" / "report.md").read_text()
-    assert "| sphere |" in report and "| eta-0.4 |" in report
-    again = runner.invoke(app, ["study", "run", str(folder), "--no-progress"])
-    assert again.exit_code == 0, again.output
-    assert "2 already ended" in again.output
-    rewritten = runner.invoke(app, ["study", "report", str(folder)])
-    assert rewritten.exit_code == 0, rewritten.output
 
 
 @pytest.mark.parametrize(("args", "words"), [

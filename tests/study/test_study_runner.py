@@ -27,7 +27,7 @@ def tiny_spec(names=("a", "b")) -> StudySpec:
         "study": {"name": "tiny", "parameter": "eta", "window": [0.1, 0.2]},
         "base": {"sample": {"n_particles": 30, "seed": 3, "size_ratio": 3.0},
                  "test": {"eps_q_max": 0.2},
-                 "output": {"snapshot_every": 25, "checkpoint_every": 10}},
+                 "output": {"snapshot_every": 10, "checkpoint_every": 10}},
         "samples": [{"name": n, "value": 0.1 * k, "set": {"sample": {"seed": 3 + k}}}
                     for k, n in enumerate(names)]})
 
@@ -93,15 +93,23 @@ def test_interrupted_study_goes_on_where_it_stopped(tmp_path):
     assert states["a"] == "ended"
     assert states["b"] in ("partial", "started", "new")
     stamp = results_stamp(study, "a")
-    # go on, this time on a cluster the user started (its scheduler's address)
+    # go on as a user does: the same folder by the command line, this time on a cluster the
+    # user started (its scheduler's address)
     from distributed import LocalCluster
+    from typer.testing import CliRunner
+
+    from grainlab.cli.main import app
 
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                       dashboard_address=None) as cluster:
-        outcome = study.run(scheduler=cluster.scheduler_address, progress=False)
-    assert outcome.skipped == ["a"] and outcome.ran == ["b"]
+        result = CliRunner().invoke(app, ["study", "run", str(study.folder), "--scheduler",
+                                          cluster.scheduler_address, "--no-progress"])
+    assert result.exit_code == 0, result.output
+    assert "1 sample(s) run" in result.output and "1 already ended" in result.output
     assert results_stamp(study, "a") == stamp
     assert study.states() == {"a": "ended", "b": "ended"}
+    report = (study.folder / "report" / "report.md").read_text()
+    assert "| a |" in report and "| b |" in report
 
 
 def test_a_folder_holding_another_study_is_refused(tmp_path):

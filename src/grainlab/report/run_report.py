@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import datetime
 import math
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -308,14 +309,19 @@ def write_run_report(run_folder: str | Path, window: tuple[float, float] | None 
         text += ["", "```", summary.strip(), "```"]
     text += ["", "## Macroscopic response", ""]
     if len(result.table):
-        kind = config.get("test", {}).get("kind")
-        if kind == "oedometer":
-            from grainlab.report.element_test_figures import oedometer_stages_figure
-
-            figure = oedometer_stages_figure(result)
+        drawn = run_folder / "curves.png"  # the command line's figure of the same results
+        if drawn.is_file() and drawn.stat().st_mtime >= (run_folder / "results.csv").stat(
+                ).st_mtime and drawn.resolve() != (folder / "curves.png").resolve():
+            shutil.copy2(drawn, folder / "curves.png")
         else:
-            figure = discrete_curves_figure(result)
-        save_figure(figure, folder / "curves.png", dpi=110)
+            kind = config.get("test", {}).get("kind")
+            if kind == "oedometer":
+                from grainlab.report.element_test_figures import oedometer_stages_figure
+
+                figure = oedometer_stages_figure(result)
+            else:
+                figure = discrete_curves_figure(result)
+            save_figure(figure, folder / "curves.png", dpi=110)
         text += ["![curves](curves.png)", ""]
     if chosen is not None:
         text += [f"Window: {chosen} (eps_q from the end of the compaction"
