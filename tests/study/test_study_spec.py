@@ -67,6 +67,7 @@ def test_angularity_preset_is_table_one():
     assert config.sample.wall_friction == 0.0
     assert config.solver.shear.inertia_number == 1e-3
     assert (config.test.eps_q_max, s.study.window) == (0.9, (0.6, 0.9))
+    assert config.sample.height_ratio == 2.0  # room for eps_q = 0.9 (a lab specimen's 2)
 
 
 def test_nonconvexity_preset_is_seed_003():

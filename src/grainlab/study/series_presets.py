@@ -46,11 +46,13 @@ FULL_PARTICLES = 1000
 """Default particles per sample: a study in minutes, and the papers' protocol at the size a
 2-core machine runs in hours (the papers used 40 000 polyhedra and 12 000 aggregates)."""
 
-HEIGHT_RATIO = {"short": 1.5, "full": 1.0}
-"""Height / width of the deposited packing: a short study's few particles, with seed 003's
-radii up to 3 R_min, would otherwise stand only three or four of the largest high, and the
-triaxial compression flattens the box by eps_q (a box is refused, or blows up, when it is
-squeezed to one or two layers)."""
+HEIGHT_RATIO = {"short": 1.5, "full": 2.0}
+"""Height / width of the deposited packing (a lab specimen's 2 for the papers' strain). The
+triaxial compression shortens the box by about exp(-eps_q): to eps_q = 0.9, a cube of 500 or
+1000 aggregates with seed 003's radii (up to 3 R_min) would end three of its largest
+particles high, where they lock in one or two layers (such a run is refused before it starts:
+at 500 particles eps_q <= 0.41 for eta = 0.7); the papers' 12 000 to 40 000 particles had the
+room. A short study's few particles need 1.5 to reach eps_q = 0.3."""
 
 ETAS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7)
 """Seed 003's eight packings."""
