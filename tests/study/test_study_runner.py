@@ -101,7 +101,7 @@ def test_interrupted_study_goes_on_where_it_stopped(tmp_path):
     from grainlab.cli.main import app
 
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster:
+                      dashboard_address=":0") as cluster:
         result = CliRunner().invoke(app, ["study", "run", str(study.folder), "--scheduler",
                                           cluster.scheduler_address, "--no-progress"])
     assert result.exit_code == 0, result.output

@@ -172,7 +172,7 @@ class Study:
             if n_workers < 1:
                 raise InputError("workers", workers, "an integer >= 1")
             cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.CRITICAL,
+                                   dashboard_address=":0", silence_logs=logging.CRITICAL,
                                    env={"NUMBA_NUM_THREADS": str(threads)})
             client = Client(cluster)
         else:
