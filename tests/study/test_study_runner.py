@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
+import sys
 
 import h5py
 import numpy as np
@@ -118,3 +120,41 @@ def test_a_folder_holding_another_study_is_refused(tmp_path):
         Study.create(tmp_path / "s", tiny_spec(("a", "c")))
     assert caught.value.field == "study folder"
     assert "samples" in caught.value.allowed
+
+
+
+WORKER_SCRIPT = """
+import os
+import numba  # the main module imports Numba: so does each worker, when it starts
+from distributed import Client
+from grainlab.study.study_runner import LocalSampleCluster
+
+
+def compile_after_threads_launched(threads):
+    # what a sample does on a cold cache: set Numba's threads, then compile
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    numba.njit(lambda x: x + 1)(1)  # a compilation re-reads Numba's environment
+    return numba.config.NUMBA_NUM_THREADS
+
+
+if __name__ == "__main__":
+    cluster = LocalSampleCluster(n_workers=1, threads=1)
+    try:
+        with Client(cluster.cluster) as client:
+            print("worker", client.submit(compile_after_threads_launched, 1).result())
+    finally:
+        cluster.close()
+    print("parent", os.environ.get("NUMBA_NUM_THREADS"))
+"""
+
+
+def test_workers_take_their_thread_count_from_their_start(tmp_path):
+    """A worker whose main module imported Numba compiles after its threads run without
+    Numba refusing the thread count, and the parent's environment is left as it was."""
+    script = tmp_path / "study_main.py"
+    script.write_text(WORKER_SCRIPT)
+    environ = {k: v for k, v in os.environ.items() if k != "NUMBA_NUM_THREADS"}
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                          env=environ, cwd=tmp_path, timeout=240)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.split() == ["worker", "1", "parent", "None"]

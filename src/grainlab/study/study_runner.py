@@ -143,7 +143,7 @@ class Study:
         on_update:
             Called with every sample's progress at each refresh (tests, other displays).
         """
-        from distributed import Client, LocalCluster, as_completed
+        from distributed import Client, as_completed
 
         threads = int(threads)
         if threads < 1:
@@ -171,10 +171,8 @@ class Study:
             n_workers = workers or max(1, min(len(todo), cores // threads))
             if n_workers < 1:
                 raise InputError("workers", workers, "an integer >= 1")
-            cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=":0", silence_logs=logging.CRITICAL,
-                                   env={"NUMBA_NUM_THREADS": str(threads)})
-            client = Client(cluster)
+            cluster = LocalSampleCluster(n_workers, threads)
+            client = Client(cluster.cluster)
         else:
             try:
                 client = Client(scheduler, timeout=30)
@@ -332,3 +330,33 @@ def _first_difference(held: StudySpec, asked: StudySpec) -> str:
         if a.get(key) != b.get(key):
             return f"{key} = {a.get(key)!r}, asked {b.get(key)!r}"
     return "the same keys"
+
+
+
+class LocalSampleCluster:
+    """A Dask cluster on this machine: ``n_workers`` processes of one task each, whose
+    Numba runs ``threads`` threads.
+
+    Numba reads its thread count when a worker first imports it and refuses a later
+    change once its threads run (a compilation re-reads it). The count is therefore in
+    each worker's environment from its start (Dask's pre-spawn environment). Dask also
+    writes that environment into this process's: :meth:`close` puts it back."""
+
+    def __init__(self, n_workers: int, threads: int) -> None:
+        import dask.config
+        from distributed import LocalCluster
+
+        self._parent_threads = os.environ.get("NUMBA_NUM_THREADS")
+        environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}),
+                   "NUMBA_NUM_THREADS": str(threads)}
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+            self.cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1,
+                                        processes=True, dashboard_address=":0",
+                                        silence_logs=logging.CRITICAL)
+
+    def close(self) -> None:
+        self.cluster.close()
+        if self._parent_threads is None:
+            os.environ.pop("NUMBA_NUM_THREADS", None)
+        else:
+            os.environ["NUMBA_NUM_THREADS"] = self._parent_threads
