@@ -206,6 +206,19 @@ def command_config(kind: str, config_file: Path | None, options: dict[str, Any]
         raise as_typed(error, given, config_file) from None
 
 
+def _sample_source(preparation: str | None, skeleton_file: Path | None,
+                   particle_file: Path | None) -> dict[str, Any]:
+    """The options of how the sample is made: a file given implies ``--preparation file``
+    (a file that does not exist is refused by name)."""
+    files = {"skeleton_file": ("--skeleton-file", skeleton_file),
+             "particle_file": ("--particle-file", particle_file)}
+    given = {key: str(input_file(option, path)) for key, (option, path) in files.items()
+             if path is not None}
+    if given and preparation is None:
+        preparation = "file"
+    return {"preparation": preparation, **given}
+
+
 def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any],
          overwrite: bool, progress: bool) -> None:
     """Check every option, then start the run: nothing is written before the input is
@@ -218,9 +231,9 @@ def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any]
         run = start_run(out, config, overwrite=overwrite)
     except InputError as error:
         raise as_typed(error, given, config_file) from None
-    sample = config.sample
-    shapes = particles_text(sample.model_dump())
-    console.print(f"run folder [bold]{out}[/] ({sample.n_particles} {shapes}, {kind}); "
+    sample = run.test.sample
+    shapes = particles_text(sample.description)
+    console.print(f"run folder [bold]{out}[/] ({sample.state.n_bodies} {shapes}, {kind}); "
                   f"Ctrl-C checkpoints, "
                   f"`grainlab resume {out}` continues")
     finish_run(out, run, progress)
@@ -267,6 +280,9 @@ _OPTIONS = {
     "young_modulus": ("--young-modulus", "solver.dem.young_modulus"),
     "restitution": ("--restitution", "solver.dem.restitution"),
     "height_ratio": ("--height-ratio", "sample.height_ratio"),
+    "preparation": ("--preparation", "sample.preparation"),
+    "skeleton_file": ("--skeleton-file", "sample.skeleton_file"),
+    "particle_file": ("--particle-file", "sample.particle_file"),
     "b": ("--b", "test.b"), "gamma": ("--gamma", "test.gamma_max"),
     "q_ratio": ("--q-ratio", "test.q_ratio"),
     "circle_points": ("--circle-points", "test.circle_points"),
@@ -385,6 +401,20 @@ _RESTITUTION = _option("restitution", "--restitution", help="dem: coefficient of
                        "restitution of a normal impact, in (0, 1].")
 _HEIGHT = _option("height_ratio", "--height-ratio", help="Height / width of the loose "
                   "start box (a taller periodic cell keeps room to compress along z).")
+_PREPARATION = _option("preparation", "--preparation", help="How the sample is made: loose "
+                       "(particles at random in a loose box, compacted), deposition (a dense "
+                       "sphere packing built layer by layer, each sphere the circumscribed "
+                       "sphere of a particle, as Azéma, Radjaï & Dubois 2013; walls only) or "
+                       "file (--skeleton-file or --particle-file).")
+_SKELETON_FILE = typer.Option(None, "--skeleton-file", help="A .csv (x,y,z,radius) or .npz "
+                              "file of spheres: each the circumscribed sphere of a particle "
+                              "of --shape (implies --preparation file).")
+_PARTICLE_FILE = typer.Option(None, "--particle-file", help="A .csv "
+                              "(particle,kind,x,y,z,radius) or .npz file of the particles "
+                              "themselves: spheres, aggregates' member spheres or polyhedra's "
+                              "vertices, in world coordinates [m] (docs/discrete_engine.md; "
+                              "implies --preparation file; the shapes, sizes and box come "
+                              "from the file).")
 _B = _option("b", "--b", help="true_triaxial: b = (sigma_2 - sigma_3) / (sigma_1 - sigma_3), "
              "held with p = SIGMA0 (z major, x intermediate, y minor).")
 _GAMMA = _option("gamma", "--gamma", help="simple_shear: the shear strain gamma_xz at which "
@@ -421,7 +451,9 @@ def triaxial_command(
     record_every: int = _RECORD, snapshot_every: int = _SNAP, checkpoint_every: int = _CKPT,
     vtk_every: int = _VTK, boundary: str = _BOUNDARY, solver: str = _SOLVER, law: str = _LAW,
     kappa: float = _KAPPA, young_modulus: float = _YOUNG,
-    restitution: float = _RESTITUTION, config: Path = _CONFIG,
+    restitution: float = _RESTITUTION, preparation: str = _PREPARATION,
+    skeleton_file: Path = _SKELETON_FILE, particle_file: Path = _PARTICLE_FILE,
+    config: Path = _CONFIG,
     overwrite: bool = _OVERWRITE, progress: bool = _PROGRESS,
 ) -> None:
     """Triaxial compression of a discrete sample, as Azéma, Radjaï & Dubois 2013
@@ -436,7 +468,8 @@ def triaxial_command(
         max_iterations=max_iterations, record_every=record_every,
         snapshot_every=snapshot_every, checkpoint_every=checkpoint_every,
         vtk_every=vtk_every, boundary=boundary, solver=solver, law=law, kappa=kappa,
-        young_modulus=young_modulus, restitution=restitution), overwrite, progress)
+        young_modulus=young_modulus, restitution=restitution,
+        **_sample_source(preparation, skeleton_file, particle_file)), overwrite, progress)
 
 
 @friendly_errors
@@ -449,7 +482,9 @@ def compaction_command(
     snapshot_every: int = _SNAP, checkpoint_every: int = _CKPT, vtk_every: int = _VTK,
     boundary: str = _BOUNDARY, solver: str = _SOLVER, law: str = _LAW,
     kappa: float = _KAPPA, young_modulus: float = _YOUNG,
-    restitution: float = _RESTITUTION, config: Path = _CONFIG, overwrite: bool = _OVERWRITE,
+    restitution: float = _RESTITUTION, preparation: str = _PREPARATION,
+    skeleton_file: Path = _SKELETON_FILE, particle_file: Path = _PARTICLE_FILE,
+    config: Path = _CONFIG, overwrite: bool = _OVERWRITE,
     progress: bool = _PROGRESS,
 ) -> None:
     """Isotropic compaction of a loose random sample to SIGMA0 (no gravity, no friction: the
@@ -461,7 +496,8 @@ def compaction_command(
         compaction_tolerance=tolerance, sweep=sweep, record_every=record_every,
         snapshot_every=snapshot_every, checkpoint_every=checkpoint_every,
         vtk_every=vtk_every, boundary=boundary, solver=solver, law=law, kappa=kappa,
-        young_modulus=young_modulus, restitution=restitution), overwrite, progress)
+        young_modulus=young_modulus, restitution=restitution,
+        **_sample_source(preparation, skeleton_file, particle_file)), overwrite, progress)
 
 
 @friendly_errors
@@ -475,7 +511,9 @@ def oedometer_command(
     record_every: int = _RECORD, snapshot_every: int = _SNAP, checkpoint_every: int = _CKPT,
     vtk_every: int = _VTK, boundary: str = _BOUNDARY, solver: str = _SOLVER, law: str = _LAW,
     kappa: float = _KAPPA, young_modulus: float = _YOUNG,
-    restitution: float = _RESTITUTION, config: Path = _CONFIG,
+    restitution: float = _RESTITUTION, preparation: str = _PREPARATION,
+    skeleton_file: Path = _SKELETON_FILE, particle_file: Path = _PARTICLE_FILE,
+    config: Path = _CONFIG,
     overwrite: bool = _OVERWRITE, progress: bool = _PROGRESS,
 ) -> None:
     """Oedometer (1-D compression, lateral walls fixed) of a discrete sample after
@@ -492,7 +530,8 @@ def oedometer_command(
         tolerance=tolerance, sweep=sweep, record_every=record_every,
         snapshot_every=snapshot_every, checkpoint_every=checkpoint_every,
         vtk_every=vtk_every, boundary=boundary, solver=solver, law=law, kappa=kappa,
-        young_modulus=young_modulus, restitution=restitution), overwrite, progress)
+        young_modulus=young_modulus, restitution=restitution,
+        **_sample_source(preparation, skeleton_file, particle_file)), overwrite, progress)
 
 
 _KIND = typer.Argument(..., help="The lab test: " + ", ".join(TEST_KINDS) + ". "
@@ -513,7 +552,9 @@ def lab_test_command(
     max_iterations: int = _ITER, record_every: int = _RECORD, snapshot_every: int = _SNAP,
     checkpoint_every: int = _CKPT, vtk_every: int = _VTK, solver: str = _SOLVER,
     law: str = _LAW, kappa: float = _KAPPA, young_modulus: float = _YOUNG,
-    restitution: float = _RESTITUTION, config: Path = _CONFIG,
+    restitution: float = _RESTITUTION, preparation: str = _PREPARATION,
+    skeleton_file: Path = _SKELETON_FILE, particle_file: Path = _PARTICLE_FILE,
+    config: Path = _CONFIG,
     overwrite: bool = _OVERWRITE, progress: bool = _PROGRESS,
 ) -> None:
     """Any lab test on a discrete sample: a loose random sample, frictionless isotropic
@@ -535,7 +576,8 @@ def lab_test_command(
         tolerance=tolerance, sweep=sweep, max_iterations=max_iterations,
         record_every=record_every, snapshot_every=snapshot_every,
         checkpoint_every=checkpoint_every, vtk_every=vtk_every, solver=solver, law=law,
-        kappa=kappa, young_modulus=young_modulus, restitution=restitution), overwrite,
+        kappa=kappa, young_modulus=young_modulus, restitution=restitution,
+        **_sample_source(preparation, skeleton_file, particle_file)), overwrite,
         progress)
 
 

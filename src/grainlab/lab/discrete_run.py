@@ -58,6 +58,7 @@ import pandas as pd
 from grainlab.analysis.snapshot_files import append_snapshot
 from grainlab.engine.discrete_sample import DiscreteSample
 from grainlab.engine.sample_measures import PAIR_TYPE_NAMES
+from grainlab.engine.shape_kinds import kinds_present
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.errors import GrainlabError, InputError
 from grainlab.lab.box_thickness import BOX_MIN_DIAMETERS
@@ -81,6 +82,7 @@ from grainlab.lab.run_outcome import RunCost, RunOutcome
 from grainlab.lab.wall_stages import QuasiStaticCriteria, wall_stages
 from grainlab.prep.inscribed_sample import deposited_sample, inscribed_sample
 from grainlab.prep.loose_sample import loose_sample
+from grainlab.prep.particle_files import read_particles
 from grainlab.prep.sphere_skeleton import read_skeleton
 from grainlab.result.test_result import TestResult
 
@@ -131,7 +133,7 @@ def _logger(folder: Path) -> logging.Logger:
 
 def build_sample(config: RunConfig) -> DiscreteSample:
     """The sample of ``config.sample``: loose, inscribed in a deposited sphere packing or in
-    the spheres of a skeleton file (``sample.preparation``)."""
+    the spheres of a skeleton file, or read from a particle file (``sample.preparation``)."""
     s = config.sample
     try:
         if s.preparation == "loose":
@@ -153,10 +155,17 @@ def build_sample(config: RunConfig) -> DiscreteSample:
             return deposited_sample(n_particles=s.n_particles, d_min=s.d_min,
                                     size_ratio=s.size_ratio, height_ratio=s.height_ratio,
                                     **shapes)
-        if not s.skeleton_file:
-            raise InputError("skeleton_file", s.skeleton_file,
-                             'the path of a .npz or .csv file of spheres (preparation = '
-                             '"file")')
+        if bool(s.skeleton_file) == bool(s.particle_file):
+            field = "particle_file" if s.particle_file else "skeleton_file"
+            raise InputError(field, getattr(s, field),
+                             'the path of one file (preparation = "file"): skeleton_file, a '
+                             '.npz or .csv file of spheres to inscribe the particles in, or '
+                             'particle_file, a .npz or .csv file of the particles themselves')
+        if s.particle_file:
+            sample = read_particles(s.particle_file, density=s.density,
+                                    wall_friction=s.wall_friction, field="particle_file")
+            sample.description["particle_file"] = s.particle_file
+            return sample
         sample = inscribed_sample(read_skeleton(s.skeleton_file, field="skeleton_file"),
                                   **shapes)
         sample.description.update({"preparation": "file", "skeleton_file": s.skeleton_file})
@@ -616,8 +625,10 @@ def _new_test(config: RunConfig) -> DiscreteTest:
     """The sample and the test of ``config``, its targets checked against the box."""
     config.load_path()  # a path the boundary cannot run is refused before the sample is made
     config.check_solver()  # and a shape the solver cannot run
-    test = test_for(build_sample(config), config)
-    _refuse_flattening(test, config)
+    sample = build_sample(config)
+    config.check_solver(kinds_present(sample.library.kind))  # the file's shapes
+    test = test_for(sample, config)
+    _refuse_flattening(test)
     return test
 
 
@@ -626,21 +637,21 @@ def _create(folder: Path, config: RunConfig, test: DiscreteTest) -> DiscreteRun:
     config.write(folder / CONFIG)
     run = DiscreteRun(folder, config, test)
     run.log.info("run started: %s, %d %s particles", config.test.kind,
-                 config.sample.n_particles, config.sample.shape)
+                 test.sample.state.n_bodies, test.sample.description.get("shape", ""))
     return run
 
 
 _TARGET_KEYS = {"eps_q": "test.eps_q_max", "eps_zz": "test.axial_strain"}
 
 
-def _refuse_flattening(test: DiscreteTest, config: RunConfig) -> None:
+def _refuse_flattening(test: DiscreteTest) -> None:
     """An :class:`InputError` naming the config key of the first target that would flatten
     the box (:meth:`~grainlab.lab.discrete_test.DiscreteTest.predicted_flattening`)."""
     for flat in test.predicted_flattening():
         key = _TARGET_KEYS.get(flat.quantity, f"stage {flat.stage!r} target")
         raise InputError(key, flat.asked, (
             f"at most about {flat.largest:.3g} for this sample: {flat.words()} ("
-            f"{config.sample.n_particles} particles); "
+            f"{test.sample.state.n_bodies} particles); "
             f"{flat.advice()}"))
 
 
@@ -708,7 +719,7 @@ def resume_run(folder: str | Path, changes: list[str] | dict | None = None, *,
     test.solver.rng_state = saved["rng_state"]
     if any(key.startswith("test.") for key in changed):
         _check_stages(test, started, changed)
-        _refuse_flattening(test, config)
+        _refuse_flattening(test)
     test.apply_settings(started.settings())
     why = test.resumable()
     if why:

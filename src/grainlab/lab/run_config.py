@@ -135,10 +135,13 @@ class SampleConfig(_Section):
     """Particles of a sample: ``preparation`` "loose" (a loose random sample,
     :func:`grainlab.prep.loose_sample.loose_sample`), "deposition" (the particles inscribed in
     a dense deposited sphere packing, seeds 002/003 §II,
-    :func:`grainlab.prep.inscribed_sample.deposited_sample`; a box of walls only) or "file"
-    (inscribed in the spheres of ``skeleton_file``, a .npz or .csv file of
+    :func:`grainlab.prep.inscribed_sample.deposited_sample`; a box of walls only) or "file":
+    either inscribed in the spheres of ``skeleton_file`` (a .npz or .csv file of
     :mod:`grainlab.prep.sphere_skeleton`; n_particles, d_min, size_ratio and height_ratio
-    then come from the file).
+    then come from the file) or the particles of ``particle_file`` themselves (a .npz or .csv
+    file of :mod:`grainlab.prep.particle_files`: each particle's sphere, member spheres or
+    vertices in world coordinates; the shapes, sizes and box then come from the file too, and
+    only density and wall_friction apply).
 
     ``n_faces`` (even, in [8, 1000]; seed 002 Table I: 8, 20, 30, 46, 96, 176, 596) and
     ``templates`` (0: every polyhedron its own, as seed 002; K > 0: K shapes reused in random
@@ -160,6 +163,7 @@ class SampleConfig(_Section):
     height_ratio: float = Field(1.0, ge=0.25, le=4.0)
     preparation: Literal["loose", "deposition", "file"] = "loose"
     skeleton_file: str = ""
+    particle_file: str = ""
 
     @field_validator("shape", mode="before")
     @classmethod
@@ -392,19 +396,20 @@ class RunConfig(_Section):
         return LoadPath(name, 3, (*compaction, *stages),
                         f"isotropic compaction to {t.sigma0:g} Pa, then {what}")
 
-    def check_solver(self) -> None:
-        """Refuse a sample the solver cannot run, before anything is built: the soft-contact
-        solver (``method = "dem"``) gives polyhedra no rolling resistance (an
-        :class:`InputError` naming ``solver.dem.rolling_friction``: their faces resist
+    def check_solver(self, kinds=None) -> None:
+        """Refuse a sample the solver cannot run, before anything is built (the kinds of
+        ``sample.shape``) or once a file gave the particles (``kinds``, their shape kinds):
+        the soft-contact solver (``method = "dem"``) gives polyhedra no rolling resistance
+        (an :class:`InputError` naming ``solver.dem.rolling_friction``: their faces resist
         rolling)."""
-        shape = sample_shape(self.sample.shape)
         rolling = self.solver.dem.rolling_friction
-        if (self.solver.method == "dem" and shape.kind.narrow_phase != MEMBER_SPHERES
-                and rolling > 0.0):
-            raise InputError("solver.dem.rolling_friction", rolling, (
-                f"0 with {shape.kind.plural} and solver.method = 'dem' (rolling resistance "
-                "is a model for spheres and aggregates; the faces of polyhedra resist "
-                "rolling)"))
+        for kind in kinds or (sample_shape(self.sample.shape).kind,):
+            if (self.solver.method == "dem" and kind.narrow_phase != MEMBER_SPHERES
+                    and rolling > 0.0):
+                raise InputError("solver.dem.rolling_friction", rolling, (
+                    f"0 with {kind.plural} and solver.method = 'dem' (rolling resistance "
+                    "is a model for spheres and aggregates; the faces of polyhedra resist "
+                    "rolling)"))
 
     def settings(self) -> DiscreteTestSettings:
         """The discrete test's numerical settings."""

@@ -1,0 +1,342 @@
+"""Samples read from files: every particle's own geometry, in world coordinates [m].
+
+A particle file lists points, each of one particle (seeds 002/003 prepare their samples
+themselves; a user may bring a packing made elsewhere, e.g. exported from LMGC90 or YADE, or
+one grainlab wrote):
+
+- a ``sphere``: one point, its centre, with its radius;
+- an ``aggregate`` (seed 003): one point per member sphere, its centre, with its radius;
+- a ``polyhedron`` (seed 002): one point per vertex (radius 0 or empty); the particle is the
+  convex hull of its vertices (qhull).
+
+grainlab finds each particle's centre of mass, principal axes and mass properties from this
+geometry (:meth:`~grainlab.geometry.polyhedron.ConvexPolyhedron.from_vertices`,
+:meth:`~grainlab.geometry.sphere_aggregate.SphereAggregate.from_spheres`): the body sits at
+its centre of mass, oriented by its principal axes, at rest. Spheres and aggregates may be
+mixed in one file; polyhedra may not be mixed with either (the engine's narrow phases do not
+pair them). The box of walls is the file's own (``lower`` and ``upper`` corners) or, when
+it gives none, the particles' extent (walls touching the outermost particles).
+
+Two formats, by suffix:
+
+- ``.csv``: a header ``particle,kind,x,y,z,radius`` and one row per point; ``particle`` is any
+  integer naming the particle (its rows need not be consecutive; particles keep the order of
+  their first row); two optional rows of kind ``lower`` and ``upper`` (``particle`` -1, no
+  radius) give the box corners;
+- ``.npz`` (NumPy): arrays ``particle`` (M,) int, ``kind`` (M,) str, ``points`` (M, 3) [m],
+  ``radii`` (M,) [m], optionally ``lower`` and ``upper`` (3,) [m].
+
+:func:`write_particles` writes any sample in either format (world coordinates of its current
+configuration), so that a sample prepared once, by grainlab or by hand, can be read back
+(:func:`read_particles`) and tested many times.
+
+>>> import tempfile, pathlib
+>>> folder = pathlib.Path(tempfile.mkdtemp())
+>>> _ = (folder / "two.csv").write_text(
+...     "particle,kind,x,y,z,radius\\n0,sphere,0,0,1e-3,1e-3\\n1,sphere,0,0,3e-3,1e-3\\n")
+>>> sample = read_particles(folder / "two.csv")
+>>> sample.state.n_bodies, sample.box.lengths.round(6).tolist()
+(2, [0.002, 0.002, 0.004])
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from grainlab._validate import at_least
+from grainlab.engine.discrete_sample import DiscreteSample
+from grainlab.engine.quaternion import quat_to_matrices
+from grainlab.engine.shape_kinds import AGGREGATE, POLYHEDRON, SPHERE
+from grainlab.engine.state import BodyState, ShapeLibrary
+from grainlab.engine.wall_box import WallBox
+from grainlab.errors import InputError
+from grainlab.geometry.polyhedron import ConvexPolyhedron
+from grainlab.geometry.sphere_aggregate import SphereAggregate
+
+CSV_COLUMNS = ("particle", "kind", "x", "y", "z", "radius")
+"""The header of a particle CSV file (coordinates and radii in metres)."""
+
+KINDS = (SPHERE.name, AGGREGATE.name, POLYHEDRON.name)
+"""The particle kinds a file may hold."""
+
+BOX_ROWS = ("lower", "upper")
+"""The kinds of the two optional rows that give the box corners."""
+
+
+def read_particles(path: str | Path, *, density: float = 2600.0, wall_friction: float = 0.0,
+                   field: str = "particle file") -> DiscreteSample:
+    """The sample of the particle file ``path`` (module docstring) at rest in its box of
+    walls; ``density`` [kg/m^3] and ``wall_friction`` as
+    :func:`~grainlab.prep.inscribed_sample.inscribed_sample`. Errors name ``field``."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(field, str(path), "an existing .csv or .npz particle file")
+    if path.suffix == ".npz":
+        rows = _npz_rows(path, field)
+    elif path.suffix == ".csv":
+        rows = _csv_rows(path, field)
+    else:
+        raise InputError(field, str(path), "a .csv or .npz particle file")
+    return _sample(rows, density=at_least("density", density),
+                   wall_friction=at_least("wall_friction", wall_friction, strict=False),
+                   where=f"{field} {path}")
+
+
+def write_particles(sample: DiscreteSample, path: str | Path) -> Path:
+    """Write ``sample`` (a box of walls) as a particle file (``.csv`` or ``.npz``, module
+    docstring): each particle's points in world coordinates of its configuration now."""
+    path = Path(path)
+    if path.suffix not in (".csv", ".npz"):
+        raise InputError("path", str(path), "a file name ending in .csv or .npz")
+    if not isinstance(sample.boundary, WallBox):
+        raise InputError("sample.boundary", type(sample.boundary).__name__,
+                         "a box of walls (a periodic cell has no corners to write)")
+    particle, kind, points, radii = _world_points(sample.library, sample.state)
+    lower, upper = sample.boundary.lower, sample.boundary.upper
+    if path.suffix == ".npz":
+        np.savez(path, particle=particle, kind=np.array(kind), points=points, radii=radii,
+                 lower=lower, upper=upper)
+        return path
+    with path.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(CSV_COLUMNS)
+        for p, k, x, r in zip(particle, kind, points, radii, strict=True):
+            writer.writerow([int(p), k, *(repr(float(c)) for c in x),
+                             "" if k == POLYHEDRON.name else repr(float(r))])
+        for name, corner in zip(BOX_ROWS, (lower, upper), strict=True):
+            writer.writerow([-1, name, *(repr(float(c)) for c in corner), ""])
+    return path
+
+
+# --------------------------------------------------------------------------------------------
+# Reading: rows (particle, kind, point, radius) -> sample
+# --------------------------------------------------------------------------------------------
+
+
+class _Rows:
+    """The file's points (M,) with the box corners set apart (None when not given)."""
+
+    def __init__(self, particle, kind, points, radii, lower=None, upper=None) -> None:
+        self.particle, self.kind = particle, kind
+        self.points, self.radii = points, radii
+        self.lower, self.upper = lower, upper
+
+
+def _number(text: str, where: str, column: str, allow_empty: bool = False) -> float:
+    text = text.strip()
+    if allow_empty and text == "":
+        return 0.0
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f"{where}: {column}", text, "a number") from None
+    if not np.isfinite(value):
+        raise InputError(f"{where}: {column}", text, "a finite number")
+    return value
+
+
+def _csv_rows(path: Path, field: str) -> _Rows:
+    with path.open(newline="") as handle:
+        reader = csv.reader(handle)
+        header = [h.strip() for h in next(reader, [])]
+        if tuple(header) != CSV_COLUMNS:
+            raise InputError(f"{field} {path}: header", ",".join(header),
+                             ",".join(CSV_COLUMNS))
+        particle, kind, points, radii, box = [], [], [], [], {}
+        for line, row in enumerate(reader, start=2):
+            if not row or all(not cell.strip() for cell in row):
+                continue
+            where = f"{field} {path}, line {line}"
+            if len(row) != len(CSV_COLUMNS):
+                raise InputError(where, ",".join(row), f"{len(CSV_COLUMNS)} columns: "
+                                 + ",".join(CSV_COLUMNS))
+            name = row[1].strip()
+            point = [_number(row[k], where, CSV_COLUMNS[k]) for k in (2, 3, 4)]
+            if name in BOX_ROWS:
+                box[name] = np.array(point)
+                continue
+            try:
+                particle.append(int(row[0]))
+            except ValueError:
+                raise InputError(f"{where}: particle", row[0], "an integer") from None
+            kind.append(name)
+            points.append(point)
+            radii.append(_number(row[5], where, "radius", allow_empty=True))
+    return _Rows(np.array(particle, dtype=np.int64), kind,
+                 np.array(points, dtype=np.float64).reshape(-1, 3), np.array(radii),
+                 box.get("lower"), box.get("upper"))
+
+
+def _npz_rows(path: Path, field: str) -> _Rows:
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {name: data[name] for name in data.files}
+    except (OSError, ValueError) as error:
+        raise InputError(field, str(path), f"a readable .npz file ({error})") from None
+    missing = [n for n in ("particle", "kind", "points", "radii") if n not in arrays]
+    if missing:
+        raise InputError(f"{field} {path}", "arrays " + ", ".join(sorted(arrays)),
+                         "arrays particle, kind, points, radii (lower, upper optional); "
+                         "missing " + ", ".join(missing))
+    points = np.asarray(arrays["points"], dtype=np.float64)
+    m = points.shape[0] if points.ndim == 2 and points.shape[1] == 3 else -1
+    for name, shape in (("particle", (m,)), ("kind", (m,)), ("radii", (m,))):
+        if m < 0 or np.shape(arrays[name]) != shape:
+            raise InputError(f"{field} {path}: {name}", f"shape {np.shape(arrays[name])}",
+                             f"one entry per row of points (M, 3), points {points.shape}")
+    corners = {}
+    for name in BOX_ROWS:
+        if name in arrays:
+            corner = np.asarray(arrays[name], dtype=np.float64)
+            if corner.shape != (3,):
+                raise InputError(f"{field} {path}: {name}", f"shape {corner.shape}", "(3,)")
+            corners[name] = corner
+    return _Rows(np.asarray(arrays["particle"]).astype(np.int64),
+                 [str(k) for k in arrays["kind"]], points,
+                 np.asarray(arrays["radii"], dtype=np.float64),
+                 corners.get("lower"), corners.get("upper"))
+
+
+def _sample(rows: _Rows, *, density: float, wall_friction: float, where: str
+            ) -> DiscreteSample:
+    if rows.points.shape[0] == 0:
+        raise InputError(where, "no particle", "at least one particle")
+    if not np.all(np.isfinite(rows.points)) or not np.all(np.isfinite(rows.radii)):
+        raise InputError(where, "non-finite coordinates or radii", "finite numbers in m")
+    ids, first = np.unique(rows.particle, return_index=True)
+    order = ids[np.argsort(first)]  # particles in the order of their first row
+    shapes, kinds = [], []
+    for pid in order:
+        mine = np.flatnonzero(rows.particle == pid)
+        names = {rows.kind[i] for i in mine}
+        label = f"{where}: particle {pid}"
+        if len(names) != 1 or next(iter(names)) not in KINDS:
+            raise InputError(f"{label} kind", ", ".join(sorted(names)),
+                             "one of " + ", ".join(KINDS) + " for all its rows")
+        kind = names.pop()
+        shapes.append(_shape(kind, rows.points[mine], rows.radii[mine], label))
+        kinds.append(kind)
+    if POLYHEDRON.name in kinds and set(kinds) != {POLYHEDRON.name}:
+        raise InputError(f"{where}: kind", ", ".join(sorted(set(kinds))),
+                         "polyhedra alone, or spheres and aggregates (polyhedra are not "
+                         "paired with sphere-based particles)")
+    library, positions, rotations = _library(shapes, kinds)
+    lower, upper = _box(rows, library, where)
+    orientations = Rotation.from_matrix(rotations).as_quat()[:, [3, 0, 1, 2]]  # w first
+    state = BodyState.from_library(library, np.arange(len(shapes)), positions, density,
+                                   orientations)
+    _check_inside(library, state, lower, upper, where)
+    box = WallBox(lower, upper, friction=wall_friction)
+    box.set_masses(float(np.sum(state.masses)))
+    diameters = 2.0 * library.bounding_radius
+    shape = kinds[0] if len(set(kinds)) == 1 else "mixed"
+    description = {"shape": shape, "n_particles": len(shapes),
+                   "d_min": float(diameters.min()), "d_max": float(diameters.max()),
+                   "density": density, "preparation": "file"}
+    if shape == POLYHEDRON.name:
+        description["mean_angularity"] = float(np.mean([p.angularity for p in shapes]))
+    return DiscreteSample(library, state, box, description)
+
+
+def _shape(kind: str, points: np.ndarray, radii: np.ndarray, label: str):
+    """The shape of one particle from its world points: a sphere (centre, radius), an
+    aggregate or a polyhedron (their body frame, rotation and centre of mass)."""
+    if kind == POLYHEDRON.name:
+        if points.shape[0] < 4:
+            raise InputError(f"{label} vertices", points.shape[0],
+                             "at least 4 vertices, not all in one plane")
+        return ConvexPolyhedron.from_vertices(points, name=label)
+    if np.any(radii <= 0.0):
+        raise InputError(f"{label} radius", float(radii.min()), "positive radii in m")
+    if kind == SPHERE.name:
+        if points.shape[0] != 1:
+            raise InputError(f"{label} rows", points.shape[0],
+                             "one row (its centre and radius) for a sphere")
+        return (points[0], float(radii[0]))
+    return SphereAggregate.from_spheres(points, radii, name=label)
+
+
+def _library(shapes: list, kinds: list[str]) -> tuple[ShapeLibrary, np.ndarray, np.ndarray]:
+    """The library (one shape per particle, in file order), the centres of mass (N, 3) [m]
+    and the body-to-world rotations (N, 3, 3)."""
+    n = len(shapes)
+    positions, rotations = np.empty((n, 3)), np.tile(np.eye(3), (n, 1, 1))
+    if kinds[0] == POLYHEDRON.name:
+        for k, shape in enumerate(shapes):
+            positions[k], rotations[k] = shape.centre_of_mass, shape.rotation
+        return ShapeLibrary.from_polyhedra(shapes), positions, rotations
+    parts = []  # runs of consecutive particles of one kind, concatenated in order
+    start = 0
+    while start < n:
+        stop = start
+        while stop < n and kinds[stop] == kinds[start]:
+            stop += 1
+        run = shapes[start:stop]
+        if kinds[start] == SPHERE.name:
+            positions[start:stop] = [centre for centre, _ in run]
+            parts.append(ShapeLibrary.from_spheres(np.array([r for _, r in run])))
+        else:
+            for k, shape in enumerate(run, start=start):
+                positions[k], rotations[k] = shape.centre_of_mass, shape.rotation
+            parts.append(ShapeLibrary.from_aggregates(run))
+        start = stop
+    library = parts[0]
+    for part in parts[1:]:
+        library = library.concatenate(part)
+    return library, positions, rotations
+
+
+def _box(rows: _Rows, library: ShapeLibrary, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """The file's box, or the extent of its particles' points (spheres with their radii)."""
+    if (rows.lower is None) != (rows.upper is None):
+        raise InputError(f"{where}: box", "one corner", "both lower and upper, or neither")
+    if rows.lower is not None:
+        if np.any(rows.upper <= rows.lower):
+            raise InputError(f"{where}: box", (rows.lower.tolist(), rows.upper.tolist()),
+                             "lower < upper on every axis")
+        return rows.lower.copy(), rows.upper.copy()
+    reach = rows.radii[:, None]
+    return (np.min(rows.points - reach, axis=0), np.max(rows.points + reach, axis=0))
+
+
+def _check_inside(library: ShapeLibrary, state: BodyState, lower: np.ndarray,
+                  upper: np.ndarray, where: str) -> None:
+    """Every particle inside the box (to a relative 1e-9 of the largest particle)."""
+    _, _, points, radii = _world_points(library, state)
+    slack = 1e-9 * float(library.bounding_radius.max())
+    out = np.any(points - radii[:, None] < lower - slack, axis=1) | \
+        np.any(points + radii[:, None] > upper + slack, axis=1)
+    if np.any(out):
+        raise InputError(f"{where}: box", (lower.tolist(), upper.tolist()),
+                         f"a box holding every particle ({int(np.sum(out))} point(s) "
+                         "outside)")
+
+
+def _world_points(library: ShapeLibrary, state: BodyState
+                  ) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
+    """(particle (M,), kind (M,), points (M, 3) [m], radii (M,) [m]) of every body in world
+    coordinates: member spheres of sphere-based bodies, vertices of polyhedra."""
+    rotations = quat_to_matrices(state.orientations)
+    particle, kind, points, radii = [], [], [], []
+    for b in range(state.n_bodies):
+        s = int(state.shape_ids[b])
+        code = int(library.kind[s])
+        if code == POLYHEDRON.code:
+            start, count = int(library.vertex_start[s]), int(library.vertex_count[s])
+            local, r = library.vertices[start:start + count], np.zeros(count)
+            name = POLYHEDRON.name
+        else:
+            start, count = int(library.sphere_start[s]), int(library.sphere_count[s])
+            local = library.sphere_offsets[start:start + count]
+            r = library.sphere_radii[start:start + count]
+            name = SPHERE.name if code == SPHERE.code else AGGREGATE.name
+        points.append(state.positions[b] + local @ rotations[b].T)
+        radii.append(r)
+        particle += [b] * count
+        kind += [name] * count
+    return (np.array(particle, dtype=np.int64), kind, np.concatenate(points),
+            np.concatenate(radii))

@@ -1,0 +1,148 @@
+"""Particle files: each particle's own geometry in world coordinates, read back into the
+sample it came from (mass properties, positions, box), independent of a rigid motion of the
+file, with closed forms for a cube and a sphere, and bad files refused by name."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from grainlab.errors import InputError
+from grainlab.lab.discrete_run import build_sample
+from grainlab.lab.run_config import RunConfig
+from grainlab.prep.inscribed_sample import deposited_sample
+from grainlab.prep.particle_files import _world_points, read_particles, write_particles
+
+
+def world_geometry(sample) -> list[np.ndarray]:
+    """Each body's points (member spheres with radii, or vertices), sorted rows."""
+    particle, _, points, radii = _world_points(sample.library, sample.state)
+    rows = np.column_stack([points, radii])
+    return [np.array(sorted(map(tuple, rows[particle == b])))
+            for b in range(sample.state.n_bodies)]
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".npz"])
+@pytest.mark.parametrize("shape", ["sphere", "aggregate", "polyhedron"])
+def test_a_written_sample_reads_back_as_itself(shape, suffix, tmp_path):
+    made = deposited_sample(shape=shape, n_particles=25, seed=4, eta=0.5, n_faces=20,
+                            templates=3)
+    read = read_particles(write_particles(made, tmp_path / f"sample{suffix}"))
+    ids = made.state.shape_ids
+    scale = made.library.bounding_radius.max()
+    assert read.state.n_bodies == made.state.n_bodies
+    np.testing.assert_allclose(read.state.positions, made.state.positions, atol=1e-12 * scale)
+    np.testing.assert_allclose(read.library.volume, made.library.volume[ids], rtol=1e-12)
+    np.testing.assert_allclose(read.library.principal_inertia,
+                               made.library.principal_inertia[ids], rtol=1e-10)
+    np.testing.assert_allclose(read.state.masses, made.state.masses, rtol=1e-12)
+    for mine, theirs in zip(world_geometry(read), world_geometry(made), strict=True):
+        np.testing.assert_allclose(mine, theirs, atol=1e-12 * scale)
+    assert np.array_equal(read.box.lower, made.box.lower)
+    assert np.array_equal(read.box.upper, made.box.upper)
+    assert np.all(read.state.velocities == 0) and read.description["preparation"] == "file"
+
+
+def cube_rows(centre, rotation, side):
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * side / 2
+    return centre + corners @ rotation.T
+
+
+def test_a_cube_and_a_sphere_have_their_closed_form_mass_properties(tmp_path):
+    side, radius, density = 2e-3, 1e-3, 2000.0
+    turn = Rotation.from_rotvec([0.3, -0.2, 0.5]).as_matrix()
+    centre = np.array([5e-3, 5e-3, 5e-3])
+    lines = ["particle,kind,x,y,z,radius"]
+    lines += [f"7,polyhedron,{float(x)!r},{float(y)!r},{float(z)!r},"
+              for x, y, z in cube_rows(centre, turn, side)]
+    path = tmp_path / "cube.csv"
+    path.write_text("\n".join(lines) + "\n-1,lower,0,0,0,\n-1,upper,1e-2,1e-2,1e-2,\n")
+    cube = read_particles(path, density=density)
+    mass = density * side**3
+    assert cube.state.masses[0] == pytest.approx(mass, rel=1e-12)
+    np.testing.assert_allclose(cube.library.principal_inertia[0] * density,
+                               mass * side**2 / 6, rtol=1e-12)
+    np.testing.assert_allclose(cube.state.positions[0], centre, atol=1e-15)
+    # the body's vertices, turned by its orientation, are the file's
+    assert np.allclose(np.sort(world_geometry(cube)[0][:, :3], axis=0),
+                       np.sort(cube_rows(centre, turn, side), axis=0), atol=1e-15)
+    (tmp_path / "ball.csv").write_text(f"particle,kind,x,y,z,radius\n3,sphere,0,0,0,{radius}\n")
+    ball = read_particles(tmp_path / "ball.csv", density=density)
+    assert ball.state.masses[0] == pytest.approx(density * 4 / 3 * np.pi * radius**3, rel=1e-12)
+    assert ball.box.lengths.tolist() == pytest.approx([2 * radius] * 3)
+
+
+def test_a_rigid_motion_of_the_file_moves_the_sample_and_keeps_its_shapes(tmp_path):
+    made = deposited_sample(shape="aggregate", n_particles=12, seed=1, eta=0.6)
+    path = write_particles(made, tmp_path / "a.npz")
+    with np.load(path) as data:
+        arrays = dict(data)
+    turn = Rotation.from_rotvec([0.1, 0.7, -0.4]).as_matrix()
+    shift = np.array([1.0, -2.0, 0.5])
+    arrays["points"] = arrays["points"] @ turn.T + shift
+    del arrays["lower"], arrays["upper"]  # the box of the moved particles' extent
+    np.savez(tmp_path / "moved.npz", **arrays)
+    moved = read_particles(tmp_path / "moved.npz")
+    np.testing.assert_allclose(moved.state.positions, made.state.positions @ turn.T + shift,
+                               atol=1e-12)
+    np.testing.assert_allclose(moved.library.volume, made.library.volume, rtol=1e-12)
+    np.testing.assert_allclose(moved.library.principal_inertia,
+                               made.library.principal_inertia, rtol=1e-10)
+
+
+def test_spheres_and_aggregates_mix_in_file_order(tmp_path):
+    (tmp_path / "mix.csv").write_text(
+        "particle,kind,x,y,z,radius\n"
+        "0,sphere,0,0,0,1e-3\n"
+        "1,aggregate,4e-3,0,0,1e-3\n1,aggregate,5e-3,0,0,1e-3\n"
+        "2,sphere,9e-3,0,0,2e-3\n")
+    sample = read_particles(tmp_path / "mix.csv")
+    kinds = sample.library.kind[sample.state.shape_ids].tolist()
+    assert kinds[0] == kinds[2] != kinds[1]
+    np.testing.assert_allclose(sample.state.positions[:, 0], [0, 4.5e-3, 9e-3], atol=1e-15)
+    assert sample.description["shape"] == "mixed"
+
+
+@pytest.mark.parametrize("text, field", [
+    ("particle,kind,x,y,z\n0,sphere,0,0,0\n", "header"),
+    ("particle,kind,x,y,z,radius\n0,cube,0,0,0,1\n", "particle 0 kind"),
+    ("particle,kind,x,y,z,radius\n0,sphere,0,0,0,1\n0,sphere,1,0,0,1\n", "particle 0 rows"),
+    ("particle,kind,x,y,z,radius\n0,sphere,0,0,0,-1\n", "particle 0 radius"),
+    ("particle,kind,x,y,z,radius\n0,sphere,0,zero,0,1\n", "line 2: y"),
+    ("particle,kind,x,y,z,radius\nA,sphere,0,0,0,1\n", "line 2: particle"),
+    ("particle,kind,x,y,z,radius\n" + "".join(
+        f"0,polyhedron,{x},{y},0,\n" for x, y in [(0, 0), (1, 0), (0, 1)]), "vertices"),
+    ("particle,kind,x,y,z,radius\n0,sphere,0,0,0,1\n" + "".join(
+        f"1,polyhedron,{x},{y},{z},\n" for x, y, z in
+        [(5, 5, 5), (6, 5, 5), (5, 6, 5), (5, 5, 6)]), "kind"),
+    ("particle,kind,x,y,z,radius\n0,sphere,0,0,0,1\n-1,lower,0,0,0,\n-1,upper,1,1,1,\n",
+     "box"),
+    ("particle,kind,x,y,z,radius\n0,sphere,0,0,0,1\n-1,lower,-1,-1,-1,\n", "box"),
+])
+def test_bad_particle_files_name_what_is_wrong(text, field, tmp_path):
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(InputError, match="particle file") as caught:
+        read_particles(path)
+    assert field in caught.value.field
+
+
+def test_an_npz_without_its_arrays_is_refused(tmp_path):
+    np.savez(tmp_path / "bad.npz", points=np.zeros((2, 3)))
+    with pytest.raises(InputError, match=r"missing particle, kind, radii"):
+        read_particles(tmp_path / "bad.npz")
+
+
+def test_the_config_reads_a_particle_file_and_wants_one_file(tmp_path):
+    made = deposited_sample(shape="polyhedron", n_particles=10, seed=2, n_faces=8,
+                            templates=2)
+    path = str(write_particles(made, tmp_path / "p.csv"))
+    config = RunConfig.model_validate({"sample": {"preparation": "file",
+                                                  "particle_file": path}})
+    sample = build_sample(config)
+    assert sample.state.n_bodies == 10 and sample.description["shape"] == "polyhedron"
+    both = RunConfig.model_validate({"sample": {"preparation": "file", "particle_file": path,
+                                                "skeleton_file": path}})
+    with pytest.raises(InputError, match=r"sample\.particle_file"):
+        build_sample(both)
