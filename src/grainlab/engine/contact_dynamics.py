@@ -1037,6 +1037,13 @@ class ContactDynamicsStep:
         self._warm_keys = np.asarray(arrays["keys"], dtype=np.int64)
         self._warm_forces = np.asarray(arrays["forces"], dtype=np.float64).reshape(-1, 3)
 
+    def alert_distance(self, library: ShapeLibrary) -> float:
+        """The alert distance [m] the next detection uses (module docstring of
+        :meth:`_phases`): bodies farther apart than this at a step's start have no row."""
+        if self._detection is not None:
+            return self._detection.alert
+        return self.alert if self.alert is not None else 0.1 * _smallest_radius(library)
+
     @property
     def rng_state(self) -> dict:
         """State of the visiting-order generator (checkpoints)."""
