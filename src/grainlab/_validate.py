@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import math
 import operator
+import tomllib
+from pathlib import Path
+from typing import Any
 
 from grainlab.errors import InputError
 
@@ -61,3 +64,23 @@ def seed(field: str, value) -> int:
     if isinstance(value, bool) or not 0 <= number <= MAX_SEED:
         raise InputError(field, value, f"an integer in [0, {MAX_SEED}]")
     return number
+
+
+def read_toml(path: str | Path, field: str) -> dict[str, Any]:
+    """The data of the TOML file ``path``; a missing, unreadable or invalid file raises
+    :class:`InputError` naming ``field`` and the path."""
+    path = Path(path)
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(field, str(path), "an existing TOML file") from None
+    except IsADirectoryError:
+        raise InputError(field, str(path), "a TOML file (it is a folder)") from None
+    except UnicodeDecodeError:
+        raise InputError(field, str(path), "a TOML text file (this one is not UTF-8 "
+                                           "text)") from None
+    except OSError as error:
+        raise InputError(field, str(path), f"a readable TOML file "
+                                           f"({error.strerror or error})") from None
+    except tomllib.TOMLDecodeError as error:
+        raise InputError(field, str(path), f"valid TOML ({error})") from None

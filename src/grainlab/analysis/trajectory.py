@@ -82,12 +82,7 @@ class TrajectoryAnalysis:
         progress: Callable[[int], None] | None = None,
     ) -> TrajectoryAnalysis:
         """Analyse every snapshot in order; ``progress`` is called after each."""
-        self._prepare()
-        for index, network in enumerate(snapshots):
-            self._single_snapshot(index, network)
-            if progress is not None:
-                progress(index + 1)
-        self._conclude()
+        analyse_in_order(self, snapshots, progress)
         return self
 
     # -- results ------------------------------------------------------------------------------
@@ -140,3 +135,17 @@ class TrajectoryAnalysis:
             dimension=dimension,
             title=f"microstructure of {source}" if source else "microstructure",
         )
+
+
+def analyse_in_order(analysis, snapshots: Iterable[ContactNetwork],
+                     progress: Callable[[int], None] | None = None) -> None:
+    """One pass of ``analysis`` over ``snapshots`` in order: its ``_prepare()``, then
+    ``_single_snapshot(index, network)`` for each (``progress(k)`` after the k-th), then
+    ``_conclude()`` (the pass shared by :class:`TrajectoryAnalysis` and
+    :class:`~grainlab.analysis.window_average.WindowAverage`)."""
+    analysis._prepare()
+    for index, network in enumerate(snapshots):
+        analysis._single_snapshot(index, network)
+        if progress is not None:
+            progress(index + 1)
+    analysis._conclude()

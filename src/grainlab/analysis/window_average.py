@@ -42,7 +42,7 @@ from grainlab.analysis.compute import NotComputedError
 from grainlab.analysis.contact_network import ContactNetwork
 from grainlab.analysis.snapshot_analysis import SnapshotAnalysis
 from grainlab.analysis.snapshot_files import read_snapshots, resolve_snapshot_file
-from grainlab.analysis.trajectory import descriptor_unit
+from grainlab.analysis.trajectory import analyse_in_order, descriptor_unit
 from grainlab.errors import InputError
 
 LINEAR_RATIO_RANGE = (0.0, 8.0)
@@ -293,12 +293,7 @@ class WindowAverage:
         if isinstance(snapshots, str | Path):
             snapshots = read_snapshots(resolve_snapshot_file(snapshots))
         self._done = False
-        self._prepare()
-        for index, network in enumerate(snapshots):
-            self._single_snapshot(index, network)
-            if progress is not None:
-                progress(index + 1)
-        self._conclude()
+        analyse_in_order(self, snapshots, progress)
         return self
 
     # -- results ------------------------------------------------------------------------------

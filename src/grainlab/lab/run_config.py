@@ -59,7 +59,7 @@ from typing import Annotated, Any, Literal, get_args, get_origin
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from grainlab._validate import MAX_SEED
+from grainlab._validate import MAX_SEED, read_toml
 from grainlab.engine.shape_kinds import MEMBER_SPHERES, SPHERE
 from grainlab.errors import InputError
 from grainlab.lab.discrete_test import DiscreteTestSettings
@@ -327,20 +327,7 @@ class RunConfig(_Section):
     def read(cls, path: str | Path) -> RunConfig:
         """Read a TOML file."""
         path = Path(path)
-        try:
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise InputError("config", str(path), "an existing TOML file") from None
-        except IsADirectoryError:
-            raise InputError("config", str(path), "a TOML file (it is a folder)") from None
-        except UnicodeDecodeError:
-            raise InputError("config", str(path), "a TOML text file (this one is not "
-                                                  "UTF-8 text)") from None
-        except OSError as error:
-            raise InputError("config", str(path), f"a readable TOML file "
-                                                  f"({error.strerror or error})") from None
-        except tomllib.TOMLDecodeError as error:
-            raise InputError("config", str(path), f"valid TOML ({error})") from None
+        data = read_toml(path, "config")
         try:
             return cls.model_validate(data)
         except InputError as error:

@@ -60,7 +60,7 @@ from grainlab.prep.deposition_kernels import (
     UNSETTLED,
     deposit_kernel,
 )
-from grainlab.prep.loose_sample import diameters_uniform_by_volume
+from grainlab.prep.loose_sample import checked_sizes, diameters_uniform_by_volume
 from grainlab.prep.sphere_skeleton import SphereSkeleton
 
 MAX_MOVES = 200
@@ -195,13 +195,7 @@ def deposited_packing(*, n_particles: int, d_min: float, size_ratio: float = 2.0
     size_ratio 2, seed 003: 3), deposited in a square box whose width is chosen so that the
     packing's height is about ``height_ratio`` times it (at phi ~ :data:`PACKING_GUESS`), at
     least 2.5 d_max. ``seed``: an integer or the generator of the sizes, then the drops."""
-    if isinstance(n_particles, bool) or not isinstance(n_particles, int | np.integer) \
-            or n_particles < 1:
-        raise InputError("n_particles", n_particles, "an integer >= 1")
-    d_min = at_least("d_min", d_min)
-    ratio = at_least("size_ratio", size_ratio)
-    if ratio < 1.0:
-        raise InputError("size_ratio", size_ratio, "d_max / d_min >= 1")
+    n_particles, d_min, ratio = checked_sizes(n_particles, d_min, size_ratio)
     aspect = at_least("height_ratio", height_ratio)
     rng = seed if isinstance(seed, np.random.Generator) else \
         np.random.default_rng(check_seed("seed", seed))

@@ -42,6 +42,19 @@ from grainlab.errors import InputError
 from grainlab.prep.sample_shapes import sample_shape
 
 
+def checked_sizes(n_particles, d_min, size_ratio) -> tuple[int, float, float]:
+    """(n_particles, d_min [m], size_ratio) checked: an integer >= 1, a positive diameter,
+    d_max / d_min >= 1; else :class:`InputError` naming the keyword."""
+    if isinstance(n_particles, bool) or not isinstance(n_particles, int | np.integer) \
+            or n_particles < 1:
+        raise InputError("n_particles", n_particles, "an integer >= 1")
+    d_min = at_least("d_min", d_min)
+    ratio = at_least("size_ratio", size_ratio)
+    if ratio < 1.0:
+        raise InputError("size_ratio", size_ratio, "d_max / d_min >= 1")
+    return int(n_particles), d_min, ratio
+
+
 def diameters_uniform_by_volume(n: int, d_min: float, d_max: float,
                                 rng: np.random.Generator) -> np.ndarray:
     """``n`` diameters [m] with equal volume in every size class of [d_min, d_max] (module
@@ -149,13 +162,7 @@ def loose_sample(
         Seed of the sizes, positions and orientations.
     """
     maker = sample_shape(shape)
-    if isinstance(n_particles, bool) or not isinstance(n_particles, int | np.integer) \
-            or n_particles < 1:
-        raise InputError("n_particles", n_particles, "an integer >= 1")
-    d_min = at_least("d_min", d_min)
-    ratio = at_least("size_ratio", size_ratio)
-    if ratio < 1.0:
-        raise InputError("size_ratio", size_ratio, "d_max / d_min >= 1")
+    n_particles, d_min, ratio = checked_sizes(n_particles, d_min, size_ratio)
     density = at_least("density", density)
     phi = at_least("packing_fraction", packing_fraction)
     if phi > 0.35:

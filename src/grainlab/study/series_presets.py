@@ -97,12 +97,9 @@ def angularity_series(*, n_particles: int | None = None, length: str = "short",
         samples.append({"name": f"S{k + 2}", "value": TABLE_I[faces],
                         "set": {"sample": {"shape": "polyhedron", "n_faces": faces,
                                            "templates": templates}}})
-    return StudySpec.model_validate({
-        "study": {"name": "angularity", "parameter": "mean_angularity", "symbol": "<alpha>",
-                  "window": LENGTHS[length]["window"]["angularity"],
-                  "description": "Seed 002: spheres and polyhedra of 596 ... 8 faces "
-                                 f"({length} length, {n} particles per sample)"},
-        "base": base, "samples": samples})
+    return _series("angularity", "mean_angularity", "<alpha>",
+                   "Seed 002: spheres and polyhedra of 596 ... 8 faces", length, n, base,
+                   samples)
 
 
 def nonconvexity_series(*, n_particles: int | None = None, length: str = "short",
@@ -115,11 +112,18 @@ def nonconvexity_series(*, n_particles: int | None = None, length: str = "short"
     for eta in ETAS:
         shape = {"shape": "sphere"} if eta == 0.0 else {"shape": "aggregate", "eta": eta}
         samples.append({"name": f"eta-{eta:.1f}", "value": eta, "set": {"sample": shape}})
+    return _series("nonconvexity", "eta", "eta",
+                   "Seed 003: aggregates of four spheres, eta = 0 ... 0.7", length, n, base,
+                   samples)
+
+
+def _series(name: str, parameter: str, symbol: str, text: str, length: str, n: int,
+            base: dict, samples: list[dict]) -> StudySpec:
+    """The study of a preset series: its window at ``length``, described by ``text``."""
     return StudySpec.model_validate({
-        "study": {"name": "nonconvexity", "parameter": "eta", "symbol": "eta",
-                  "window": LENGTHS[length]["window"]["nonconvexity"],
-                  "description": "Seed 003: aggregates of four spheres, eta = 0 ... 0.7 "
-                                 f"({length} length, {n} particles per sample)"},
+        "study": {"name": name, "parameter": parameter, "symbol": symbol,
+                  "window": LENGTHS[length]["window"][name],
+                  "description": f"{text} ({length} length, {n} particles per sample)"},
         "base": base, "samples": samples})
 
 

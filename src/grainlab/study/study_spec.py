@@ -48,13 +48,13 @@ spells it (``samples[1].set.sample.eta``). The preset series of seeds 002 and 00
 from __future__ import annotations
 
 import re
-import tomllib
 from pathlib import Path
 from typing import Any
 
 import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from grainlab._validate import read_toml
 from grainlab.errors import InputError
 from grainlab.lab.run_config import RunConfig, current_layout
 
@@ -145,16 +145,7 @@ class StudySpec(_Model):
     def read(cls, path: str | Path) -> StudySpec:
         """Read a study TOML file (module docstring)."""
         path = Path(path)
-        try:
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise InputError("study file", str(path), "an existing TOML file") from None
-        except IsADirectoryError:
-            raise InputError("study file", str(path), "a TOML file (it is a folder)") from None
-        except UnicodeDecodeError:
-            raise InputError("study file", str(path), "a UTF-8 TOML text file") from None
-        except tomllib.TOMLDecodeError as error:
-            raise InputError("study file", str(path), f"valid TOML ({error})") from None
+        data = read_toml(path, "study file")
         try:
             return cls.model_validate(data)
         except InputError as error:
