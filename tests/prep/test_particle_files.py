@@ -146,3 +146,29 @@ def test_the_config_reads_a_particle_file_and_wants_one_file(tmp_path):
                                                 "skeleton_file": path}})
     with pytest.raises(InputError, match=r"sample\.particle_file"):
         build_sample(both)
+
+
+def test_a_scaled_turned_copy_of_an_aggregate_has_scaled_mass_properties(tmp_path):
+    """The second aggregate, the first scaled by 2 and turned, is made from the first
+    (f^3 volume, f^5 moments, its own centre); a third of other proportions is not."""
+    turn = Rotation.from_rotvec([0.4, -0.9, 0.2]).as_matrix()
+    first = np.array([[0.0, 0.0, 0.0], [1.2e-3, 0.0, 0.0], [0.3e-3, 0.9e-3, 0.0]])
+    radii = np.array([1e-3, 0.8e-3, 0.6e-3])
+    copy = 2.0 * first @ turn.T + np.array([2e-2, 1e-2, 0.0])
+    other = first * np.array([1.0, 1.5, 1.0]) + np.array([-2e-2, 0.0, 0.0])
+    lines = ["particle,kind,x,y,z,radius"]
+    for pid, (points, rs) in enumerate([(first, radii), (copy, 2 * radii), (other, radii)]):
+        lines += [f"{pid},aggregate,{x!r},{y!r},{z!r},{r!r}"
+                  for (x, y, z), r in zip(points.tolist(), rs.tolist(), strict=True)]
+    (tmp_path / "three.csv").write_text("\n".join(lines) + "\n")
+    sample = read_particles(tmp_path / "three.csv")
+    library, state = sample.library, sample.state
+    assert library.volume[1] == pytest.approx(8 * library.volume[0], rel=1e-12)
+    np.testing.assert_allclose(library.principal_inertia[1], 32 * library.principal_inertia[0],
+                               rtol=1e-12)
+    np.testing.assert_allclose(state.positions[1], 2.0 * turn @ state.positions[0]
+                               + np.array([2e-2, 1e-2, 0.0]), atol=1e-15)
+    for mine, given in zip(world_geometry(sample)[:2], [first, copy], strict=True):
+        np.testing.assert_allclose(mine[:, :3], np.array(sorted(map(tuple, given))),
+                                   atol=1e-15)
+    assert library.volume[2] != pytest.approx(library.volume[0], rel=1e-6)
