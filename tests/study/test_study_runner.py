@@ -74,12 +74,15 @@ def test_worker_killed_mid_run_resumes_and_ended_samples_are_not_rerun(tmp_path,
     assert np.all(np.isfinite(table["coordination_number_initial"]))
     assert np.all(np.isfinite(table["a_c_residual"]))
     assert np.all(table["a_c_residual_std"] >= 0.0)
+    stale = study.folder / "report" / "force_network_gone.png"  # an earlier report's
+    stale.parent.mkdir(exist_ok=True)
+    stale.write_bytes(b"")
     report = write_study_report(study, table)
     text = report.read_text()
     assert "| a |" in text and "| b |" in text
-    for line in text.splitlines():
-        if line.startswith("!["):
-            assert (report.parent / line.split("(")[-1].rstrip(")")).exists()
+    shown = {line.split("(")[-1].rstrip(")") for line in text.splitlines()
+             if line.startswith("![")}
+    assert shown and shown == {p.name for p in report.parent.glob("*.png")}
 
 
 def test_interrupted_study_goes_on_where_it_stopped(tmp_path):

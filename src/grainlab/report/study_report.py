@@ -87,6 +87,8 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
     spec = study.spec
     out = study.folder / REPORT
     out.mkdir(exist_ok=True)
+    for stale in out.glob("*.png"):  # a figure an earlier report drew, not drawn now
+        stale.unlink()
     symbol = spec.symbol
     labels = {r["name"]: f"{r['name']} ({symbol} = {r['measured']:.3g})"
               for _, r in table.iterrows()}
