@@ -113,6 +113,9 @@ def test_spheres_and_aggregates_mix_in_file_order(tmp_path):
     ("particle,kind,x,y,z,radius\nA,sphere,0,0,0,1\n", "line 2: particle"),
     ("particle,kind,x,y,z,radius\n" + "".join(
         f"0,polyhedron,{x},{y},0,\n" for x, y in [(0, 0), (1, 0), (0, 1)]), "vertices"),
+    ("particle,kind,x,y,z,radius\n" + "".join(
+        f"4,polyhedron,{x},{y},0,\n" for x, y in [(0, 0), (1, 0), (0, 1), (1, 1)]),
+     "particle 4 vertices"),
     ("particle,kind,x,y,z,radius\n0,sphere,0,0,0,1\n" + "".join(
         f"1,polyhedron,{x},{y},{z},\n" for x, y, z in
         [(5, 5, 5), (6, 5, 5), (5, 6, 5), (5, 5, 6)]), "kind"),

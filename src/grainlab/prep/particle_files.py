@@ -255,7 +255,10 @@ def _shape(kind: str, points: np.ndarray, radii: np.ndarray, label: str,
         if points.shape[0] < 4:
             raise InputError(f"{label} vertices", points.shape[0],
                              "at least 4 vertices, not all in one plane")
-        return ConvexPolyhedron.from_vertices(points, name=label)
+        try:
+            return ConvexPolyhedron.from_vertices(points, name=label)
+        except InputError as error:  # e.g. coplanar vertices: name the particle
+            raise InputError(f"{label} vertices", error.value, error.allowed) from None
     if np.any(radii <= 0.0):
         raise InputError(f"{label} radius", float(radii.min()), "positive radii in m")
     if kind == SPHERE.name:
@@ -263,7 +266,10 @@ def _shape(kind: str, points: np.ndarray, radii: np.ndarray, label: str,
             raise InputError(f"{label} rows", points.shape[0],
                              "one row (its centre and radius) for a sphere")
         return (points[0], float(radii[0]))
-    return congruent.aggregate(points, radii, label)
+    try:
+        return congruent.aggregate(points, radii, label)
+    except InputError as error:
+        raise InputError(f"{label} {error.field}", error.value, error.allowed) from None
 
 
 class _CongruentAggregates:
