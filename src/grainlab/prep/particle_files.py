@@ -233,7 +233,7 @@ def _sample(rows: _Rows, *, density: float, wall_friction: float, where: str
     orientations = Rotation.from_matrix(rotations).as_quat()[:, [3, 0, 1, 2]]  # w first
     state = BodyState.from_library(library, np.arange(len(shapes)), positions, density,
                                    orientations)
-    _check_inside(library, state, lower, upper, where)
+    _check_inside(rows, float(library.bounding_radius.max()), lower, upper, where)
     box = WallBox(lower, upper, friction=wall_friction)
     box.set_masses(float(np.sum(state.masses)))
     diameters = 2.0 * library.bounding_radius
@@ -365,13 +365,14 @@ def _box(rows: _Rows, library: ShapeLibrary, where: str) -> tuple[np.ndarray, np
     return (np.min(rows.points - reach, axis=0), np.max(rows.points + reach, axis=0))
 
 
-def _check_inside(library: ShapeLibrary, state: BodyState, lower: np.ndarray,
-                  upper: np.ndarray, where: str) -> None:
-    """Every particle inside the box (to a relative 1e-9 of the largest particle)."""
-    _, _, points, radii = _world_points(library, state)
-    slack = 1e-9 * float(library.bounding_radius.max())
-    out = np.any(points - radii[:, None] < lower - slack, axis=1) | \
-        np.any(points + radii[:, None] > upper + slack, axis=1)
+def _check_inside(rows: _Rows, largest: float, lower: np.ndarray, upper: np.ndarray,
+                  where: str) -> None:
+    """Every point of the file (with its radius) inside the box, to 1e-9 of the largest
+    particle's circumscribed radius ``largest`` [m]."""
+    slack = 1e-9 * largest
+    reach = rows.radii[:, None]
+    out = np.any(rows.points - reach < lower - slack, axis=1) | \
+        np.any(rows.points + reach > upper + slack, axis=1)
     if np.any(out):
         raise InputError(f"{where}: box", (lower.tolist(), upper.tolist()),
                          f"a box holding every particle ({int(np.sum(out))} point(s) "
