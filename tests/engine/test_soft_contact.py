@@ -264,7 +264,7 @@ def turned_spring_force(n_steps):
     for step in range(n_steps + 1):
         positions = x0 @ rotation(step * dt).T
         contact_forces_kernel(
-            0.0 if step == 0 else dt, 0, params, 0.0, np.array([0]), np.array([1]),
+            0.0 if step == 0 else dt, True, 0, params, 0.0, np.array([0]), np.array([1]),
             np.zeros((1, 3)), np.zeros((1, 3)), np.array([radius]), np.array([radius]),
             np.zeros((1, 3)), np.array([10.0]), np.array([1.0, 1.0]), positions,
             np.array([[1.0, 0.0, 0.0, 0.0]] * 2), np.cross(omega, positions),
@@ -423,3 +423,43 @@ def test_threads_change_nothing(monkeypatch):
     if numba.get_num_threads() > 1:
         for serial, threaded in zip(*runs, strict=True):
             np.testing.assert_array_equal(serial, threaded)
+
+
+def test_the_step_report_gives_the_contacts_at_the_end_of_the_step():
+    """A step of several sub-steps reports each contact as the last sub-step left it: the gap,
+    normal and point of the final centres, its force and the relative velocity at the contact
+    point of the last force evaluation (the final one less the last half kick)."""
+    radius, density = 0.01, 2600.0
+    law = SoftContactLaw.linear(1e5, restitution=0.9)
+    library, state = spheres([[0.0, 0.0, 0.0], [0.0199, 0.002, -0.001]], radius, density)
+    state.velocities[:] = [[0.3, 0.1, 0.0], [0.2, 0.15, 0.05]]
+    state.angular_velocities[:] = [[1.0, -2.0, 0.5], [0.0, 3.0, -1.0]]
+    solver = SoftContactStep(law, dt=1.0, friction=0.0)
+    substep = solver.stable_substep(state, library)
+    solver.dt = 3.0 * substep  # within the collision (5 sub-steps)
+    report = solver.step(state, library, None)
+    assert solver.last_substeps == 3 and report.n_contacts == 1
+    x_i, x_j = state.positions
+    branch = x_j - x_i
+    distance = float(np.linalg.norm(branch))
+    normal = branch / distance
+    gap = distance - 2.0 * radius
+    contacts = report.contacts
+    assert gap < 0.0 and contacts.gap[0] == pytest.approx(gap, rel=1e-12)
+    np.testing.assert_allclose(contacts.normal[0], normal, atol=1e-14)
+    np.testing.assert_allclose(contacts.point[0], x_i + (radius + 0.5 * gap) * normal,
+                               atol=1e-15)
+    frame = report.frames[0]
+    np.testing.assert_allclose(frame @ frame.T, np.eye(3), atol=1e-14)
+    np.testing.assert_allclose(frame[0], normal, atol=1e-14)
+    point = contacts.point[0]
+    w_i, w_j = state.angular_velocities
+    v_i, v_j = state.velocities
+    relative = (v_j + np.cross(w_j, point - x_j)) - (v_i + np.cross(w_i, point - x_i))
+    # no friction: a normal force f, no moment; the last half kick adds (h/2) f (2 / m)
+    force = report.impulses[0] / solver.dt  # in the contact frame [N]
+    kick = 0.5 * substep * force * 2.0 / float(state.masses[0])
+    assert force[0] > 0.0 and np.all(np.abs(force[1:]) <= 1e-12 * force[0])
+    np.testing.assert_allclose(report.relative_velocity[0], frame @ relative - kick,
+                               rtol=1e-10, atol=1e-13)
+    assert kick[0] > 0.01 * abs(report.relative_velocity[0, 0])  # a kick that shows

@@ -127,10 +127,10 @@ def _sphere_pairs_kernel(positions, radii, h, h_inv, bins, alert, wrapped, count
                     sy = h[1, 0] * m0 + h[1, 1] * m1 + h[1, 2] * m2
                     sz = h[2, 0] * m0 + h[2, 1] * m1 + h[2, 2] * m2
                     b = (b0 * n1 + b1) * n2 + b2
-                    for e in range(bin_start[b], bin_start[b + 1]):
-                        j = members[e]
-                        if j <= i:
-                            continue
+                    for e in range(bin_start[b + 1] - 1, bin_start[b] - 1, -1):
+                        j = members[e]  # a bin's bodies in increasing order: those
+                        if j <= i:  # after i, from the last, without a branch per body
+                            break
                         dx = wrapped[j, 0] + sx - xi
                         dy = wrapped[j, 1] + sy - yi
                         dz = wrapped[j, 2] + sz - zi

@@ -128,8 +128,8 @@ out evenly (8493 rows of 2000 spheres on 2 threads: blocks of 4096 gave 1.15x, o
 
 
 @njit(_nrt=False)  # a call per block: more arguments than Python 3.11 lets Numba inline
-def _forces_block(blk, step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
-                  rad_j, images, mu, inv_mass, positions, orientations, velocities, spins,
+def _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_i, off_j,
+                  rad_i, rad_j, images, mu, inv_mass, positions, orientations, velocities, spins,
                   wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
                   torque_i, torque_j, gap, normal, point, stiffness, rel_vel, partial):
     """The rows of block ``blk`` (:func:`contact_forces_kernel`); their springs' virial into
@@ -190,8 +190,9 @@ def _forces_block(blk, step, code, params, rolling, body_i, body_j, off_i, off_j
             cx, cy, cz = bx - s * nx, by - s * ny, bz - s * nz
             r_eff = rb
             m_eff = 1.0 / inv_mass[j]
-        normal[k, 0], normal[k, 1], normal[k, 2] = nx, ny, nz
-        point[k, 0], point[k, 1], point[k, 2] = cx, cy, cz
+        if record:
+            normal[k, 0], normal[k, 1], normal[k, 2] = nx, ny, nz
+            point[k, 0], point[k, 1], point[k, 2] = cx, cy, cz
         # relative velocity of j (image) with respect to i at the contact point
         rjx, rjy, rjz = cx - jx, cy - jy, cz - jz
         wjx, wjy, wjz = spins[j, 0], spins[j, 1], spins[j, 2]
@@ -213,7 +214,8 @@ def _forces_block(blk, step, code, params, rolling, body_i, body_j, off_i, off_j
         else:
             sw = wall_speed[-1 - i]
             ux, uy, uz = ux - sw * nx, uy - sw * ny, uz - sw * nz
-        rel_vel[k, 0], rel_vel[k, 1], rel_vel[k, 2] = ux, uy, uz
+        if record:
+            rel_vel[k, 0], rel_vel[k, 1], rel_vel[k, 2] = ux, uy, uz
         overlap = -g
         worst = max(worst, overlap)
         un = ux * nx + uy * ny + uz * nz
@@ -285,15 +287,16 @@ def _sum_blocks(partial, virial, stats):
 
 
 @njit(cache=True, _nrt=False)  # no reference counts on the array arguments (~5 %)
-def contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
-                          rad_j, images, mu, inv_mass, positions, orientations, velocities,
+def contact_forces_kernel(step, record, code, params, rolling, body_i, body_j, off_i, off_j,
+                          rad_i, rad_j, images, mu, inv_mass, positions, orientations, velocities,
                           spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate,
                           xi, roll, force, torque_i, torque_j, gap, normal, point, stiffness,
                           rel_vel, virial, partial, stats):
     """Geometry and force of every row k of the list (module docstring of
     :mod:`grainlab.contact.soft_contact_law`); ``step`` [s] is the time since the last
     evaluation (0: the force of the current springs, nothing carried forward). Writes the rows'
-    outputs (``gap`` of every row; normal, point and relative velocity of the closed ones only;
+    outputs (``gap`` of every row; normal, point and relative velocity of the closed ones only,
+    and only if ``record``: the step report reads those of the step's last evaluation;
     an open row's force, moments, stiffness and springs are zero, written once when it opens, or
     at ``step`` 0); the histories ``xi`` (C, 3) [N] and ``roll`` (C, 3) [N m] are updated;
     ``virial`` (3, 3) [N m] becomes sum_k f_k (x) l_k over the rows between bodies, f_k the
@@ -302,26 +305,26 @@ def contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, of
     positive (summed by blocks of :data:`ROW_BLOCK` rows: ``partial`` (ceil(C / ROW_BLOCK), 10)
     scratch); ``stats[0]`` becomes the largest overlap [m] if larger."""
     for blk in range(partial.shape[0]):
-        _forces_block(blk, step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
-                      rad_j, images, mu, inv_mass, positions, orientations, velocities, spins,
-                      wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi, roll,
-                      force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
+        _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_i, off_j,
+                      rad_i, rad_j, images, mu, inv_mass, positions, orientations, velocities,
+                      spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi,
+                      roll, force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
                       partial)
     _sum_blocks(partial, virial, stats)
 
 
 @njit(cache=True, parallel=True, _nrt=False)
-def contact_forces_parallel(step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
-                            rad_j, images, mu, inv_mass, positions, orientations, velocities,
-                            spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate,
-                            xi, roll, force, torque_i, torque_j, gap, normal, point,
+def contact_forces_parallel(step, record, code, params, rolling, body_i, body_j, off_i,
+                            off_j, rad_i, rad_j, images, mu, inv_mass, positions, orientations,
+                            velocities, spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h,
+                            cell_rate, xi, roll, force, torque_i, torque_j, gap, normal, point,
                             stiffness, rel_vel, virial, partial, stats):
     """:func:`contact_forces_kernel` with its blocks on the threads (the same results)."""
     for blk in prange(partial.shape[0]):
-        _forces_block(blk, step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
-                      rad_j, images, mu, inv_mass, positions, orientations, velocities, spins,
-                      wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi, roll,
-                      force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
+        _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_i, off_j,
+                      rad_i, rad_j, images, mu, inv_mass, positions, orientations, velocities,
+                      spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi,
+                      roll, force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
                       partial)
     _sum_blocks(partial, virial, stats)
 
@@ -674,20 +677,20 @@ def carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell
 
 
 @njit(cache=True, _nrt=False)
-def _forces(parallel, step, code, params, rolling, body_i, body_j, off_i, off_j, rad_i, rad_j,
-            images, mu, wall_rows, inv_mass, wall_p0, wall_n, positions, orientations,
+def _forces(parallel, step, record, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
+            rad_j, images, mu, wall_rows, inv_mass, wall_p0, wall_n, positions, orientations,
             velocities, spins, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
             torque_i, torque_j, gap, normal, point, stiffness, rel_vel, virial, partial,
             stats, wall_force, wall_stiffness):
     """Contact forces of the list (on the threads if ``parallel``) and the walls' loads."""
     if parallel:
-        contact_forces_parallel(step, code, params, rolling, body_i, body_j, off_i, off_j,
+        contact_forces_parallel(step, record, code, params, rolling, body_i, body_j, off_i, off_j,
                                 rad_i, rad_j, images, mu, inv_mass, positions, orientations,
                                 velocities, spins, wall_p0, wall_n, wall_disp, wall_speed,
                                 cell_h, cell_rate, xi, roll, force, torque_i, torque_j, gap,
                                 normal, point, stiffness, rel_vel, virial, partial, stats)
     else:
-        contact_forces_kernel(step, code, params, rolling, body_i, body_j, off_i, off_j,
+        contact_forces_kernel(step, record, code, params, rolling, body_i, body_j, off_i, off_j,
                               rad_i, rad_j, images, mu, inv_mass, positions, orientations,
                               velocities, spins, wall_p0, wall_n, wall_disp, wall_speed,
                               cell_h, cell_rate, xi, roll, force, torque_i, torque_j, gap,
@@ -726,7 +729,7 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
     servo = cell_dofs.shape[0] > 0
     periodic = wall_disp.shape[0] == 0
     met = stats[0]  # the overlaps met in the sub-steps, not those at the start
-    _forces(parallel, 0.0, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
+    _forces(parallel, 0.0, True, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
             rad_j, images, mu, wall_rows, inv_mass, wall_p0, wall_n, positions, orientations,
             velocities, spins, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
             torque_i, torque_j, gap, normal, point, stiffness, rel_vel, virial, partial,
@@ -762,7 +765,8 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
         for a in range(3):
             for b in range(3):
                 cell_h[a, b] += dt * cell_rate[a, b]
-        _forces(parallel, dt, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
+        last = _ == n_steps - 1  # the report reads its normals, points and velocities
+        _forces(parallel, dt, last, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
                 rad_j, images, mu, wall_rows, inv_mass, wall_p0, wall_n, positions, orientations,
                 velocities, spins, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
                 torque_i, torque_j, gap, normal, point, stiffness, rel_vel, virial, partial,

@@ -34,20 +34,24 @@ deformable contacts and is refused (:func:`cell_stages`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from grainlab.errors import InputError
 from grainlab.lab.element_test import control_matrix
 from grainlab.lab.load_path import LoadPath, LoadStage, StopCriterion
-from grainlab.lab.specimen import voigt_labels, voigt_to_tensor
+from grainlab.lab.specimen import voigt_labels
 
 
 def velocity_gradient(strain_rate: np.ndarray) -> np.ndarray:
     """L (3, 3) [1/s] of a Voigt strain rate (6,) [1/s] (compression positive, engineering
     shears): upper triangular, symmetric part = -strain rate (module docstring)."""
-    eps = voigt_to_tensor(np.asarray(strain_rate, dtype=np.float64), engineering_shear=True)
-    return -(np.triu(eps) + np.triu(eps, 1))
+    e = [float(v) for v in np.asarray(strain_rate, dtype=np.float64)]
+    xy, xz, yz = 0.5 * e[5], 0.5 * e[4], 0.5 * e[3]  # the tensor's halves, added back
+    return -np.array([[e[0] + 0.0, xy + xy, xz + xz],
+                      [0.0, e[1] + 0.0, yz + yz],
+                      [0.0, 0.0, e[2] + 0.0]])
 
 
 @dataclass(frozen=True)
@@ -76,12 +80,14 @@ class CellStage:
         """(6,) bool."""
         return self.stage.stress_controlled
 
-    @property
+    @cached_property
     def strain_per_step(self) -> np.ndarray:
         """(6,) generalised strain per unit of lambda [-] (0 at stress components)."""
-        return self.stage.strain_increment()
+        values = self.stage.strain_increment()
+        values.flags.writeable = False  # kept: read at every step
+        return values
 
-    @property
+    @cached_property
     def strain_driven(self) -> bool:
         """Whether a strain-controlled component moves (module docstring)."""
         return bool(np.any(self.strain_per_step != 0.0))
@@ -116,19 +122,32 @@ class CellStage:
         high = min(low + 1, self.n_steps)
         return rows[low] + (k - low) * (rows[high] - rows[low])
 
+    @cached_property
+    def _fixed_frame(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """B and the directions G_d of a stage whose frame does not rotate (the same at any
+        progress: kept, the lab asks for them at every step); None for a rotating frame."""
+        if self.stage.rotation_per_step != 0.0:
+            return None
+        b = control_matrix(self.stage, 0.0)
+        return b, self._directions(b)
+
     def control(self, progress: float) -> np.ndarray:
         """B (6, 6) at ``progress`` lambda."""
-        return control_matrix(self.stage, progress)
+        fixed = self._fixed_frame
+        return fixed[0] if fixed is not None else control_matrix(self.stage, progress)
+
+    def _directions(self, b: np.ndarray) -> np.ndarray:
+        unit = np.eye(6)[self.stress_controlled]
+        return np.array([velocity_gradient(b.T @ e) for e in unit]).reshape(-1, 3, 3)
 
     def gradients(self, progress: float, rate: float) -> tuple[np.ndarray, np.ndarray]:
         """The prescribed velocity gradient L_0 (3, 3) [1/s] at progress lambda moving at
         ``rate`` d lambda/dt [1/s], and the directions G_d (D, 3, 3) of the stress-controlled
         components (module docstring)."""
-        b = self.control(progress)
-        fixed = velocity_gradient(b.T @ (rate * self.strain_per_step))
-        unit = np.eye(6)[self.stress_controlled]
-        directions = np.array([velocity_gradient(b.T @ e) for e in unit]).reshape(-1, 3, 3)
-        return fixed, directions
+        fixed = self._fixed_frame
+        b = fixed[0] if fixed is not None else control_matrix(self.stage, progress)
+        directions = fixed[1].copy() if fixed is not None else self._directions(b)
+        return velocity_gradient(b.T @ (rate * self.strain_per_step)), directions
 
     def conjugate(self, stress: np.ndarray, progress: float) -> np.ndarray:
         """(6,) generalised stress c = B sigma [Pa] of a (3, 3) stress tensor."""
