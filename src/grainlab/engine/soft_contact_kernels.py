@@ -483,6 +483,10 @@ def bodies_parallel(start, half, dt, adj_start, adj_entry, force, torque_i, torq
                        body_force, body_torque, velocities, spins)
 
 
+SUBSTEP_SERVO_FRACTION = 0.25
+"""Fraction of a stiff load's error a servo wall corrects per sub-step (:func:`servo_walls`;
+YADE's ``wallDamping`` of its triaxial stress controller)."""
+
 SERVO_INTEGRAL = 0.3
 """Fraction of its proportional correction a servo adds to its memory each step (the integral
 term), weighted by how much the contacts' stiffness dominates the correction; in steps where
@@ -526,6 +530,25 @@ def servo_kernel(macro, integral, wall_inv_mass, wall_free, wall_max, wall_force
                 -OUTWARD_FACTOR * high, high, wall_memory[w], integral)
         else:
             wall_speed[w] = wall_free[w]
+
+
+@njit(inline="always")
+def servo_walls(dt, macro, integral, servo_gain, wall_inv_mass, wall_free, wall_max,
+                 wall_force, wall_stiffness, wall_memory, wall_speed, wall_floor):
+    """The servo walls' speeds for the next sub-step of ``dt`` [s] from their loads now
+    ``wall_force`` (W,) [N] (:func:`_servo_rate` over dt / ``servo_gain``: a fraction
+    ``servo_gain`` of a stiff load's error corrected per sub-step, the servo's gain that of a
+    step of ``macro`` [s], its memory learning ``integral`` per step), with the largest
+    stiffness of each wall's contacts met so far, ``wall_floor`` (W,) [N/m] (updated): a wall
+    that loses its contacts for a sub-step keeps its stiff-load correction."""
+    for w in range(wall_speed.shape[0]):
+        inv = wall_inv_mass[w]
+        if inv > 0.0:
+            high = wall_max[w]
+            wall_floor[w] = max(wall_floor[w], wall_stiffness[w])
+            wall_speed[w], wall_memory[w] = _servo_rate(
+                wall_free[w], inv * macro, wall_force[w], wall_floor[w], dt / servo_gain,
+                -OUTWARD_FACTOR * high, high, wall_memory[w], integral * dt / macro)
 
 
 @njit(inline="always")
@@ -710,7 +733,8 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
                     cell_rate, travel, force, torque_i, torque_j, gap,
                     normal, point, stiffness, rel_vel, virial, body_force, body_torque,
                     wall_force, wall_stiffness, wall_impulse, stress_impulse, stats,
-                    approach, partial, parallel):
+                    approach, partial, parallel, wall_inv_mass, wall_free, wall_max,
+                    wall_memory, macro, integral, servo_gain, wall_floor):
     """Up to ``n_steps`` velocity-Verlet sub-steps of ``dt`` [s] on the current list: half
     kick, drift (walls at their speeds ``wall_speed`` (W,) [m/s], the cell h at hdot = L h),
     forces, half kick; then the cell's servo (:func:`cell_servo_kernel`) sets L from the
@@ -727,6 +751,9 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
     results: :func:`contact_forces_parallel`, :func:`bodies_parallel`)."""
     half = 0.5 * dt
     servo = cell_dofs.shape[0] > 0
+    wall_servo = False
+    for w in range(wall_inv_mass.shape[0]):
+        wall_servo = wall_servo or wall_inv_mass[w] > 0.0
     periodic = wall_disp.shape[0] == 0
     met = stats[0]  # the overlaps met in the sub-steps, not those at the start
     _forces(parallel, 0.0, True, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
@@ -771,6 +798,9 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
                 velocities, spins, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
                 torque_i, torque_j, gap, normal, point, stiffness, rel_vel, virial, partial,
                 stats, wall_force, wall_stiffness)
+        if wall_servo:
+            servo_walls(dt, macro, integral, servo_gain, wall_inv_mass, wall_free, wall_max,
+                         wall_force, wall_stiffness, wall_memory, wall_speed, wall_floor)
         if parallel:
             bodies_parallel(False, half, dt, adj_start, adj_entry, force, torque_i, torque_j,
                             masses, gravity, inv_mass, principal, isotropic, local_damping,
