@@ -41,10 +41,11 @@ wall's load at that sub-step, correcting :data:`~grainlab.engine.soft_contact_ke
 SUBSTEP_SERVO_FRACTION` of a stiff load's error per sub-step, as YADE's triaxial stress
 controller does with its ``wallDamping``; K the largest the wall's contacts had in the step,
 so that a wall that loses its last contact for a sub-step does not rush in at the loose
-servo's speed; polyhedra keep the servo once per step: with it at every sub-step, a compaction
-of 20 polyhedra at kappa = 1e4 had not settled after 20 000 steps). An integral part learns the speed a wall must keep while the sample is
-deformed (only in steps with a driven wall), starting from the speeds that would keep the
-volume (:func:`isochoric_wall_speeds`). The box is then told each wall's displacement over
+servo's speed; polyhedra keep the servo once per step: with it at every sub-step, a
+compaction of 20 polyhedra at kappa = 1e4 had not settled after 20 000 steps). An integral
+part learns the speed a wall must keep while the sample is deformed (only in steps with a
+driven wall), starting from the speeds that would keep the volume
+(:func:`isochoric_wall_speeds`). The box is then told each wall's displacement over
 the step (its mean speed). Once per step was not enough on stiff grains: a servo that reads
 the mean load of the last step lagged the sample, and the lateral stresses of a 300-sphere
 triaxial test at kappa = 1e4 swung from 0.4 to 2.2 sigma0 (39 % median error; 0.8 % at
