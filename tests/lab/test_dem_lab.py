@@ -57,10 +57,13 @@ def test_dem_triaxial_in_a_wall_box_compacts_then_shears(triaxial):
     assert list(dict.fromkeys(table["stage"])) == ["compaction", "shear"]
     compaction = table[table["stage"] == "compaction"].iloc[-1]
     # quasi-static end: the walls' mean reactions at sigma0 (the stage's 1 % criterion), a
-    # packing with contacts (40 spheres: loose along the walls), overlaps of order <d> / kappa
+    # packing with contacts (40 spheres: loose along the walls, 10-33 % rattlers from one
+    # servo variant to the next, so the whole-box z goes from 2.4 to 3.6; the spheres that
+    # carry load have z > 3), overlaps of order <d> / kappa
     for axis in ("xx", "yy", "zz"):
         assert compaction[f"wall_sigma_{axis}"] == pytest.approx(SIGMA0, rel=0.011)
-    assert compaction["packing_fraction"] > 0.45 and compaction["z"] > 2.5
+    assert compaction["packing_fraction"] > 0.45 and compaction["z_no_rattlers"] > 3.0
+    assert compaction["rattler_fraction"] < 0.5
     assert 0.0 < compaction["max_overlap_over_d"] < 10.0 / 1e3
     shear = table[table["stage"] == "shear"]
     assert shear["eps_q"].iloc[-1] >= 0.03
@@ -93,7 +96,7 @@ def test_a_dem_run_resumes_exactly(triaxial, tmp_path):
 def test_stiff_grains_lateral_walls_hold_sigma0_through_the_shear(tmp_path):
     """At kappa = 1e4 the servo walls correct at every sub-step: the lateral walls of a
     sheared wall box stay near sigma0 (a servo once per step, on the last step's mean load,
-    lagged the sample: 77 % median error on this sample, 7 % now)."""
+    lagged the sample: 77 % median error on this sample, 5 % now)."""
     result = start_run(tmp_path / "stiff", config(
         sample={"n_particles": 60, "seed": 3}, solver={"dem": {"kappa": 1e4},
                                                      "shear": {"inertia_number": 3e-3}},

@@ -48,8 +48,8 @@ driven wall), starting from the speeds that would keep the volume
 (:func:`isochoric_wall_speeds`). The box is then told each wall's displacement over
 the step (its mean speed). Once per step was not enough on stiff grains: a servo that reads
 the mean load of the last step lagged the sample, and the lateral stresses of a 300-sphere
-triaxial test at kappa = 1e4 swung from 0.4 to 2.2 sigma0 (39 % median error; 0.8 % at
-every sub-step, 0.7 % at kappa = 1e3, 4 % at kappa = 1e5). The
+triaxial test at kappa = 1e4 swung from 0.4 to 2.2 sigma0 (39 % median error; 2.2 % at
+every sub-step, 0.8 % at kappa = 1e3, 4.5 % at kappa = 1e5). The
 periodic cell is servoed at every sub-step (:func:`~grainlab.engine.soft_contact_kernels.
 cell_servo_kernel`: the stress of the contacts' springs over all the contacts, low-passed
 over :data:`FILTER_SUBSTEPS` stable sub-steps, the stiffness of the affine deformation of
