@@ -485,10 +485,10 @@ def bodies_parallel(start, half, dt, adj_start, adj_entry, force, torque_i, torq
 
 SUBSTEP_SERVO_FRACTION = 0.1
 """Fraction of a stiff load's error a servo wall corrects per sub-step (:func:`servo_walls`;
-as YADE's ``wallDamping`` of its triaxial stress controller). With 0.25 the walls of small
-samples chattered against their few contacts, and as a wall moves in no faster than its bound
-and out four times faster, a compaction of 24 Hertz spheres and one of 60 linear ones stalled
-2-4 % below sigma0; 0.1 settled every case tried (24-300 spheres, kappa 1e3-1e5)."""
+as YADE's ``wallDamping`` of its triaxial stress controller). With 0.25 a compaction of 24
+Hertz spheres and one of 60 linear ones stalled 2-4 % below sigma0 (likely the walls
+chattering against their few contacts, a wall moving in no faster than its bound but out four
+times faster); 0.1 settled every case tried (24-300 spheres, kappa 1e3-1e5)."""
 
 SERVO_INTEGRAL = 0.3
 """Fraction of its proportional correction a servo adds to its memory each step (the integral
