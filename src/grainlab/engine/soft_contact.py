@@ -596,10 +596,14 @@ class _Run:
         return speeds
 
     def servo(self, wall_load: np.ndarray, macro: float) -> np.ndarray:
-        """The walls' speeds over the step (:func:`~grainlab.engine.soft_contact_kernels.
-        servo_kernel`) from the last step's mean loads and the servos' memories; returns the
-        updated memories. When a driven deformation starts, the memories start from
-        :func:`isochoric_wall_speeds`. (The cell's servo runs at every sub-step, in the kernels.)"""
+        """The walls' speeds at the start of the step (:func:`~grainlab.engine.
+        soft_contact_kernels.servo_kernel`) from the last step's mean loads and the servos'
+        memories; returns the memories, which the sub-steps then update (their servo,
+        :func:`~grainlab.engine.soft_contact_kernels.servo_walls`, starts from these
+        memories, the stiffnesses of the last step's end and the integral gain set here).
+        When a driven deformation starts, the memories start from
+        :func:`isochoric_wall_speeds`. (The cell's servo runs at every sub-step, in the
+        kernels.)"""
         b, f64 = self.bounds, np.float64
         wall_memory = np.ascontiguousarray(wall_load[:, 2], dtype=f64)
         driven = bool(np.any((b.wall_inv_mass == 0.0) & (b.wall_free != 0.0)))
@@ -608,13 +612,9 @@ class _Run:
         self.integral = SERVO_INTEGRAL if driven else 0.0
         self.wall_floor = np.array(wall_load[:, 1], dtype=f64)
         self.wall_memory = wall_memory
-        servo_kernel(
-            macro, self.integral,
-            np.ascontiguousarray(b.wall_inv_mass, dtype=f64),
-            np.ascontiguousarray(b.wall_free, dtype=f64),
-            np.ascontiguousarray(b.wall_max, dtype=f64),
-            np.ascontiguousarray(wall_load[:, 0]), np.ascontiguousarray(wall_load[:, 1]),
-            wall_memory, self.wall_speed)
+        servo_kernel(macro, self.integral, self.servo_inv_mass, self.servo_free, self.servo_max,
+                     np.ascontiguousarray(wall_load[:, 0]), self.wall_floor, wall_memory,
+                     self.wall_speed)
         self.driven = driven
         return wall_memory
 

@@ -524,26 +524,20 @@ def servo_kernel(macro, integral, wall_inv_mass, wall_free, wall_max, wall_force
     last step's mean loads ``wall_force`` (W,) [N] and their stiffnesses ``wall_stiffness``
     (W,) [N/m]; the servos' memories are updated (``integral``: :data:`SERVO_INTEGRAL` or 0).
     A driven wall keeps its speed ``wall_free``."""
-    for w in range(wall_speed.shape[0]):
-        inv = wall_inv_mass[w]
-        if inv > 0.0:
-            high = wall_max[w]
-            wall_speed[w], wall_memory[w] = _servo_rate(
-                wall_free[w], inv * macro, wall_force[w], wall_stiffness[w], macro,
-                -OUTWARD_FACTOR * high, high, wall_memory[w], integral)
-        else:
-            wall_speed[w] = wall_free[w]
+    servo_walls(macro, macro, integral, 1.0, wall_inv_mass, wall_free, wall_max, wall_force,
+                wall_stiffness, wall_memory, wall_speed, wall_stiffness)
 
 
 @njit(inline="always")
 def servo_walls(dt, macro, integral, servo_gain, wall_inv_mass, wall_free, wall_max,
                  wall_force, wall_stiffness, wall_memory, wall_speed, wall_floor):
-    """The servo walls' speeds for the next sub-step of ``dt`` [s] from their loads now
-    ``wall_force`` (W,) [N] (:func:`_servo_rate` over dt / ``servo_gain``: a fraction
-    ``servo_gain`` of a stiff load's error corrected per sub-step, the servo's gain that of a
-    step of ``macro`` [s], its memory learning ``integral`` per step), with the largest
-    stiffness of each wall's contacts met so far, ``wall_floor`` (W,) [N/m] (updated): a wall
-    that loses its contacts for a sub-step keeps its stiff-load correction."""
+    """The servo walls' speeds for the next ``dt`` [s] from their loads now ``wall_force``
+    (W,) [N] (:func:`_servo_rate` over dt / ``servo_gain``: a fraction ``servo_gain`` of a
+    stiff load's error corrected over dt, the servo's gain that of a step of ``macro`` [s],
+    its memory learning ``integral`` per dt), with the largest stiffness of each wall's
+    contacts met so far, ``wall_floor`` (W,) [N/m] (updated): a wall that loses its contacts
+    for a sub-step keeps its stiff-load correction. A driven wall keeps its speed
+    ``wall_free``."""
     for w in range(wall_speed.shape[0]):
         inv = wall_inv_mass[w]
         if inv > 0.0:
@@ -551,7 +545,9 @@ def servo_walls(dt, macro, integral, servo_gain, wall_inv_mass, wall_free, wall_
             wall_floor[w] = max(wall_floor[w], wall_stiffness[w])
             wall_speed[w], wall_memory[w] = _servo_rate(
                 wall_free[w], inv * macro, wall_force[w], wall_floor[w], dt / servo_gain,
-                -OUTWARD_FACTOR * high, high, wall_memory[w], integral * dt / macro)
+                -OUTWARD_FACTOR * high, high, wall_memory[w], integral)
+        else:
+            wall_speed[w] = wall_free[w]
 
 
 @njit(inline="always")
@@ -802,8 +798,9 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
                 torque_i, torque_j, gap, normal, point, stiffness, rel_vel, virial, partial,
                 stats, wall_force, wall_stiffness)
         if wall_servo:
-            servo_walls(dt, macro, integral, servo_gain, wall_inv_mass, wall_free, wall_max,
-                         wall_force, wall_stiffness, wall_memory, wall_speed, wall_floor)
+            servo_walls(dt, macro, integral * dt / macro, servo_gain, wall_inv_mass,
+                        wall_free, wall_max, wall_force, wall_stiffness, wall_memory,
+                        wall_speed, wall_floor)
         if parallel:
             bodies_parallel(False, half, dt, adj_start, adj_entry, force, torque_i, torque_j,
                             masses, gravity, inv_mass, principal, isotropic, local_damping,

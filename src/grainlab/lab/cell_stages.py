@@ -39,7 +39,7 @@ from functools import cached_property
 import numpy as np
 
 from grainlab.errors import InputError
-from grainlab.lab.element_test import control_matrix
+from grainlab.lab.element_test import ControlFrame
 from grainlab.lab.load_path import LoadPath, LoadStage, StopCriterion
 from grainlab.lab.specimen import voigt_labels
 
@@ -123,18 +123,20 @@ class CellStage:
         return rows[low] + (k - low) * (rows[high] - rows[low])
 
     @cached_property
-    def _fixed_frame(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """B and the directions G_d of a stage whose frame does not rotate (the same at any
-        progress: kept, the lab asks for them at every step); None for a rotating frame."""
-        if self.stage.rotation_per_step != 0.0:
-            return None
-        b = control_matrix(self.stage, 0.0)
-        return b, self._directions(b)
+    def _frame(self) -> ControlFrame:
+        """The stage's control matrices (kept for a frame that does not rotate)."""
+        return ControlFrame(self.stage)
+
+    @cached_property
+    def _fixed_directions(self) -> np.ndarray | None:
+        """The directions G_d of a frame that does not rotate (the same at any progress: the
+        lab asks for them at every step); None for a rotating frame."""
+        fixed = self._frame.fixed
+        return None if fixed is None else self._directions(fixed)
 
     def control(self, progress: float) -> np.ndarray:
         """B (6, 6) at ``progress`` lambda."""
-        fixed = self._fixed_frame
-        return fixed[0] if fixed is not None else control_matrix(self.stage, progress)
+        return self._frame.matrix(progress)
 
     def _directions(self, b: np.ndarray) -> np.ndarray:
         unit = np.eye(6)[self.stress_controlled]
@@ -144,9 +146,9 @@ class CellStage:
         """The prescribed velocity gradient L_0 (3, 3) [1/s] at progress lambda moving at
         ``rate`` d lambda/dt [1/s], and the directions G_d (D, 3, 3) of the stress-controlled
         components (module docstring)."""
-        fixed = self._fixed_frame
-        b = fixed[0] if fixed is not None else control_matrix(self.stage, progress)
-        directions = fixed[1].copy() if fixed is not None else self._directions(b)
+        b = self.control(progress)
+        kept = self._fixed_directions
+        directions = kept.copy() if kept is not None else self._directions(b)
         return velocity_gradient(b.T @ (rate * self.strain_per_step)), directions
 
     def conjugate(self, stress: np.ndarray, progress: float) -> np.ndarray:

@@ -125,7 +125,7 @@ def control_matrix(stage: LoadStage, step: float) -> np.ndarray:
     return stage.basis @ stress_rotation(stage.rotation(step))
 
 
-class _Frame:
+class ControlFrame:
     """The control matrices of one stage: computed once when the frame does not rotate."""
 
     def __init__(self, stage: LoadStage) -> None:
@@ -223,7 +223,7 @@ def _solve_mixed(d_star: np.ndarray, stress: np.ndarray, de_known: np.ndarray,
 
 
 def _advance(specimen: ElementSpecimen, stage: LoadStage, k: int, targets: np.ndarray,
-             de_step: np.ndarray, ctl: _Controller, frame: _Frame) -> _StepReport:
+             de_step: np.ndarray, ctl: _Controller, frame: ControlFrame) -> _StepReport:
     """Run step k of ``stage``; raise _Failure (carrying the partial report) on failure."""
     report = _StepReport()
     try:
@@ -245,7 +245,7 @@ def _relative(error: float, sigma: np.ndarray, target: np.ndarray) -> float:
 
 def _advance_step(specimen: ElementSpecimen, stage: LoadStage, k: int, targets: np.ndarray,
                   de_step: np.ndarray, ctl: _Controller, report: _StepReport,
-                  frame: _Frame) -> _StepReport:
+                  frame: ControlFrame) -> _StepReport:
     stress = stage.stress_controlled
     done = 0.0
     reference = specimen.stress()  # lab stress along the tangent's prediction
@@ -445,7 +445,7 @@ def run_element_test(
     total = path.n_steps
     ended = False
     for stage in path.stages:
-        frame = _Frame(stage)
+        frame = ControlFrame(stage)
         start = frame.matrix(0.0) @ specimen.stress()
         targets = stage.stress_targets(start)
         de_step = stage.strain_increment()
