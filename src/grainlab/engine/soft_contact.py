@@ -41,8 +41,7 @@ wall's load at that sub-step, correcting :data:`~grainlab.engine.soft_contact_ke
 SUBSTEP_SERVO_FRACTION` of a stiff load's error per sub-step, as YADE's triaxial stress
 controller does with its ``wallDamping``; K the largest the wall's contacts had in the step,
 so that a wall that loses its last contact for a sub-step does not rush in at the loose
-servo's speed; polyhedra keep the servo once per step: with it at every sub-step, a
-compaction of 20 polyhedra at kappa = 1e4 had not settled after 20 000 steps). An integral
+servo's speed; polyhedra alike, in their own sub-steps). An integral
 part learns the speed a wall must keep while the sample is deformed (only in steps with a
 driven wall), starting from the speeds that would keep the volume
 (:func:`isochoric_wall_speeds`). The box is then told each wall's displacement over
@@ -590,9 +589,8 @@ class _Run:
         """(W,) [m/s] the walls' speeds over the step: a servo wall's changes from sub-step
         to sub-step, so its displacement over the step / the step; a driven wall's its own."""
         speeds = self.wall_speed.copy()
-        if not isinstance(self.rows, PolyhedronRows):  # polyhedra: a servo once per step
-            servo = self.servo_inv_mass > 0.0
-            speeds[servo] = self.wall_disp[servo] / self.macro
+        servo = self.servo_inv_mass > 0.0
+        speeds[servo] = self.wall_disp[servo] / self.macro
         return speeds
 
     def servo(self, wall_load: np.ndarray, macro: float) -> np.ndarray:

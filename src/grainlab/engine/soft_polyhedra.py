@@ -115,7 +115,7 @@ from grainlab.engine.shape_kinds import (
     library_time_step_length,
 )
 from grainlab.engine.simulation import SimulationBlowUp
-from grainlab.engine.soft_contact_kernels import body_rows
+from grainlab.engine.soft_contact_kernels import SUBSTEP_SERVO_FRACTION, body_rows
 from grainlab.engine.soft_polyhedra_kernels import polyhedra_substeps_kernel
 from grainlab.engine.state import BodyState, ReadOnlyArrays, ShapeLibrary
 from grainlab.errors import InputError
@@ -242,7 +242,9 @@ class PolyhedronRows:
             state.positions, state.orientations, state.velocities, state.angular_velocities,
             self.xi, run.wall_disp, run.cell_h, np.zeros(state.n_bodies), self.outputs,
             run.body_force, run.body_torque, run.wall_force, run.wall_stiffness,
-            run.wall_impulse, run.stats)
+            run.wall_impulse, run.stats,
+            (run.servo_inv_mass, run.servo_free, run.servo_max, run.wall_memory, run.macro,
+             run.integral, SUBSTEP_SERVO_FRACTION, run.wall_floor))
         if run.stats[0] > overlap_limit * self.smallest_radius:
             raise SimulationBlowUp(
                 f"runaway penetration in the soft-contact step: {run.stats[0]:.3g} m, more "

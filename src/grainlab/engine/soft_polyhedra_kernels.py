@@ -45,6 +45,7 @@ from grainlab.engine.soft_contact_kernels import (
     drift_kernel,
     gather_kernel,
     kick_kernel,
+    servo_walls,
     virial_kernel,
     wall_loads_kernel,
 )
@@ -302,13 +303,17 @@ def polyhedra_substeps_kernel(n_steps, dt, skin, code, params, local_damping, gr
                               wall_n, wall_speed, cell, filter_time, wall_disp_built,
                               cell_h_built, tolerances, positions, orientations, velocities,
                               spins, xi, wall_disp, cell_h, travel, outputs, body_force,
-                              body_torque, wall_force, wall_stiffness, wall_impulse, stats):
+                              body_torque, wall_force, wall_stiffness, wall_impulse, stats,
+                              walls_servo):
     """Up to ``n_steps`` velocity-Verlet sub-steps of ``dt`` [s] on the pair list (``bodies``
     and ``world`` as :func:`world_boundaries_kernel`'s, ``library`` and the rest as
     :func:`polyhedron_forces_kernel`'s; ``pairs``: (pair_i, pair_j, images, mu, r_eff),
     ``tolerances``: (cos, sin of the angle tolerance, most points kept); ``cell``: the
     periodic cell's servo (L_0, G_d, scale_d, free_d, bounds_d, K_d, the filtered stress,
-    e_d, L, the carried L, hdot, the virial, the stress summed over time), as
+    e_d, L, the carried L, hdot, the virial, the stress summed over time); ``walls_servo``: the
+    walls' servo at every sub-step (wall_inv_mass, wall_free, wall_max, wall_memory, macro,
+    integral, servo_gain, wall_floor, as :func:`~grainlab.engine.soft_contact_kernels.
+    servo_walls` takes them), as
     :func:`~grainlab.engine.soft_contact_kernels.substeps_kernel` does on the sphere rows
     (same kicks, drifts, boundary motion and servos, load sums and early stop when two points
     may have approached by more than ``skin`` [m]); ``n_steps`` = 0: only the loads now.
@@ -319,6 +324,11 @@ def polyhedra_substeps_kernel(n_steps, dt, skin, code, params, local_damping, gr
      filtered, cell_dofs, gradient, carried, cell_rate, virial, stress_impulse) = cell
     pair_i, pair_j, images = pairs[0], pairs[1], pairs[2]
     normal, stiffness = outputs[3], outputs[5]
+    (wall_inv_mass, wall_free, wall_max, wall_memory, macro, integral, servo_gain,
+     wall_floor) = walls_servo
+    wall_servo = False
+    for w in range(wall_inv_mass.shape[0]):
+        wall_servo = wall_servo or wall_inv_mass[w] > 0.0
     half = 0.5 * dt
     servo = cell_dofs.shape[0] > 0
     periodic = wall_disp.shape[0] == 0
@@ -351,6 +361,10 @@ def polyhedra_substeps_kernel(n_steps, dt, skin, code, params, local_damping, gr
                wall_rows, inv_mass, masses, positions, orientations, velocities, spins,
                wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, tolerances, xi,
                outputs, body_force, body_torque, wall_force, wall_stiffness, virial, stats)
+        if wall_servo:
+            servo_walls(dt, macro, integral * dt / macro, servo_gain, wall_inv_mass,
+                        wall_free, wall_max, wall_force, wall_stiffness, wall_memory,
+                        wall_speed, wall_floor)
         kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
                     body_force, body_torque, velocities, spins)
         if servo:
