@@ -93,6 +93,20 @@ def test_a_dem_run_resumes_exactly(triaxial, tmp_path):
     assert cost.wall_time > run.wall_time
 
 
+def lateral_walls_error(result) -> float:
+    """The run ended, its compaction on sigma0 (1 %); returns the median relative error of the
+    lateral walls' stresses through the shear (at least 10 values)."""
+    table = result.table
+    assert result.metadata["outcome"]["finished"], result.metadata["outcome"]
+    compaction = table[table["stage"] == "compaction"].iloc[-1]
+    for axis in ("xx", "yy", "zz"):
+        assert compaction[f"wall_sigma_{axis}"] == pytest.approx(SIGMA0, rel=0.011)
+    shear = table[table["stage"] == "shear"]
+    lateral = np.concatenate([shear["wall_sigma_xx"], shear["wall_sigma_yy"]]) / SIGMA0
+    assert len(lateral) >= 10
+    return float(np.median(np.abs(lateral - 1.0)))
+
+
 def test_stiff_grains_lateral_walls_hold_sigma0_through_the_shear(tmp_path):
     """At kappa = 1e4 the servo walls correct at every sub-step: the lateral walls of a
     sheared wall box stay near sigma0 (a servo once per step, on the last step's mean load,
@@ -101,14 +115,7 @@ def test_stiff_grains_lateral_walls_hold_sigma0_through_the_shear(tmp_path):
         sample={"n_particles": 60, "seed": 3}, solver={"dem": {"kappa": 1e4},
                                                      "shear": {"inertia_number": 3e-3}},
         output={"record_every": 5})).run()
-    table = result.table
-    assert result.metadata["outcome"]["finished"]
-    compaction = table[table["stage"] == "compaction"].iloc[-1]
-    for axis in ("xx", "yy", "zz"):
-        assert compaction[f"wall_sigma_{axis}"] == pytest.approx(SIGMA0, rel=0.011)
-    shear = table[table["stage"] == "shear"]
-    lateral = np.concatenate([shear["wall_sigma_xx"], shear["wall_sigma_yy"]]) / SIGMA0
-    assert len(lateral) >= 10 and np.median(np.abs(lateral - 1.0)) < 0.15
+    assert lateral_walls_error(result) < 0.15
 
 
 def test_stiff_polyhedra_lateral_walls_hold_sigma0_through_the_shear(tmp_path):
@@ -123,14 +130,7 @@ def test_stiff_polyhedra_lateral_walls_hold_sigma0_through_the_shear(tmp_path):
         solver={"max_stage_steps": 8000, "dem": {"kappa": 1e4},
                 "shear": {"inertia_number": 3e-3}},
         output={"record_every": 5})).run()
-    table = result.table
-    assert result.metadata["outcome"]["finished"], result.metadata["outcome"]
-    compaction = table[table["stage"] == "compaction"].iloc[-1]
-    for axis in ("xx", "yy", "zz"):
-        assert compaction[f"wall_sigma_{axis}"] == pytest.approx(SIGMA0, rel=0.011)
-    shear = table[table["stage"] == "shear"]
-    lateral = np.concatenate([shear["wall_sigma_xx"], shear["wall_sigma_yy"]]) / SIGMA0
-    assert len(lateral) >= 10 and np.median(np.abs(lateral - 1.0)) < 0.1
+    assert lateral_walls_error(result) < 0.1
 
 
 def test_dem_compaction_in_a_periodic_cell_settles_isostatic(tmp_path):
