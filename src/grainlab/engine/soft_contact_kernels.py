@@ -320,8 +320,8 @@ def contact_forces_parallel(step, record, code, params, rolling, body_i, body_j,
                             cell_rate, xi, roll, force, torque_i, torque_j, gap, normal, point,
                             stiffness, rel_vel, virial, partial, stats):
     """:func:`contact_forces_kernel` with its blocks on the threads (the same results)."""
-    for blk in prange(partial.shape[0]):
-        _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_i, off_j,
+    for blk in prange(partial.shape[0]):  # prange's index is unsigned: one signature
+        _forces_block(np.int64(blk), step, record, code, params, rolling, body_i, body_j, off_i, off_j,
                       rad_i, rad_j, images, mu, inv_mass, positions, orientations, velocities,
                       spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi,
                       roll, force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
@@ -755,7 +755,11 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
         wall_servo = wall_servo or wall_inv_mass[w] > 0.0
     periodic = wall_disp.shape[0] == 0
     met = stats[0]  # the overlaps met in the sub-steps, not those at the start
-    _forces(parallel, 0.0, True, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
+    # flags as typed booleans, not literals: a literal True or False at one call and a flag
+    # at another would compile the callee twice (~17 s of a cold compilation)
+    yes = n_steps >= 0  # True
+    no = not yes
+    _forces(parallel, 0.0, yes, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
             rad_j, images, mu, wall_rows, inv_mass, wall_p0, wall_n, positions, orientations,
             velocities, spins, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
             torque_i, torque_j, gap, normal, point, stiffness, rel_vel, virial, partial,
@@ -777,7 +781,7 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
     previous = approach[0]
     for _ in range(n_steps):
         if parallel:
-            bodies_parallel(True, half, dt, adj_start, adj_entry, force, torque_i, torque_j,
+            bodies_parallel(yes, half, dt, adj_start, adj_entry, force, torque_i, torque_j,
                             masses, gravity, inv_mass, principal, isotropic, local_damping,
                             bounding, positions, orientations, velocities, spins, body_force,
                             body_torque, travel)
@@ -802,7 +806,7 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
                         wall_free, wall_max, wall_force, wall_stiffness, wall_memory,
                         wall_speed, wall_floor)
         if parallel:
-            bodies_parallel(False, half, dt, adj_start, adj_entry, force, torque_i, torque_j,
+            bodies_parallel(no, half, dt, adj_start, adj_entry, force, torque_i, torque_j,
                             masses, gravity, inv_mass, principal, isotropic, local_damping,
                             bounding, positions, orientations, velocities, spins, body_force,
                             body_torque, travel)
