@@ -320,12 +320,12 @@ def contact_forces_parallel(step, record, code, params, rolling, body_i, body_j,
                             cell_rate, xi, roll, force, torque_i, torque_j, gap, normal, point,
                             stiffness, rel_vel, virial, partial, stats):
     """:func:`contact_forces_kernel` with its blocks on the threads (the same results)."""
-    for blk in prange(partial.shape[0]):  # prange's index is unsigned: one signature
-        _forces_block(np.int64(blk), step, record, code, params, rolling, body_i, body_j, off_i, off_j,
-                      rad_i, rad_j, images, mu, inv_mass, positions, orientations, velocities,
-                      spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi,
-                      roll, force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
-                      partial)
+    for blk in prange(partial.shape[0]):  # prange's index is unsigned: cast, one signature
+        _forces_block(np.int64(blk), step, record, code, params, rolling, body_i, body_j,
+                      off_i, off_j, rad_i, rad_j, images, mu, inv_mass, positions,
+                      orientations, velocities, spins, wall_p0, wall_n, wall_disp, wall_speed,
+                      cell_h, cell_rate, xi, roll, force, torque_i, torque_j, gap, normal,
+                      point, stiffness, rel_vel, partial)
     _sum_blocks(partial, virial, stats)
 
 
