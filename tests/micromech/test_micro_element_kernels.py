@@ -221,7 +221,8 @@ def test_parallel_kernels_match_the_serial_ones():
     for kernel in (k.condense_serial, k.condense_parallel):
         out = (np.empty((n, 3, 9)), np.empty((n, 9, 9)), np.zeros((n, 3, 6)),
                np.empty((n, 6, 6)))
-        kernel(branches, mask, kn, kr, volumes, True, 1, *basis, *out)
+        inputs = (k.kernel_input(a) for a in (branches, mask, kn, kr, volumes))
+        kernel(*inputs, True, 1, *basis, *out)  # the launcher's argument types
         outputs.append(out)
     for a, b in zip(*outputs, strict=True):
         np.testing.assert_array_equal(a, b)

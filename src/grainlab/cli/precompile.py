@@ -128,7 +128,9 @@ def _theory_runs(folder: Path) -> None:
         distribute_parallel,
         series_parallel,
     )
+    from grainlab.micromech.micro_element.kernels import condense_local_stiffness, stretch
     from grainlab.micromech.micro_element.structures import idealized_material
+    from grainlab.micromech.micro_element.tensor_basis import bases
     from grainlab.prep.regular_packings import named_packing
 
     model = RegularPackingModel(named_packing("C"), ModifiedHertzMindlin2D.seed000())
@@ -147,6 +149,15 @@ def _theory_runs(folder: Path) -> None:
     series_parallel(np.zeros((n, 6, 6)), coefficients, 3, 0.5, 1, exp_v, term, total)
     distribute_parallel(eye, exp_v, np.full(n, 1.0 / n), np.zeros((n, 6, 6)),
                         np.empty((n, 6, 6)), np.empty((1, 6, 6)))
+    structure = idealized_material(seed=1)
+    kn = np.ones(structure.mask.shape)
+    t, _, spin_map, _ = condense_local_stiffness(structure.branches, structure.mask, kn, kn,
+                                                 structure.volumes, True, "micro-element",
+                                                 parallel=True)
+    s, w, _, _ = bases(3)
+    n = structure.volumes.shape[0]
+    stretch(np.zeros((n, 6, 6)), np.zeros(6), np.full(n, 1.0 / n), spin_map, s, w,
+            structure.branches, structure.mask, t, True, parallel=True)
 
 
 def _dem_runs(folder: Path) -> None:

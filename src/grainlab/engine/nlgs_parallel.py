@@ -100,7 +100,7 @@ spheres) lose: 47 ns in a loop, 65 ns in parallel."""
 # --------------------------------------------------------------------------------------------
 
 
-@njit(inline="always")
+@njit(_nrt=False)  # not inlined: one compiled body for the threads and the plain loop
 def _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_spins,
                 wall_normals, wall_free_speeds, images, free_rate, gap, dt, shift, partial):
     """Gap shifts max(0, g) / h [m/s] of the contacts of block b, and their ||U'_free||^2
@@ -118,7 +118,7 @@ def _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_sp
     partial[b, 0] = free2
 
 
-@njit(inline="always")
+@njit(_nrt=False)  # not inlined: one compiled body for the threads and the plain loop
 def _change_block(b, impulses, delta2, running, partial):
     """Sums over the contacts of block b of the sweep's squared impulse changes ``delta2``
     and squared impulses [N^2 s^2] into ``partial[b, :2]``, and of the running-residual
@@ -141,7 +141,7 @@ def _change_block(b, impulses, delta2, running, partial):
     partial[b, 4] = u2
 
 
-@njit(inline="always")
+@njit(_nrt=False)  # not inlined: one compiled body for the threads and the plain loop
 def _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins, wall_normals,
                  wall_speeds, images, cell_rate, mu, shift, impulses, delassus, partial):
     """Sums over the contacts of block b of the check pass (as in ``nlgs_kernel``):
@@ -165,6 +165,32 @@ def _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins, wall
     partial[b, 0] = wp_norm2
     partial[b, 1] = u_norm2
     partial[b, 2] = res2
+
+
+@njit(_nrt=False)  # a call per plain group: the sweep's law compiled once more, not per loop
+def _apply_run(lo, hi, impulses, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+               velocities, spins, wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
+               cell_inv_mass, cell_dofs, cell_rate):
+    """The warm start of contacts lo..hi-1, one after the other."""
+    for k in range(lo, hi):
+        _apply(k, impulses[k, 0], impulses[k, 1], impulses[k, 2], body_i, body_j, frame,
+               arm_i, arm_j, inv_mass, inv_inertia, velocities, spins, wall_normals,
+               wall_inv_mass, wall_speeds, images, cell_basis, cell_inv_mass, cell_dofs,
+               cell_rate)
+
+
+@njit(_nrt=False)
+def _update_run(lo, hi, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
+                wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
+                wall_speeds, delassus, open_sweeps, images, cell_basis, cell_inv_mass,
+                cell_dofs, cell_rate, running, delta2):
+    """One sweep of contacts lo..hi-1, one after the other (their squared impulse changes
+    into ``delta2``)."""
+    for k in range(lo, hi):
+        delta2[k] = skipped_update(
+            k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, wall_normals,
+            wall_inv_mass, mu, shift, impulses, velocities, spins, wall_speeds, delassus,
+            open_sweeps, images, cell_basis, cell_inv_mass, cell_dofs, cell_rate, running)
 
 
 # --------------------------------------------------------------------------------------------
@@ -201,9 +227,9 @@ def _coloured_sweeps(
     # gap shifts and ||U'_free||^2 per block
     if parallel:
         for b in prange(n_blocks):
-            _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_spins,
-                        wall_normals, wall_free_speeds, images, free_rate, gap, dt, shift,
-                        partial)
+            _free_block(np.int64(b), body_i, body_j, frame, arm_i, arm_j, free_velocities,
+                        free_spins, wall_normals, wall_free_speeds, images, free_rate, gap, dt,
+                        shift, partial)  # prange's index is unsigned: cast, one signature
     else:
         for b in range(n_blocks):
             _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_spins,
@@ -222,11 +248,9 @@ def _coloured_sweeps(
                            wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
                            cell_inv_mass, cell_dofs, cell_rate)
         else:
-            for k in range(chains[lo], chains[hi]):
-                _apply(k, impulses[k, 0], impulses[k, 1], impulses[k, 2], body_i, body_j,
-                       frame, arm_i, arm_j, inv_mass, inv_inertia, velocities, spins,
-                       wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
-                       cell_inv_mass, cell_dofs, cell_rate)
+            _apply_run(chains[lo], chains[hi], impulses, body_i, body_j, frame, arm_i, arm_j,
+                       inv_mass, inv_inertia, velocities, spins, wall_normals, wall_inv_mass,
+                       wall_speeds, images, cell_basis, cell_inv_mass, cell_dofs, cell_rate)
     iterations = 0
     last_check = 0
     full = True  # the first sweep, every SKIP_REVISIT-th and the one after a failed check
@@ -244,19 +268,18 @@ def _coloured_sweeps(
                             velocities, spins, wall_speeds, delassus, open_sweeps, images,
                             cell_basis, cell_inv_mass, cell_dofs, cell_rate, running)
             else:
-                for k in range(chains[lo], chains[hi]):
-                    delta2[k] = skipped_update(
-                        k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-                        wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
-                        wall_speeds, delassus, open_sweeps, images, cell_basis, cell_inv_mass,
-                        cell_dofs, cell_rate, running)
+                _update_run(chains[lo], chains[hi], skip, body_i, body_j, frame, arm_i, arm_j,
+                            inv_mass, inv_inertia, wall_normals, wall_inv_mass, mu, shift,
+                            impulses, velocities, spins, wall_speeds, delassus, open_sweeps,
+                            images, cell_basis, cell_inv_mass, cell_dofs, cell_rate, running,
+                            delta2)
         full = iterations % SKIP_REVISIT == 0
         brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
         brake_cell(cell_basis, cell_inv_mass, cell_bounds, cell_brakes, cell_dofs, cell_rate)
         # relative change of the sweep: sums per block of _BLOCK contacts, then in block order
         if parallel:
             for b in prange(n_blocks):
-                _change_block(b, impulses, delta2, running, partial)
+                _change_block(np.int64(b), impulses, delta2, running, partial)
         else:
             for b in range(n_blocks):
                 _change_block(b, impulses, delta2, running, partial)
@@ -283,7 +306,7 @@ def _coloured_sweeps(
         last_check = iterations
         if parallel:
             for b in prange(n_blocks):
-                _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins,
+                _check_block(np.int64(b), body_i, body_j, frame, arm_i, arm_j, velocities, spins,
                              wall_normals, wall_speeds, images, cell_rate, mu, shift,
                              impulses, delassus, partial)
         else:

@@ -74,7 +74,8 @@ def quat_to_matrices_kernel(q, out):
 
 def quat_to_matrices(q: np.ndarray) -> np.ndarray:
     """Rotation matrices (N, 3, 3) of unit quaternions ``q`` (N, 4), w first."""
-    q = np.ascontiguousarray(q, dtype=np.float64).reshape(-1, 4)
+    q = np.ascontiguousarray(q, dtype=np.float64).reshape(-1, 4).view()
+    q.setflags(write=False)  # read-only whatever the caller's: one compiled signature
     out = np.empty((q.shape[0], 3, 3))
     quat_to_matrices_kernel(q, out)
     return out

@@ -271,8 +271,9 @@ def signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
     """Signed distance g [m] of polyhedra A and B (module docstring, steps 1-4) and the unit
     normal from A to B written in ``normal_out`` (3,); returns (g, found) with found False
     when g > alert (then g is only a lower bound and the normal is not set)."""
+    prune = va.shape[0] >= 0  # True as a typed flag, not a literal: one compiled body
     return _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
-                            vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out, True)
+                            vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out, prune)
 
 
 @njit(cache=True)
@@ -281,8 +282,9 @@ def signed_distance_exhaustive(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
     """:func:`signed_distance` without the pruning (every face axis evaluated, every edge
     pair of the slab given the whole arc test): the slow twin it must agree with (same g,
     normal, found)."""
+    prune = va.shape[0] < 0  # False as a typed flag: the same compiled body as the pruned
     return _signed_distance(va, na, oa, fsa, fva, ea, efa, nsa, nba, ca,
-                            vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out, False)
+                            vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb, cb, alert, normal_out, prune)
 
 
 @njit(cache=True)

@@ -343,10 +343,11 @@ def pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     (3,) from A to B (module docstring): writes ``points`` (MAX_POINTS, 3) [m] (mid-points),
     ``gaps`` (MAX_POINTS,) [m], their unit ``point_normals`` (MAX_POINTS, 3) from A to B and
     feature ids ``ids_a``, ``ids_b`` (MAX_POINTS,); returns (count, type code)."""
+    prune = va.shape[0] >= 0  # True as a typed flag, not a literal: one compiled body
     return _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
                           vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
                           g, normal, alert, cos_tol, sin_tol, max_points, points, gaps,
-                          point_normals, ids_a, ids_b, True)
+                          point_normals, ids_a, ids_b, prune)
 
 
 @njit(cache=True)
@@ -357,10 +358,11 @@ def pair_manifold_exhaustive(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     """:func:`pair_manifold` with every face of the other body in the line entries and every
     pair of cap edges crossed: the slow twin it must agree with (same points, gaps, ids and
     type)."""
+    prune = va.shape[0] < 0  # False as a typed flag: the same compiled body as the pruned
     return _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
                           vb, nb, ob, fsb, fvb, eb, efb, nsb, nbb,
                           g, normal, alert, cos_tol, sin_tol, max_points, points, gaps,
-                          point_normals, ids_a, ids_b, False)
+                          point_normals, ids_a, ids_b, prune)
 
 
 @njit(cache=True)

@@ -380,8 +380,8 @@ def deposit_kernel(radii, drops, lx, ly, widths, shape, max_moves,
         state = UNSETTLED
         for _move in range(max_moves):
             if n_sup == 0:
-                z, hit = _fall(p, r, left, centres, radii, r_max, head, nxt, top_layer,
-                               widths, shape, count)
+                z, hit = _fall(p, r, np.int64(left), centres, radii, r_max, head, nxt,
+                               top_layer, widths, shape, count)  # int64: one signature
                 p[2] = z
                 left = NO_SUPPORT
                 keep = NO_SUPPORT
@@ -409,8 +409,9 @@ def deposit_kernel(radii, drops, lx, ly, widths, shape, max_moves,
                 if beta0 > 0.5 * math.pi:
                     beta0 = 0.5 * math.pi
                 b = _circle_events(m, rho, e_up, e_side, 1.0, beta0, 0.5 * math.pi, r, lx,
-                                   ly, sup, 1, 0, left, centres, radii, r_max, head, nxt,
-                                   widths, shape, count, lam_k, lam_a, event)
+                                   ly, sup, np.int64(1), np.int64(0), np.int64(left), centres,
+                                   radii, r_max, head, nxt, widths, shape, count, lam_k, lam_a,
+                                   event)  # int64s, not literals: one signature
                 if b == math.inf:  # the equator: fall
                     _arc_point(m, rho, e_up, e_side, 1.0, 0.5 * math.pi, p)
                     left = a
@@ -487,9 +488,9 @@ def deposit_kernel(radii, drops, lx, ly, widths, shape, max_moves,
                     lam_a[q] = az[q] - c * az[1 - q]
                     if sup[q] == keep:  # sliding on it: it carries whatever lam says
                         lam_k[q], lam_a[q] = 1.0, 0.0
-                b = _circle_events(m, s, e_up, e_side, sig, beta0, math.pi, r, lx, ly, sup, 2,
-                                   2, left, centres, radii, r_max, head, nxt, widths, shape,
-                                   count, lam_k, lam_a, event)
+                b = _circle_events(m, s, e_up, e_side, sig, beta0, math.pi, r, lx, ly, sup,
+                                   np.int64(2), np.int64(2), np.int64(left), centres, radii,
+                                   r_max, head, nxt, widths, shape, count, lam_k, lam_a, event)
                 left = NO_SUPPORT
                 if b == math.inf:  # the lowest point of the circle
                     _arc_point(m, s, e_up, e_side, sig, math.pi, p)

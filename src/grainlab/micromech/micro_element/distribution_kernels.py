@@ -169,7 +169,7 @@ def _series_chunk(lo, hi, v, coefficients, scale, squarings, exp_out, term_out, 
                 exp_out[lo + c, i, j] = total[i, j, c]
 
 
-@njit(inline="always")
+@njit(cache=True)  # not inlined: one compiled body for the serial and the parallel kernel
 def _series_range(lo, hi, v, coefficients, block, scale, squarings, exp_out, term_out,
                   total_out):
     """:func:`_series_chunk` over matrices lo..hi-1 in batches of :data:`BATCH`, with one set
@@ -188,8 +188,8 @@ def _series_range(lo, hi, v, coefficients, block, scale, squarings, exp_out, ter
 @njit(cache=True)
 def series_serial(v, coefficients, block, scale, squarings, exp_out, term_out, total_out):
     """:func:`_series_chunk` for every matrix, in one thread."""
-    _series_range(0, v.shape[0], v, coefficients, block, scale, squarings, exp_out, term_out,
-                  total_out)
+    _series_range(np.int64(0), v.shape[0], v, coefficients, block, scale, squarings, exp_out,
+                  term_out, total_out)  # int64(0), not a literal: the parallel kernel's body
 
 
 @njit(cache=True, parallel=True)
@@ -197,7 +197,8 @@ def series_parallel(v, coefficients, block, scale, squarings, exp_out, term_out,
     """:func:`_series_chunk` for every matrix, in parallel chunks (gather)."""
     n = v.shape[0]
     for chunk in prange((n + CHUNK - 1) // CHUNK):
-        _series_range(chunk * CHUNK, min(n, (chunk + 1) * CHUNK), v, coefficients, block,
+        lo = np.int64(chunk) * CHUNK  # prange's index is unsigned: cast, one signature
+        _series_range(lo, min(n, lo + CHUNK), v, coefficients, block,
                       scale, squarings, exp_out, term_out, total_out)
 
 
@@ -220,7 +221,7 @@ def exponential_series_batch(v: np.ndarray, order: int, squarings: int
 
 
 # -- G^n and C^n G^n, eqs. 2.34 and 2.31 ----------------------------------------------------------
-@njit(inline="always")
+@njit(cache=True)  # not inlined: one compiled body for the serial and the parallel kernel
 def _distribute_range(lo, hi, a, exp_v, weights, c_local, g_out, partial):
     """G^n = (V^n/V) A Exp(-v^n) into g_out[n] for n = lo..hi-1, and sum_n C^n G^n into
     ``partial`` (k, k), in batches of :data:`BATCH` stored batch-innermost."""
@@ -263,7 +264,8 @@ def _distribute_range(lo, hi, a, exp_v, weights, c_local, g_out, partial):
 def distribute_serial(a, exp_v, weights, c_local, g_out, partial_out):
     """:func:`_distribute_range` over every micro-element, in one thread (partial_out (1, k,
     k))."""
-    _distribute_range(0, exp_v.shape[0], a, exp_v, weights, c_local, g_out, partial_out[0])
+    _distribute_range(np.int64(0), exp_v.shape[0], a, exp_v, weights, c_local, g_out,
+                      partial_out[0])
 
 
 @njit(cache=True, parallel=True)
@@ -272,8 +274,9 @@ def distribute_parallel(a, exp_v, weights, c_local, g_out, partial_out):
     chunk's sum of C^n G^n into its own row of partial_out (chunks, k, k) (gather)."""
     n = exp_v.shape[0]
     for chunk in prange(partial_out.shape[0]):
-        _distribute_range(chunk * CHUNK, min(n, (chunk + 1) * CHUNK), a, exp_v, weights,
-                          c_local, g_out, partial_out[chunk])
+        lo = np.int64(chunk) * CHUNK  # prange's index is unsigned: cast, one signature
+        _distribute_range(lo, min(n, lo + CHUNK), a, exp_v, weights, c_local, g_out,
+                          partial_out[lo // CHUNK])
 
 
 def maxwellian_tensors(a: np.ndarray, exp_v: np.ndarray, weights: np.ndarray,

@@ -44,6 +44,16 @@ BATCH = 32
 arithmetic is vectorised across them (one micro-element's 3 x 3 and 6 x 6 matrices alone do
 not fill the vector units)."""
 
+def kernel_input(array: np.ndarray, dtype: type | None = None) -> np.ndarray:
+    """``array`` as the array kernels take their inputs: C-contiguous and read-only (a
+    read-only view, no copy, unless the type or layout must change). Numba compiles a kernel
+    once per read-only flag of its arguments: a structure's frozen arrays and a model's working
+    copies would otherwise each have their own ~20 s compilation."""
+    view = np.ascontiguousarray(array, dtype=dtype).view()
+    view.setflags(write=False)
+    return view
+
+
 SPIN_MODES = {"none": 0, "micro-element": 1, "uniform": 2}
 """Particle-spin options of :class:`MicroElementModel` as kernel codes (2: set by the caller)."""
 
@@ -262,7 +272,7 @@ def _spin_element(e, blocks_out, spin_out, c_local_out):
             c_local[i, j] = s
 
 
-@njit(inline="always")
+@njit(cache=True)  # not inlined: one compiled body for the serial and the parallel kernel
 def _condense_range(lo, hi, branches, mask, kn, kr, volumes, non_affine, spin_mode,
                     right_index, right_weight, left_index, left_weight, t_out, blocks_out,
                     spin_out, c_local_out):
@@ -299,7 +309,7 @@ def condense_serial(branches, mask, kn, kr, volumes, non_affine, spin_mode, righ
                     right_weight, left_index, left_weight, t_out, blocks_out, spin_out,
                     c_local_out):
     """:func:`_condense_range` over every micro-element, in one thread."""
-    _condense_range(0, branches.shape[0], branches, mask, kn, kr, volumes, non_affine,
+    _condense_range(np.int64(0), branches.shape[0], branches, mask, kn, kr, volumes, non_affine,
                     spin_mode, right_index, right_weight, left_index, left_weight, t_out,
                     blocks_out, spin_out, c_local_out)
 
@@ -312,7 +322,8 @@ def condense_parallel(branches, mask, kn, kr, volumes, non_affine, spin_mode, ri
     (gather)."""
     n = branches.shape[0]
     for chunk in prange((n + CHUNK - 1) // CHUNK):
-        _condense_range(chunk * CHUNK, min(n, (chunk + 1) * CHUNK), branches, mask, kn, kr,
+        lo = np.int64(chunk) * CHUNK  # prange's index is unsigned: cast, one signature
+        _condense_range(lo, min(n, lo + CHUNK), branches, mask, kn, kr,
                         volumes, non_affine, spin_mode, right_index, right_weight, left_index,
                         left_weight, t_out, blocks_out, spin_out, c_local_out)
 
@@ -346,13 +357,15 @@ def condensation_bases(dimension: int, with_skew: bool
 
 
 def condense_local_stiffness(branches: np.ndarray, mask: np.ndarray, kn: np.ndarray,
-                             kr: np.ndarray, volumes: np.ndarray, non_affine: bool, spin: str
+                             kr: np.ndarray, volumes: np.ndarray, non_affine: bool, spin: str,
+                             parallel: bool | None = None
                              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Launcher of :func:`_condense_range`.
 
     Parameters: branches (E, M, d) [m], mask (E, M), contact stiffnesses kn, kr (E, M) [N/m]
     (read only where mask is True), volumes (E,) [m^3], ``non_affine`` (eq. 2.14), ``spin``
-    (a key of :data:`SPIN_MODES`).
+    (a key of :data:`SPIN_MODES`), ``parallel`` (the threaded kernel; None: from
+    :data:`MIN_PARALLEL_ELEMENTS` micro-elements on).
 
     Returns T (E, d, d^2) [m]; the blocks [S' ; W'] C [S W] (E, k + w, k + w) [Pa] (with
     ``spin="none"`` only S' C S, (E, k, k)); the spin map (E, w, k) [-] (zero unless
@@ -369,11 +382,12 @@ def condense_local_stiffness(branches: np.ndarray, mask: np.ndarray, kn: np.ndar
     blocks = np.empty((n_elements, n_b, n_b))
     spin_map = np.zeros((n_elements, n_w, n_v))
     c_local = np.empty((n_elements if spin == "micro-element" else 0, n_v, n_v))
-    kernel = condense_parallel if n_elements >= MIN_PARALLEL_ELEMENTS else condense_serial
-    kernel(np.ascontiguousarray(branches), np.ascontiguousarray(mask),
-           np.ascontiguousarray(kn, dtype=float), np.ascontiguousarray(kr, dtype=float),
-           np.ascontiguousarray(volumes), bool(non_affine), SPIN_MODES[spin], *basis, t,
-           blocks, spin_map, c_local)
+    if parallel is None:
+        parallel = n_elements >= MIN_PARALLEL_ELEMENTS
+    kernel = condense_parallel if parallel else condense_serial
+    kernel(kernel_input(branches), kernel_input(mask), kernel_input(kn, float),
+           kernel_input(kr, float), kernel_input(volumes), bool(non_affine), SPIN_MODES[spin],
+           *basis, t, blocks, spin_map, c_local)
     if spin != "micro-element":
         c_local = np.ascontiguousarray(blocks[:, :n_v, :n_v])
     return t, blocks, spin_map, c_local
@@ -441,7 +455,7 @@ def _stretch_element(e, g, d_eps, weights, spin_map, s_basis, w_basis, branches,
             translation_out[e, m, p] = s - turn if with_spin else s
 
 
-@njit(inline="always")
+@njit(cache=True)  # not inlined: one compiled body for the serial and the parallel kernel
 def _stretch_range(lo, hi, g, d_eps, weights, spin_map, s_basis, w_basis, branches, mask, t,
                    with_spin, approach_out, translation_out, volumetric_out):
     """:func:`_stretch_element` for micro-elements lo..hi-1 with one set of scratch arrays."""
@@ -461,7 +475,7 @@ def _stretch_range(lo, hi, g, d_eps, weights, spin_map, s_basis, w_basis, branch
 def stretch_serial(g, d_eps, weights, spin_map, s_basis, w_basis, branches, mask, t,
                    with_spin, approach_out, translation_out, volumetric_out):
     """:func:`_stretch_element` for every micro-element, in one thread."""
-    _stretch_range(0, branches.shape[0], g, d_eps, weights, spin_map, s_basis, w_basis,
+    _stretch_range(np.int64(0), branches.shape[0], g, d_eps, weights, spin_map, s_basis, w_basis,
                    branches, mask, t, with_spin, approach_out, translation_out, volumetric_out)
 
 
@@ -471,29 +485,33 @@ def stretch_parallel(g, d_eps, weights, spin_map, s_basis, w_basis, branches, ma
     """:func:`_stretch_element` for every micro-element, in parallel chunks (gather)."""
     n = branches.shape[0]
     for chunk in prange((n + CHUNK - 1) // CHUNK):
-        _stretch_range(chunk * CHUNK, min(n, (chunk + 1) * CHUNK), g, d_eps, weights,
+        lo = np.int64(chunk) * CHUNK  # prange's index is unsigned: cast, one signature
+        _stretch_range(lo, min(n, lo + CHUNK), g, d_eps, weights,
                        spin_map, s_basis, w_basis, branches, mask, t, with_spin, approach_out,
                        translation_out, volumetric_out)
 
 
 def stretch(g: np.ndarray, d_eps: np.ndarray, weights: np.ndarray, spin_map: np.ndarray,
             s_basis: np.ndarray, w_basis: np.ndarray, branches: np.ndarray, mask: np.ndarray,
-            t: np.ndarray, with_spin: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            t: np.ndarray, with_spin: bool, parallel: bool | None = None
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Launcher of :func:`_stretch_element`: for G^n (E, k, k), the overall Voigt strain
     increment (k,), the volume fractions (E,), the spin maps (E, w, k), the bases S (d^2, k)
     and W (d^2, w), the branches (E, M, d) [m], the mask (E, M) and T (E, d, d^2) [m]
     (``with_spin=False``: no spin), returns the approaches (E, M, d) [m], the branch
-    translations (E, M, d) [m] and the local volumetric strains (E,) [-]."""
+    translations (E, M, d) [m] and the local volumetric strains (E,) [-]. ``parallel``: the
+    threaded kernel (None: from :data:`MIN_PARALLEL_ELEMENTS` micro-elements on)."""
     n_elements, n_contacts, d = branches.shape
     approach = np.empty((n_elements, n_contacts, d))
     translation = np.empty((n_elements, n_contacts, d))
     volumetric = np.empty(n_elements)
-    kernel = stretch_parallel if n_elements >= MIN_PARALLEL_ELEMENTS else stretch_serial
-    kernel(np.ascontiguousarray(g), np.ascontiguousarray(d_eps, dtype=float),
-           np.ascontiguousarray(weights), np.ascontiguousarray(spin_map),
-           np.ascontiguousarray(s_basis), np.ascontiguousarray(w_basis),
-           np.ascontiguousarray(branches), np.ascontiguousarray(mask), np.ascontiguousarray(t),
-           bool(with_spin), approach, translation, volumetric)
+    if parallel is None:
+        parallel = n_elements >= MIN_PARALLEL_ELEMENTS
+    kernel = stretch_parallel if parallel else stretch_serial
+    kernel(kernel_input(g), kernel_input(d_eps, float), kernel_input(weights),
+           kernel_input(spin_map), kernel_input(s_basis), kernel_input(w_basis),
+           kernel_input(branches), kernel_input(mask), kernel_input(t), bool(with_spin),
+           approach, translation, volumetric)
     return approach, translation, volumetric
 
 
