@@ -167,7 +167,19 @@ def _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins, wall
     partial[b, 2] = res2
 
 
-@njit(_nrt=False)  # a call per plain group: the sweep's law compiled once more, not per loop
+_PIECES = 64
+"""The chains of a parallel group are shared out in about this many pieces, each a run of
+consecutive chains (consecutive contacts) swept by one compiled call: the law is compiled once
+for the threads and the plain loops, and a call costs nothing beside a piece's updates."""
+
+
+@njit(inline="always")
+def _chains_per_piece(lo, hi):
+    """Chains per piece of the group of chains lo..hi-1 (:data:`_PIECES`)."""
+    return max(1, (hi - lo + _PIECES - 1) // _PIECES)
+
+
+@njit(_nrt=False)  # a call per piece or plain group: the law compiled once, not per loop
 def _apply_run(lo, hi, impulses, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                velocities, spins, wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
                cell_inv_mass, cell_dofs, cell_rate):
@@ -241,9 +253,10 @@ def _coloured_sweeps(
     for g in range(n_groups):  # warm start, group by group
         lo, hi = colour_offsets[g], colour_offsets[g + 1]
         if g < n_parallel and hi - lo > 1:
-            for c in prange(lo, hi):
-                for k in range(chains[c], chains[c + 1]):
-                    _apply(k, impulses[k, 0], impulses[k, 1], impulses[k, 2], body_i, body_j,
+            per = _chains_per_piece(lo, hi)
+            for piece in prange((hi - lo + per - 1) // per):
+                c = lo + np.int64(piece) * per
+                _apply_run(chains[c], chains[min(c + per, hi)], impulses, body_i, body_j,
                            frame, arm_i, arm_j, inv_mass, inv_inertia, velocities, spins,
                            wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
                            cell_inv_mass, cell_dofs, cell_rate)
@@ -260,13 +273,14 @@ def _coloured_sweeps(
         for g in range(n_groups):
             lo, hi = colour_offsets[g], colour_offsets[g + 1]
             if g < n_parallel and hi - lo > 1:
-                for c in prange(lo, hi):
-                    for k in range(chains[c], chains[c + 1]):
-                        delta2[k] = skipped_update(
-                            k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass,
-                            inv_inertia, wall_normals, wall_inv_mass, mu, shift, impulses,
-                            velocities, spins, wall_speeds, delassus, open_sweeps, images,
-                            cell_basis, cell_inv_mass, cell_dofs, cell_rate, running)
+                per = _chains_per_piece(lo, hi)
+                for piece in prange((hi - lo + per - 1) // per):
+                    c = lo + np.int64(piece) * per
+                    _update_run(chains[c], chains[min(c + per, hi)], skip, body_i, body_j,
+                                frame, arm_i, arm_j, inv_mass, inv_inertia, wall_normals,
+                                wall_inv_mass, mu, shift, impulses, velocities, spins,
+                                wall_speeds, delassus, open_sweeps, images, cell_basis,
+                                cell_inv_mass, cell_dofs, cell_rate, running, delta2)
             else:
                 _update_run(chains[lo], chains[hi], skip, body_i, body_j, frame, arm_i, arm_j,
                             inv_mass, inv_inertia, wall_normals, wall_inv_mass, mu, shift,
