@@ -202,8 +202,8 @@ def compile_command(
                              help="all, or some of discrete, polyhedra, theories, dem separated "
                                   "by commas (two parts in two shells use two cores)."),
 ) -> None:
-    """Compile grainlab's kernels now (a minute or two on two cores; cached on disk for every
-    later run), so that the first real test starts at once."""
+    """Compile grainlab's kernels now (about four minutes in one process; cached on disk for
+    every later run), so that the first real test starts at once."""
     console.print(f"compiling the kernels ({part}) ...")
     seconds = compile_kernels(part)
     console.print(f"compiled and cached in {seconds:.0f} s")
