@@ -1,4 +1,5 @@
-"""Numba settings applied before any compiled kernel runs.
+"""Numba settings applied before any compiled kernel runs, and the form of the arrays the
+kernels take (:func:`kernel_input`).
 
 The threading layer is TBB where its library loads, else ``workqueue``; never OpenMP. Measured
 on a 2-core machine (shared/research/engine_tech.md §1.1 and
@@ -20,6 +21,8 @@ import ctypes
 import os
 import sys
 from pathlib import Path
+
+import numpy as np
 
 TBB_LIBRARIES = {"linux": "libtbb.so.12", "darwin": "libtbb.12.dylib", "win32": "tbb12.dll"}
 """The TBB library's file name per platform (as Numba looks for it)."""
@@ -65,3 +68,14 @@ def threading_layer() -> str:
     except ValueError:  # no parallel loop has run yet
         layer = numba.config.THREADING_LAYER
         return numba.config.THREADING_LAYER_PRIORITY[0] if layer == "default" else layer
+
+
+def kernel_input(array: np.ndarray, dtype: type | None = None) -> np.ndarray:
+    """``array`` as a compiled kernel takes an input it only reads: C-contiguous and read-only
+    (a read-only view, no copy unless the type or layout must change; the caller's array keeps
+    its flags). Numba compiles a kernel once per layout and read-only flag of its arguments:
+    frozen arrays and working copies of them would otherwise each have their own compilation
+    (~20 s for the micro-element condensation)."""
+    view = np.ascontiguousarray(array, dtype=dtype).view()
+    view.setflags(write=False)
+    return view

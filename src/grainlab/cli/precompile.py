@@ -155,9 +155,9 @@ def _theory_runs(folder: Path) -> None:
                                                  structure.volumes, True, "micro-element",
                                                  parallel=True)
     s, w, _, _ = bases(3)
-    n = structure.volumes.shape[0]
-    stretch(np.zeros((n, 6, 6)), np.zeros(6), np.full(n, 1.0 / n), spin_map, s, w,
-            structure.branches, structure.mask, t, True, parallel=True)
+    n_elements = structure.volumes.shape[0]
+    stretch(np.zeros((n_elements, 6, 6)), np.zeros(6), np.full(n_elements, 1.0 / n_elements),
+            spin_map, s, w, structure.branches, structure.mask, t, True, parallel=True)
 
 
 def _dem_runs(folder: Path) -> None:

@@ -25,6 +25,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from grainlab._numba_setup import kernel_input
+
 
 @njit(inline="always")
 def rotate(w, x, y, z, vx, vy, vz):
@@ -74,8 +76,7 @@ def quat_to_matrices_kernel(q, out):
 
 def quat_to_matrices(q: np.ndarray) -> np.ndarray:
     """Rotation matrices (N, 3, 3) of unit quaternions ``q`` (N, 4), w first."""
-    q = np.ascontiguousarray(q, dtype=np.float64).reshape(-1, 4).view()
-    q.setflags(write=False)  # read-only whatever the caller's: one compiled signature
+    q = kernel_input(np.reshape(q, (-1, 4)), np.float64)
     out = np.empty((q.shape[0], 3, 3))
     quat_to_matrices_kernel(q, out)
     return out

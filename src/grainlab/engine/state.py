@@ -51,6 +51,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from grainlab._numba_setup import kernel_input
 from grainlab.engine.quaternion import quat_to_matrices
 from grainlab.engine.shape_kinds import (
     AGGREGATE,
@@ -97,9 +98,7 @@ class ReadOnlyArrays:
         array = getattr(self._owner, name)
         if not array.flags.writeable and array.flags.c_contiguous:
             return array
-        view = np.ascontiguousarray(array).view()
-        view.setflags(write=False)
-        return view
+        return kernel_input(array)
 
 
 @dataclass(frozen=True, eq=False)

@@ -276,7 +276,7 @@ def distribute_parallel(a, exp_v, weights, c_local, g_out, partial_out):
     for chunk in prange(partial_out.shape[0]):
         lo = np.int64(chunk) * CHUNK  # prange's index is unsigned: cast, one signature
         _distribute_range(lo, min(n, lo + CHUNK), a, exp_v, weights, c_local, g_out,
-                          partial_out[lo // CHUNK])
+                          partial_out[chunk])
 
 
 def maxwellian_tensors(a: np.ndarray, exp_v: np.ndarray, weights: np.ndarray,

@@ -31,6 +31,7 @@ from functools import lru_cache
 import numpy as np
 from numba import njit, prange
 
+from grainlab._numba_setup import kernel_input
 from grainlab.micromech.micro_element.tensor_basis import bases
 
 MIN_PARALLEL_ELEMENTS = 2048
@@ -43,16 +44,6 @@ BATCH = 32
 """Micro-elements computed together, stored batch-innermost so that their small-matrix
 arithmetic is vectorised across them (one micro-element's 3 x 3 and 6 x 6 matrices alone do
 not fill the vector units)."""
-
-def kernel_input(array: np.ndarray, dtype: type | None = None) -> np.ndarray:
-    """``array`` as the array kernels take their inputs: C-contiguous and read-only (a
-    read-only view, no copy, unless the type or layout must change). Numba compiles a kernel
-    once per read-only flag of its arguments: a structure's frozen arrays and a model's working
-    copies would otherwise each have their own ~20 s compilation."""
-    view = np.ascontiguousarray(array, dtype=dtype).view()
-    view.setflags(write=False)
-    return view
-
 
 SPIN_MODES = {"none": 0, "micro-element": 1, "uniform": 2}
 """Particle-spin options of :class:`MicroElementModel` as kernel codes (2: set by the caller)."""
