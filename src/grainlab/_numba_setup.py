@@ -53,7 +53,16 @@ if _LAYER is None:
     os.environ["NUMBA_THREADING_LAYER_PRIORITY"] = (
         "tbb workqueue omp" if _TBB else "workqueue tbb omp")
 
+import llvmlite.binding as llvm  # noqa: E402
 import numba  # noqa: E402  (after the environment it reads)
+
+VECTORIZE_SCEV_CHECKS = 256
+"""How many run-time checks on index arithmetic LLVM's loop vectorizer may add to a loop
+(its default, 16, is too few for the soft-contact force pass of :mod:`grainlab.engine.
+sphere_rows`, whose rows read and write a dozen arrays: the loop stayed scalar, 2.2x slower).
+The checks run once per loop entry; they change no result."""
+
+llvm.set_option("grainlab", f"-vectorize-scev-check-threshold={VECTORIZE_SCEV_CHECKS}")
 
 numba.config.THREADING_LAYER = os.environ["NUMBA_THREADING_LAYER"]
 if "NUMBA_THREADING_LAYER_PRIORITY" in os.environ:

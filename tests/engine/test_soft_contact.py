@@ -240,10 +240,11 @@ def test_column_at_rest_under_gravity_bottom_reaction_is_the_weight():
     assert np.abs(state.velocities).max() < 1e-8
 
 
-def turned_spring_force(n_steps):
+def turned_spring_force(n_steps, vector=False):
     """Two overlapping spheres with a loaded tangential spring, turned rigidly by 90 degrees in
     ``n_steps`` steps about an axis with components along and across the normal: (force at
-    the start (3,), at the end (3,), the start force turned by the rotation (3,))."""
+    the start (3,), at the end (3,), the start force turned by the rotation (3,)); through
+    the vector force pass if ``vector`` (:mod:`grainlab.engine.sphere_rows`)."""
     radius, overlap = 0.01, 1e-4
     x0 = np.array([[0.0, 0.0, 0.0], [2 * radius - overlap, 0.0, 0.0]])
     axis = np.array([0.3, 0.5, 0.8]) / np.linalg.norm([0.3, 0.5, 0.8])
@@ -270,18 +271,19 @@ def turned_spring_force(n_steps):
             np.array([[1.0, 0.0, 0.0, 0.0]] * 2), np.cross(omega, positions),
             np.array([omega, omega]), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0),
             np.zeros(0), np.eye(3), np.zeros((3, 3)), xi, roll, *outputs, np.zeros((3, 3)),
-            np.zeros((1, 10)), np.zeros(1))
+            np.zeros((1, 10)), np.zeros(1), np.array([vector]), np.zeros((1, 6)))
         if start is None:
             start = outputs[0][0].copy()
     return start, outputs[0][0].copy(), rotation(1.0) @ start
 
 
-def test_tangential_spring_turns_with_a_rigid_rotation_of_the_pair():
+@pytest.mark.parametrize("vector", [False, True])
+def test_tangential_spring_turns_with_a_rigid_rotation_of_the_pair(vector):
     """No spurious force: the force keeps its size exactly and turns with the pair, to first
     order in the step (the error halves with the step)."""
     errors = []
     for n_steps in (1000, 2000):
-        start, end, expected = turned_spring_force(n_steps)
+        start, end, expected = turned_spring_force(n_steps, vector)
         assert np.linalg.norm(start[1:]) > 1.0  # the spring was loaded
         assert np.linalg.norm(end) == pytest.approx(np.linalg.norm(start), rel=1e-12)
         errors.append(np.linalg.norm(end - expected) / np.linalg.norm(start))

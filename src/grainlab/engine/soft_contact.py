@@ -98,6 +98,7 @@ from grainlab.engine.soft_contact_kernels import (
     SUBSTEP_SERVO_FRACTION,
     body_rows,
     closed_rows_kernel,
+    plain_blocks,
     servo_kernel,
     substeps_kernel,
 )
@@ -475,6 +476,8 @@ class _Rows:
         self.stiffness = np.zeros(c)
         self.rel_vel = np.zeros((c, 3))
         self.partial = np.zeros((-(-c // ROW_BLOCK), 10))  # the force pass's block sums
+        self.springs = np.zeros((c, 6))  # the vector force pass's springs and branches
+        self.plain = plain_blocks(self.body_i, self.off_i, self.off_j)
 
     def set_friction(self, bounds, friction: float) -> None:
         """The Coulomb coefficients of the rows: ``friction`` between bodies, each wall's
@@ -646,7 +649,7 @@ class _Run:
             self.stats, rows.approach, rows.partial,
             threads_pay(state.n_bodies), self.servo_inv_mass, self.servo_free,
             self.servo_max, self.wall_memory, self.macro, self.integral,
-            SUBSTEP_SERVO_FRACTION, self.wall_floor)
+            SUBSTEP_SERVO_FRACTION, self.wall_floor, rows.plain, rows.springs)
         smallest = float(np.min(rows.rad_j)) if rows.rad_j.size else math.inf
         if self.stats[0] > OVERLAP_LIMIT * smallest:
             raise SimulationBlowUp(

@@ -33,9 +33,10 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from grainlab.contact.soft_contact_law import contact_law
+from grainlab.contact.soft_contact_law import HERTZ_MINDLIN, contact_law
 from grainlab.engine.narrow_phase import sphere_sphere
 from grainlab.engine.quaternion import rotate
+from grainlab.engine.sphere_rows import sphere_rows_kernel
 
 OUTWARD_FACTOR = 4.0
 """A servo wall or cell component moves out at most this many times its inward limit (as
@@ -125,6 +126,50 @@ ROW_BLOCK = 512
 blocks in order, whether the blocks run one after the other or on several threads (the same
 sums, bit for bit, on any number of threads). Small, so that a few thousand rows still share
 out evenly (8493 rows of 2000 spheres on 2 threads: blocks of 4096 gave 1.15x, of 512 1.7x)."""
+
+
+def plain_blocks(body_i: np.ndarray, off_i: np.ndarray, off_j: np.ndarray) -> np.ndarray:
+    """Per block of :data:`ROW_BLOCK` rows, whether all its rows are plain: between two
+    bodies (no wall), each member at its body's centre (no aggregate's member). Those blocks
+    go through the vector force pass (:mod:`grainlab.engine.sphere_rows`)."""
+    plain = (body_i >= 0) & ~np.any(off_i != 0.0, axis=1) & ~np.any(off_j != 0.0, axis=1)
+    blocks = -(-plain.shape[0] // ROW_BLOCK)
+    padded = np.ones(blocks * ROW_BLOCK, dtype=bool)
+    padded[:plain.shape[0]] = plain
+    return np.ascontiguousarray(padded.reshape(blocks, ROW_BLOCK).all(axis=1))
+
+
+@njit(_nrt=False)
+def _sphere_block(blk, step, record, code, params, body_i, body_j, rad_i, rad_j, images, mu,
+                  inv_mass, positions, velocities, spins, cell_h, cell_rate, xi, force,
+                  torque_i, torque_j, gap, normal, point, stiffness, rel_vel, springs,
+                  partial):
+    """The rows of block ``blk``, all plain, by the vector kernel
+    (:func:`~grainlab.engine.sphere_rows.sphere_rows_kernel`), then their springs' virial and
+    largest overlap summed in row order into ``partial[blk]``: what :func:`_forces_block`
+    writes, bit for bit."""
+    lo, hi = blk * ROW_BLOCK, min((blk + 1) * ROW_BLOCK, body_j.shape[0])
+    sphere_rows_kernel(lo, hi, step, record, code == HERTZ_MINDLIN, params[0], body_i, body_j,
+                       rad_i, rad_j, images.reshape(images.size), mu, inv_mass, positions,
+                       velocities, spins, cell_h, cell_rate, xi.reshape(xi.size),
+                       force.reshape(force.size), torque_i.reshape(torque_i.size),
+                       torque_j.reshape(torque_j.size), gap, stiffness,
+                       normal.reshape(normal.size), point.reshape(point.size),
+                       rel_vel.reshape(rel_vel.size), springs.reshape(springs.size))
+    v00 = v01 = v02 = v10 = v11 = v12 = v20 = v21 = v22 = worst = 0.0
+    for k in range(lo, hi):
+        if gap[k] >= 0.0:
+            continue
+        worst = max(worst, -gap[k])
+        ex, ey, ez = springs[k, 0], springs[k, 1], springs[k, 2]
+        lx, ly, lz = springs[k, 3], springs[k, 4], springs[k, 5]
+        v00, v01, v02 = v00 + ex * lx, v01 + ex * ly, v02 + ex * lz
+        v10, v11, v12 = v10 + ey * lx, v11 + ey * ly, v12 + ey * lz
+        v20, v21, v22 = v20 + ez * lx, v21 + ez * ly, v22 + ez * lz
+    partial[blk, 0], partial[blk, 1], partial[blk, 2] = v00, v01, v02
+    partial[blk, 3], partial[blk, 4], partial[blk, 5] = v10, v11, v12
+    partial[blk, 6], partial[blk, 7], partial[blk, 8] = v20, v21, v22
+    partial[blk, 9] = worst
 
 
 @njit(_nrt=False)  # a call per block: more arguments than Python 3.11 lets Numba inline
@@ -291,25 +336,35 @@ def contact_forces_kernel(step, record, code, params, rolling, body_i, body_j, o
                           rad_i, rad_j, images, mu, inv_mass, positions, orientations, velocities,
                           spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate,
                           xi, roll, force, torque_i, torque_j, gap, normal, point, stiffness,
-                          rel_vel, virial, partial, stats):
+                          rel_vel, virial, partial, stats, plain, springs):
     """Geometry and force of every row k of the list (module docstring of
     :mod:`grainlab.contact.soft_contact_law`); ``step`` [s] is the time since the last
     evaluation (0: the force of the current springs, nothing carried forward). Writes the rows'
-    outputs (``gap`` of every row; normal, point and relative velocity of the closed ones only,
-    and only if ``record``: the step report reads those of the step's last evaluation;
+    outputs (``gap`` of every row; normal, point and relative velocity of the closed ones (of
+    every row in a plain block), and only if ``record``: the step report reads those of the
+    step's last evaluation;
     an open row's force, moments, stiffness and springs are zero, written once when it opens, or
     at ``step`` 0); the histories ``xi`` (C, 3) [N] and ``roll`` (C, 3) [N m] are updated;
     ``virial`` (3, 3) [N m] becomes sum_k f_k (x) l_k over the rows between bodies, f_k the
     springs' force on j (the elastic normal force and the tangential spring, without the
     dashpots), l_k = x_j + h m_k - x_i the branch vector: V sigma of the springs, compression
     positive (summed by blocks of :data:`ROW_BLOCK` rows: ``partial`` (ceil(C / ROW_BLOCK), 10)
-    scratch); ``stats[0]`` becomes the largest overlap [m] if larger."""
+    scratch); ``stats[0]`` becomes the largest overlap [m] if larger. The blocks flagged in
+    ``plain`` (ceil(C / ROW_BLOCK),) (:func:`plain_blocks`) go through the vector kernel of
+    :mod:`grainlab.engine.sphere_rows` when there is no rolling resistance (the same bits;
+    ``springs`` (C, 6) scratch)."""
     for blk in range(partial.shape[0]):
-        _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_i, off_j,
-                      rad_i, rad_j, images, mu, inv_mass, positions, orientations, velocities,
-                      spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi,
-                      roll, force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
-                      partial)
+        if plain[blk] and rolling == 0.0:
+            _sphere_block(blk, step, record, code, params, body_i, body_j, rad_i, rad_j, images,
+                          mu, inv_mass, positions, velocities, spins, cell_h, cell_rate, xi,
+                          force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
+                          springs, partial)
+        else:
+            _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_i,
+                          off_j, rad_i, rad_j, images, mu, inv_mass, positions, orientations,
+                          velocities, spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h,
+                          cell_rate, xi, roll, force, torque_i, torque_j, gap, normal, point,
+                          stiffness, rel_vel, partial)
     _sum_blocks(partial, virial, stats)
 
 
@@ -318,14 +373,21 @@ def contact_forces_parallel(step, record, code, params, rolling, body_i, body_j,
                             off_j, rad_i, rad_j, images, mu, inv_mass, positions, orientations,
                             velocities, spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h,
                             cell_rate, xi, roll, force, torque_i, torque_j, gap, normal, point,
-                            stiffness, rel_vel, virial, partial, stats):
+                            stiffness, rel_vel, virial, partial, stats, plain, springs):
     """:func:`contact_forces_kernel` with its blocks on the threads (the same results)."""
     for blk in prange(partial.shape[0]):  # prange's index is unsigned: cast, one signature
-        _forces_block(np.int64(blk), step, record, code, params, rolling, body_i, body_j,
-                      off_i, off_j, rad_i, rad_j, images, mu, inv_mass, positions,
-                      orientations, velocities, spins, wall_p0, wall_n, wall_disp, wall_speed,
-                      cell_h, cell_rate, xi, roll, force, torque_i, torque_j, gap, normal,
-                      point, stiffness, rel_vel, partial)
+        b = np.int64(blk)
+        if plain[b] and rolling == 0.0:
+            _sphere_block(b, step, record, code, params, body_i, body_j, rad_i, rad_j, images,
+                          mu, inv_mass, positions, velocities, spins, cell_h, cell_rate, xi,
+                          force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
+                          springs, partial)
+        else:
+            _forces_block(b, step, record, code, params, rolling, body_i, body_j, off_i,
+                          off_j, rad_i, rad_j, images, mu, inv_mass, positions, orientations,
+                          velocities, spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h,
+                          cell_rate, xi, roll, force, torque_i, torque_j, gap, normal, point,
+                          stiffness, rel_vel, partial)
     _sum_blocks(partial, virial, stats)
 
 
@@ -703,20 +765,22 @@ def _forces(parallel, step, record, code, params, rolling, body_i, body_j, off_i
             rad_j, images, mu, wall_rows, inv_mass, wall_p0, wall_n, positions, orientations,
             velocities, spins, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
             torque_i, torque_j, gap, normal, point, stiffness, rel_vel, virial, partial,
-            stats, wall_force, wall_stiffness):
+            stats, wall_force, wall_stiffness, plain, springs):
     """Contact forces of the list (on the threads if ``parallel``) and the walls' loads."""
     if parallel:
         contact_forces_parallel(step, record, code, params, rolling, body_i, body_j, off_i, off_j,
                                 rad_i, rad_j, images, mu, inv_mass, positions, orientations,
                                 velocities, spins, wall_p0, wall_n, wall_disp, wall_speed,
                                 cell_h, cell_rate, xi, roll, force, torque_i, torque_j, gap,
-                                normal, point, stiffness, rel_vel, virial, partial, stats)
+                                normal, point, stiffness, rel_vel, virial, partial, stats,
+                                plain, springs)
     else:
         contact_forces_kernel(step, record, code, params, rolling, body_i, body_j, off_i, off_j,
                               rad_i, rad_j, images, mu, inv_mass, positions, orientations,
                               velocities, spins, wall_p0, wall_n, wall_disp, wall_speed,
                               cell_h, cell_rate, xi, roll, force, torque_i, torque_j, gap,
-                              normal, point, stiffness, rel_vel, virial, partial, stats)
+                              normal, point, stiffness, rel_vel, virial, partial, stats, plain,
+                              springs)
     wall_loads_kernel(wall_rows, body_i, wall_n, force, stiffness, wall_force,
                       wall_stiffness)
 
@@ -733,7 +797,7 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
                     normal, point, stiffness, rel_vel, virial, body_force, body_torque,
                     wall_force, wall_stiffness, wall_impulse, stress_impulse, stats,
                     approach, partial, parallel, wall_inv_mass, wall_free, wall_max,
-                    wall_memory, macro, integral, servo_gain, wall_floor):
+                    wall_memory, macro, integral, servo_gain, wall_floor, plain, springs):
     """Up to ``n_steps`` velocity-Verlet sub-steps of ``dt`` [s] on the current list: half
     kick, drift (walls at their speeds ``wall_speed`` (W,) [m/s], the cell h at hdot = L h),
     forces, half kick; then the cell's servo (:func:`cell_servo_kernel`) sets L from the
@@ -745,9 +809,11 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
     next sub-step's increment taken as the last one's), so that no contact is missed;
     ``travel`` (N,) [m] and ``approach`` (1,) [m] (that bound after the last sub-step) carry
     over from call to call while the list lives. Returns the sub-steps done; ``stats[0]``
-    becomes the largest overlap [m] met. ``partial`` (ceil(C / ROW_BLOCK), 10) is scratch;
-    with ``parallel`` the rows and the bodies are shared out over the threads (the same
-    results: :func:`contact_forces_parallel`, :func:`bodies_parallel`)."""
+    becomes the largest overlap [m] met. ``partial`` (ceil(C / ROW_BLOCK), 10) and
+    ``springs`` (C, 6) are scratch, ``plain`` the blocks of plain rows
+    (:func:`contact_forces_kernel`); with ``parallel`` the rows and the bodies are shared out
+    over the threads (the same results: :func:`contact_forces_parallel`,
+    :func:`bodies_parallel`)."""
     half = 0.5 * dt
     servo = cell_dofs.shape[0] > 0
     wall_servo = False
@@ -763,7 +829,7 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
             rad_j, images, mu, wall_rows, inv_mass, wall_p0, wall_n, positions, orientations,
             velocities, spins, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
             torque_i, torque_j, gap, normal, point, stiffness, rel_vel, virial, partial,
-            stats, wall_force, wall_stiffness)
+            stats, wall_force, wall_stiffness, plain, springs)
     stats[0] = met
     gather_kernel(adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
                   body_force, body_torque)
@@ -800,7 +866,7 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
                 rad_j, images, mu, wall_rows, inv_mass, wall_p0, wall_n, positions, orientations,
                 velocities, spins, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
                 torque_i, torque_j, gap, normal, point, stiffness, rel_vel, virial, partial,
-                stats, wall_force, wall_stiffness)
+                stats, wall_force, wall_stiffness, plain, springs)
         if wall_servo:
             servo_walls(dt, macro, integral * dt / macro, servo_gain, wall_inv_mass,
                         wall_free, wall_max, wall_force, wall_stiffness, wall_memory,
