@@ -4,7 +4,7 @@ Every ``import grainlab.X`` / ``from grainlab.X import ...`` anywhere in a modul
 at the top or inside a function (a lazy import that dodges a layer is still a dependency) or
 under ``if TYPE_CHECKING:``. Examples in docstrings do not count. The package's own
 ``__init__`` (the public face) and the small shared modules (errors, checks, version, numba
-set-up), which import no layer, are outside the order.
+set-up, vector-loop building blocks), which import no layer, are outside the order.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ LAYERS = ("result", "geometry", "contact", "analysis", "engine", "micromech", "p
           "report", "study", "cli")
 """Lowest first: a module of layer k may import layers 0..k only."""
 
-SHARED = ("errors", "_validate", "_version", "_numba_setup")
+SHARED = ("errors", "_validate", "_version", "_numba_setup", "_vector_loops")
 """Top-level modules every layer may import; they import no layer themselves."""
 
 KNOWN_EXCEPTIONS = {

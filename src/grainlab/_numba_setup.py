@@ -5,7 +5,7 @@ The threading layer is TBB where its library loads, else ``workqueue``; never Op
 on a 2-core machine (shared/research/engine_tech.md §1.1 and
 benchmarks/benchmark_engine_soft_contact.py): OpenMP's spinning workers collapse when another
 process holds a core (7x slower), ``workqueue`` stays robust but starts a parallel loop in
-~0.17 ms, TBB in ~0.02 ms and is as robust. The soft-contact sub-steps start three parallel
+~0.17 ms, TBB in ~0.02 ms and is as robust. The soft-contact sub-steps start two parallel
 loops each, so TBB decides whether threads pay below ~10^4 spheres (4096 spheres on 2
 threads: TBB 4.7e6, workqueue 2.4e6, one thread 2.8e6 particle-steps/s).
 

@@ -114,12 +114,12 @@ sub-steps (four collisions: the law's stable step is 0.2 of a contact's half per
 PARALLEL_BODIES = {"tbb": 1000, "workqueue": 8000, "omp": 8000}
 """From this many bodies, per threading layer, the sub-steps share the rows and the bodies out
 over Numba's threads (:func:`~grainlab.engine.soft_contact_kernels.bodies_parallel`; the same
-results on any number of threads). Each sub-step then starts three parallel loops, ~0.02 ms
-each with TBB and ~0.17 ms with workqueue on the 2-core machine (measured), so that below this
-the threads lose (benchmark_engine_soft_contact.py, 2 threads against 1: TBB 0.57x at 512
-spheres, 1.4x at 1000, 1.6x at 2197; workqueue 0.89x at 4096, 1.24x at 10 648; since the
-serial kernels lost Numba's reference counts, TBB 1.18x at 1000, 1.34x at 2197, 1.49x at
-4096)."""
+results on any number of threads). Each sub-step then starts two parallel loops (three before
+the bodies' end of a sub-step and start of the next became one pass), ~0.02 ms each with TBB
+and ~0.17 ms with workqueue on the 2-core machine (measured), so that below this the threads
+lose (benchmark_engine_soft_contact.py, 2 threads against 1: TBB 0.57x at 512 spheres, 1.4x
+at 1000, 1.6x at 2197; workqueue 0.89x at 4096, 1.24x at 10 648; since the serial kernels
+lost Numba's reference counts, TBB 1.18x at 1000, 1.34x at 2197, 1.49x at 4096)."""
 
 
 def threads_pay(n_bodies: int) -> bool:

@@ -16,12 +16,13 @@ always in the order of the list.
 
 Threads. The rows are evaluated in blocks of :data:`ROW_BLOCK`, whose sums (the springs'
 virial, the largest overlap) are added in block order; the bodies' side of a sub-step (gather,
-kicks, drift) is body by body. So the same sub-steps run on one thread
-(:func:`contact_forces_kernel`, :func:`gather_kernel`, :func:`kick_kernel`,
-:func:`drift_kernel`) or on several (:func:`contact_forces_parallel`, :func:`bodies_parallel`:
-``parallel`` in :func:`substeps_kernel`) with the same results, bit for bit, whatever the
+kicks, drift, the cell's velocity gradient taken up) is body by body. So the same sub-steps
+run on one thread (:func:`contact_forces_kernel`, :func:`bodies_kernel`) or on several
+(:func:`contact_forces_parallel`, :func:`bodies_parallel`: ``parallel`` in
+:func:`substeps_kernel`) with the same results, bit for bit, whatever the
 number of threads. Each parallel loop costs ~0.02 ms to start with Numba's TBB layer on a
-2-core machine, ~0.17 ms with workqueue (three per sub-step), so the threads pay from about
+2-core machine, ~0.17 ms with workqueue (two per sub-step: the rows, then the bodies'
+end of the sub-step and start of the next in one pass), so the threads pay from about
 1000 bodies with TBB, 8000 with workqueue (:data:`~grainlab.engine.soft_contact.
 PARALLEL_BODIES`).
 """
@@ -523,26 +524,73 @@ def drift_kernel(dt, principal, isotropic, bounding, positions, orientations, ve
                     velocities, spins, travel)
 
 
+@njit(inline="always")
+def _body_pass(b, close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
+               torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
+               bounding, gradient, carried, cx, cy, cz, positions, orientations, velocities,
+               spins, body_force, body_torque, travel):
+    if close:  # the end of a sub-step: the rows' forces gathered, the half kick
+        _gather_body(b, adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
+                     body_force, body_torque)
+        _kick_body(b, half, inv_mass, principal, isotropic, local_damping, orientations,
+                   body_force, body_torque, velocities, spins)
+    if carry:  # a change of the cell's velocity gradient taken up
+        _carry_body(b, gradient, carried, cx, cy, cz, positions, velocities)
+    if open_:  # the start of the next: the half kick, the drift
+        _kick_body(b, half, inv_mass, principal, isotropic, local_damping, orientations,
+                   body_force, body_torque, velocities, spins)
+        _drift_body(b, dt, principal, isotropic, bounding, positions, orientations,
+                    velocities, spins, travel)
+
+
+@njit(cache=True, _nrt=False)
+def bodies_kernel(close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
+                  torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
+                  bounding, gradient, carried, cx, cy, cz, positions, orientations,
+                  velocities, spins, body_force, body_torque, travel):
+    """The bodies' side of the sub-steps, body by body: with ``close`` the gather and the
+    half kick that end a sub-step (:func:`gather_kernel`, :func:`kick_kernel`), with
+    ``carry`` the change of the cell's velocity gradient taken up (v += (L - L_carried)
+    (x - x_c), x_c = (``cx``, ``cy``, ``cz``) [m]: :func:`carry_gradient_kernel`), with
+    ``open_`` the half kick and the drift that start the next (:func:`kick_kernel`,
+    :func:`drift_kernel`), in that order. Each body's operations are those of the separate
+    kernels, in their order: the same bits."""
+    for b in range(masses.shape[0]):
+        _body_pass(b, close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
+                   torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
+                   bounding, gradient, carried, cx, cy, cz, positions, orientations,
+                   velocities, spins, body_force, body_torque, travel)
+
+
 @njit(cache=True, parallel=True, _nrt=False)
-def bodies_parallel(start, half, dt, adj_start, adj_entry, force, torque_i, torque_j, masses,
-                    gravity, inv_mass, principal, isotropic, local_damping, bounding,
-                    positions, orientations, velocities, spins, body_force, body_torque,
-                    travel):
-    """The bodies' side of a sub-step on the threads, body by body (the results of the
-    serial kernels): with ``start`` the half kick and the drift that open it
-    (:func:`kick_kernel`, :func:`drift_kernel`), else the gather and the half kick that
-    close it (:func:`gather_kernel`, :func:`kick_kernel`)."""
+def bodies_parallel(close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
+                    torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
+                    bounding, gradient, carried, cx, cy, cz, positions, orientations,
+                    velocities, spins, body_force, body_torque, travel):
+    """:func:`bodies_kernel` with the bodies shared out over the threads (the same
+    results: the bodies do not interact in it)."""
     for b in prange(masses.shape[0]):
-        if start:
-            _kick_body(b, half, inv_mass, principal, isotropic, local_damping, orientations,
-                       body_force, body_torque, velocities, spins)
-            _drift_body(b, dt, principal, isotropic, bounding, positions, orientations,
-                        velocities, spins, travel)
-        else:
-            _gather_body(b, adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
-                         body_force, body_torque)
-            _kick_body(b, half, inv_mass, principal, isotropic, local_damping, orientations,
-                       body_force, body_torque, velocities, spins)
+        _body_pass(np.int64(b), close, carry, open_, half, dt, adj_start, adj_entry, force,
+                   torque_i, torque_j, masses, gravity, inv_mass, principal, isotropic,
+                   local_damping, bounding, gradient, carried, cx, cy, cz, positions,
+                   orientations, velocities, spins, body_force, body_torque, travel)
+
+
+@njit(inline="always")
+def _bodies(parallel, close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
+            torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping, bounding,
+            gradient, carried, cx, cy, cz, positions, orientations, velocities, spins,
+            body_force, body_torque, travel):
+    if parallel:
+        bodies_parallel(close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
+                        torque_j, masses, gravity, inv_mass, principal, isotropic,
+                        local_damping, bounding, gradient, carried, cx, cy, cz, positions,
+                        orientations, velocities, spins, body_force, body_torque, travel)
+    else:
+        bodies_kernel(close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
+                      torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
+                      bounding, gradient, carried, cx, cy, cz, positions, orientations,
+                      velocities, spins, body_force, body_torque, travel)
 
 
 SUBSTEP_SERVO_FRACTION = 0.1
@@ -722,42 +770,68 @@ def cell_servo_kernel(dt, virial, cell_h, cell_gradient, cell_directions, cell_s
                 gradient[a, b] += e * cell_directions[d, a, b]
 
 
+@njit(inline="always")
+def _gradient_changed(gradient, carried):
+    """Whether the cell's velocity gradient L differs from the one the bodies carry."""
+    change = False
+    for a in range(3):
+        for b in range(3):
+            if gradient[a, b] != carried[a, b]:
+                change = True
+    return change
+
+
+@njit(inline="always")
+def _centre_of_mass(masses, positions):
+    """x_c [m] of the bodies, summed in body order."""
+    total, cx, cy, cz = 0.0, 0.0, 0.0, 0.0
+    for n in range(masses.shape[0]):
+        m = masses[n]
+        total += m
+        cx += m * positions[n, 0]
+        cy += m * positions[n, 1]
+        cz += m * positions[n, 2]
+    return cx / total, cy / total, cz / total
+
+
+@njit(inline="always")
+def _carry_body(n, gradient, carried, cx, cy, cz, positions, velocities):
+    """v_n += (L - L_carried) (x_n - x_c)."""
+    d00, d01, d02 = gradient[0, 0] - carried[0, 0], gradient[0, 1] - carried[0, 1], \
+        gradient[0, 2] - carried[0, 2]
+    d10, d11, d12 = gradient[1, 0] - carried[1, 0], gradient[1, 1] - carried[1, 1], \
+        gradient[1, 2] - carried[1, 2]
+    d20, d21, d22 = gradient[2, 0] - carried[2, 0], gradient[2, 1] - carried[2, 1], \
+        gradient[2, 2] - carried[2, 2]
+    rx, ry, rz = positions[n, 0] - cx, positions[n, 1] - cy, positions[n, 2] - cz
+    velocities[n, 0] += d00 * rx + d01 * ry + d02 * rz
+    velocities[n, 1] += d10 * rx + d11 * ry + d12 * rz
+    velocities[n, 2] += d20 * rx + d21 * ry + d22 * rz
+
+
+@njit(inline="always")
+def _take_up(change, gradient, carried, cell_h, cell_rate):
+    """L_carried = L (if it changed) and the cell's rate hdot = L h."""
+    if change:
+        _copy33(gradient, carried)
+    for a in range(3):
+        for b in range(3):
+            cell_rate[a, b] = (gradient[a, 0] * cell_h[0, b] + gradient[a, 1] * cell_h[1, b]
+                               + gradient[a, 2] * cell_h[2, b])
+
+
 @njit(cache=True, _nrt=False)
 def carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell_h, cell_rate):
     """The bodies take up a change of the cell's velocity gradient at once (YADE's
     homogeneous deformation): v_i += (L - L_carried) (x_i - x_c), x_c the centre of mass
     (momentum kept); then L_carried = L and the cell's rate hdot = L h (``cell_rate``
     (3, 3) [m/s])."""
-    change = False
-    for a in range(3):
-        for b in range(3):
-            if gradient[a, b] != carried[a, b]:
-                change = True
+    change = _gradient_changed(gradient, carried)
     if change:
-        total, cx, cy, cz = 0.0, 0.0, 0.0, 0.0
+        cx, cy, cz = _centre_of_mass(masses, positions)
         for n in range(masses.shape[0]):
-            m = masses[n]
-            total += m
-            cx += m * positions[n, 0]
-            cy += m * positions[n, 1]
-            cz += m * positions[n, 2]
-        cx, cy, cz = cx / total, cy / total, cz / total
-        d00, d01, d02 = gradient[0, 0] - carried[0, 0], gradient[0, 1] - carried[0, 1], \
-            gradient[0, 2] - carried[0, 2]
-        d10, d11, d12 = gradient[1, 0] - carried[1, 0], gradient[1, 1] - carried[1, 1], \
-            gradient[1, 2] - carried[1, 2]
-        d20, d21, d22 = gradient[2, 0] - carried[2, 0], gradient[2, 1] - carried[2, 1], \
-            gradient[2, 2] - carried[2, 2]
-        for n in range(masses.shape[0]):
-            rx, ry, rz = positions[n, 0] - cx, positions[n, 1] - cy, positions[n, 2] - cz
-            velocities[n, 0] += d00 * rx + d01 * ry + d02 * rz
-            velocities[n, 1] += d10 * rx + d11 * ry + d12 * rz
-            velocities[n, 2] += d20 * rx + d21 * ry + d22 * rz
-        _copy33(gradient, carried)
-    for a in range(3):
-        for b in range(3):
-            cell_rate[a, b] = (gradient[a, 0] * cell_h[0, b] + gradient[a, 1] * cell_h[1, b]
-                               + gradient[a, 2] * cell_h[2, b])
+            _carry_body(n, gradient, carried, cx, cy, cz, positions, velocities)
+    _take_up(change, gradient, carried, cell_h, cell_rate)
 
 
 @njit(cache=True, _nrt=False)
@@ -845,17 +919,14 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
     carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell_h, cell_rate)
     done = 0
     previous = approach[0]
+    carrying = servo or periodic  # the bodies follow the cell's velocity gradient
+    # the first sub-step's half kick and drift; each later one's come with the end of the
+    # sub-step before, in one pass over the bodies (one parallel loop less per sub-step)
+    _bodies(parallel, no, no, n_steps > 0, half, dt, adj_start, adj_entry, force, torque_i,
+            torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping, bounding,
+            gradient, carried, 0.0, 0.0, 0.0, positions, orientations, velocities, spins,
+            body_force, body_torque, travel)
     for _ in range(n_steps):
-        if parallel:
-            bodies_parallel(yes, half, dt, adj_start, adj_entry, force, torque_i, torque_j,
-                            masses, gravity, inv_mass, principal, isotropic, local_damping,
-                            bounding, positions, orientations, velocities, spins, body_force,
-                            body_torque, travel)
-        else:
-            kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
-                        body_force, body_torque, velocities, spins)
-            drift_kernel(dt, principal, isotropic, bounding, positions, orientations,
-                         velocities, spins, travel)
         for w in range(wall_disp.shape[0]):
             wall_disp[w] += dt * wall_speed[w]
         for a in range(3):
@@ -871,25 +942,10 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
             servo_walls(dt, macro, integral * dt / macro, servo_gain, wall_inv_mass,
                         wall_free, wall_max, wall_force, wall_stiffness, wall_memory,
                         wall_speed, wall_floor)
-        if parallel:
-            bodies_parallel(no, half, dt, adj_start, adj_entry, force, torque_i, torque_j,
-                            masses, gravity, inv_mass, principal, isotropic, local_damping,
-                            bounding, positions, orientations, velocities, spins, body_force,
-                            body_torque, travel)
-        else:
-            gather_kernel(adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
-                          body_force, body_torque)
-            kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
-                        body_force, body_torque, velocities, spins)
         if servo:
             cell_servo_kernel(dt, virial, cell_h, cell_gradient, cell_directions, cell_scale,
                               cell_free, cell_bounds, cell_stiffness, filter_time, filtered,
                               cell_dofs, gradient)
-            carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell_h,
-                                  cell_rate)
-        elif periodic:  # hdot = L_0 h follows the cell
-            carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell_h,
-                                  cell_rate)
         for w in range(wall_impulse.shape[0]):
             wall_impulse[w] += dt * wall_force[w]
         if periodic:
@@ -911,9 +967,21 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
                 shift += (cell_h[a, b] - cell_h_built[a, b]) ** 2
         total = reach + moved + math.sqrt(3.0 * shift)
         approach[0] = total
-        if 2.0 * total - previous > skin:  # the next sub-step might go past the skin
-            break
+        # the next sub-step might go past the skin: stop after this one
+        stop = 2.0 * total - previous > skin or last
         previous = total
+        change = carrying and _gradient_changed(gradient, carried)
+        cx = cy = cz = 0.0
+        if change:
+            cx, cy, cz = _centre_of_mass(masses, positions)
+        _bodies(parallel, yes, change, not stop, half, dt, adj_start, adj_entry, force,
+                torque_i, torque_j, masses, gravity, inv_mass, principal, isotropic,
+                local_damping, bounding, gradient, carried, cx, cy, cz, positions,
+                orientations, velocities, spins, body_force, body_torque, travel)
+        if carrying:  # hdot = L h follows the cell
+            _take_up(change, gradient, carried, cell_h, cell_rate)
+        if stop:
+            break
     return done
 
 
