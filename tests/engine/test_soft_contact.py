@@ -393,38 +393,69 @@ def test_rolling_resistance_holds_a_sphere_on_a_gentle_incline():
     assert results[0.05] > 0.1
 
 
+def jostling_spheres(side: int, spin: float = 0.0):
+    """Three steps of side^3 jostling frictional Hertz spheres (random velocities, spins of
+    scale ``spin`` [rad/s]) in a periodic cell: the end positions, velocities, spins and
+    springs, and the solver."""
+    from grainlab.engine.periodic_boundary import PeriodicCell
+
+    diameter = 1.5e-3
+    grid = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    library = ShapeLibrary.from_spheres([0.5 * diameter])
+    state = BodyState.from_library(library, np.zeros(len(grid), dtype=np.int64),
+                                   (grid + 0.5) * diameter * 0.999, 2600.0)
+    rng = np.random.default_rng(0)
+    state.velocities[:] = rng.normal(scale=0.05, size=state.velocities.shape)
+    state.angular_velocities[:] = rng.normal(scale=spin, size=state.velocities.shape)
+    cell = PeriodicCell(np.eye(3) * side * diameter * 0.999)
+    solver = SoftContactStep(SoftContactLaw.hertz_mindlin(1e9, 0.25, restitution=0.5),
+                             dt=1.0, friction=0.4)
+    solver.dt = 30 * solver.stable_substep(state, library)
+    for _ in range(3):
+        solver.step(state, library, cell)
+    return (state.positions.copy(), state.velocities.copy(), state.angular_velocities.copy(),
+            solver._rows.xi.copy()), solver
+
+
 def test_threads_change_nothing(monkeypatch):
     """The sub-steps on the threads (rows in blocks, bodies shared out) give the serial
     results bit for bit: 1728 jostling spheres, two blocks of rows, in a periodic cell."""
     import numba
 
     from grainlab.engine import soft_contact
-    from grainlab.engine.periodic_boundary import PeriodicCell
     from grainlab.engine.soft_contact_kernels import ROW_BLOCK
 
-    side, diameter = 12, 1.5e-3
-    grid = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
-    library = ShapeLibrary.from_spheres([0.5 * diameter])
     runs = []
     for threshold in (10**9, 0):  # serial, then parallel
         monkeypatch.setattr(soft_contact, "PARALLEL_BODIES",
                             dict.fromkeys(soft_contact.PARALLEL_BODIES, threshold))
-        state = BodyState.from_library(library, np.zeros(len(grid), dtype=np.int64),
-                                       (grid + 0.5) * diameter * 0.999, 2600.0)
-        state.velocities[:] = np.random.default_rng(0).normal(scale=0.05,
-                                                               size=state.velocities.shape)
-        cell = PeriodicCell(np.eye(3) * side * diameter * 0.999)
-        solver = SoftContactStep(SoftContactLaw.hertz_mindlin(1e9, 0.25, restitution=0.5),
-                                 dt=1.0, friction=0.4)
-        solver.dt = 30 * solver.stable_substep(state, library)
-        for _ in range(3):
-            solver.step(state, library, cell)
+        end, solver = jostling_spheres(12)
         assert solver._rows.body_j.shape[0] > ROW_BLOCK  # more than one block
-        runs.append((state.positions.copy(), state.velocities.copy(),
-                     state.angular_velocities.copy(), solver._rows.xi.copy()))
+        runs.append(end)
     if numba.get_num_threads() > 1:
         for serial, threaded in zip(*runs, strict=True):
             np.testing.assert_array_equal(serial, threaded)
+
+
+def test_a_run_through_the_vector_rows_gives_the_general_rows_run(monkeypatch):
+    """Three steps of 512 jostling, spinning frictional Hertz spheres in a periodic cell: the
+    same positions, velocities, spins and springs, bit for bit, with the vector blocks
+    (:mod:`grainlab.engine.sphere_rows`) or with every block through the general rows."""
+    from grainlab.engine import soft_contact
+    from grainlab.engine.soft_contact_kernels import ROW_BLOCK
+
+    runs = []
+    for vector in (True, False):
+        if not vector:
+            monkeypatch.setattr(soft_contact, "plain_blocks",
+                                lambda body_i, off_i, off_j: np.zeros(
+                                    -(-body_i.shape[0] // ROW_BLOCK), dtype=bool))
+        end, solver = jostling_spheres(8, spin=20.0)
+        assert solver._rows.plain.all() == vector
+        assert np.any(solver._rows.xi)  # the springs were loaded
+        runs.append(end)
+    for vector, general in zip(*runs, strict=True):
+        np.testing.assert_array_equal(vector, general)
 
 
 def test_the_step_report_gives_the_contacts_at_the_end_of_the_step():

@@ -125,39 +125,3 @@ def test_blocks_with_a_wall_or_an_aggregate_member_are_not_plain():
     off_j[-1, 2] = 1e-4  # an aggregate member in the last block
     assert plain_blocks(body_i, off, off_j).tolist() == [True, False, False]
 
-
-def test_a_run_through_the_vector_rows_gives_the_general_rows_run(monkeypatch):
-    """Three steps of 512 jostling frictional Hertz spheres in a periodic cell: the same
-    positions, velocities, spins and springs, bit for bit, with the vector blocks or with
-    every block through the general rows."""
-    from grainlab.engine import soft_contact
-    from grainlab.engine.periodic_boundary import PeriodicCell
-    from grainlab.engine.soft_contact import SoftContactStep
-    from grainlab.engine.state import BodyState, ShapeLibrary
-
-    side, diameter = 8, 1.5e-3
-    grid = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
-    library = ShapeLibrary.from_spheres([0.5 * diameter])
-    runs = []
-    for vector in (True, False):
-        if not vector:
-            monkeypatch.setattr(soft_contact, "plain_blocks",
-                                lambda body_i, off_i, off_j: np.zeros(
-                                    -(-body_i.shape[0] // ROW_BLOCK), dtype=bool))
-        state = BodyState.from_library(library, np.zeros(len(grid), dtype=np.int64),
-                                       (grid + 0.5) * diameter * 0.999, 2600.0)
-        rng = np.random.default_rng(0)
-        state.velocities[:] = rng.normal(scale=0.05, size=state.velocities.shape)
-        state.angular_velocities[:] = rng.normal(scale=20.0, size=(len(grid), 3))
-        cell = PeriodicCell(np.eye(3) * side * diameter * 0.999)
-        solver = SoftContactStep(SoftContactLaw.hertz_mindlin(1e9, 0.25, restitution=0.5),
-                                 dt=1.0, friction=0.4)
-        solver.dt = 30 * solver.stable_substep(state, library)
-        for _ in range(3):
-            solver.step(state, library, cell)
-        assert solver._rows.plain.all() == vector
-        assert np.any(solver._rows.xi)  # the springs were loaded
-        runs.append((state.positions.copy(), state.velocities.copy(),
-                     state.angular_velocities.copy(), solver._rows.xi.copy()))
-    for vector, general in zip(*runs, strict=True):
-        np.testing.assert_array_equal(vector, general)

@@ -37,7 +37,7 @@ from numba import njit, prange
 from grainlab.contact.soft_contact_law import HERTZ_MINDLIN, contact_law
 from grainlab.engine.narrow_phase import sphere_sphere
 from grainlab.engine.quaternion import rotate
-from grainlab.engine.sphere_rows import sphere_rows_kernel
+from grainlab.engine.sphere_rows import sphere_rows_kernel, turn_with_frame
 
 OUTWARD_FACTOR = 4.0
 """A servo wall or cell component moves out at most this many times its inward limit (as
@@ -78,25 +78,6 @@ def _body_rows_kernel(body_i, body_j, adj_start, adj_entry):
     for b in range(n, 0, -1):  # back to the starts
         adj_start[b] = adj_start[b - 1]
     adj_start[0] = 0
-
-
-@njit(inline="always")
-def _turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, dt):
-    """A tangential history vector (hx, hy, hz) carried into the current tangent plane of
-    normal n: normal part removed, length kept, then turned by ``spin_n`` dt about n."""
-    old = hx * hx + hy * hy + hz * hz  # squared lengths: one square root
-    if old == 0.0:
-        return 0.0, 0.0, 0.0
-    dot = hx * nx + hy * ny + hz * nz
-    hx, hy, hz = hx - dot * nx, hy - dot * ny, hz - dot * nz
-    angle = spin_n * dt
-    cx, cy, cz = ny * hz - nz * hy, nz * hx - nx * hz, nx * hy - ny * hx
-    hx, hy, hz = hx + angle * cx, hy + angle * cy, hz + angle * cz
-    new = hx * hx + hy * hy + hz * hz
-    if new == 0.0:
-        return 0.0, 0.0, 0.0
-    f = math.sqrt(old / new)
-    return f * hx, f * hy, f * hz
 
 
 @njit(inline="always")
@@ -273,7 +254,7 @@ def _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_
         hx, hy, hz = xi[k, 0], xi[k, 1], xi[k, 2]  # the tangential spring's force [N]
         if step > 0.0:
             spin_n = 0.5 * ((wix + wjx) * nx + (wiy + wjy) * ny + (wiz + wjz) * nz)
-            hx, hy, hz = _turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, step)
+            hx, hy, hz = turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, step)
             f = k_t * step  # incremental: dF_t = -k_t dU_t with the stiffness of the moment
             hx, hy, hz = hx - f * utx, hy - f * uty, hz - f * utz
         ftx, fty, ftz = hx - c_t * utx, hy - c_t * uty, hz - c_t * utz
@@ -302,7 +283,7 @@ def _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_
             lx, ly, lz = roll[k, 0], roll[k, 1], roll[k, 2]
             if step > 0.0:
                 spin_n = 0.5 * ((wix + wjx) * nx + (wiy + wjy) * ny + (wiz + wjz) * nz)
-                lx, ly, lz = _turn_with_frame(lx, ly, lz, nx, ny, nz, spin_n, step)
+                lx, ly, lz = turn_with_frame(lx, ly, lz, nx, ny, nz, spin_n, step)
                 lx, ly, lz = lx - k_r * ex * step, ly - k_r * ey * step, lz - k_r * ez * step
             moment = math.sqrt(lx * lx + ly * ly + lz * lz)
             cap = rolling * r_eff * fn
@@ -318,6 +299,26 @@ def _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_
     partial[blk, 3], partial[blk, 4], partial[blk, 5] = v10, v11, v12
     partial[blk, 6], partial[blk, 7], partial[blk, 8] = v20, v21, v22
     partial[blk, 9] = worst
+
+
+@njit(_nrt=False)
+def _block(blk, step, record, code, params, rolling, body_i, body_j, off_i, off_j, rad_i, rad_j,
+           images, mu, inv_mass, positions, orientations, velocities, spins, wall_p0, wall_n,
+           wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force, torque_i, torque_j, gap,
+           normal, point, stiffness, rel_vel, partial, plain, springs):
+    """Block ``blk`` of the rows: by the vector kernel if its rows are plain and there is no
+    rolling resistance (:func:`_sphere_block`), else row by row (:func:`_forces_block`)."""
+    if plain[blk] and rolling == 0.0:
+        _sphere_block(blk, step, record, code, params, body_i, body_j, rad_i, rad_j, images,
+                      mu, inv_mass, positions, velocities, spins, cell_h, cell_rate, xi, force,
+                      torque_i, torque_j, gap, normal, point, stiffness, rel_vel, springs,
+                      partial)
+    else:
+        _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_i, off_j,
+                      rad_i, rad_j, images, mu, inv_mass, positions, orientations, velocities,
+                      spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi,
+                      roll, force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
+                      partial)
 
 
 @njit(inline="always")
@@ -355,17 +356,10 @@ def contact_forces_kernel(step, record, code, params, rolling, body_i, body_j, o
     :mod:`grainlab.engine.sphere_rows` when there is no rolling resistance (the same bits;
     ``springs`` (C, 6) scratch)."""
     for blk in range(partial.shape[0]):
-        if plain[blk] and rolling == 0.0:
-            _sphere_block(blk, step, record, code, params, body_i, body_j, rad_i, rad_j, images,
-                          mu, inv_mass, positions, velocities, spins, cell_h, cell_rate, xi,
-                          force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
-                          springs, partial)
-        else:
-            _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_i,
-                          off_j, rad_i, rad_j, images, mu, inv_mass, positions, orientations,
-                          velocities, spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h,
-                          cell_rate, xi, roll, force, torque_i, torque_j, gap, normal, point,
-                          stiffness, rel_vel, partial)
+        _block(blk, step, record, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
+               rad_j, images, mu, inv_mass, positions, orientations, velocities, spins, wall_p0,
+               wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force, torque_i,
+               torque_j, gap, normal, point, stiffness, rel_vel, partial, plain, springs)
     _sum_blocks(partial, virial, stats)
 
 
@@ -377,18 +371,11 @@ def contact_forces_parallel(step, record, code, params, rolling, body_i, body_j,
                             stiffness, rel_vel, virial, partial, stats, plain, springs):
     """:func:`contact_forces_kernel` with its blocks on the threads (the same results)."""
     for blk in prange(partial.shape[0]):  # prange's index is unsigned: cast, one signature
-        b = np.int64(blk)
-        if plain[b] and rolling == 0.0:
-            _sphere_block(b, step, record, code, params, body_i, body_j, rad_i, rad_j, images,
-                          mu, inv_mass, positions, velocities, spins, cell_h, cell_rate, xi,
-                          force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
-                          springs, partial)
-        else:
-            _forces_block(b, step, record, code, params, rolling, body_i, body_j, off_i,
-                          off_j, rad_i, rad_j, images, mu, inv_mass, positions, orientations,
-                          velocities, spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h,
-                          cell_rate, xi, roll, force, torque_i, torque_j, gap, normal, point,
-                          stiffness, rel_vel, partial)
+        _block(np.int64(blk), step, record, code, params, rolling, body_i, body_j, off_i,
+               off_j, rad_i, rad_j, images, mu, inv_mass, positions, orientations, velocities,
+               spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi, roll,
+               force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel, partial,
+               plain, springs)
     _sum_blocks(partial, virial, stats)
 
 

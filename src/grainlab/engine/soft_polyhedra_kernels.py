@@ -38,7 +38,6 @@ from grainlab.contact.soft_contact_law import contact_law
 from grainlab.engine.polyhedron_narrow_phase import _body_features, world_polyhedron
 from grainlab.engine.soft_contact_kernels import (
     _det3,
-    _turn_with_frame,
     carry_gradient_kernel,
     cell_servo_kernel,
     cell_stiffness_kernel,
@@ -49,6 +48,7 @@ from grainlab.engine.soft_contact_kernels import (
     virial_kernel,
     wall_loads_kernel,
 )
+from grainlab.engine.sphere_rows import turn_with_frame
 from grainlab.geometry.polyhedron_contact import MAX_POINTS, signed_distance
 from grainlab.geometry.polyhedron_manifold import pair_manifold, wall_manifold
 
@@ -246,7 +246,7 @@ def polyhedron_forces_kernel(step, code, params, library, world, pair_i, pair_j,
             spin_n = spins[j, 0] * nx + spins[j, 1] * ny + spins[j, 2] * nz
             if i >= 0:
                 spin_n += spins[i, 0] * nx + spins[i, 1] * ny + spins[i, 2] * nz
-            hx, hy, hz = _turn_with_frame(hx, hy, hz, nx, ny, nz, 0.5 * spin_n, step)
+            hx, hy, hz = turn_with_frame(hx, hy, hz, nx, ny, nz, 0.5 * spin_n, step)
             f = k_t * step
             hx, hy, hz = hx - f * utx, hy - f * uty, hz - f * utz
         ftx, fty, ftz = hx - c_t * utx, hy - c_t * uty, hz - c_t * utz

@@ -31,6 +31,24 @@ HERTZ_DAMPING = -2.0 * math.sqrt(5.0 / 6.0)
 :func:`grainlab.contact.soft_contact_law.contact_law`)."""
 
 
+@njit(inline="always")
+def turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, dt):
+    """A tangential history vector (hx, hy, hz) carried into the current tangent plane of
+    normal n: normal part removed, length kept, then turned by ``spin_n`` dt about n; a zero
+    vector, or one that the turn leaves zero, stays zero. Without a branch (selects), so
+    that it vectorizes."""
+    old = hx * hx + hy * hy + hz * hz  # squared lengths: one square root
+    dot = hx * nx + hy * ny + hz * nz
+    tx, ty, tz = hx - dot * nx, hy - dot * ny, hz - dot * nz
+    angle = spin_n * dt
+    cx, cy, cz = ny * tz - nz * ty, nz * tx - nx * tz, nx * ty - ny * tx
+    tx, ty, tz = tx + angle * cx, ty + angle * cy, tz + angle * cz
+    new = tx * tx + ty * ty + tz * tz
+    keep = (old != 0.0) & (new != 0.0)
+    f = root(old / pick(new != 0.0, new, 1.0))  # (no division by zero under any error model)
+    return pick(keep, f * tx, 0.0), pick(keep, f * ty, 0.0), pick(keep, f * tz, 0.0)
+
+
 @njit(cache=True, _nrt=False, error_model="numpy", pipeline_class=DistinctArrays)
 def sphere_rows_kernel(lo, hi, step, record, hertz, params, body_i, body_j, rad_i, rad_j,
                        images, mu, inv_mass, positions, velocities, spins, cell_h, cell_rate,
@@ -112,19 +130,9 @@ def sphere_rows_kernel(lo, hi, step, record, hertz, params, body_i, body_j, rad_
         hx = pick(closed, xi[k3], 0.0)  # the tangential spring's force [N]
         hy = pick(closed, xi[k3 + ONE], 0.0)
         hz = pick(closed, xi[k3 + TWO], 0.0)
-        if turn:  # _turn_with_frame, then dF_t = -k_t dU_t
+        if turn:  # the spring carried with the contact frame, then dF_t = -k_t dU_t
             spin_n = 0.5 * ((wix + wjx) * nx + (wiy + wjy) * ny + (wiz + wjz) * nz)
-            old = hx * hx + hy * hy + hz * hz
-            dot = hx * nx + hy * ny + hz * nz
-            tx, ty, tz = hx - dot * nx, hy - dot * ny, hz - dot * nz
-            angle = spin_n * step
-            ex, ey, ez = ny * tz - nz * ty, nz * tx - nx * tz, nx * ty - ny * tx
-            tx, ty, tz = tx + angle * ex, ty + angle * ey, tz + angle * ez
-            new = tx * tx + ty * ty + tz * tz
-            f = root(old / new)
-            keep = (old != 0.0) & (new != 0.0)
-            hx, hy, hz = pick(keep, f * tx, 0.0), pick(keep, f * ty, 0.0), \
-                pick(keep, f * tz, 0.0)
+            hx, hy, hz = turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, step)
             f = k_t * step
             hx, hy, hz = hx - f * utx, hy - f * uty, hz - f * utz
         ftx, fty, ftz = hx - c_t * utx, hy - c_t * uty, hz - c_t * utz
