@@ -61,7 +61,9 @@ def measure(side: int, steps: int) -> dict:
     n = state.n_bodies
     substeps = steps * solver.last_substeps
     rows = solver._rows.body_j.shape[0]  # the rows of the list in use
-    row_bytes = rows * (8 * (2 + 3 + 3 + 2 + 3 + 1 + 3 + 3 + 3 + 3 + 3 + 1 + 3 + 3 + 3 + 1 + 3 + 6))
+    # per row: the list, the outputs, the histories, the vector pass's springs scratch (6)
+    row_bytes = rows * (8 * (2 + 3 + 3 + 2 + 3 + 1 + 3 + 3 + 3 + 3 + 3 + 1 + 3 + 3 + 3 + 1 + 3 + 6
+                             + 6))
     body_bytes = n * 8 * (3 + 4 + 3 + 3 + 1 + 3 + 3 + 3 + 1 + 1)
     return {"n": n, "substep": solver.substep, "rows_per_particle": rows / n,
             "threads": numba.get_num_threads() if soft_contact.threads_pay(n) else 1,
