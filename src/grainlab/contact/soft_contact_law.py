@@ -64,6 +64,7 @@ import numpy as np
 from numba import njit
 
 from grainlab._validate import at_least, in_range, positive
+from grainlab._vector_loops import root
 from grainlab.errors import InputError
 
 LINEAR = 0
@@ -85,15 +86,17 @@ def contact_law(code, params, overlap, r_eff, m_eff):
     """Normal elastic force F_n,e [N], normal tangent stiffness S_n [N/m], tangential stiffness
     k_t [N/m] and damping coefficients c_n, c_t [N s/m] of one contact with ``overlap``
     delta > 0 [m], effective radius ``r_eff`` [m] and mass ``m_eff`` [kg] (module docstring;
-    ``params``: a row of :attr:`SoftContactLaw.params`)."""
+    ``params``: a row of :attr:`SoftContactLaw.params`). Square roots as LLVM's intrinsic
+    (the same results as ``math.sqrt``), so that the law vectorizes
+    (:mod:`grainlab.engine.sphere_rows`)."""
     if code == LINEAR:
         k_n = params[0]
-        c_n = 2.0 * params[2] * math.sqrt(m_eff * k_n)
+        c_n = 2.0 * params[2] * root(m_eff * k_n)
         return k_n * overlap, k_n, params[1] * k_n, c_n, params[3] * c_n
     e_star, g_star, beta = params[0], params[1], params[2]
-    a = math.sqrt(r_eff * overlap)
+    a = root(r_eff * overlap)
     s_n = 2.0 * e_star * a
-    c_n = -2.0 * math.sqrt(5.0 / 6.0) * beta * math.sqrt(s_n * m_eff)
+    c_n = -2.0 * root(5.0 / 6.0) * beta * root(s_n * m_eff)
     # c_t / c_n = sqrt(k_t / S_n), a constant of the law (params[3]): one square root less
     return 2.0 / 3.0 * s_n * overlap, s_n, 8.0 * g_star * a, c_n, params[3] * c_n
 

@@ -34,7 +34,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from grainlab.contact.soft_contact_law import HERTZ_MINDLIN, contact_law
+from grainlab.contact.soft_contact_law import contact_law
 from grainlab.engine.narrow_phase import sphere_sphere
 from grainlab.engine.quaternion import rotate
 from grainlab.engine.sphere_rows import sphere_rows_kernel, turn_with_frame
@@ -131,7 +131,7 @@ def _sphere_block(blk, step, record, code, params, body_i, body_j, rad_i, rad_j,
     largest overlap summed in row order into ``partial[blk]``: what :func:`_forces_block`
     writes, bit for bit."""
     lo, hi = blk * ROW_BLOCK, min((blk + 1) * ROW_BLOCK, body_j.shape[0])
-    sphere_rows_kernel(lo, hi, step, record, code == HERTZ_MINDLIN, params[0], body_i, body_j,
+    sphere_rows_kernel(lo, hi, step, record, code, params[0], body_i, body_j,
                        rad_i, rad_j, images.reshape(images.size), mu, inv_mass, positions,
                        velocities, spins, cell_h, cell_rate, xi.reshape(xi.size),
                        force.reshape(force.size), torque_i.reshape(torque_i.size),
@@ -909,10 +909,11 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
     carrying = servo or periodic  # the bodies follow the cell's velocity gradient
     # the first sub-step's half kick and drift; each later one's come with the end of the
     # sub-step before, in one pass over the bodies (one parallel loop less per sub-step)
-    _bodies(parallel, no, no, n_steps > 0, half, dt, adj_start, adj_entry, force, torque_i,
-            torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping, bounding,
-            gradient, carried, 0.0, 0.0, 0.0, positions, orientations, velocities, spins,
-            body_force, body_torque, travel)
+    if n_steps > 0:
+        _bodies(parallel, no, no, yes, half, dt, adj_start, adj_entry, force, torque_i,
+                torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
+                bounding, gradient, carried, 0.0, 0.0, 0.0, positions, orientations,
+                velocities, spins, body_force, body_torque, travel)
     for _ in range(n_steps):
         for w in range(wall_disp.shape[0]):
             wall_disp[w] += dt * wall_speed[w]

@@ -16,20 +16,14 @@ with the same results bit for bit (``tests/engine/test_sphere_rows.py``).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
 from grainlab._vector_loops import DistinctArrays, pick, root
+from grainlab.contact.soft_contact_law import contact_law
 
 ONE, TWO, THREE, SIX = np.uint64(1), np.uint64(2), np.uint64(3), np.uint64(6)
 """Unsigned index steps: no wrap-around of negative indices, so LLVM sees the row strides."""
-
-HERTZ_DAMPING = -2.0 * math.sqrt(5.0 / 6.0)
-"""c_n = HERTZ_DAMPING beta sqrt(S_n m*) (Tsuji's damping of the Hertz law,
-:func:`grainlab.contact.soft_contact_law.contact_law`)."""
-
 
 @njit(inline="always")
 def turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, dt):
@@ -50,13 +44,14 @@ def turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, dt):
 
 
 @njit(cache=True, _nrt=False, error_model="numpy", pipeline_class=DistinctArrays)
-def sphere_rows_kernel(lo, hi, step, record, hertz, params, body_i, body_j, rad_i, rad_j,
+def sphere_rows_kernel(lo, hi, step, record, code, params, body_i, body_j, rad_i, rad_j,
                        images, mu, inv_mass, positions, velocities, spins, cell_h, cell_rate,
                        xi, force, torque_i, torque_j, gap, stiffness, normal, point, rel_vel,
                        springs):
     """Rows ``lo`` .. ``hi`` - 1 of the list, all plain (module docstring), as
     :func:`~grainlab.engine.soft_contact_kernels.contact_forces_kernel` evaluates them, with
-    the law's ``params`` row (Hertz-Mindlin if ``hertz``, else linear). The per-row arrays
+    the law ``code`` and its ``params`` row (:func:`~grainlab.contact.soft_contact_law.
+    contact_law`). The per-row arrays
     of three components are flat (3 C,): ``images``, ``xi``, ``force``, ``torque_i``,
     ``torque_j`` and, written only if ``record`` (for every row), ``normal``, ``point``,
     ``rel_vel``. ``springs`` (6 C,) receives per row the springs' force on j (elastic normal
@@ -69,7 +64,6 @@ def sphere_rows_kernel(lo, hi, step, record, hertz, params, body_i, body_j, rad_
     r00, r01, r02 = cell_rate[0, 0], cell_rate[0, 1], cell_rate[0, 2]
     r10, r11, r12 = cell_rate[1, 0], cell_rate[1, 1], cell_rate[1, 2]
     r20, r21, r22 = cell_rate[2, 0], cell_rate[2, 1], cell_rate[2, 2]
-    p0, p1, p2, p3 = params[0], params[1], params[2], params[3]
     turn = step > 0.0
     for k in range(np.uint64(lo), np.uint64(hi)):
         k3, k6 = k * THREE, k * SIX
@@ -117,15 +111,10 @@ def sphere_rows_kernel(lo, hi, step, record, hertz, params, body_i, body_j, rad_
         overlap = pick(closed, -g, 0.0)  # an open row: no overlap, no force
         un = ux * nx + uy * ny + uz * nz
         utx, uty, utz = ux - un * nx, uy - un * ny, uz - un * nz
-        if hertz:  # contact_law, written out
-            a = root(r_eff * overlap)
-            s_n = 2.0 * p0 * a
-            c_n = HERTZ_DAMPING * p2 * root(s_n * m_eff)
-            fne, k_t, c_t = 2.0 / 3.0 * s_n * overlap, 8.0 * p1 * a, p3 * c_n
-        else:
-            s_n = pick(closed, p0, 0.0)
-            c_n = 2.0 * p2 * root(m_eff * s_n)
-            fne, k_t, c_t = s_n * overlap, p1 * s_n, p3 * c_n
+        fne, s_n, k_t, c_n, c_t = contact_law(code, params, overlap, r_eff, m_eff)
+        # an open row: no stiffness, no damping (the linear law's are not zero at delta = 0)
+        s_n, k_t = pick(closed, s_n, 0.0), pick(closed, k_t, 0.0)
+        c_n, c_t = pick(closed, c_n, 0.0), pick(closed, c_t, 0.0)
         fn = max(0.0, fne - c_n * un)
         hx = pick(closed, xi[k3], 0.0)  # the tangential spring's force [N]
         hy = pick(closed, xi[k3 + ONE], 0.0)
