@@ -133,5 +133,9 @@ def test_a_rotating_frame_carries_its_controls(compacted):
     assert sigma[2, 2] > 1.2 * P
     assert abs(sigma[0, 2]) < RECORD_TOLERANCE * P and abs(sigma[1, 2]) < RECORD_TOLERANCE * P
     strain = frame.T @ test.sample.boundary.step_strain @ frame
-    assert strain[2, 2] > 0.0 and strain[2, 2] == pytest.approx(
-        abs(strain).max(), rel=1e-12)  # the turned z is compressed the most of any component
+    # the turned z is compressed the most of any direction of the frame; the lateral
+    # directions, held at P, may open by more than that within one step (the last step's
+    # increment of a 150-sphere sample: by 2.4e-4 against a compression of 2.1e-4)
+    normal = np.diag(strain)
+    assert strain[2, 2] > 0.0 and strain[2, 2] == normal.max()
+    assert np.abs(strain - np.diag(normal)).max() < strain[2, 2]

@@ -93,15 +93,29 @@ class BoundaryConstraints:
 
 
 @dataclass(frozen=True, eq=False)
+class ClosedContacts:
+    """A step's contacts as a boundary reads them: the ``contacts``, their ``images``
+    (C, 3), local ``impulses`` (C, 3) (P_n, P_t, P_s) [N s] and world ``forces`` (C, 3) [N]
+    on body j."""
+
+    contacts: Contacts
+    images: np.ndarray
+    impulses: np.ndarray
+    forces: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
 class BoundaryMotion:
     """What the contact problem found for the boundary over one step: ``dt`` [s], ``theta``;
     ``wall_speeds`` (W,) [m/s] end-of-step normal speeds and ``wall_reactions`` (W,) [N]
     (normal force of the particles on each wall, compression positive); ``cell_dofs`` (D,)
-    and ``cell_rate`` (3, 3) [m/s] (hdot at the end of the step); the step's ``contacts``,
-    their ``images`` (C, 3), local ``impulses`` (C, 3) (P_n, P_t, P_s) [N s] and world
-    ``forces`` (C, 3) [N] on body j; ``stress`` (3, 3) [Pa]: the mean stress of all the
-    contacts over the step (compression positive), when the solver measured it (an explicit
-    solver; a periodic cell then records it and its servo's integral follows it), else None."""
+    and ``cell_rate`` (3, 3) [m/s] (hdot at the end of the step); ``closed``, the step's
+    contacts (a :class:`ClosedContacts`, or anything with its four attributes: an explicit
+    solver's step report, which makes them only when they are read), also read as
+    ``contacts``, ``images``, ``impulses`` and ``forces``; ``stress`` (3, 3) [Pa]: the mean
+    stress of all the contacts over the step (compression positive), when the solver
+    measured it (an explicit solver; a periodic cell then records it and its servo's
+    integral follows it), else None."""
 
     dt: float
     theta: float
@@ -109,11 +123,28 @@ class BoundaryMotion:
     wall_reactions: np.ndarray
     cell_dofs: np.ndarray
     cell_rate: np.ndarray
-    contacts: Contacts
-    images: np.ndarray
-    impulses: np.ndarray
-    forces: np.ndarray
+    closed: ClosedContacts
     stress: np.ndarray | None = None
+
+    @property
+    def contacts(self) -> Contacts:
+        """The step's contacts."""
+        return self.closed.contacts
+
+    @property
+    def images(self) -> np.ndarray:
+        """(C, 3) image vectors of body j."""
+        return self.closed.images
+
+    @property
+    def impulses(self) -> np.ndarray:
+        """(C, 3) local (P_n, P_t, P_s) [N s]."""
+        return self.closed.impulses
+
+    @property
+    def forces(self) -> np.ndarray:
+        """(C, 3) world forces on body j [N]."""
+        return self.closed.forces
 
 
 @dataclass

@@ -101,7 +101,12 @@ from numba import get_num_threads, njit, types
 from numba.core.extending import intrinsic
 
 from grainlab._validate import at_least
-from grainlab.engine.boundary import BoundaryMotion, DetectionPhases, as_boundary
+from grainlab.engine.boundary import (
+    BoundaryMotion,
+    ClosedContacts,
+    DetectionPhases,
+    as_boundary,
+)
 from grainlab.engine.contact_colouring import colour_contacts, slab_contacts, spatial_order
 from grainlab.engine.contact_problem import FrictionalContactProblem, assemble_problem
 from grainlab.engine.gyroscopic import gyroscopic_spins
@@ -1018,8 +1023,8 @@ class ContactDynamicsStep:
         state.orientations[:] = rotate_quaternions(q_m, theta * h * spins)
         boundary.finish_step(BoundaryMotion(
             dt=h, theta=theta, wall_speeds=wall_speeds, wall_reactions=np.zeros(0),
-            cell_dofs=cell_dofs, cell_rate=cell_rate, contacts=contacts, images=images,
-            impulses=impulses, forces=forces))
+            cell_dofs=cell_dofs, cell_rate=cell_rate,
+            closed=ClosedContacts(contacts, images, impulses, forces)))
         max_overlap = float(max(0.0, -contacts.gap.min())) if n_contacts else 0.0
         return StepReport(
             n_contacts=n_contacts, iterations=int(iterations), converged=bool(converged),

@@ -250,16 +250,14 @@ class PeriodicCell:
             raise InputError("periodic cell", "finish_step", "a call of constraints first")
         h_m, predicted = self._step
         self._step = None
-        images = motion.images
-        crossing = np.any(images != 0.0, axis=1)
         if motion.stress is not None:
             self.boundary_stress = np.array(motion.stress, dtype=np.float64)
-        elif np.any(crossing):
+        else:
+            images = motion.images
+            crossing = np.any(images != 0.0, axis=1)
             shifts = images[crossing] @ h_m.T
             moment = np.einsum("ci,cj->ij", motion.forces[crossing], shifts)
             self.boundary_stress = 0.5 * (moment + moment.T) / float(np.linalg.det(h_m))
-        else:
-            self.boundary_stress = np.zeros((3, 3))
         self.rate = np.array(motion.cell_rate, dtype=np.float64)
         self.dofs = np.array(motion.cell_dofs, dtype=np.float64)
         # with an explicit solver's stress, the integral only learns while a prescribed part

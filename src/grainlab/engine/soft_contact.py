@@ -88,21 +88,27 @@ import numpy as np
 from grainlab._numba_setup import threading_layer
 from grainlab._validate import at_least
 from grainlab.contact.soft_contact_law import SoftContactLaw
-from grainlab.engine.boundary import BoundaryMotion, DetectionPhases, as_boundary
+from grainlab.engine.boundary import (
+    BoundaryMotion,
+    ClosedContacts,
+    DetectionPhases,
+    as_boundary,
+)
 from grainlab.engine.contact_dynamics import StepReport, contact_keys
 from grainlab.engine.narrow_phase import Contacts
+from grainlab.engine.neighbour_rows import carry_springs_kernel, keys_sorted, member_rows_kernel
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.soft_contact_kernels import (
     ROW_BLOCK,
     SERVO_INTEGRAL,
     SUBSTEP_SERVO_FRACTION,
     body_rows,
-    closed_rows_kernel,
     plain_blocks,
     servo_kernel,
     substeps_kernel,
 )
 from grainlab.engine.soft_polyhedra import PolyhedronRows, has_polyhedra, smallest_radius
+from grainlab.engine.soft_step_report import SoftStepReport
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 
@@ -184,8 +190,9 @@ class SoftContactStep:
         self.n_detections = 0
         """Neighbour lists built since the solver was made."""
         self.last_substeps = 0
-        self._history_keys = np.zeros(0, dtype=np.int64)
-        self._history = np.zeros((0, 6))
+        self._springs = (np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros((0, 3)))
+        """The springs of the last list by key, keys in order: (keys (C,), tangential
+        springs (C, 3) [N], rolling moments (C, 3) [N m])."""
         self._wall_load = np.zeros((0, 3))
         """Per wall: mean reaction over the last step [N], stiffness [N/m], servo memory
         [m/s]."""
@@ -229,7 +236,8 @@ class SoftContactStep:
         done (:attr:`n_substeps`: a resumed run goes on counting)."""
         if self._rows is not None:  # the live springs (the history is otherwise kept only
             self._remember(self._rows)  # when a list is replaced)
-        arrays = {"keys": self._history_keys.copy(), "history": self._history.copy(),
+        keys, xi, roll = self._springs
+        arrays = {"keys": keys.copy(), "history": np.hstack([xi, roll]),
                   "wall_load": self._wall_load.copy(),
                   "driven": np.array(int(self._driven)), "carried": self._carried.copy(),
                   "filtered": self._filtered.copy(),
@@ -242,8 +250,10 @@ class SoftContactStep:
 
     def restore_warm_start(self, arrays: dict[str, np.ndarray]) -> None:
         """Restore what :meth:`warm_start_arrays` saved."""
-        self._history_keys = np.asarray(arrays["keys"], dtype=np.int64)
-        self._history = np.asarray(arrays["history"], dtype=np.float64).reshape(-1, 6)
+        history = np.asarray(arrays["history"], dtype=np.float64).reshape(-1, 6)
+        self._springs = (np.asarray(arrays["keys"], dtype=np.int64),
+                         np.ascontiguousarray(history[:, :3]),
+                         np.ascontiguousarray(history[:, 3:]))
         self._wall_load = np.asarray(arrays["wall_load"], dtype=np.float64).reshape(-1, 3)
         self._driven = bool(int(arrays["driven"]))
         self._carried = np.asarray(arrays["carried"], dtype=np.float64).reshape(3, 3).copy()
@@ -314,12 +324,11 @@ class SoftContactStep:
         self.last_substeps = n_sub
         self._wall_load = np.column_stack([run.wall_impulse / macro, run.wall_stiffness,
                                            memory])
-        report, forces = run.report(rows, macro)
+        report, closed = run.report(rows, macro)
         boundary.finish_step(BoundaryMotion(
             dt=macro, theta=1.0, wall_speeds=run.mean_wall_speeds(),
             wall_reactions=run.wall_impulse / macro, cell_dofs=run.cell_dofs.copy(),
-            cell_rate=(run.cell_h - bounds.cell_matrix) / macro, contacts=report.contacts,
-            images=report.image_vectors, impulses=report.impulses, forces=forces,
+            cell_rate=(run.cell_h - bounds.cell_matrix) / macro, closed=closed,
             stress=run.stress_impulse / macro if n_walls == 0 else None))
         self._end = (state.positions.copy(), state.orientations.copy())
         return report
@@ -357,6 +366,7 @@ class SoftContactStep:
         if 2.0 * total - float(rows.approach[0]) > float(self.skin):
             return None
         rows.set_friction(bounds, self.friction)
+        rows.renew_report_outputs()  # the last step's report keeps its own
         run.rows = rows
         return rows
 
@@ -379,21 +389,21 @@ class SoftContactStep:
         rows.built_walls = np.array(now.wall_points, dtype=np.float64)
         rows.wall_normals = np.array(bounds.wall_normals, dtype=np.float64)
         rows.built_cell = np.array(now.cell_matrix, dtype=np.float64)
-        keys = rows.keys
-        if self._history_keys.size and keys.size:
-            where = np.minimum(np.searchsorted(self._history_keys, keys),
-                               self._history_keys.size - 1)
-            found = self._history_keys[where] == keys
-            rows.xi[found] = self._history[where[found], :3]
-            rows.roll[found] = self._history[where[found], 3:]
+        if rows.keys.size:
+            carry_springs_kernel(*self._springs, rows.keys, rows.xi, rows.roll)
         run.rows = rows
         self._rows = rows
         return rows
 
     def _remember(self, rows) -> None:
+        """The springs of ``rows`` (a list about to be replaced, or saved) by key, in key
+        order, for the next list (:func:`~grainlab.engine.neighbour_rows.
+        carry_springs_kernel`)."""
+        if keys_sorted(rows.keys):  # the usual order of a list (a stable sort keeps it)
+            self._springs = (rows.keys, rows.xi, rows.roll)
+            return
         order = np.argsort(rows.keys, kind="stable")
-        self._history_keys = rows.keys[order]
-        self._history = np.hstack([rows.xi, rows.roll])[order]
+        self._springs = (rows.keys[order], rows.xi[order], rows.roll[order])
 
 
 def isochoric_wall_speeds(bounds) -> np.ndarray:
@@ -440,19 +450,16 @@ class _Rows:
         self.contact_type = np.ascontiguousarray(contacts.contact_type)
         self.body_i = np.ascontiguousarray(contacts.body_i, dtype=np.int64)
         self.body_j = np.ascontiguousarray(contacts.body_j, dtype=np.int64)
-        starts = library.sphere_start[state.shape_ids]
-        row_j = starts[self.body_j] + contacts.member_j
-        self.off_j = np.ascontiguousarray(library.sphere_offsets[row_j])
-        self.rad_j = np.ascontiguousarray(library.sphere_radii[row_j])
-        inner = self.body_i >= 0
-        self.off_i = np.zeros((c, 3))
-        self.rad_i = np.zeros(c)
-        row_i = starts[self.body_i[inner]] + contacts.member_i[inner]
-        self.off_i[inner] = library.sphere_offsets[row_i]
-        self.rad_i[inner] = library.sphere_radii[row_i]
+        self.off_i, self.off_j = np.empty((c, 3)), np.empty((c, 3))
+        self.rad_i, self.rad_j = np.empty(c), np.empty(c)
+        member_rows_kernel(self.body_i, self.body_j, self.member_i, self.member_j,
+                           np.ascontiguousarray(library.sphere_start[state.shape_ids]),
+                           np.ascontiguousarray(library.sphere_offsets, dtype=np.float64),
+                           np.ascontiguousarray(library.sphere_radii, dtype=np.float64),
+                           self.off_i, self.off_j, self.rad_i, self.rad_j)
         self.mu = np.zeros(c)
         self.set_friction(bounds, friction)
-        self.wall_rows = np.flatnonzero(~inner).astype(np.int64)
+        self.wall_rows = np.flatnonzero(self.body_i < 0).astype(np.int64)
         n = state.n_bodies
         self.adj_start, self.adj_entry = body_rows(self.body_i, self.body_j, n)
         self.xi = np.zeros((c, 3))
@@ -478,6 +485,18 @@ class _Rows:
         self.partial = np.zeros((-(-c // ROW_BLOCK), 10))  # the force pass's block sums
         self.springs = np.zeros((c, 6))  # the vector force pass's springs and branches
         self.plain = plain_blocks(self.body_i, self.off_i, self.off_j)
+
+    def renew_report_outputs(self) -> None:
+        """New arrays for the outputs a step report reads (gaps, normals, points, forces,
+        relative velocities), so that the report of the step before keeps its own
+        (:class:`~grainlab.engine.soft_step_report.SoftStepReport`). Every call of the
+        sub-steps starts with an evaluation that writes them all."""
+        c = self.body_j.shape[0]
+        self.gap = np.empty(c)
+        self.normal = np.empty((c, 3))
+        self.point = np.empty((c, 3))
+        self.force = np.empty((c, 3))
+        self.rel_vel = np.empty((c, 3))
 
     def set_friction(self, bounds, friction: float) -> None:
         """The Coulomb coefficients of the rows: ``friction`` between bodies, each wall's
@@ -517,11 +536,28 @@ class _Rows:
         return rows
 
 
+def rotation_arms(library: ShapeLibrary, shape_ids: np.ndarray) -> np.ndarray:
+    """(N,) [m] how far from its centre of mass a body's contacts are computed, which a turn
+    of the body moves by |omega| h x that arm: the farthest member-sphere centre for shapes
+    of member spheres (0 for a sphere at its centre of mass, whose turns move no contact),
+    the bounding radius for polyhedra (their vertices). The neighbour list's travel counts
+    it (:func:`~grainlab.engine.soft_contact_kernels.substeps_kernel`)."""
+    arms = np.array(library.bounding_radius, dtype=np.float64)
+    count = library.vertex_count
+    for s in range(arms.shape[0]):
+        if count is None or count[s] == 0:
+            lo = library.sphere_start[s]
+            offsets = library.sphere_offsets[lo:lo + library.sphere_count[s]]
+            arms[s] = float(np.sqrt(np.max(np.sum(offsets * offsets, axis=1), initial=0.0)))
+    return np.ascontiguousarray(arms[shape_ids])
+
+
 class _BodyConstants:
     """What the kernels read of the bodies and does not change while they are the same:
     inverse masses (N,) [1/kg] and masses, principal moments (N, 3) [kg m^2], whether they
-    are equal (``isotropic`` (N,)), bounding radii (N,) [m], and the law's stable sub-step
-    [s]. Holds the arrays it was made from, so that :meth:`describes` is an identity test."""
+    are equal (``isotropic`` (N,)), rotation arms (N,) [m] (:func:`rotation_arms`: the
+    neighbour list's travel), and the law's stable sub-step [s]. Holds the arrays it was made
+    from, so that :meth:`describes` is an identity test."""
 
     def __init__(self, state: BodyState, library: ShapeLibrary, solver: SoftContactStep):
         self._source = (state.masses, state.inertias, state.shape_ids, library)
@@ -531,7 +567,7 @@ class _BodyConstants:
         self.principal = np.ascontiguousarray(state.inertias, dtype=np.float64)
         self.isotropic = np.all(np.isclose(state.inertias, state.inertias[:, :1], rtol=1e-12,
                                            atol=0.0), axis=1)
-        self.bounding = np.ascontiguousarray(library.bounding_radius[ids])
+        self.arm = rotation_arms(library, ids)
         self.substep = solver.stable_substep(state, library)
 
     def describes(self, state: BodyState, library: ShapeLibrary) -> bool:
@@ -552,7 +588,7 @@ class _Run:
         self.inv_mass = bodies.inv_mass
         self.principal = bodies.principal
         self.isotropic = bodies.isotropic
-        self.bounding = bodies.bounding
+        self.arm = bodies.arm
         self.wall_disp = np.zeros(n_walls)
         self.wall_speed = np.array(bounds.wall_free, dtype=np.float64)
         self.cell_h = np.array(bounds.cell_matrix, dtype=np.float64)
@@ -632,7 +668,7 @@ class _Run:
             rows.body_i, rows.body_j, rows.off_i, rows.off_j, rows.rad_i, rows.rad_j,
             rows.images, rows.mu, rows.adj_start, rows.adj_entry, rows.wall_rows,
             self.inv_mass, self.masses,
-            self.principal, self.isotropic, self.bounding,
+            self.principal, self.isotropic, self.arm,
             np.ascontiguousarray(bounds.wall_points, dtype=f64),
             np.ascontiguousarray(bounds.wall_normals, dtype=f64), self.wall_speed,
             self.cell_gradient, self.cell_directions, self.cell_scale,
@@ -659,27 +695,14 @@ class _Run:
                 f"{h:.3g} s too long for their stiffness.")
         return int(done)
 
-    def report(self, rows: _Rows, macro: float) -> tuple[StepReport, np.ndarray]:
-        """The contacts closed at the end of the step, as a step report, and their forces
-        (C, 3) [N] in the world frame."""
+    def report(self, rows: _Rows, macro: float) -> tuple[StepReport | SoftStepReport,
+                                                          ClosedContacts | SoftStepReport]:
+        """The contacts closed at the end of the step, as a step report (copied out of a
+        sphere list only when read: :class:`~grainlab.engine.soft_step_report.
+        SoftStepReport`), and as the boundary reads them."""
         if isinstance(rows, PolyhedronRows):
-            return rows.report(self, macro)
-        closed = np.flatnonzero(rows.gap < 0.0)
-        c = closed.shape[0]
-        ints = [np.empty(c, dtype=np.int64) for _ in range(4)]
-        kind = np.empty(c, dtype=rows.contact_type.dtype)
-        images = np.empty((c, 3), dtype=rows.images.dtype)
-        gap, normal, point, forces = np.empty(c), np.empty((c, 3)), np.empty((c, 3)), \
-            np.empty((c, 3))
-        frames, impulses, relative = np.empty((c, 3, 3)), np.empty((c, 3)), np.empty((c, 3))
-        closed_rows_kernel(closed, rows.body_i, rows.body_j, rows.member_i, rows.member_j,
-                           rows.contact_type, rows.images, rows.gap, rows.normal, rows.point,
-                           rows.force, rows.rel_vel, macro, *ints, kind, images, gap, normal,
-                           point, forces, frames, impulses, relative)
-        contacts = Contacts(body_i=ints[0], body_j=ints[1], member_i=ints[2], member_j=ints[3],
-                            point=point, normal=normal, gap=gap, contact_type=kind)
-        report = StepReport(
-            n_contacts=c, iterations=1, converged=True, change=0.0, residual=0.0,
-            max_overlap=float(self.stats[0]), contacts=contacts, frames=frames,
-            impulses=impulses, relative_velocity=relative, images=images)
-        return report, forces
+            report, forces = rows.report(self, macro)
+            return report, ClosedContacts(report.contacts, report.image_vectors,
+                                          report.impulses, forces)
+        report = SoftStepReport(rows, macro, float(self.stats[0]))
+        return report, report

@@ -114,11 +114,20 @@ def plain_blocks(body_i: np.ndarray, off_i: np.ndarray, off_j: np.ndarray) -> np
     """Per block of :data:`ROW_BLOCK` rows, whether all its rows are plain: between two
     bodies (no wall), each member at its body's centre (no aggregate's member). Those blocks
     go through the vector force pass (:mod:`grainlab.engine.sphere_rows`)."""
-    plain = (body_i >= 0) & ~np.any(off_i != 0.0, axis=1) & ~np.any(off_j != 0.0, axis=1)
-    blocks = -(-plain.shape[0] // ROW_BLOCK)
-    padded = np.ones(blocks * ROW_BLOCK, dtype=bool)
-    padded[:plain.shape[0]] = plain
-    return np.ascontiguousarray(padded.reshape(blocks, ROW_BLOCK).all(axis=1))
+    plain = np.ones(-(-body_i.shape[0] // ROW_BLOCK), dtype=np.bool_)
+    _plain_blocks_kernel(np.ascontiguousarray(body_i, dtype=np.int64),
+                         np.ascontiguousarray(off_i, dtype=np.float64),
+                         np.ascontiguousarray(off_j, dtype=np.float64), plain)
+    return plain
+
+
+@njit(cache=True, _nrt=False)
+def _plain_blocks_kernel(body_i, off_i, off_j, plain):
+    """:func:`plain_blocks` in one pass (``plain`` all true on entry)."""
+    for k in range(body_i.shape[0]):
+        if (body_i[k] < 0 or off_i[k, 0] != 0.0 or off_i[k, 1] != 0.0 or off_i[k, 2] != 0.0
+                or off_j[k, 0] != 0.0 or off_j[k, 1] != 0.0 or off_j[k, 2] != 0.0):
+            plain[k // ROW_BLOCK] = False
 
 
 @njit(_nrt=False)
@@ -464,7 +473,7 @@ def kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientation
 
 
 @njit(inline="always")
-def _drift_body(b, dt, principal, isotropic, bounding, positions, orientations, velocities,
+def _drift_body(b, dt, principal, isotropic, arm, positions, orientations, velocities,
                 spins, travel):
     ex, ey, ez = dt * velocities[b, 0], dt * velocities[b, 1], dt * velocities[b, 2]
     positions[b, 0] += ex
@@ -472,7 +481,7 @@ def _drift_body(b, dt, principal, isotropic, bounding, positions, orientations, 
     positions[b, 2] += ez
     wx, wy, wz = spins[b, 0], spins[b, 1], spins[b, 2]
     spin = math.sqrt(wx * wx + wy * wy + wz * wz)
-    travel[b] += math.sqrt(ex * ex + ey * ey + ez * ez) + spin * dt * bounding[b]
+    travel[b] += math.sqrt(ex * ex + ey * ey + ez * ez) + spin * dt * arm[b]
     if spin == 0.0:
         return
     w, x, y, z = orientations[b, 0], orientations[b, 1], orientations[b, 2], \
@@ -500,21 +509,22 @@ def _drift_body(b, dt, principal, isotropic, bounding, positions, orientations, 
 
 
 @njit(cache=True, _nrt=False)
-def drift_kernel(dt, principal, isotropic, bounding, positions, orientations, velocities,
+def drift_kernel(dt, principal, isotropic, arm, positions, orientations, velocities,
                  spins, travel):
     """Drift: x += h v; q <- exp(h omega / 2) q (world frame); a body with anisotropic
     inertia keeps its angular momentum L = I_w omega through the turn, so omega follows the
     new orientation (torque-free precession). ``travel`` (N,) [m] grows by the largest
-    displacement of a point of the body (|dx| + |omega| h R_bound)."""
+    displacement of a point its contacts are computed from (|dx| + |omega| h ``arm``, the
+    rotation arms of :func:`grainlab.engine.soft_contact.rotation_arms`)."""
     for b in range(positions.shape[0]):
-        _drift_body(b, dt, principal, isotropic, bounding, positions, orientations,
+        _drift_body(b, dt, principal, isotropic, arm, positions, orientations,
                     velocities, spins, travel)
 
 
 @njit(inline="always")
 def _body_pass(b, close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
                torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
-               bounding, gradient, carried, cx, cy, cz, positions, orientations, velocities,
+               arm, gradient, carried, cx, cy, cz, positions, orientations, velocities,
                spins, body_force, body_torque, travel):
     if close:  # the end of a sub-step: the rows' forces gathered, the half kick
         _gather_body(b, adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
@@ -526,14 +536,14 @@ def _body_pass(b, close, carry, open_, half, dt, adj_start, adj_entry, force, to
     if open_:  # the start of the next: the half kick, the drift
         _kick_body(b, half, inv_mass, principal, isotropic, local_damping, orientations,
                    body_force, body_torque, velocities, spins)
-        _drift_body(b, dt, principal, isotropic, bounding, positions, orientations,
+        _drift_body(b, dt, principal, isotropic, arm, positions, orientations,
                     velocities, spins, travel)
 
 
 @njit(cache=True, _nrt=False)
 def bodies_kernel(close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
                   torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
-                  bounding, gradient, carried, cx, cy, cz, positions, orientations,
+                  arm, gradient, carried, cx, cy, cz, positions, orientations,
                   velocities, spins, body_force, body_torque, travel):
     """The bodies' side of the sub-steps, body by body: with ``close`` the gather and the
     half kick that end a sub-step (:func:`gather_kernel`, :func:`kick_kernel`), with
@@ -545,38 +555,38 @@ def bodies_kernel(close, carry, open_, half, dt, adj_start, adj_entry, force, to
     for b in range(masses.shape[0]):
         _body_pass(b, close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
                    torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
-                   bounding, gradient, carried, cx, cy, cz, positions, orientations,
+                   arm, gradient, carried, cx, cy, cz, positions, orientations,
                    velocities, spins, body_force, body_torque, travel)
 
 
 @njit(cache=True, parallel=True, _nrt=False)
 def bodies_parallel(close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
                     torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
-                    bounding, gradient, carried, cx, cy, cz, positions, orientations,
+                    arm, gradient, carried, cx, cy, cz, positions, orientations,
                     velocities, spins, body_force, body_torque, travel):
     """:func:`bodies_kernel` with the bodies shared out over the threads (the same
     results: the bodies do not interact in it)."""
     for b in prange(masses.shape[0]):
         _body_pass(np.int64(b), close, carry, open_, half, dt, adj_start, adj_entry, force,
                    torque_i, torque_j, masses, gravity, inv_mass, principal, isotropic,
-                   local_damping, bounding, gradient, carried, cx, cy, cz, positions,
+                   local_damping, arm, gradient, carried, cx, cy, cz, positions,
                    orientations, velocities, spins, body_force, body_torque, travel)
 
 
 @njit(inline="always")
 def _bodies(parallel, close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
-            torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping, bounding,
+            torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping, arm,
             gradient, carried, cx, cy, cz, positions, orientations, velocities, spins,
             body_force, body_torque, travel):
     if parallel:
         bodies_parallel(close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
                         torque_j, masses, gravity, inv_mass, principal, isotropic,
-                        local_damping, bounding, gradient, carried, cx, cy, cz, positions,
+                        local_damping, arm, gradient, carried, cx, cy, cz, positions,
                         orientations, velocities, spins, body_force, body_torque, travel)
     else:
         bodies_kernel(close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
                       torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
-                      bounding, gradient, carried, cx, cy, cz, positions, orientations,
+                      arm, gradient, carried, cx, cy, cz, positions, orientations,
                       velocities, spins, body_force, body_torque, travel)
 
 
@@ -849,7 +859,7 @@ def _forces(parallel, step, record, code, params, rolling, body_i, body_j, off_i
 @njit(cache=True, _nrt=False)
 def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gravity,
                     body_i, body_j, off_i, off_j, rad_i, rad_j, images, mu, adj_start,
-                    adj_entry, wall_rows, inv_mass, masses, principal, isotropic, bounding,
+                    adj_entry, wall_rows, inv_mass, masses, principal, isotropic, arm,
                     wall_p0, wall_n, wall_speed, cell_gradient, cell_directions, cell_scale,
                     cell_free, cell_bounds, cell_stiffness, filter_time, filtered,
                     wall_disp_built, cell_h_built, positions, orientations, velocities,
@@ -912,7 +922,7 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
     if n_steps > 0:
         _bodies(parallel, no, no, yes, half, dt, adj_start, adj_entry, force, torque_i,
                 torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
-                bounding, gradient, carried, 0.0, 0.0, 0.0, positions, orientations,
+                arm, gradient, carried, 0.0, 0.0, 0.0, positions, orientations,
                 velocities, spins, body_force, body_torque, travel)
     for _ in range(n_steps):
         for w in range(wall_disp.shape[0]):
@@ -964,7 +974,7 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
             cx, cy, cz = _centre_of_mass(masses, positions)
         _bodies(parallel, yes, change, not stop, half, dt, adj_start, adj_entry, force,
                 torque_i, torque_j, masses, gravity, inv_mass, principal, isotropic,
-                local_damping, bounding, gradient, carried, cx, cy, cz, positions,
+                local_damping, arm, gradient, carried, cx, cy, cz, positions,
                 orientations, velocities, spins, body_force, body_torque, travel)
         if carrying:  # hdot = L h follows the cell
             _take_up(change, gradient, carried, cell_h, cell_rate)

@@ -231,7 +231,7 @@ class PolyhedronRows:
             solver.gravity, self.bodies, self.library, self.world, self.pairs,
             self.adj_start, self.adj_entry, self.wall_rows, run.inv_mass,
             run.masses, run.principal, run.isotropic,
-            run.bounding, np.ascontiguousarray(bounds.wall_points, dtype=f64),
+            run.arm, np.ascontiguousarray(bounds.wall_points, dtype=f64),
             np.ascontiguousarray(bounds.wall_normals, dtype=f64), run.wall_speed,
             (run.cell_gradient, run.cell_directions, run.cell_scale,
              np.ascontiguousarray(bounds.cell_free, dtype=f64),

@@ -299,7 +299,7 @@ def _loads(step, code, params, gravity, bodies, library, world, pairs, adj_start
 @njit(cache=True)
 def polyhedra_substeps_kernel(n_steps, dt, skin, code, params, local_damping, gravity,
                               bodies, library, world, pairs, adj_start, adj_entry, wall_rows,
-                              inv_mass, masses, principal, isotropic, bounding, wall_p0,
+                              inv_mass, masses, principal, isotropic, arm, wall_p0,
                               wall_n, wall_speed, cell, filter_time, wall_disp_built,
                               cell_h_built, tolerances, positions, orientations, velocities,
                               spins, xi, wall_disp, cell_h, travel, outputs, body_force,
@@ -350,7 +350,7 @@ def polyhedra_substeps_kernel(n_steps, dt, skin, code, params, local_damping, gr
     for _ in range(n_steps):
         kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
                     body_force, body_torque, velocities, spins)
-        drift_kernel(dt, principal, isotropic, bounding, positions, orientations, velocities,
+        drift_kernel(dt, principal, isotropic, arm, positions, orientations, velocities,
                      spins, travel)
         for w in range(wall_disp.shape[0]):
             wall_disp[w] += dt * wall_speed[w]

@@ -281,14 +281,13 @@ class WallBox:
         """Move the walls to the end of the step (:meth:`move`) and record the reactions:
         the solver's ``wall_reactions`` when it gives six (an explicit solver's mean over the
         step), else the normal impulses of each wall's contacts / dt."""
-        contacts = motion.contacts
         reactions = np.zeros(6)
-        on_wall = contacts.body_i < 0
         if motion.wall_reactions.shape == (6,):  # a solver that measured them itself
             reactions[:] = motion.wall_reactions
-        elif np.any(on_wall):
-            np.add.at(reactions, -1 - contacts.body_i[on_wall],
-                      motion.impulses[on_wall, 0] / motion.dt)
+        else:
+            body_i = motion.contacts.body_i
+            on_wall = body_i < 0
+            np.add.at(reactions, -1 - body_i[on_wall], motion.impulses[on_wall, 0] / motion.dt)
         self.move(motion.wall_speeds, (1.0 - motion.theta) * motion.dt,
                   motion.theta * motion.dt, reactions)
 
