@@ -370,6 +370,32 @@ def test_the_cell_list_keeps_the_general_detections_contacts_in_a_large_sample()
     assert_same(keyed(fast), keyed(general))
 
 
+@pytest.mark.parametrize("alert", [ALERT, 2.0])
+def test_the_cell_lists_chunks_on_the_threads_give_the_serial_rows(monkeypatch, alert):
+    # 600 polydisperse spheres in a sheared cell by chunks of bodies (the threads' road) and
+    # one after the other: the same rows in the same order, bit for bit; with an alert of
+    # 2.7 diameters the chunks overflow their share of the scratch and are run again
+    from grainlab.engine import periodic_spheres
+
+    rng = np.random.default_rng(5)
+    radii = rng.uniform(0.25, 0.5, 600)
+    library = ShapeLibrary.from_spheres(radii)
+    cell = _scaled_cell(SHEARED, 2 * radii.max() + ALERT, factor=9.0)
+    x = _placed(cell, radii, rng, ratio=0.9) + rng.integers(-2, 3, (600, 3)) @ cell.matrix.T
+    state = BodyState.from_library(library, np.arange(600), x, 1000.0)
+    runs = []
+    for threshold in (10**9, 0):
+        monkeypatch.setattr(periodic_spheres, "PARALLEL_SPHERES", threshold)
+        monkeypatch.setattr(numba, "get_num_threads", lambda: 2)  # the chunks, any machine
+        runs.append(PeriodicDetection(alert).detect(state, library, cell, sphere_rows=True))
+    serial, chunked = runs
+    assert serial.n_contacts > (8 * 600 if alert == 2.0 else 200)
+    for name in ("body_i", "body_j", "point", "normal", "gap"):
+        np.testing.assert_array_equal(getattr(serial.contacts, name),
+                                      getattr(chunked.contacts, name))
+    np.testing.assert_array_equal(serial.images, chunked.images)
+
+
 def test_detection_does_not_depend_on_the_number_of_threads():
     library, state, cell = random_sample("mixed", seed=2)
     detection = PeriodicDetection(ALERT)

@@ -496,3 +496,104 @@ def test_the_step_report_gives_the_contacts_at_the_end_of_the_step():
     np.testing.assert_allclose(report.relative_velocity[0], frame @ relative - kick,
                                rtol=1e-10, atol=1e-13)
     assert kick[0] > 0.01 * abs(report.relative_velocity[0, 0])  # a kick that shows
+
+
+
+def _report_arrays(report):
+    contacts = report.contacts
+    return (contacts.body_i, contacts.body_j, contacts.gap, contacts.normal, contacts.point,
+            report.frames, report.impulses, report.relative_velocity, report.images)
+
+
+def test_a_kept_step_report_is_that_of_its_own_step():
+    """The report of a step read after four more steps gives what it gave when read at once
+    (its arrays are made from the list's outputs of its own step, which the later steps leave
+    alone), and those are not the contacts of the last step."""
+    from grainlab.engine.periodic_boundary import PeriodicCell
+
+    def run(read_at_once: bool):
+        diameter, side = 1.5e-3, 6
+        grid = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij"),
+                        axis=-1).reshape(-1, 3)
+        library = ShapeLibrary.from_spheres([0.5 * diameter])
+        state = BodyState.from_library(library, np.zeros(len(grid), dtype=np.int64),
+                                       (grid + 0.5) * diameter * 0.999, 2600.0)
+        state.velocities[:] = np.random.default_rng(1).normal(scale=0.05, size=(len(grid), 3))
+        cell = PeriodicCell(np.eye(3) * side * diameter * 0.999)
+        solver = SoftContactStep(SoftContactLaw.hertz_mindlin(1e9, 0.25, restitution=0.5),
+                                 dt=1.0, friction=0.4)
+        solver.dt = 30 * solver.stable_substep(state, library)
+        solver.step(state, library, cell)
+        report = solver.step(state, library, cell)
+        at_once = [a.copy() for a in _report_arrays(report)] if read_at_once else None
+        for _ in range(4):
+            last = solver.step(state, library, cell)
+        return report, at_once, last
+
+    report, at_once, _ = run(True)
+    kept, _, last = run(False)
+    assert kept.n_contacts == report.n_contacts > 0
+    for a, b in zip(at_once, _report_arrays(kept), strict=True):
+        np.testing.assert_array_equal(a, b)
+    for a, b in zip(at_once, _report_arrays(report), strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert np.all(kept.contacts.gap < 0.0)
+    assert kept.n_contacts != last.n_contacts or not np.array_equal(kept.contacts.gap,
+                                                                     last.contacts.gap)
+
+
+def test_a_sphere_turns_no_contact_point_an_aggregate_turns_its_members():
+    """The rotation arm of the list's travel: 0 for a sphere at its centre of mass (its spin
+    moves none of its contact points), the farthest member centre of an aggregate, the
+    bounding radius of a polyhedron. A fast-spinning sphere alone in a periodic cell then
+    never rebuilds its list; an aggregate spinning as fast does."""
+    from grainlab.engine.periodic_boundary import PeriodicCell
+    from grainlab.engine.soft_contact import rotation_arms
+    from grainlab.geometry.polyhedron import ConvexPolyhedron
+
+    pair = from_spheres([[-0.002, 0.0, 0.0], [0.002, 0.0, 0.0]], [0.001, 0.001])
+    spheres_library = ShapeLibrary.from_spheres([0.001])
+    aggregate_library = ShapeLibrary.from_aggregates([pair])
+    np.testing.assert_array_equal(rotation_arms(spheres_library, np.zeros(3, dtype=np.int64)),
+                                  0.0)
+    assert rotation_arms(aggregate_library, np.zeros(1, dtype=np.int64))[0] == \
+        pytest.approx(0.002, rel=1e-12)
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * 5e-4
+    cube = ShapeLibrary.from_polyhedra([ConvexPolyhedron.from_vertices(corners)])
+    assert rotation_arms(cube, np.zeros(1, dtype=np.int64))[0] == cube.bounding_radius[0]
+
+    detections = []
+    for library in (spheres_library, aggregate_library):
+        state = BodyState.from_library(library, [0], [[0.01, 0.01, 0.01]], density=2600.0)
+        state.angular_velocities[:] = [[0.0, 0.0, 2000.0]]  # 4 m/s at a member's centre
+        solver = SoftContactStep(SoftContactLaw.hertz_mindlin(1e9, 0.25, restitution=0.5),
+                                 dt=1.0, friction=0.4)
+        solver.dt = 50 * solver.stable_substep(state, library)
+        cell = PeriodicCell(np.eye(3) * 0.02)
+        for _ in range(4):
+            solver.step(state, library, cell)
+        detections.append(solver.n_detections)
+    assert detections[0] == 1 and detections[1] > 1
+
+
+def test_the_springs_are_carried_by_key_whatever_the_order_of_the_new_rows():
+    """The springs of the last list (keys in order, one repeated) go to the rows of the new
+    list with the same key, new keys in order or not: as a search of each key gives them."""
+    from grainlab.engine.neighbour_rows import carry_springs_kernel
+
+    rng = np.random.default_rng(3)
+    old_keys = np.sort(rng.choice(400, size=150, replace=False)).astype(np.int64)
+    old_keys[10] = old_keys[9]  # a repeated key: its first row's springs
+    old_xi, old_roll = rng.normal(size=(150, 3)), rng.normal(size=(150, 3))
+    for new_keys in (np.sort(rng.choice(400, size=120, replace=False)),
+                     rng.choice(400, size=120, replace=False), np.array([old_keys[9]] * 3)):
+        new_keys = new_keys.astype(np.int64)
+        xi, roll = np.full((new_keys.size, 3), -7.0), np.full((new_keys.size, 3), -7.0)
+        found = carry_springs_kernel(old_keys, old_xi, old_roll, new_keys, xi, roll)
+        where = np.searchsorted(old_keys, new_keys)
+        hit = (where < old_keys.size) & (old_keys[np.minimum(where, old_keys.size - 1)]
+                                         == new_keys)
+        assert found == int(hit.sum()) > 0
+        np.testing.assert_array_equal(xi[hit], old_xi[where[hit]])
+        np.testing.assert_array_equal(roll[hit], old_roll[where[hit]])
+        assert np.all(xi[~hit] == -7.0) and np.all(roll[~hit] == -7.0)

@@ -58,18 +58,25 @@ def carry_springs_kernel(old_keys, old_xi, old_roll, new_keys, new_xi, new_roll)
     same key (member pair): tangential springs ``xi`` (C, 3) [N] and rolling moments
     ``roll`` (C, 3) [N m]; ``old_keys`` must never decrease (:func:`keys_sorted`), and a key
     found more than once gives its first row's springs. Rows not found keep theirs. Returns
-    the rows found."""
+    the rows found. O(C) when the new keys do not decrease either, O(C log C) else."""
     n_old = old_keys.shape[0]
     found = 0
+    lo = 0
     for k in range(new_keys.shape[0]):
         key = new_keys[k]
-        lo, hi = 0, n_old  # the first old row whose key is >= key
-        while lo < hi:
-            mid = (lo + hi) >> 1
-            if old_keys[mid] < key:
-                lo = mid + 1
-            else:
-                hi = mid
+        # the first old row whose key is >= key: walked on from the last one while the new
+        # keys do not decrease (a list in its usual order: one merge, O(C)), else searched
+        if k == 0 or key < new_keys[k - 1]:
+            lo, hi = 0, n_old
+            while lo < hi:
+                mid = (lo + hi) >> 1
+                if old_keys[mid] < key:
+                    lo = mid + 1
+                else:
+                    hi = mid
+        else:
+            while lo < n_old and old_keys[lo] < key:
+                lo += 1
         if lo < n_old and old_keys[lo] == key:
             found += 1
             for a in range(3):

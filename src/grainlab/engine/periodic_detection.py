@@ -189,6 +189,9 @@ class PeriodicDetection:
                                         max_points=max_points)
         self.alert = self.narrow_phase.alert
         self.broad_phase = CellListBroadPhase(alert=self.alert, capacity=capacity)
+        self.sphere_scratch: dict = {}
+        """The plain spheres' cell list's buffers (:func:`~grainlab.engine.periodic_spheres.
+        periodic_sphere_contacts`), kept from call to call."""
 
     def detect(self, state: BodyState, library: ShapeLibrary, cell: TriclinicCell,
                sphere_rows: bool = False) -> PeriodicContacts:
@@ -205,7 +208,7 @@ class PeriodicDetection:
             bins = bins_per_axis(cell.widths, cutoff, n_bodies)
             contacts, images = periodic_sphere_contacts(
                 state.positions, bounding, cell.matrix, cell.inverse, bins,
-                self.alert)
+                self.alert, self.sphere_scratch)
             return PeriodicContacts(contacts, images)
         h = cell.matrix
         s = cell.fractional(state.positions)
