@@ -108,6 +108,29 @@ def quat_normalise(q):
     return out
 
 
+SMALL_TURN = 0.05
+"""Half-angles [rad] below which :func:`half_turn` sums the series instead of calling the C
+library's sine and cosine."""
+
+
+@njit(inline="always")
+def half_turn(half):
+    """(cos a, sin a / a) of a half-angle a = ``half`` >= 0 [rad] of a turn, as the rotation
+    quaternion exp(a u) = (cos a, (sin a / a) a u) needs them. Below :data:`SMALL_TURN`, the
+    turns of a sub-step, by their Taylor series to a^10 (the next term, a^12 / 12!, is below
+    1e-24) in five multiply-adds each: within a few units in the last place of the library's,
+    the same bits on every processor, and about five times faster than its two calls (which
+    were four fifths of the drift of spinning spheres)."""
+    if half < SMALL_TURN:
+        a2 = half * half
+        cos = 1.0 + a2 * (-1.0 / 2.0 + a2 * (1.0 / 24.0 + a2 * (
+            -1.0 / 720.0 + a2 * (1.0 / 40320.0 + a2 * (-1.0 / 3628800.0)))))
+        sinc = 1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 + a2 * (
+            -1.0 / 5040.0 + a2 * (1.0 / 362880.0 + a2 * (-1.0 / 39916800.0)))))
+        return cos, sinc
+    return math.cos(half), math.sin(half) / half
+
+
 @njit(cache=True, _nrt=False)
 def turn_quaternions_kernel(q, rotation, out):
     """exp(rotation / 2) q, normalised, for unit quaternions ``q`` (N, 4) and world rotation

@@ -36,7 +36,7 @@ from numba import njit, prange
 
 from grainlab.contact.soft_contact_law import contact_law
 from grainlab.engine.narrow_phase import sphere_sphere
-from grainlab.engine.quaternion import rotate
+from grainlab.engine.quaternion import half_turn, rotate
 from grainlab.engine.sphere_rows import sphere_rows_kernel, turn_with_frame
 
 OUTWARD_FACTOR = 4.0
@@ -491,15 +491,17 @@ def _drift_body(b, dt, principal, isotropic, arm, positions, orientations, veloc
         inertia = _world_tensor(w, x, y, z, principal[b, 0], principal[b, 1],
                                 principal[b, 2])
         lx, ly, lz = _apply_tensor(inertia, wx, wy, wz)
-    half = 0.5 * spin * dt
-    f = math.sin(half) / spin
-    dw, dx, dy, dz = math.cos(half), f * wx, f * wy, f * wz
+    dw, sinc = half_turn(0.5 * spin * dt)
+    f = sinc * 0.5 * dt  # sin(h |omega| / 2) / |omega|
+    dx, dy, dz = f * wx, f * wy, f * wz
     nw = dw * w - dx * x - dy * y - dz * z
     nx = dw * x + w * dx + dy * z - dz * y
     ny = dw * y + w * dy + dz * x - dx * z
     nz = dw * z + w * dz + dx * y - dy * x
-    norm = math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
-    nw, nx, ny, nz = nw / norm, nx / norm, ny / norm, nz / norm
+    # back onto |q| = 1: one Newton step of 1 / sqrt(|q|^2) from 1 (|q|^2 - 1 is a few
+    # rounding errors: the step leaves (|q|^2 - 1)^2, below them), without a root or a division
+    unit = 1.5 - 0.5 * (nw * nw + nx * nx + ny * ny + nz * nz)
+    nw, nx, ny, nz = nw * unit, nx * unit, ny * unit, nz * unit
     orientations[b, 0], orientations[b, 1] = nw, nx
     orientations[b, 2], orientations[b, 3] = ny, nz
     if not isotropic[b]:
