@@ -354,15 +354,21 @@ def test_the_cell_list_of_plain_spheres_matches_the_slow_twin(seed, snap):
     assert_same(keyed(found), keyed(expected), scale=10.0)
 
 
-def test_the_cell_list_keeps_the_general_detections_contacts_in_a_large_sample():
-    # 600 polydisperse spheres, many bins per axis, a sheared cell: the same rows as the
-    # ghost layer and broad phase
-    rng = np.random.default_rng(4)
+def polydisperse_spheres(seed: int):
+    """600 spheres of radii in [0.25, 0.5] at random in a sheared cell nine cut-offs wide
+    (alert ALERT), many bins per axis, positions up to two cells away: library, state, cell."""
+    rng = np.random.default_rng(seed)
     radii = rng.uniform(0.25, 0.5, 600)
     library = ShapeLibrary.from_spheres(radii)
     cell = _scaled_cell(SHEARED, 2 * radii.max() + ALERT, factor=9.0)
     x = _placed(cell, radii, rng, ratio=0.9) + rng.integers(-2, 3, (600, 3)) @ cell.matrix.T
-    state = BodyState.from_library(library, np.arange(600), x, 1000.0)
+    return library, BodyState.from_library(library, np.arange(600), x, 1000.0), cell
+
+
+def test_the_cell_list_keeps_the_general_detections_contacts_in_a_large_sample():
+    # 600 polydisperse spheres, many bins per axis, a sheared cell: the same rows as the
+    # ghost layer and broad phase
+    library, state, cell = polydisperse_spheres(seed=4)
     detection = PeriodicDetection(ALERT)
     fast = detection.detect(state, library, cell, sphere_rows=True)
     general = detection.detect(state, library, cell)
@@ -377,12 +383,7 @@ def test_the_cell_lists_chunks_on_the_threads_give_the_serial_rows(monkeypatch, 
     # 2.7 diameters the chunks overflow their share of the scratch and are run again
     from grainlab.engine import periodic_spheres
 
-    rng = np.random.default_rng(5)
-    radii = rng.uniform(0.25, 0.5, 600)
-    library = ShapeLibrary.from_spheres(radii)
-    cell = _scaled_cell(SHEARED, 2 * radii.max() + ALERT, factor=9.0)
-    x = _placed(cell, radii, rng, ratio=0.9) + rng.integers(-2, 3, (600, 3)) @ cell.matrix.T
-    state = BodyState.from_library(library, np.arange(600), x, 1000.0)
+    library, state, cell = polydisperse_spheres(seed=5)
     runs = []
     for threshold in (10**9, 0):
         monkeypatch.setattr(periodic_spheres, "PARALLEL_SPHERES", threshold)
