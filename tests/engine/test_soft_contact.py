@@ -393,10 +393,10 @@ def test_rolling_resistance_holds_a_sphere_on_a_gentle_incline():
     assert results[0.05] > 0.1
 
 
-def jostling_spheres(side: int, spin: float = 0.0):
-    """Three steps of side^3 jostling frictional Hertz spheres (random velocities, spins of
-    scale ``spin`` [rad/s]) in a periodic cell: the end positions, velocities, spins and
-    springs, and the solver."""
+def jostling_setup(side: int, spin: float = 0.0, seed: int = 0):
+    """side^3 jostling frictional Hertz spheres (random velocities, spins of scale ``spin``
+    [rad/s]) on a lattice filling a periodic cell, and a solver of 30 sub-steps a step:
+    (state, library, cell, solver)."""
     from grainlab.engine.periodic_boundary import PeriodicCell
 
     diameter = 1.5e-3
@@ -404,13 +404,20 @@ def jostling_spheres(side: int, spin: float = 0.0):
     library = ShapeLibrary.from_spheres([0.5 * diameter])
     state = BodyState.from_library(library, np.zeros(len(grid), dtype=np.int64),
                                    (grid + 0.5) * diameter * 0.999, 2600.0)
-    rng = np.random.default_rng(0)
+    rng = np.random.default_rng(seed)
     state.velocities[:] = rng.normal(scale=0.05, size=state.velocities.shape)
     state.angular_velocities[:] = rng.normal(scale=spin, size=state.velocities.shape)
     cell = PeriodicCell(np.eye(3) * side * diameter * 0.999)
     solver = SoftContactStep(SoftContactLaw.hertz_mindlin(1e9, 0.25, restitution=0.5),
                              dt=1.0, friction=0.4)
     solver.dt = 30 * solver.stable_substep(state, library)
+    return state, library, cell, solver
+
+
+def jostling_spheres(side: int, spin: float = 0.0):
+    """Three steps of :func:`jostling_setup`: the end positions, velocities, spins and
+    springs, and the solver."""
+    state, library, cell, solver = jostling_setup(side, spin)
     for _ in range(3):
         solver.step(state, library, cell)
     return (state.positions.copy(), state.velocities.copy(), state.angular_velocities.copy(),
@@ -509,20 +516,8 @@ def test_a_kept_step_report_is_that_of_its_own_step():
     """The report of a step read after four more steps gives what it gave when read at once
     (its arrays are made from the list's outputs of its own step, which the later steps leave
     alone), and those are not the contacts of the last step."""
-    from grainlab.engine.periodic_boundary import PeriodicCell
-
     def run(read_at_once: bool):
-        diameter, side = 1.5e-3, 6
-        grid = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij"),
-                        axis=-1).reshape(-1, 3)
-        library = ShapeLibrary.from_spheres([0.5 * diameter])
-        state = BodyState.from_library(library, np.zeros(len(grid), dtype=np.int64),
-                                       (grid + 0.5) * diameter * 0.999, 2600.0)
-        state.velocities[:] = np.random.default_rng(1).normal(scale=0.05, size=(len(grid), 3))
-        cell = PeriodicCell(np.eye(3) * side * diameter * 0.999)
-        solver = SoftContactStep(SoftContactLaw.hertz_mindlin(1e9, 0.25, restitution=0.5),
-                                 dt=1.0, friction=0.4)
-        solver.dt = 30 * solver.stable_substep(state, library)
+        state, library, cell, solver = jostling_setup(6, seed=1)
         solver.step(state, library, cell)
         report = solver.step(state, library, cell)
         at_once = [a.copy() for a in _report_arrays(report)] if read_at_once else None

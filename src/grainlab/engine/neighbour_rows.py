@@ -44,19 +44,10 @@ def member_rows_kernel(body_i, body_j, member_i, member_j, first_member, sphere_
 
 
 @njit(cache=True, _nrt=False)
-def keys_sorted(keys) -> bool:
-    """Whether ``keys`` (C,) never decrease."""
-    for k in range(1, keys.shape[0]):
-        if keys[k] < keys[k - 1]:
-            return False
-    return True
-
-
-@njit(cache=True, _nrt=False)
 def carry_springs_kernel(old_keys, old_xi, old_roll, new_keys, new_xi, new_roll) -> int:
     """The springs of the rows of the last list carried to the rows of the new one with the
     same key (member pair): tangential springs ``xi`` (C, 3) [N] and rolling moments
-    ``roll`` (C, 3) [N m]; ``old_keys`` must never decrease (:func:`keys_sorted`), and a key
+    ``roll`` (C, 3) [N m]; ``old_keys`` must never decrease, and a key
     found more than once gives its first row's springs. Rows not found keep theirs. Returns
     the rows found. O(C) when the new keys do not decrease either, O(C log C) else."""
     n_old = old_keys.shape[0]

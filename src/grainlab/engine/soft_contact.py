@@ -96,7 +96,7 @@ from grainlab.engine.boundary import (
 )
 from grainlab.engine.contact_dynamics import StepReport, contact_keys
 from grainlab.engine.narrow_phase import Contacts
-from grainlab.engine.neighbour_rows import carry_springs_kernel, keys_sorted, member_rows_kernel
+from grainlab.engine.neighbour_rows import carry_springs_kernel, member_rows_kernel
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.soft_contact_kernels import (
     ROW_BLOCK,
@@ -399,7 +399,8 @@ class SoftContactStep:
         """The springs of ``rows`` (a list about to be replaced, or saved) by key, in key
         order, for the next list (:func:`~grainlab.engine.neighbour_rows.
         carry_springs_kernel`)."""
-        if keys_sorted(rows.keys):  # the usual order of a list (a stable sort keeps it)
+        keys = rows.keys
+        if np.all(keys[1:] >= keys[:-1]):  # the usual order of a list (a stable sort keeps it)
             self._springs = (rows.keys, rows.xi, rows.roll)
             return
         order = np.argsort(rows.keys, kind="stable")
@@ -474,14 +475,10 @@ class _Rows:
 
     def _outputs(self) -> None:
         c = self.body_j.shape[0]
-        self.force = np.zeros((c, 3))
+        self.renew_report_outputs()
         self.torque_i = np.zeros((c, 3))
         self.torque_j = np.zeros((c, 3))
-        self.gap = np.zeros(c)
-        self.normal = np.zeros((c, 3))
-        self.point = np.zeros((c, 3))
         self.stiffness = np.zeros(c)
-        self.rel_vel = np.zeros((c, 3))
         self.partial = np.zeros((-(-c // ROW_BLOCK), 10))  # the force pass's block sums
         self.springs = np.zeros((c, 6))  # the vector force pass's springs and branches
         self.plain = plain_blocks(self.body_i, self.off_i, self.off_j)
