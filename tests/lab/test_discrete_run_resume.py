@@ -136,6 +136,20 @@ def test_a_target_of_the_stage_under_way_can_change_unless_it_flattens_the_box(t
     assert error.value.field == "test.eps_q_max"
 
 
+def test_a_target_of_the_shear_under_way_in_a_periodic_cell_can_change(tmp_path):
+    """The cell's stages are checked as the cell runs them (not as walls would): the shear
+    under way takes a new eps_q target."""
+    folder = tmp_path / "run"
+    config = {**SHEARING, "sample": {"n_particles": 80, "seed": 3, "boundary": "periodic"}}
+    run = start_run(folder, RunConfig.model_validate(config))
+    run.run(max_steps=12)
+    assert run.test.stage.name == "shear" and run.test.stage_started
+    run.checkpoint()
+    resumed = resume_run(folder, ["test.eps_q_max=0.1"])
+    assert resumed.test.stages[1].stop[0].limit == 0.1
+    assert resumed.test.stages[1].modes == run.test.stages[1].modes
+
+
 def test_a_box_too_thin_stops_its_stage_with_the_diagnosis(tmp_path):
     run = start_run(tmp_path / "run", RunConfig.model_validate(SHEARING))
     run.run(max_steps=12)

@@ -80,6 +80,12 @@ class CellStage:
         """(6,) bool."""
         return self.stage.stress_controlled
 
+    @property
+    def modes(self) -> tuple[str, ...]:
+        """Per generalised component, "stress" or "strain" (as a wall stage's modes: what a
+        resumed run may not change for a stage under way)."""
+        return tuple("stress" if c else "strain" for c in self.stress_controlled)
+
     @cached_property
     def strain_per_step(self) -> np.ndarray:
         """(6,) generalised strain per unit of lambda [-] (0 at stress components)."""

@@ -79,7 +79,7 @@ from grainlab.lab.run_checkpoint import (
 )
 from grainlab.lab.run_config import CHANGEABLE_ON_RESUME, RunConfig, parse_assignments
 from grainlab.lab.run_outcome import RunCost, RunOutcome
-from grainlab.lab.wall_stages import QuasiStaticCriteria, wall_stages
+from grainlab.lab.wall_stages import QuasiStaticCriteria
 from grainlab.prep.inscribed_sample import deposited_sample, inscribed_sample
 from grainlab.prep.loose_sample import loose_sample
 from grainlab.prep.particle_files import read_particles
@@ -757,7 +757,7 @@ def _check_stages(test: DiscreteTest, started: RunConfig, changed: dict) -> None
     """Refuse target changes that touch a stage already ended (or the stage under way's
     kind): an :class:`InputError` naming the key."""
     key = next(k for k in changed if k.startswith("test."))
-    before = wall_stages(started.load_path())
+    before = test.load_stages(started.load_path())
     after = test.stages
     begun = test.stage_index + (1 if test.stage_started else 0)
     for i in range(min(begun, len(before))):
