@@ -103,6 +103,7 @@ from grainlab.engine.soft_contact_kernels import (
     SERVO_INTEGRAL,
     SUBSTEP_SERVO_FRACTION,
     body_rows,
+    isotropic_blocks,
     plain_blocks,
     servo_kernel,
     substeps_kernel,
@@ -565,6 +566,7 @@ class _BodyConstants:
         self.isotropic = np.all(np.isclose(state.inertias, state.inertias[:, :1], rtol=1e-12,
                                            atol=0.0), axis=1)
         self.arm = rotation_arms(library, ids)
+        self.plain_bodies = isotropic_blocks(self.isotropic)
         self.substep = solver.stable_substep(state, library)
 
     def describes(self, state: BodyState, library: ShapeLibrary) -> bool:
@@ -586,6 +588,7 @@ class _Run:
         self.principal = bodies.principal
         self.isotropic = bodies.isotropic
         self.arm = bodies.arm
+        self.plain_bodies = bodies.plain_bodies
         self.wall_disp = np.zeros(n_walls)
         self.wall_speed = np.array(bounds.wall_free, dtype=np.float64)
         self.cell_h = np.array(bounds.cell_matrix, dtype=np.float64)
@@ -682,7 +685,8 @@ class _Run:
             self.stats, rows.approach, rows.partial,
             threads_pay(state.n_bodies), self.servo_inv_mass, self.servo_free,
             self.servo_max, self.wall_memory, self.macro, self.integral,
-            SUBSTEP_SERVO_FRACTION, self.wall_floor, rows.plain, rows.springs)
+            SUBSTEP_SERVO_FRACTION, self.wall_floor, rows.plain, rows.springs,
+            self.plain_bodies)
         smallest = float(np.min(rows.rad_j)) if rows.rad_j.size else math.inf
         if self.stats[0] > OVERLAP_LIMIT * smallest:
             raise SimulationBlowUp(

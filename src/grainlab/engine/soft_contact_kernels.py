@@ -36,7 +36,8 @@ from numba import njit, prange
 
 from grainlab.contact.soft_contact_law import contact_law
 from grainlab.engine.narrow_phase import sphere_sphere
-from grainlab.engine.quaternion import half_turn, rotate
+from grainlab.engine.quaternion import half_turn, rotate, turned
+from grainlab.engine.sphere_bodies import large_turns, sphere_bodies_kernel
 from grainlab.engine.sphere_rows import sphere_rows_kernel, turn_with_frame
 
 OUTWARD_FACTOR = 4.0
@@ -492,16 +493,8 @@ def _drift_body(b, dt, principal, isotropic, arm, positions, orientations, veloc
                                 principal[b, 2])
         lx, ly, lz = _apply_tensor(inertia, wx, wy, wz)
     dw, sinc = half_turn(0.5 * spin * dt)
-    f = sinc * 0.5 * dt  # sin(h |omega| / 2) / |omega|
-    dx, dy, dz = f * wx, f * wy, f * wz
-    nw = dw * w - dx * x - dy * y - dz * z
-    nx = dw * x + w * dx + dy * z - dz * y
-    ny = dw * y + w * dy + dz * x - dx * z
-    nz = dw * z + w * dz + dx * y - dy * x
-    # back onto |q| = 1: one Newton step of 1 / sqrt(|q|^2) from 1 (|q|^2 - 1 is a few
-    # rounding errors: the step leaves (|q|^2 - 1)^2, below them), without a root or a division
-    unit = 1.5 - 0.5 * (nw * nw + nx * nx + ny * ny + nz * nz)
-    nw, nx, ny, nz = nw * unit, nx * unit, ny * unit, nz * unit
+    # sin(h |omega| / 2) / |omega|
+    nw, nx, ny, nz = turned(w, x, y, z, dw, sinc * 0.5 * dt, wx, wy, wz)
     orientations[b, 0], orientations[b, 1] = nw, nx
     orientations[b, 2], orientations[b, 3] = ny, nz
     if not isotropic[b]:
@@ -542,54 +535,104 @@ def _body_pass(b, close, carry, open_, half, dt, adj_start, adj_entry, force, to
                     velocities, spins, travel)
 
 
+BODY_BLOCK = 512
+"""Bodies per block of the bodies' pass of a sub-step: the threads' units of work, and the
+runs of bodies that go through the vector kernel of :mod:`grainlab.engine.sphere_bodies`
+when they all have isotropic inertia (:func:`isotropic_blocks`)."""
+
+
+def isotropic_blocks(isotropic: np.ndarray) -> np.ndarray:
+    """Per block of :data:`BODY_BLOCK` bodies, whether all its bodies have isotropic inertia
+    (spheres, and shapes whose principal moments are equal)."""
+    n_blocks = -(-isotropic.shape[0] // BODY_BLOCK)
+    padded = np.ones(n_blocks * BODY_BLOCK, dtype=np.bool_)
+    padded[:isotropic.shape[0]] = isotropic
+    return np.ascontiguousarray(padded.reshape(n_blocks, BODY_BLOCK).all(axis=1))
+
+
+@njit(_nrt=False)
+def _bodies_block(blk, close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
+                  torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping, arm,
+                  gradient, carried, cx, cy, cz, positions, orientations, velocities, spins,
+                  body_force, body_torque, travel, plain):
+    """The bodies of block ``blk``: through the vector kernel (after the gather, then
+    :func:`~grainlab.engine.sphere_bodies.large_turns`) if they are all of isotropic inertia
+    (``plain[blk]``) and there is no local damping, else body by body; the same bits."""
+    lo, hi = blk * BODY_BLOCK, min((blk + 1) * BODY_BLOCK, masses.shape[0])
+    if plain[blk] and local_damping == 0.0:
+        if close:
+            for b in range(lo, hi):
+                _gather_body(b, adj_start, adj_entry, force, torque_i, torque_j, masses,
+                             gravity, body_force, body_torque)
+        left = sphere_bodies_kernel(lo, hi, close, carry, open_, half, dt, inv_mass,
+                                    principal.reshape(principal.size), arm,
+                                    gradient.reshape(9), carried.reshape(9), cx, cy, cz,
+                                    body_force.reshape(body_force.size),
+                                    body_torque.reshape(body_torque.size),
+                                    positions.reshape(positions.size),
+                                    orientations.reshape(orientations.size),
+                                    velocities.reshape(velocities.size),
+                                    spins.reshape(spins.size), travel)
+        if left > 0:
+            large_turns(lo, hi, dt, orientations, spins)
+    else:
+        for b in range(lo, hi):
+            _body_pass(b, close, carry, open_, half, dt, adj_start, adj_entry, force,
+                       torque_i, torque_j, masses, gravity, inv_mass, principal, isotropic,
+                       local_damping, arm, gradient, carried, cx, cy, cz, positions,
+                       orientations, velocities, spins, body_force, body_torque, travel)
+
+
 @njit(cache=True, _nrt=False)
 def bodies_kernel(close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
                   torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
                   arm, gradient, carried, cx, cy, cz, positions, orientations,
-                  velocities, spins, body_force, body_torque, travel):
+                  velocities, spins, body_force, body_torque, travel, plain):
     """The bodies' side of the sub-steps, body by body: with ``close`` the gather and the
     half kick that end a sub-step (:func:`gather_kernel`, :func:`kick_kernel`), with
     ``carry`` the change of the cell's velocity gradient taken up (v += (L - L_carried)
     (x - x_c), x_c = (``cx``, ``cy``, ``cz``) [m]: :func:`carry_gradient_kernel`), with
     ``open_`` the half kick and the drift that start the next (:func:`kick_kernel`,
     :func:`drift_kernel`), in that order. Each body's operations are those of the separate
-    kernels, in their order: the same bits."""
-    for b in range(masses.shape[0]):
-        _body_pass(b, close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
-                   torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
-                   arm, gradient, carried, cx, cy, cz, positions, orientations,
-                   velocities, spins, body_force, body_torque, travel)
+    kernels, in their order: the same bits. In blocks of :data:`BODY_BLOCK` bodies, those
+    flagged in ``plain`` (:func:`isotropic_blocks`) as vector code (:func:`_bodies_block`)."""
+    for blk in range(plain.shape[0]):
+        _bodies_block(blk, close, carry, open_, half, dt, adj_start, adj_entry, force,
+                      torque_i, torque_j, masses, gravity, inv_mass, principal, isotropic,
+                      local_damping, arm, gradient, carried, cx, cy, cz, positions,
+                      orientations, velocities, spins, body_force, body_torque, travel, plain)
 
 
 @njit(cache=True, parallel=True, _nrt=False)
 def bodies_parallel(close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
                     torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
                     arm, gradient, carried, cx, cy, cz, positions, orientations,
-                    velocities, spins, body_force, body_torque, travel):
-    """:func:`bodies_kernel` with the bodies shared out over the threads (the same
+                    velocities, spins, body_force, body_torque, travel, plain):
+    """:func:`bodies_kernel` with the blocks of bodies shared out over the threads (the same
     results: the bodies do not interact in it)."""
-    for b in prange(masses.shape[0]):
-        _body_pass(np.int64(b), close, carry, open_, half, dt, adj_start, adj_entry, force,
-                   torque_i, torque_j, masses, gravity, inv_mass, principal, isotropic,
-                   local_damping, arm, gradient, carried, cx, cy, cz, positions,
-                   orientations, velocities, spins, body_force, body_torque, travel)
+    for blk in prange(plain.shape[0]):
+        _bodies_block(np.int64(blk), close, carry, open_, half, dt, adj_start, adj_entry,
+                      force, torque_i, torque_j, masses, gravity, inv_mass, principal,
+                      isotropic, local_damping, arm, gradient, carried, cx, cy, cz, positions,
+                      orientations, velocities, spins, body_force, body_torque, travel, plain)
 
 
-@njit(inline="always")
+@njit(_nrt=False)  # a call: more arguments than Python 3.11 lets Numba inline
 def _bodies(parallel, close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
             torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping, arm,
             gradient, carried, cx, cy, cz, positions, orientations, velocities, spins,
-            body_force, body_torque, travel):
+            body_force, body_torque, travel, plain):
     if parallel:
         bodies_parallel(close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
                         torque_j, masses, gravity, inv_mass, principal, isotropic,
                         local_damping, arm, gradient, carried, cx, cy, cz, positions,
-                        orientations, velocities, spins, body_force, body_torque, travel)
+                        orientations, velocities, spins, body_force, body_torque, travel,
+                        plain)
     else:
         bodies_kernel(close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
                       torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
                       arm, gradient, carried, cx, cy, cz, positions, orientations,
-                      velocities, spins, body_force, body_torque, travel)
+                      velocities, spins, body_force, body_torque, travel, plain)
 
 
 SUBSTEP_SERVO_FRACTION = 0.1
@@ -870,7 +913,8 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
                     normal, point, stiffness, rel_vel, virial, body_force, body_torque,
                     wall_force, wall_stiffness, wall_impulse, stress_impulse, stats,
                     approach, partial, parallel, wall_inv_mass, wall_free, wall_max,
-                    wall_memory, macro, integral, servo_gain, wall_floor, plain, springs):
+                    wall_memory, macro, integral, servo_gain, wall_floor, plain, springs,
+                    plain_bodies):
     """Up to ``n_steps`` velocity-Verlet sub-steps of ``dt`` [s] on the current list: half
     kick, drift (walls at their speeds ``wall_speed`` (W,) [m/s], the cell h at hdot = L h),
     forces, half kick; then the cell's servo (:func:`cell_servo_kernel`) sets L from the
@@ -884,7 +928,8 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
     over from call to call while the list lives. Returns the sub-steps done; ``stats[0]``
     becomes the largest overlap [m] met. ``partial`` (ceil(C / ROW_BLOCK), 10) and
     ``springs`` (C, 6) are scratch, ``plain`` the blocks of plain rows
-    (:func:`contact_forces_kernel`); with ``parallel`` the rows and the bodies are shared out
+    (:func:`contact_forces_kernel`), ``plain_bodies`` the blocks of bodies of isotropic
+    inertia (:func:`isotropic_blocks`); with ``parallel`` the rows and the bodies are shared out
     over the threads (the same results: :func:`contact_forces_parallel`,
     :func:`bodies_parallel`)."""
     half = 0.5 * dt
@@ -925,7 +970,7 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
         _bodies(parallel, no, no, yes, half, dt, adj_start, adj_entry, force, torque_i,
                 torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
                 arm, gradient, carried, 0.0, 0.0, 0.0, positions, orientations,
-                velocities, spins, body_force, body_torque, travel)
+                velocities, spins, body_force, body_torque, travel, plain_bodies)
     for _ in range(n_steps):
         for w in range(wall_disp.shape[0]):
             wall_disp[w] += dt * wall_speed[w]
@@ -977,7 +1022,8 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
         _bodies(parallel, yes, change, not stop, half, dt, adj_start, adj_entry, force,
                 torque_i, torque_j, masses, gravity, inv_mass, principal, isotropic,
                 local_damping, arm, gradient, carried, cx, cy, cz, positions,
-                orientations, velocities, spins, body_force, body_torque, travel)
+                orientations, velocities, spins, body_force, body_torque, travel,
+                plain_bodies)
         if carrying:  # hdot = L h follows the cell
             _take_up(change, gradient, carried, cell_h, cell_rate)
         if stop:
