@@ -16,11 +16,13 @@ always in the order of the list.
 
 Threads. The rows are evaluated in blocks of :data:`ROW_BLOCK`, whose sums (the springs'
 virial, the largest overlap) are added in block order; the bodies' side of a sub-step (gather,
-kicks, drift, the cell's velocity gradient taken up) is body by body. So the same sub-steps
-run on one thread (:func:`contact_forces_kernel`, :func:`bodies_kernel`) or on several
+kicks, drift, the cell's velocity gradient taken up) is body by body, in blocks of
+:data:`BODY_BLOCK` bodies (as vector code for bodies of isotropic inertia:
+:mod:`grainlab.engine.sphere_bodies`). So the same sub-steps run on one thread
+(:func:`contact_forces_kernel`, :func:`bodies_kernel`) or on several
 (:func:`contact_forces_parallel`, :func:`bodies_parallel`: ``parallel`` in
-:func:`substeps_kernel`) with the same results, bit for bit, whatever the
-number of threads. Each parallel loop costs ~0.02 ms to start with Numba's TBB layer on a
+:func:`substeps_kernel`) with the same results, bit for bit, whatever the number of threads.
+Each parallel loop costs ~0.02 ms to start with Numba's TBB layer on a
 2-core machine, ~0.17 ms with workqueue (two per sub-step: the rows, then the bodies'
 end of the sub-step and start of the next in one pass), so the threads pay from about
 1000 bodies with TBB, 8000 with workqueue (:data:`~grainlab.engine.soft_contact.
