@@ -38,6 +38,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent / "peers"))
 import run_peers
 
 SIGMA0 = 1e5
+TARGET_RATE = 1e7
+"""The speed target [particle-steps/s]: at least this, and faster than every peer run."""
 
 
 def run_grainlab(folder: Path, n: int, eps1: float, eps_q: float, seed: int) -> dict:
@@ -108,6 +110,10 @@ def main() -> None:
               f"{r['peak_q_over_p']:9.3f} {r['residual_q_over_p']:8.3f} {r['phi']:6.3f} "
               f"{r['z']:5.2f} {'' if lateral is None else f'{lateral:12.3%}'}")
     print(f"grainlab as asked: {rows[0]['as_asked']}")
+    fastest = max((r["particle_steps_per_s"] for r in rows[1:]), default=0.0)
+    met = ours >= TARGET_RATE and ours > fastest
+    print(f"speed target (>= {TARGET_RATE:.0e} particle-steps/s and faster than every peer "
+          f"run): {'met' if met else 'missed'} ({ours:.3g}; fastest peer {fastest:.3g})")
 
 
 if __name__ == "__main__":
