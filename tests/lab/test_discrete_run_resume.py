@@ -6,6 +6,7 @@ blow-up says how to resume."""
 from __future__ import annotations
 
 import json
+import math
 
 import h5py
 import numpy as np
@@ -18,6 +19,7 @@ from grainlab.lab.discrete_run import resume_run, start_run
 from grainlab.lab.run_config import EARLIER_SOLVER_KEYS, RunConfig
 from grainlab.lab.run_outcome import BOX_TOO_THIN
 from grainlab.lab.stage_numerics import COMPACTION
+from grainlab.lab.wall_stages import QuasiStaticCriteria
 
 TINY = {
     "sample": {"n_particles": 30, "seed": 3},
@@ -68,6 +70,18 @@ def test_the_other_kind_of_stage_keeps_its_settings_until_it_starts(compacting):
     assert run.test.settings.shear.tolerance == 1e-5
     assert run.test.solver.tolerance == COMPACTION.tolerance  # still compacting
     assert RunConfig.read(compacting / "config.toml").solver.shear.tolerance == 1e-5
+
+
+def test_a_compaction_under_way_takes_new_quasi_static_criteria(compacting):
+    run = resume_run(compacting, ["test.quasi_static.kinetic_energy=inf",
+                                  "test.quasi_static.unbalanced_force=0.05"])
+    assert run.test.settings.quasi_static == QuasiStaticCriteria(
+        unbalanced_force=0.05, kinetic_energy=math.inf)
+    assert run.test.solver.tolerance == COMPACTION.tolerance
+    table = run.run().table
+    assert run.test.finished and table["unbalanced_force_ratio"].iloc[-1] <= 0.05
+    assert RunConfig.read(compacting / "config.toml").test.quasi_static.kinetic_energy == \
+        math.inf
 
 
 def test_keys_edited_in_config_toml_take_effect_at_once(compacting):

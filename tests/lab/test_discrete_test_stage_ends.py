@@ -1,8 +1,11 @@
 """Stages of discrete tests end on their targets whatever the record interval: the strain of
 a strain-controlled axis exactly, a stop criterion on a strain within a step; the end state is
-a row; the cut last step goes through a checkpoint; K0 of one-dimensional compression."""
+a row; the cut last step goes through a checkpoint; K0 of one-dimensional compression; a
+compaction ends at the first record that meets its quasi-static criteria, as set."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pandas as pd
@@ -12,6 +15,7 @@ from grainlab.engine.simulation import Periodic
 from grainlab.lab.discrete_run import resume_run, start_run
 from grainlab.lab.discrete_test import SHORTEST_CUT
 from grainlab.lab.run_config import RunConfig
+from grainlab.lab.wall_stages import QuasiStaticCriteria
 
 AXIAL, UNLOAD = 0.002, 0.001
 
@@ -133,3 +137,17 @@ def test_every_stage_ends_in_a_snapshot_whatever_the_snapshot_interval(oedometer
     at_ends = [(s["stage"], int(s["step"])) for s in states if int(s["step"]) % 500]
     assert at_ends == [(name, step) for name, step in ends.items() if step % 500]
     assert len(states) == len(periodic) + len(at_ends) and len(at_ends) >= 2
+
+
+@pytest.mark.parametrize("criteria", [{}, {"kinetic_energy": math.inf},
+                                      {"kinetic_energy": math.inf, "unbalanced_force": math.inf}])
+def test_a_compaction_ends_at_the_first_record_that_meets_its_criteria(tmp_path, criteria):
+    config = RunConfig.model_validate({
+        "sample": {"n_particles": 30, "seed": 3},
+        "test": {"kind": "compaction", "quasi_static": criteria}, "solver": {"sweep": "serial"},
+        "output": {"record_every": 5, "checkpoint_every": 0, "snapshot_every": 0}})
+    table = start_run(tmp_path / "run", config).run().table
+    settled = QuasiStaticCriteria(**criteria)
+    sigma0 = {axis: config.test.sigma0 for axis in range(3)}
+    met = [settled.met(row, sigma0) for row in table.to_dict("records")]
+    assert met[-1] and not any(met[:-1])

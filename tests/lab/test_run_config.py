@@ -4,6 +4,8 @@ read as the same config, ``--set`` on sub-tables."""
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from grainlab.errors import InputError
@@ -14,6 +16,7 @@ from grainlab.lab.run_config import (
     parse_assignments,
 )
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR, STAGE_KINDS, StageNumerics
+from grainlab.lab.wall_stages import QuasiStaticCriteria
 
 EARLIER_CONFIG = """
 [sample]
@@ -140,3 +143,33 @@ def test_every_per_stage_key_but_friction_can_change_on_resume():
         RunConfig().with_updates({"solver": {"compaction": {"friction": 0.1}}}
                                  ).changes_on_resume(started)
     assert error.value.field == "solver.compaction.friction"
+
+
+def test_the_quasi_static_criteria_are_a_table_of_the_test(tmp_path):
+    assert RunConfig().settings().quasi_static == QuasiStaticCriteria()
+    config = RunConfig.model_validate({"test": {"quasi_static": {
+        "kinetic_energy": math.inf, "unbalanced_force": 0.02, "stress_tolerance": 0.005}}})
+    again = RunConfig.read(config.write(tmp_path / "config.toml"))
+    assert "[test.quasi_static]" in (tmp_path / "config.toml").read_text()
+    assert again.settings().quasi_static == QuasiStaticCriteria(
+        stress_tolerance=0.005, unbalanced_force=0.02, kinetic_energy=math.inf)
+    assert again.changes_on_resume(RunConfig()) == {
+        "test.quasi_static.stress_tolerance": (0.01, 0.005),
+        "test.quasi_static.unbalanced_force": (0.01, 0.02),
+        "test.quasi_static.kinetic_energy": (1e-6, math.inf)}
+
+
+@pytest.mark.parametrize("key, value, allowed", [
+    ("unbalanced_force", 0.0, "> 0"), ("kinetic_energy", -1e-6, "> 0"),
+    ("kinetic_energy", math.nan, "> 0"), ("stress_tolerance", 1.0, "(0, 1)"),
+])
+def test_bad_quasi_static_criteria_name_the_key(key, value, allowed):
+    with pytest.raises(InputError) as error:
+        RunConfig.model_validate({"test": {"quasi_static": {key: value}}})
+    assert error.value.field == f"test.quasi_static.{key}"
+    assert allowed in error.value.allowed
+    with pytest.raises(InputError) as error:
+        QuasiStaticCriteria(**{key: value})
+    assert error.value.field == key
+    with pytest.raises(InputError, match="inf"):
+        RunConfig.model_validate({"test": {"quasi_static": {"unbalanced_force": "none"}}})

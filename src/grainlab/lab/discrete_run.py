@@ -717,7 +717,7 @@ def resume_run(folder: str | Path, changes: list[str] | dict | None = None, *,
     test.rows = saved["rows"]
     test.solver.restore_warm_start(saved["warm_start"])
     test.solver.rng_state = saved["rng_state"]
-    if any(key.startswith("test.") for key in changed):
+    if any(_is_target(key) for key in changed):
         _check_stages(test, started, changed)
         _refuse_flattening(test)
     test.apply_settings(started.settings())
@@ -753,10 +753,15 @@ def resume_run(folder: str | Path, changes: list[str] | dict | None = None, *,
     return run
 
 
+def _is_target(key: str) -> bool:
+    """A key of ``[test]`` that sets a stage's target (not when a compaction has settled)."""
+    return key.startswith("test.") and not key.startswith("test.quasi_static.")
+
+
 def _check_stages(test: DiscreteTest, started: RunConfig, changed: dict) -> None:
     """Refuse target changes that touch a stage already ended (or the stage under way's
     kind): an :class:`InputError` naming the key."""
-    key = next(k for k in changed if k.startswith("test."))
+    key = next(k for k in changed if _is_target(k))
     before = test.load_stages(started.load_path())
     after = test.stages
     begun = test.stage_index + (1 if test.stage_started else 0)

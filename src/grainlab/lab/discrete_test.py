@@ -468,10 +468,10 @@ class DiscreteTest:
         """Take up the current ``settings`` in a stage under way (a resumed run whose
         settings changed from ``previous``): solver settings at once, a new bound on the
         inertia number scales the strain rate and the walls' speeds, the time step follows.
-        Nothing changes when only the records and stage ends differ (a resumed run stays
-        identical)."""
+        Nothing changes when only the records and stage ends (the quasi-static criteria
+        included) differ (a resumed run stays identical up to a changed end)."""
         same = {"record_every": 1, "snapshot_every": 0, "max_stage_steps": 1,
-                "at_max_stage_steps": "stop"}
+                "at_max_stage_steps": "stop", "quasi_static": QuasiStaticCriteria()}
         if not self.stage_started or self.finished or \
                 replace(previous, **same) == replace(self.settings, **same):
             return

@@ -13,6 +13,9 @@ every key has a default, an unknown key is an error that names it::
                true_triaxial), axial_strain and unload_strain (oedometer), b (true_triaxial),
                gamma_max (simple_shear), q_ratio and circle_points (circular),
                amplitude and n_cycles (cyclic_shear)
+    [test.quasi_static]   stress_tolerance, unbalanced_force, kinetic_energy: when a
+               compaction has settled (:class:`~grainlab.lab.wall_stages.QuasiStaticCriteria`;
+               inf: not checked)
     [solver]   method ("cd": contact dynamics | "dem": soft-contact DEM), dt [s]
                (0: automatic), theta, sweep, max_stage_steps, at_max_stage_steps
                ("stop" | "next_stage"), wall_mass_factor, wall_servo, seed
@@ -75,6 +78,7 @@ from grainlab.lab.presets import (
 )
 from grainlab.lab.soft_contact_settings import SoftContactSettings
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR, STAGE_KINDS, StageNumerics
+from grainlab.lab.wall_stages import QuasiStaticCriteria
 from grainlab.prep.sample_shapes import MAX_FACES, sample_shape
 
 TEST_KINDS = ("compaction", "triaxial", "extension", "oedometer", "true_triaxial",
@@ -98,8 +102,13 @@ CHANGEABLE_STAGE_KEYS = ("inertia_number", "time_step_factor", "tolerance",
 """The keys of ``[solver.compaction]`` and ``[solver.shear]`` a resumed run may change (all but
 the friction)."""
 
+QUASI_STATIC_KEYS = ("stress_tolerance", "unbalanced_force", "kinetic_energy")
+"""The keys of ``[test.quasi_static]``: a resumed run may change them (the end of a
+compaction not ended yet)."""
+
 CHANGEABLE_ON_RESUME = (
     "test.eps_q_max", "test.axial_strain", "test.unload_strain",
+    *(f"test.quasi_static.{key}" for key in QUASI_STATIC_KEYS),
     "solver.dt", "solver.max_stage_steps", "solver.at_max_stage_steps",
     *(f"solver.{kind}.{key}" for kind in STAGE_KINDS for key in CHANGEABLE_STAGE_KEYS),
     "output.record_every", "output.snapshot_every", "output.checkpoint_every",
@@ -125,6 +134,7 @@ without overlap recovery then), and the key of ``[solver]`` each is now."""
 
 _RUN_WIDE = DiscreteTestSettings()
 _DEM = SoftContactSettings()
+_SETTLED = QuasiStaticCriteria()
 """The defaults of the run-wide settings (one place: :class:`DiscreteTestSettings`)."""
 
 class _Section(BaseModel):
@@ -180,6 +190,26 @@ class SampleConfig(_Section):
         return value
 
 
+class QuasiStaticConfig(_Section):
+    """``[test.quasi_static]``: when a stage without a strain-controlled axis (the
+    compaction) has settled (:class:`~grainlab.lab.wall_stages.QuasiStaticCriteria`: the
+    stresses within ``stress_tolerance`` of their targets, the unbalanced force ratio and the
+    kinetic energy ratio at most ``unbalanced_force`` and ``kinetic_energy``; ``inf``: not
+    checked)."""
+
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=True)
+
+    stress_tolerance: float = Field(_SETTLED.stress_tolerance, gt=0, lt=1)
+    unbalanced_force: float = Field(_SETTLED.unbalanced_force, gt=0,
+                                    description="or inf: not checked")
+    kinetic_energy: float = Field(_SETTLED.kinetic_energy, gt=0,
+                                  description="or inf: not checked")
+
+    def criteria(self) -> QuasiStaticCriteria:
+        """The :class:`~grainlab.lab.wall_stages.QuasiStaticCriteria` of this table."""
+        return QuasiStaticCriteria(**self.model_dump())
+
+
 class TestConfig(_Section):
     """The lab test: isotropic compaction to sigma0, then (triaxial) compression at constant
     lateral stress sigma0 to eps_q_max, (extension) the same with the axial strain reversed,
@@ -203,6 +233,7 @@ class TestConfig(_Section):
     circle_points: int = Field(36, ge=4, le=3600)
     amplitude: float = Field(0.01, gt=0, le=1.0)
     n_cycles: int = Field(2, ge=1, le=1000)
+    quasi_static: QuasiStaticConfig = Field(default_factory=QuasiStaticConfig)
 
 
 Friction = Annotated[float, Field(ge=0)]
@@ -406,7 +437,8 @@ class RunConfig(_Section):
             theta=s.theta, sweep=s.sweep, record_every=out.record_every,
             snapshot_every=out.snapshot_every, max_stage_steps=s.max_stage_steps,
             at_max_stage_steps=s.at_max_stage_steps, wall_mass_factor=s.wall_mass_factor,
-            wall_servo=s.wall_servo, seed=s.seed, method=s.method, dem=s.dem.settings())
+            wall_servo=s.wall_servo, quasi_static=self.test.quasi_static.criteria(),
+            seed=s.seed, method=s.method, dem=s.dem.settings())
 
 
 def current_layout(data: Any) -> tuple[Any, dict[str, str]]:
