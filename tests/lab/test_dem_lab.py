@@ -189,3 +189,32 @@ def test_dem_compaction_of_polyhedra_runs_to_the_end(tmp_path):
     fractions = [end[f"fraction_{t}"] for t in ("fv", "ee", "fe", "ff")]
     assert sum(fractions) == pytest.approx(1.0)
     assert 0.0 < end["max_overlap_over_d"] < 0.05
+
+
+class _Substeps:
+    """Records each step's length and its count of sub-steps."""
+
+    name = "substeps"
+
+    def __init__(self, solver) -> None:
+        from grainlab.engine.simulation import Periodic
+
+        self.trigger, self.solver, self.steps = Periodic(1), solver, []
+
+    def act(self, simulation) -> None:
+        self.steps.append((self.solver.dt, self.solver.last_substeps))
+
+
+@pytest.mark.parametrize("boundary", ["walls", "periodic"])
+def test_dem_lab_steps_are_whole_stable_substeps(tmp_path, boundary):
+    run = start_run(tmp_path / "run", config(sample={"boundary": boundary, "n_particles": 80},
+                                             test={"eps_q_max": 0.01}))
+    solver = run.test.solver
+    trace = run.test.simulation.add(_Substeps(solver))
+    run.run(max_steps=60)
+    stable = solver.stable_substep(run.test.sample.state, run.test.sample.library)
+    assert solver.substep == stable
+    whole = [n for dt, n in trace.steps if dt == pytest.approx(n * stable, rel=1e-12)]
+    # every step but a stage's cut last one runs full-length sub-steps
+    assert len(whole) >= len(trace.steps) - 2 and len(trace.steps) == 60
+    assert sum(whole) >= 60

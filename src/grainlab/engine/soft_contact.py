@@ -289,6 +289,15 @@ class SoftContactStep:
         radius = smallest_radius(library)
         return self.law.time_step(lightest, radius, state.density)
 
+    def whole_substeps(self, dt: float, state: BodyState, library: ShapeLibrary) -> float:
+        """``dt`` [s] rounded down to a whole number (at least one) of sub-steps of full
+        length: the fixed sub-step, or the stable one of these bodies. A step of ``dt`` is
+        cut into ceil(dt / sub-step) equal sub-steps, so a lab step of 10.3 stable sub-steps
+        would run 11 of 0.94 of the stable length; rounded down it runs 10 of full length
+        (the peers' test: 5 % fewer sub-steps)."""
+        substep = self.fixed_substep or self.stable_substep(state, library)
+        return max(1, math.floor(dt / substep * (1.0 + 1e-12))) * substep
+
     def step(self, state: BodyState, library: ShapeLibrary, walls=None) -> StepReport:
         """Advance ``state`` (and the boundary) by one step of ``dt`` (module docstring)."""
         macro = self.dt

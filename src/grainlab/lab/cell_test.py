@@ -129,8 +129,8 @@ class CellTest(DiscreteTest):
         v_max = self.stage_wall_speed
         self.solver.overlap_recovery_speed = RECOVERY_SPEED_FRACTION * v_max
         if s.dt is None:
-            self.stage_dt = numerics.time_step_factor * time_step_length(
-                self.sample.library) / v_max
+            self.stage_dt = self._whole_substeps(numerics.time_step_factor * time_step_length(
+                self.sample.library) / v_max)
         else:
             self.stage_dt = s.dt
         self.solver.dt = self._last_step(self.stage_dt)

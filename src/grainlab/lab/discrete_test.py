@@ -448,7 +448,7 @@ class DiscreteTest:
         self.solver.overlap_recovery_speed = RECOVERY_SPEED_FRACTION * v_max
         if s.dt is None:
             d_min = time_step_length(self.sample.library)
-            self.stage_dt = numerics.time_step_factor * d_min / v_max
+            self.stage_dt = self._whole_substeps(numerics.time_step_factor * d_min / v_max)
         else:  # the last step of the previous stage may have been cut short
             self.stage_dt = s.dt
         self.solver.dt = self._last_step(self.stage_dt)
@@ -463,6 +463,13 @@ class DiscreteTest:
             masses = np.maximum(float(np.sum(self.sample.state.masses)) * s.wall_mass_factor,
                                 self.solver.dt * force / v_max)
             box.set_masses(masses)
+
+    def _whole_substeps(self, dt: float) -> float:
+        """The stage's step [s] from the time step factor's ``dt``: for the soft-contact
+        solver, rounded down to whole stable sub-steps
+        (:meth:`~grainlab.engine.soft_contact.SoftContactStep.whole_substeps`)."""
+        whole = getattr(self.solver, "whole_substeps", None)
+        return dt if whole is None else whole(dt, self.sample.state, self.sample.library)
 
     def apply_settings(self, previous: DiscreteTestSettings) -> None:
         """Take up the current ``settings`` in a stage under way (a resumed run whose
