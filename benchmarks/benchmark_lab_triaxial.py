@@ -84,12 +84,17 @@ def grainlab_run(n: int, eps_q: float, folder: Path) -> dict:
     }
 
 
-def yade_run(n: int, eps_q: float, folder: Path, threads: int) -> dict | None:
+def yade_run(n: int, eps_q: float, folder: Path, threads: int,
+             options: tuple[str, ...] = ()) -> dict | None:
+    """benchmarks/yade/triaxial_spheres.py under ``yade -j threads`` with its ``options``
+    (e.g. ``("--kappa", "1e3")``): the wall time and its RESULT lines (None without
+    ``yade``)."""
     if shutil.which("yade") is None:
         return None
     env = {**os.environ, "OMP_WAIT_POLICY": "PASSIVE"}
     command = ["yade", "-j", str(threads), "-n", "-x", str(HERE / "yade" / "triaxial_spheres.py"),
-               "--n", str(n), "--eps-q-target", str(eps_q), "--csv", str(folder / "yade.csv")]
+               "--n", str(n), "--eps-q-target", str(eps_q), "--csv", str(folder / "yade.csv"),
+               *options]
     start = time.perf_counter()
     out = subprocess.run(command, env=env, capture_output=True, text=True, cwd=folder)
     total = time.perf_counter() - start
