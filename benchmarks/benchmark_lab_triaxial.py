@@ -44,7 +44,7 @@ HERE = Path(__file__).resolve().parent
 
 
 TARGET_SECONDS = 60.0
-"""The issue's bound on the whole 1000-sphere test on 2 threads [s]."""
+"""The speed target of the whole 1000-sphere test on 2 threads [s]."""
 TARGET_CAPPED = 0.02
 """The largest share of steps that may end at the sweep cap."""
 
