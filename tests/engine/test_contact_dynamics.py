@@ -156,6 +156,61 @@ def test_column_of_five_spheres_rests_on_wall():
     assert iterations[-1] <= iterations[0]  # warm start helps
 
 
+def column_under_growing_gravity(extrapolation: float, n: int = 8, steps: int = 12):
+    """A column of n spheres on the floor, gravity growing by 2 % of G a step: every force
+    grows linearly in time. Returns the sweeps of each step and the floor impulses over
+    n m g h."""
+    library, state = spheres([[0.0, 0.0, R + 2 * R * k] for k in range(n)])
+    m = state.masses[0]
+    step = ContactDynamicsStep(dt=DT, friction=0.4, tolerance=1e-10,
+                               warm_start_extrapolation=extrapolation)
+    sweeps, floor = [], []
+    for k in range(steps):
+        g = G * (1.0 + 0.02 * k)
+        step.gravity = np.array([0.0, 0.0, -g])
+        state.velocities[:] = 0.0  # the forces alone change
+        report = step.step(state, library, FLOOR)
+        assert report.converged
+        sweeps.append(report.iterations)
+        wall = report.contacts.body_i < 0
+        floor.append(report.impulses[wall, 0].sum() / (n * m * g * DT))
+    return np.array(sweeps), np.array(floor)
+
+
+def test_extrapolated_warm_start_follows_forces_that_grow_linearly():
+    # lambda = 1 starts every step at its solution once two steps are known; lambda = 0
+    # starts at the previous step's forces and sweeps the change down the column
+    plain, plain_floor = column_under_growing_gravity(0.0)
+    extrapolated, extrapolated_floor = column_under_growing_gravity(1.0)
+    np.testing.assert_allclose(plain_floor, 1.0, rtol=1e-8)
+    np.testing.assert_allclose(extrapolated_floor, 1.0, rtol=1e-8)
+    assert (extrapolated[2:] == 1).all() and (plain[2:] > 1).all(), (plain, extrapolated)
+    half, _ = column_under_growing_gravity(0.5)
+    assert plain[2:].sum() > half[2:].sum() > extrapolated[2:].sum()
+
+
+def test_extrapolated_warm_start_survives_a_checkpoint():
+    library, state = spheres([[0.0, 0.0, R + 2 * R * k] for k in range(3)])
+    step = ContactDynamicsStep(dt=DT, gravity=(0.0, 0.0, -G), friction=0.4)
+    for _ in range(2):
+        step.step(state, library, FLOOR)
+    saved = step.warm_start_arrays()
+    assert saved["earlier_keys"].size == 3 and saved["earlier_forces"].shape == (3, 3)
+    again = ContactDynamicsStep(dt=DT, gravity=(0.0, 0.0, -G), friction=0.4)
+    again.restore_warm_start(saved)
+    for key, value in again.warm_start_arrays().items():
+        np.testing.assert_array_equal(value, saved[key], err_msg=key)
+    older = {key: saved[key] for key in ("keys", "forces")}  # a checkpoint from before
+    again.restore_warm_start(older)
+    assert again.warm_start_arrays()["earlier_keys"].size == 0
+
+
+@pytest.mark.parametrize("value", [-0.1, 1.5, float("nan")])
+def test_warm_start_extrapolation_outside_zero_one_is_refused(value):
+    with pytest.raises(InputError, match="warm_start_extrapolation"):
+        ContactDynamicsStep(dt=DT, warm_start_extrapolation=value)
+
+
 def test_pyramid_obeys_contact_laws_every_step():
     # three spheres on the floor (slightly apart) carrying a fourth; friction holds or slides
     base = [[np.cos(a) * 0.6, np.sin(a) * 0.6, R] for a in (0.0, 2.1, 4.2)]

@@ -37,8 +37,11 @@ SMALL = {
     # no overlap recovery and a compaction solved as tightly as the shear: on 40 particles the
     # recovery's push makes the lateral walls' reactions fluctuate by ~10 % from record to
     # record (1 % without), which the wall-stress checks below would confuse with control
-    "solver": {"sweep": "serial", "compaction": {"inertia_number": 0.05, "max_iterations": 400},
-               "shear": {"inertia_number": 0.01, "overlap_recovery": 0.0}},
+    # the warm start and the shear's sweep cap of the recorded run (tests/lab/data)
+    "solver": {"sweep": "serial", "warm_start_extrapolation": 0.0,
+               "compaction": {"inertia_number": 0.05, "max_iterations": 400},
+               "shear": {"inertia_number": 0.01, "overlap_recovery": 0.0,
+                         "max_iterations": 400}},
     "output": {"record_every": 20, "checkpoint_every": 100, "snapshot_every": 100},
 }
 

@@ -87,8 +87,8 @@ def test_a_compaction_under_way_takes_new_quasi_static_criteria(compacting):
 def test_keys_edited_in_config_toml_take_effect_at_once(compacting):
     path = compacting / "config.toml"
     text = path.read_text()
-    assert "[solver.compaction]" in text and text.count("max_iterations = 200") == 1
-    path.write_text(text.replace("max_iterations = 200", "max_iterations = 60"))
+    assert "[solver.compaction]" in text and text.count("max_iterations = 1000") == 1
+    path.write_text(text.replace("max_iterations = 1000", "max_iterations = 60"))
     assert resume_run(compacting).test.solver.max_iterations == 60
 
 

@@ -13,13 +13,13 @@ from grainlab.lab.stage_numerics import COMPACTION, SHEAR, StageNumerics, stage_
 from grainlab.lab.wall_stages import wall_stages
 
 
-def test_the_defaults_are_the_values_the_lab_tests_ran_with():
-    # the values of the settings before each kind of stage had one object (results unchanged)
+def test_the_defaults_are_the_documented_values():
+    # docs/discrete_engine.md, "Solver settings of the lab tests"
     assert COMPACTION == StageNumerics(friction=0.0, inertia_number=1e-2,
                                        time_step_factor=0.01, tolerance=1e-4,
-                                       max_iterations=200, overlap_recovery=0.0)
+                                       max_iterations=1000, overlap_recovery=0.0)
     assert SHEAR == StageNumerics(friction=0.4, inertia_number=1e-3, time_step_factor=0.003,
-                                  tolerance=1.666e-4, max_iterations=400,
+                                  tolerance=1.666e-4, max_iterations=2000,
                                   overlap_recovery=0.05)
     settings = DiscreteTestSettings()
     assert settings.compaction is COMPACTION and settings.shear is SHEAR

@@ -111,7 +111,7 @@ from typing import Any
 import numpy as np
 
 from grainlab._validate import at_least
-from grainlab.engine.contact_dynamics import ContactDynamicsStep
+from grainlab.engine.contact_dynamics import WARM_START_EXTRAPOLATION, ContactDynamicsStep
 from grainlab.engine.sample_measures import box_strains, log_strains, sample_measures
 from grainlab.engine.shape_kinds import kinds_present, library_time_step_length
 from grainlab.engine.simulation import Periodic, Simulation
@@ -213,8 +213,10 @@ class DiscreteTestSettings:
         (``overlap_recovery_speed`` of the solver).
     dt:
         Time step [s]; None: from the stage's ``time_step_factor``.
-    theta, sweep:
-        Solver settings (:class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`).
+    theta, sweep, warm_start_extrapolation:
+        Solver settings (:class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`;
+        ``warm_start_extrapolation`` lambda in [0, 1], default
+        :data:`~grainlab.engine.contact_dynamics.WARM_START_EXTRAPOLATION`).
     record_every, snapshot_every:
         Steps between results rows and between contact-network snapshots (0: none; with
         snapshots on, the state each stage ends in is one too).
@@ -251,6 +253,7 @@ class DiscreteTestSettings:
     dt: float | None = None
     theta: float = 0.5
     sweep: str = "coloured"
+    warm_start_extrapolation: float = WARM_START_EXTRAPOLATION
     record_every: int = 10
     snapshot_every: int = 0
     max_stage_steps: int = 200_000
@@ -355,7 +358,8 @@ class DiscreteTest:
                 dt=s.dt or 1.0, theta=s.theta, tolerance=first.tolerance,
                 max_iterations=first.max_iterations, friction=first.friction,
                 sweep=s.sweep, seed=s.seed, overlap_recovery=first.overlap_recovery,
-                gyroscopic=self.adaptive_step)
+                gyroscopic=self.adaptive_step,
+                warm_start_extrapolation=s.warm_start_extrapolation)
         self.simulation = Simulation(sample, self.solver)
         self.simulation.add(_StageControl(self))
         self.simulation.add(_Recorder(self, Periodic(s.record_every)))

@@ -17,8 +17,9 @@ every key has a default, an unknown key is an error that names it::
                compaction has settled (:class:`~grainlab.lab.wall_stages.QuasiStaticCriteria`;
                inf: not checked)
     [solver]   method ("cd": contact dynamics | "dem": soft-contact DEM), dt [s]
-               (0: automatic), theta, sweep, max_stage_steps, at_max_stage_steps
-               ("stop" | "next_stage"), wall_mass_factor, wall_servo, seed
+               (0: automatic), theta, sweep, warm_start_extrapolation, max_stage_steps,
+               at_max_stage_steps ("stop" | "next_stage"), wall_mass_factor, wall_servo,
+               seed
     [solver.compaction]   friction, inertia_number, time_step_factor, tolerance,
     [solver.shear]        max_iterations, overlap_recovery, capped_share_limit
                (:class:`~grainlab.lab.stage_numerics.StageNumerics`: compaction for the
@@ -310,6 +311,7 @@ class SolverConfig(_Section):
     dt: float = Field(0.0, ge=0)
     theta: float = Field(_RUN_WIDE.theta, ge=0.5, le=1.0)
     sweep: Literal["coloured", "serial"] = _RUN_WIDE.sweep
+    warm_start_extrapolation: float = Field(_RUN_WIDE.warm_start_extrapolation, ge=0, le=1)
     max_stage_steps: int = Field(_RUN_WIDE.max_stage_steps, ge=1)
     at_max_stage_steps: Literal["stop", "next_stage"] = _RUN_WIDE.at_max_stage_steps
     wall_mass_factor: float = Field(_RUN_WIDE.wall_mass_factor, gt=0)
@@ -434,7 +436,8 @@ class RunConfig(_Section):
         s, out = self.solver, self.output
         return DiscreteTestSettings(
             compaction=s.compaction.numerics(), shear=s.shear.numerics(), dt=s.dt or None,
-            theta=s.theta, sweep=s.sweep, record_every=out.record_every,
+            theta=s.theta, sweep=s.sweep, warm_start_extrapolation=s.warm_start_extrapolation,
+            record_every=out.record_every,
             snapshot_every=out.snapshot_every, max_stage_steps=s.max_stage_steps,
             at_max_stage_steps=s.at_max_stage_steps, wall_mass_factor=s.wall_mass_factor,
             wall_servo=s.wall_servo, quasi_static=self.test.quasi_static.criteria(),
