@@ -113,7 +113,7 @@ from llvmlite import ir
 from numba import get_num_threads, njit, types
 from numba.core.extending import intrinsic
 
-from grainlab._validate import at_least
+from grainlab._validate import at_least, in_range
 from grainlab.engine.boundary import (
     BoundaryMotion,
     ClosedContacts,
@@ -862,12 +862,8 @@ class ContactDynamicsStep:
         self.overlap_recovery = recovery
         self.overlap_recovery_speed = math.inf if overlap_recovery_speed == math.inf else \
             at_least("overlap_recovery_speed", overlap_recovery_speed)
-        extrapolation = at_least("warm_start_extrapolation", warm_start_extrapolation,
-                                 strict=False)
-        if extrapolation > 1.0:
-            raise InputError("warm_start_extrapolation", warm_start_extrapolation,
-                             "a number in [0, 1]")
-        self.warm_start_extrapolation = extrapolation
+        self.warm_start_extrapolation = in_range(
+            "warm_start_extrapolation", warm_start_extrapolation, 0.0, 1.0, closed="[]")
         self._warm_keys = np.zeros(0, dtype=np.int64)
         self._warm_forces = np.zeros((0, 3))
         self._earlier_keys = np.zeros(0, dtype=np.int64)
