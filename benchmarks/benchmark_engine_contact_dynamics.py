@@ -21,7 +21,8 @@ warm-start look-up, keys...); contact updates per second (C x sweeps / kernel ti
 kernel's set-up -- Delassus blocks, gathering -- and convergence checks included); ns per
 contact update; steps per second and particle-steps
 per second. Near-linear growth shows as a near-constant ns per contact update and us per
-particle-step.
+particle-step. Per N, the memory of a simulation taking two steps (state, solver, warm start
+and every array a step allocates from Python; tracemalloc), in all and per sphere.
 
     .venv/bin/python benchmarks/benchmark_engine_contact_dynamics.py [N ...]
 """
@@ -32,6 +33,7 @@ import copy
 import os
 import sys
 import time
+import tracemalloc
 from collections import defaultdict
 from unittest import mock
 
@@ -165,6 +167,23 @@ def run(library, state0, box0, sweep: str, threads: int) -> dict:
     }
 
 
+def step_memory(library, state0, box0) -> float:
+    """Peak memory [bytes] of a simulation of ``state0`` that takes two steps (coloured
+    sweeps): the state, the wall box, the solver and its warm start, and every array a step
+    allocates from Python (tracemalloc: NumPy's allocations; the compiled kernels' own
+    temporaries are not counted)."""
+    tracemalloc.start()
+    try:
+        state, box = copy.deepcopy(state0), copy.deepcopy(box0)
+        step = cd.ContactDynamicsStep(dt=DT, gravity=(0.0, 0.0, -G), friction=FRICTION,
+                                      max_iterations=MAX_SWEEPS)
+        for _ in range(2):
+            step.step(state, library, box)
+        return float(tracemalloc.get_traced_memory()[1])
+    finally:
+        tracemalloc.stop()
+
+
 def main(sizes: list[int]) -> None:
     max_threads = numba.config.NUMBA_NUM_THREADS
     thread_counts = [t for t in (1, 2) if t <= max_threads]
@@ -196,6 +215,10 @@ def main(sizes: list[int]) -> None:
                       f"{n / r['step']:>9.3g} {1e6 * r['step'] / n:>7.2f}{flag}")
         print(f"{'':>7} (packing built in {setup:.1f} s; max overlap after the steps "
               f"{r['overlap'] / D:.3f} d; load average {os.getloadavg()[0]:.2f})")
+        memory = step_memory(library, state, box)
+        print(f"{'':>7} memory: {memory / 2**20:.1f} MiB at its peak, {memory / n:.0f} bytes "
+              f"per sphere ({memory / r['contacts']:.0f} per contact; NumPy arrays of the "
+              f"state, the solver and a step, tracemalloc)")
     numba.set_num_threads(max_threads)
 
 

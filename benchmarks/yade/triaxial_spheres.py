@@ -55,7 +55,8 @@ of grainlab's results (grainlab.result.columns).
 
 Output: a CSV (``--csv``) with one row about every ``--record-every`` [0.01] of eps_q:
 instantaneous state (strains, wall stresses, p, q_over_3, q/p, packing fraction, coordination
-numbers, unbalanced force, inertia number) and q/p averaged over the samples (every
+numbers, unbalanced force, inertia number, largest overlap over the number-mean diameter:
+``max_overlap_over_d``, grainlab's column) and q/p averaged over the samples (every
 ``--sample-every`` [20] steps) since the previous row (``qp_avg``). Peak and residual
 q/p are computed from ``qp_avg`` (the instantaneous peak is printed too). Residual: mean
 over eps_q in [0.3, 0.5] if the run reaches 0.5, else over the last 30 % of eps_q reached.
@@ -354,7 +355,7 @@ W0, H0, D0 = box_dims()
 COLUMNS = ["iter", "time", "eps_1", "eps_3", "eps_vol", "eps_q", "sigma_1", "sigma_3",
            "sigma_x", "sigma_z", "p", "q_over_3", "q_over_trace", "qp_avg", "n_samples", "phi",
            "z", "z_no_rattlers", "rattler_fraction", "z_walls_no_rattlers", "unbalanced",
-           "inertia_number"]
+           "inertia_number", "max_overlap_over_d"]
 os.makedirs(os.path.dirname(os.path.abspath(A.csv)), exist_ok=True)
 CSV_FILE = open(A.csv, "w", newline="")  # kept open during the run
 CSV = csv.writer(CSV_FILE)
@@ -372,6 +373,11 @@ def strains():
     return e1, e3, e1 + 2 * e3, e1 - e3
 
 
+def largest_overlap():
+    """The largest overlap [m] of the contacts now (sphere-sphere and sphere-wall)."""
+    return max((i.geom.penetrationDepth for i in O.interactions if i.isReal), default=0.0)
+
+
 def write_row(e, s, qp_avg, n):
     sx, sy, sz = s
     s1, s3 = sy, 0.5 * (sx + sz)
@@ -380,7 +386,8 @@ def write_row(e, s, qp_avg, n):
     z, z_nr, rat, z_nr_w = contact_stats(A.min_contacts)
     row = [O.iter, O.time - ST["time0"], e[0], e[1], e[2], e[3], s1, s3, sx, sz, p, q, q / p,
            qp_avg, n, packing_fraction(), z, z_nr, rat, z_nr_w, utils.unbalancedForce(),
-           EPS_DOT * D_MEAN * math.sqrt(A.rho / p) if p > 0 else float("nan")]
+           EPS_DOT * D_MEAN * math.sqrt(A.rho / p) if p > 0 else float("nan"),
+           largest_overlap() / D_MEAN]
     ROWS.append(dict(zip(COLUMNS, row, strict=True)))
     CSV.writerow([f"{v:.8g}" if isinstance(v, float) else v for v in row])
     CSV_FILE.flush()
@@ -467,6 +474,8 @@ say(f"RESULT residual q/p={resid:.4f} (mean over eps_q in [{lo:.3f}, {hi:.3f}], 
 say(f"RESULT final: phi={last['phi']:.4f} z={z_end[0]:.3f} z_nr={z_end[1]:.3f} "
     f"rattlers={z_end[2]:.3f} z_walls_nr={z_end[3]:.3f} "
     f"inertia number={last['inertia_number']:.4g}")
+say(f"RESULT largest overlap / <d> in the rows of the triaxial phase="
+    f"{max(r['max_overlap_over_d'] for r in ROWS):.4%}")
 say(f"RESULT load average (1, 5, 15 min) at the end: {load_line()}")
 say(f"RESULT total wall time {time.perf_counter() - T_START:.2f} s (cloud {T_CLOUD:.2f} s + "
     f"compaction {T_COMP:.2f} s + triaxial {T_TRIAX:.2f} s)")
