@@ -213,3 +213,26 @@ def test_frozen_and_read_only():
         shape.volume = 2.0  # type: ignore[misc]
     with pytest.raises(ValueError):
         shape.vertices[0, 0] = 1.0
+
+
+@pytest.mark.parametrize("lift", [2e-8, 5e-8])
+def test_a_face_merged_from_nearly_coplanar_triangles_is_a_supporting_plane(lift):
+    # one corner of the cube's top lifted by `lift`: its two triangles meet at an exterior
+    # angle below COPLANAR_ANGLE and are merged into one quad that is not quite planar; the
+    # quad's plane must still leave every vertex on its inner side, as ShapeLibrary checks
+    from grainlab.engine.state import ShapeLibrary
+
+    points = BOX.copy()
+    points[7, 2] += lift  # the corner (1, 1, 1)
+    body = from_vertices(points)
+    start, _ = body.polygon_csr
+    assert body.n_polygons == 6 and np.diff(start).max() == 4
+    heights = body.vertices @ body.polygon_normals.T - body.polygon_offsets[None, :]
+    assert heights.max() <= 1e-15
+    # the merged top: the face whose own vertices spread about its plane (the others are flat)
+    spread = [np.ptp(heights[ids, k]) for k, ids in enumerate(body.polygon_faces)]
+    top = int(np.argmax(spread))
+    ids = body.polygon_faces[top]
+    assert spread[top] > 0.2 * lift and sorted(spread)[-2] < 1e-15
+    assert np.isclose(heights[ids, top].max(), 0.0, atol=1e-15)  # it touches its highest vertex
+    ShapeLibrary.from_polyhedra([body])  # accepted: a convex shape with supporting planes

@@ -204,11 +204,23 @@ class ConvexPolyhedron:
 
     @property
     def polygon_offsets(self) -> np.ndarray:
-        """(P,) plane offsets n . v [m] of the polygon faces (mean over their vertices)."""
+        """(P,) plane offsets n . v [m] of the polygon faces: the mean over the vertices of a
+        triangle, the largest over the vertices of a polygon merged from triangles. Merged
+        triangles may differ by up to :data:`COPLANAR_ANGLE` in direction, so such a polygon
+        is planar only to ~1e-7 of its size; its plane is then the supporting one, every
+        vertex on its inner side (a random hull of 596 faces had a quad 3e-9 x its radius off
+        its mean plane)."""
         start, ids, normals = self._polygons
-        owner = np.repeat(np.arange(start.shape[0] - 1), np.diff(start))
+        counts = np.diff(start)
+        owner = np.repeat(np.arange(start.shape[0] - 1), counts)
         dots = np.einsum("ij,ij->i", self.vertices[ids], normals[owner])
-        return np.bincount(owner, dots) / np.diff(start)
+        offsets = np.bincount(owner, dots) / counts
+        merged = counts > 3
+        if np.any(merged):
+            largest = np.full(counts.shape[0], -np.inf)
+            np.maximum.at(largest, owner, dots)
+            offsets[merged] = largest[merged]
+        return offsets
 
     @property
     def polygon_edges(self) -> np.ndarray:
