@@ -214,13 +214,8 @@ class ConvexPolyhedron:
         counts = np.diff(start)
         owner = np.repeat(np.arange(start.shape[0] - 1), counts)
         dots = np.einsum("ij,ij->i", self.vertices[ids], normals[owner])
-        offsets = np.bincount(owner, dots) / counts
-        merged = counts > 3
-        if np.any(merged):
-            largest = np.full(counts.shape[0], -np.inf)
-            np.maximum.at(largest, owner, dots)
-            offsets[merged] = largest[merged]
-        return offsets
+        mean = np.bincount(owner, dots) / counts
+        return np.where(counts > 3, np.maximum.reduceat(dots, start[:-1]), mean)
 
     @property
     def polygon_edges(self) -> np.ndarray:
