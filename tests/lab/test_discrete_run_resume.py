@@ -35,12 +35,15 @@ SHEARING = {  # the compaction cut after 10 steps, so that a shear is under way 
 
 
 def earlier_layout(config: dict) -> dict:
-    """A config (current layout, plain data) as the earlier layout spelt it: the per-stage
-    keys flat in [solver], compaction without overlap recovery, no capped-share limits."""
+    """A config (current layout, plain data, fixed steps) as the earlier layout spelt it:
+    the per-stage keys flat in [solver], compaction without overlap recovery, no capped-share
+    limits, no growth of the step."""
     solver = dict(config["solver"])
     for kind in ("compaction", "shear"):
-        table = solver.pop(kind)
+        table = dict(solver.pop(kind))
         assert table.pop("capped_share_limit") == 1.0
+        assert table.pop("time_step_growth") == 1.0
+        table.pop("overlap_bound")
         if kind == "compaction":
             assert table.pop("overlap_recovery") == 0.0
         for key, value in table.items():
@@ -95,7 +98,9 @@ def test_keys_edited_in_config_toml_take_effect_at_once(compacting):
 def test_a_run_of_the_earlier_config_layout_resumes(compacting):
     """config.toml and the checkpoint's config as runs wrote them before [solver.compaction]
     and [solver.shear]: read as the same config, nothing counted as changed."""
-    config = RunConfig.read(compacting / "config.toml").model_dump()
+    config = RunConfig.read(compacting / "config.toml").with_updates(
+        {"solver": {kind: {"time_step_growth": 1.0} for kind in ("compaction", "shear")}}
+    ).model_dump()
     earlier = earlier_layout(config)
     assert "shear" not in earlier["solver"] and earlier["solver"]["compaction_tolerance"] == 1e-4
     (compacting / "config.toml").write_text(tomli_w.dumps(earlier))

@@ -26,11 +26,13 @@ OEDOMETER = {  # as small as tests/cli's oedometer; loading needs ~4 steps, unlo
     "output": {"record_every": 50, "checkpoint_every": 0},
 }
 
-TRIAXIAL = {  # tests/lab/test_discrete_run.py's sample; the shear needs ~21 steps
+TRIAXIAL = {  # tests/lab/test_discrete_run.py's sample; the shear needs ~21 steps, all of
+    # one length (no growth), so that the overshoot is measured against a step's increment
     "sample": {"n_particles": 40, "seed": 4},
     "test": {"kind": "triaxial", "eps_q_max": 0.02},
     "solver": {"sweep": "serial", "compaction": {"inertia_number": 0.05, "max_iterations": 400},
-               "shear": {"inertia_number": 0.01, "overlap_recovery": 0.0}},
+               "shear": {"inertia_number": 0.01, "overlap_recovery": 0.0,
+                         "time_step_growth": 1.0}},
     "output": {"record_every": 50, "checkpoint_every": 0},
 }
 

@@ -63,15 +63,19 @@ def test_the_config_defaults_are_the_stage_numerics_defaults():
 
 
 def test_a_config_of_the_earlier_layout_is_read_as_the_same_config(tmp_path):
+    """A run saved it (before the step grew: fixed steps); as a user's input file it takes
+    today's defaults for the keys it lacks."""
     path = tmp_path / "config.toml"
     path.write_text(EARLIER_CONFIG)
-    config = RunConfig.read(path)
+    as_input = RunConfig.read(path)
+    assert as_input.solver.shear.time_step_growth == SHEAR.time_step_growth > 1.0
+    config = RunConfig.read(path, saved=True)
     assert config.solver.shear.numerics() == StageNumerics(
         friction=0.3, inertia_number=1e-3, time_step_factor=0.003, tolerance=1.666e-4,
-        max_iterations=400, overlap_recovery=0.02)
+        max_iterations=400, overlap_recovery=0.02, time_step_growth=1.0)
     assert config.solver.compaction.numerics() == StageNumerics(
         friction=0.0, inertia_number=0.05, time_step_factor=0.01, tolerance=1e-4,
-        max_iterations=300, overlap_recovery=0.0)
+        max_iterations=300, overlap_recovery=0.0, time_step_growth=1.0)
     assert config.solver.sweep == "serial"
     assert all(f"\n{old} = " in EARLIER_CONFIG for old in EARLIER_SOLVER_KEYS)
     again = RunConfig.read(config.write(tmp_path / "again.toml"))

@@ -17,10 +17,12 @@ def test_the_defaults_are_the_documented_values():
     # docs/discrete_engine.md, "Solver settings of the lab tests"
     assert COMPACTION == StageNumerics(friction=0.0, inertia_number=1e-2,
                                        time_step_factor=0.01, tolerance=1e-4,
-                                       max_iterations=1000, overlap_recovery=0.0)
+                                       max_iterations=1000, overlap_recovery=0.0,
+                                       time_step_growth=2.0, overlap_bound=5e-3)
     assert SHEAR == StageNumerics(friction=0.4, inertia_number=1e-3, time_step_factor=0.003,
                                   tolerance=1.666e-4, max_iterations=2000,
-                                  overlap_recovery=0.05)
+                                  overlap_recovery=0.5, time_step_growth=2.0,
+                                  overlap_bound=5e-3)
     settings = DiscreteTestSettings()
     assert settings.compaction is COMPACTION and settings.shear is SHEAR
 
@@ -29,7 +31,8 @@ def test_the_defaults_are_the_documented_values():
     ("friction", -0.1), ("inertia_number", 0.0), ("inertia_number", 1.5),
     ("time_step_factor", 0.6), ("tolerance", 1.0), ("tolerance", float("nan")),
     ("max_iterations", 0), ("max_iterations", 2.5), ("max_iterations", True),
-    ("overlap_recovery", 1.1),
+    ("overlap_recovery", 1.1), ("time_step_growth", 0.9), ("time_step_growth", 200.0),
+    ("time_step_growth", float("inf")), ("overlap_bound", 0.0), ("overlap_bound", 0.1),
 ])
 def test_bad_values_are_refused_naming_the_field(field, value):
     with pytest.raises(InputError) as error:

@@ -22,7 +22,7 @@ TINY = {
     "sample": {"n_particles": 30, "seed": 3},
     "test": {"kind": "triaxial", "eps_q_max": 0.02},
     "solver": {"sweep": "serial", "shear": {"inertia_number": 0.01}},
-    "output": {"record_every": 1, "snapshot_every": 5},
+    "output": {"record_every": 1, "snapshot_every": 3},
 }
 
 
@@ -82,10 +82,11 @@ def test_a_window_without_snapshots_keeps_the_macroscopic_part(run_folder, tmp_p
     records = shear_table(run_folder).set_index("step")["eps_q"]
     snapshots = [n.state for n in read_snapshots(run_folder / "snapshots.h5")
                  if n.state["stage"] == "shear"]
-    # the records strictly between two snapshots 5 steps apart
+    # the records strictly between two snapshots snapshot_every steps apart
+    every = TINY["output"]["snapshot_every"]
     first = next(a["step"] for a, b in itertools.pairwise(snapshots)
-                 if b["step"] - a["step"] == 5)
-    low, high = float(records[first + 1]), float(records[first + 4])
+                 if b["step"] - a["step"] == every)
+    low, high = float(records[first + 1]), float(records[first + every - 1])
     assert not any(low <= s["eps_q"] <= high for s in snapshots)
     text = write_run_report(run_folder, window=(low, high), out=tmp_path / "r").read_text()
     assert "no microstructure: no snapshot has eps_q in" in text

@@ -691,7 +691,7 @@ def resume_run(folder: str | Path, changes: list[str] | dict | None = None, *,
     folder = Path(folder)
     if not (folder / CONFIG).exists():
         raise InputError("run folder", str(folder), f"a run folder with a {CONFIG}")
-    edited = RunConfig.read(folder / CONFIG)
+    edited = RunConfig.read(folder / CONFIG, saved=True)
     if isinstance(changes, list):
         changes = parse_assignments(changes)
     config = edited.with_updates(changes) if changes else edited
@@ -704,7 +704,7 @@ def resume_run(folder: str | Path, changes: list[str] | dict | None = None, *,
         return run
     loaded = load_checkpoint(folder)
     saved = loaded.saved
-    started = RunConfig.model_validate(saved["config"]) if saved["config"] else edited
+    started = RunConfig.of_saved_run(saved["config"]) if saved["config"] else edited
     changed = config.changes_on_resume(started)
     box = saved["box"]
     sample = DiscreteSample(saved["library"], saved["state"], box, saved["description"])

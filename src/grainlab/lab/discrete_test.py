@@ -142,6 +142,7 @@ from grainlab.lab.stage_numerics import (
     StageNumerics,
     stage_kind,
 )
+from grainlab.lab.step_control import OverlapStepControl
 from grainlab.lab.wall_stages import AXES, QuasiStaticCriteria, WallStage, wall_stages
 from grainlab.prep.loose_sample import DiscreteSample
 
@@ -346,6 +347,7 @@ class DiscreteTest:
         s = self.settings
         self.adaptive_step = spins_fast(sample.library)
         self.stage_dt = s.dt or 1.0
+        self.step_control = OverlapStepControl(1.0, 1.0)
         first = s.compaction  # each stage sets its own numerics when it starts
         if s.method == "dem":
             self.contact_law = s.dem.law_at(self._confining(self.stages[0]),
@@ -434,6 +436,7 @@ class DiscreteTest:
         self.stage_start_step = self.simulation.step_index
         self.stage_start_unconverged = self.simulation.unconverged_steps
         self.stage_start_lengths = box.lengths.copy()
+        self.step_control.scale = 1.0  # every stage starts at its shortest step
         self._stage_numerics()
         self.stage_started = True
 
@@ -455,7 +458,8 @@ class DiscreteTest:
             self.stage_dt = self._whole_substeps(numerics.time_step_factor * d_min / v_max)
         else:  # the last step of the previous stage may have been cut short
             self.stage_dt = s.dt
-        self.solver.dt = self._last_step(self.stage_dt)
+        self.step_control = self._step_control(self.step_control.scale)
+        self.solver.dt = self._last_step(self.stage_dt * self.step_control.scale)
         # stress walls: heavy enough that one step of driving force cannot take them past the
         # speed limit (h F / m_w <= v_max): otherwise the solver spends its sweeps trading the
         # driving impulse between the brake and the contacts
@@ -467,6 +471,15 @@ class DiscreteTest:
             masses = np.maximum(float(np.sum(self.sample.state.masses)) * s.wall_mass_factor,
                                 self.solver.dt * force / v_max)
             box.set_masses(masses)
+
+    def _step_control(self, scale: float) -> OverlapStepControl:
+        """The step control of the current stage (:mod:`grainlab.lab.step_control`) at
+        ``scale`` (at most its growth): the stage's ``time_step_growth`` with contact dynamics
+        and an automatic step, else a fixed step (growth 1)."""
+        s, numerics = self.settings, self.stage_numerics
+        growth = numerics.time_step_growth if s.dt is None and s.method == "cd" else 1.0
+        return OverlapStepControl(growth, numerics.overlap_bound * self.sample.mean_diameter,
+                                  scale=min(scale, growth))
 
     def _whole_substeps(self, dt: float) -> float:
         """The stage's step [s] from the time step factor's ``dt``: for the soft-contact
@@ -546,8 +559,9 @@ class DiscreteTest:
 
     def drive(self) -> None:
         """Keep the strain-controlled walls at a constant logarithmic strain rate (at rest
-        once their axis reached its target); with polyhedra, shorten the step to the
-        particles' own speeds; cut the last step of the stage (module docstring)."""
+        once their axis reached its target); grow or shorten the step by the overlaps
+        (:mod:`grainlab.lab.step_control`); with polyhedra, shorten it to the particles' own
+        speeds; cut the last step of the stage (module docstring)."""
         stage, box = self.stage, self.sample.box
         if stage is None:
             return
@@ -557,25 +571,34 @@ class DiscreteTest:
             speed = 0.0 if abs(strained[a]) >= abs(stage.targets[a]) else \
                 sign * self.strain_rate * box.lengths[a]
             box.set_control(WALL_NAMES[2 * a + 1], "velocity", speed)
-        dt = self.stage_dt
+        scale = self._step_scale()
+        dt = self.stage_dt * scale
         if self.adaptive_step and self.settings.dt is None:
-            dt = min(dt, self._particle_speed_step())
+            dt = min(dt, self._particle_speed_step(scale))
         self.solver.dt = self._last_step(dt)
         if box.servo:  # damping fixed, mass c h follows the step (and the face areas)
             box.set_masses(box.servo_masses(self.solver.dt))
 
-    def _particle_speed_step(self) -> float:
+    def _step_scale(self) -> float:
+        """The scale of the coming step (:mod:`grainlab.lab.step_control`), from the largest
+        overlap of the step just done (none yet in this stage: as it is)."""
+        report = self.simulation.last_report
+        if report is None or self.simulation.step_index <= self.stage_start_step:
+            return self.step_control.scale
+        return self.step_control.after_step(report.max_overlap)
+
+    def _particle_speed_step(self, scale: float = 1.0) -> float:
         """travel / max_i (|v_i| + |omega_i| R_i): the step that moves no point of a particle
         by more than ``travel`` [m] (inf when all are at rest): the stage's fraction of d_min
-        or, when larger, :data:`ALERT_TRAVEL` of the detection's alert distance (module
-        docstring)."""
+        (times the step's ``scale``) or, when larger, :data:`ALERT_TRAVEL` of the detection's
+        alert distance (module docstring)."""
         state, library = self.sample.state, self.sample.library
         reach = np.linalg.norm(state.velocities, axis=1) + np.linalg.norm(
             state.angular_velocities, axis=1) * library.bounding_radius[state.shape_ids]
         fastest = float(reach.max()) if reach.size else 0.0
         if fastest <= 0.0:
             return math.inf
-        travel = self.stage_numerics.time_step_factor * time_step_length(library)
+        travel = scale * self.stage_numerics.time_step_factor * time_step_length(library)
         alert = getattr(self.solver, "alert_distance", None)
         if alert is not None:
             travel = max(travel, ALERT_TRAVEL * alert(library))
@@ -841,6 +864,7 @@ class DiscreteTest:
             "stage_start_unconverged": self.stage_start_unconverged,
             "stage_wall_speed": self.stage_wall_speed,
             "dt": self.solver.dt, "stage_dt": self.stage_dt,
+            "step_scale": self.step_control.scale,
             "alert": self.solver.alert,
             "alert_growths": self.solver.alert_growths,
             "friction": self.solver.friction, "max_iterations": self.solver.max_iterations,
@@ -882,6 +906,8 @@ class DiscreteTest:
         self.simulation.time = float(data["time"])
         self.simulation.unconverged_steps = int(data["unconverged_steps"])
         self.simulation.unconverged_in_row = int(data["unconverged_in_row"])
+        if self.stage_started and self.stage is not None:
+            self.step_control = self._step_control(float(data.get("step_scale", 1.0)))
 
 
 class _StageControl:

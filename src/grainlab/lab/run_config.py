@@ -21,7 +21,8 @@ every key has a default, an unknown key is an error that names it::
                at_max_stage_steps ("stop" | "next_stage"), wall_mass_factor, wall_servo,
                seed
     [solver.compaction]   friction, inertia_number, time_step_factor, tolerance,
-    [solver.shear]        max_iterations, overlap_recovery, capped_share_limit
+    [solver.shear]        max_iterations, overlap_recovery, capped_share_limit,
+                          time_step_growth, overlap_bound
                (:class:`~grainlab.lab.stage_numerics.StageNumerics`: compaction for the
                stages without a strain-controlled axis, shear for the others; defaults
                :data:`~grainlab.lab.stage_numerics.COMPACTION` and
@@ -99,7 +100,8 @@ _FACES_NOTE = ("even: n_f = 2 n_v - 4; Table I of Azéma, Radjaï & Dubois 2013:
                "46, 96, 176, 596")
 
 CHANGEABLE_STAGE_KEYS = ("inertia_number", "time_step_factor", "tolerance",
-                         "max_iterations", "overlap_recovery", "capped_share_limit")
+                         "max_iterations", "overlap_recovery", "capped_share_limit",
+                         "time_step_growth", "overlap_bound")
 """The keys of ``[solver.compaction]`` and ``[solver.shear]`` a resumed run may change (all but
 the friction)."""
 
@@ -244,6 +246,8 @@ Tolerance = Annotated[float, Field(gt=0, lt=1)]
 SweepCap = Annotated[int, Field(ge=1)]
 OverlapRecovery = Annotated[float, Field(ge=0, le=1)]
 ShareLimit = Annotated[float, Field(ge=0, le=1)]
+StepGrowth = Annotated[float, Field(ge=1)]
+OverlapBound = Annotated[float, Field(gt=0, lt=0.1)]
 
 
 class _StageSection(_Section):
@@ -264,6 +268,8 @@ class CompactionConfig(_StageSection):
     max_iterations: SweepCap = COMPACTION.max_iterations
     overlap_recovery: OverlapRecovery = COMPACTION.overlap_recovery
     capped_share_limit: ShareLimit = COMPACTION.capped_share_limit
+    time_step_growth: StepGrowth = COMPACTION.time_step_growth
+    overlap_bound: OverlapBound = COMPACTION.overlap_bound
 
 
 class ShearConfig(_StageSection):
@@ -278,6 +284,8 @@ class ShearConfig(_StageSection):
     max_iterations: SweepCap = SHEAR.max_iterations
     overlap_recovery: OverlapRecovery = SHEAR.overlap_recovery
     capped_share_limit: ShareLimit = SHEAR.capped_share_limit
+    time_step_growth: StepGrowth = SHEAR.time_step_growth
+    overlap_bound: OverlapBound = SHEAR.overlap_bound
 
 
 class DemConfig(_Section):
@@ -357,15 +365,32 @@ class RunConfig(_Section):
             raise _as_written(_input_error(error), earlier) from None
 
     @classmethod
-    def read(cls, path: str | Path) -> RunConfig:
-        """Read a TOML file."""
+    def read(cls, path: str | Path, *, saved: bool = False) -> RunConfig:
+        """Read a TOML file (``saved``: a run folder's ``config.toml``, read as
+        :meth:`of_saved_run` reads it)."""
         path = Path(path)
         data = read_toml(path, "config")
         try:
-            return cls.model_validate(data)
+            return cls.of_saved_run(data) if saved else cls.model_validate(data)
         except InputError as error:
             raise InputError(f"{error.field} (in {path})", error.value,
                              error.allowed) from None
+
+    @classmethod
+    def of_saved_run(cls, data: Any) -> RunConfig:
+        """Validate the config a run saved (its checkpoint's, its folder's ``config.toml``).
+        A run writes every key; a stage table without ``time_step_growth`` was saved before
+        the step grew (:mod:`grainlab.lab.step_control`), with fixed steps, and is read with
+        ``time_step_growth = 1`` so that the run resumes as it ran."""
+        data, _ = current_layout(data)
+        if isinstance(data, dict) and isinstance(data.get("solver"), dict):
+            solver = dict(data["solver"])
+            for kind in STAGE_KINDS:
+                table = solver.get(kind, {})
+                if isinstance(table, dict) and "time_step_growth" not in table:
+                    solver[kind] = {**table, "time_step_growth": 1.0}
+            data = {**data, "solver": solver}
+        return cls.model_validate(data)
 
     def write(self, path: str | Path) -> Path:
         """Write as TOML."""

@@ -120,7 +120,7 @@ def check_solver_run(folder: str | Path, config: RunConfig, *, overwrite: bool =
     folder = Path(folder)
     if overwrite or run_state(folder) in ("none", "started"):
         return  # nothing run yet: started over with this config
-    held = RunConfig.read(folder / CONFIG)
+    held = RunConfig.read(folder / CONFIG, saved=True)
     asked, kept = flat_keys(config.model_dump()), flat_keys(held.model_dump())
     for key, value in asked.items():
         if kept.get(key) != value and key not in KEPT_FROM_THE_FOLDER:

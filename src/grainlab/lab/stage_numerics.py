@@ -29,7 +29,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from grainlab._validate import at_least
+from grainlab._validate import at_least, in_range
 from grainlab.errors import InputError
 
 StageKind = Literal["compaction", "shear"]
@@ -64,7 +64,18 @@ class StageNumerics:
     time_step_factor:
         v h / d_min [-], in (0, 0.5]: the time step h [s] is this fraction of the smallest
         length d_min [m] over the stage's wall speed v [m/s] (unless the test's ``dt`` is
-        given).
+        given). The shortest step of a stage in a box of walls solved by contact dynamics
+        (it grows from it while the overlaps stay small: ``time_step_growth``).
+    time_step_growth:
+        Largest multiple [-] (>= 1; 1: a fixed step) of the ``time_step_factor`` step the
+        step may grow to, in a box of walls solved by contact dynamics: it grows while the
+        largest overlap is below half ``overlap_bound`` and is halved (never below the
+        ``time_step_factor`` step) once it exceeds it (:mod:`grainlab.lab.step_control`).
+        The periodic cell and soft-contact DEM keep the ``time_step_factor`` step.
+    overlap_bound:
+        Largest overlap / mean diameter [-] in (0, 0.1) the growing step keeps to (above it
+        the step shortens; 0.1 is the runaway limit of
+        :class:`~grainlab.engine.simulation.Simulation`).
     tolerance:
         NLGS tolerance [-], in (0, 1): relative change of the contact impulses between two
         sweeps and relative residual (:class:`~grainlab.engine.contact_dynamics.
@@ -88,6 +99,8 @@ class StageNumerics:
     max_iterations: int
     overlap_recovery: float
     capped_share_limit: float = 1.0
+    time_step_growth: float = 1.0
+    overlap_bound: float = 5e-3
 
     def __post_init__(self) -> None:
         at_least("friction", self.friction, strict=False)
@@ -104,6 +117,12 @@ class StageNumerics:
             raise InputError("overlap_recovery", self.overlap_recovery, "a number in [0, 1]")
         if not 0.0 <= self.capped_share_limit <= 1.0:
             raise InputError("capped_share_limit", self.capped_share_limit, "a number in [0, 1]")
+        growth = at_least("time_step_growth", self.time_step_growth, 1.0, strict=False)
+        if growth * self.time_step_factor > 0.5:
+            raise InputError("time_step_growth", self.time_step_growth,
+                             f"a number >= 1 with time_step_growth x time_step_factor "
+                             f"({self.time_step_factor:g}) <= 0.5")
+        in_range("overlap_bound", self.overlap_bound, 0.0, 0.1)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data (the keys of a ``[solver.compaction]`` or ``[solver.shear]`` table)."""
@@ -111,14 +130,16 @@ class StageNumerics:
 
 
 COMPACTION = StageNumerics(friction=0.0, inertia_number=1e-2, time_step_factor=0.01,
-                           tolerance=1e-4, max_iterations=1000, overlap_recovery=0.0)
+                           tolerance=1e-4, max_iterations=1000, overlap_recovery=0.0,
+                           time_step_growth=2.0)
 """Default numerics of compaction stages: frictionless (seed 002), I <= 1e-2, h = 0.01 d_min
 / v, tolerance 1e-4 (a looser one slows the settling: 2020 instead of 1040 steps on 1000
 spheres at 1.666e-4), 1000 sweeps (1000 spheres: 450 a step on average, 0.2 % of the steps
 at the cap), no overlap recovery."""
 
 SHEAR = StageNumerics(friction=0.4, inertia_number=1e-3, time_step_factor=0.003,
-                      tolerance=1.666e-4, max_iterations=2000, overlap_recovery=0.05)
+                      tolerance=1.666e-4, max_iterations=2000, overlap_recovery=0.5,
+                      time_step_growth=2.0)
 """Default numerics of shearing stages: mu = 0.4, I <= 1e-3 (quasi-static), h = 0.003 d_min
 / v (with 0.01 the overlaps grew to 6-9 % of <d> at eps_q = 0.1 on 200 spheres, below 1 %
 with 0.003), tolerance 1.666e-4, 2000 sweeps (1000 spheres to eps_q = 0.5: ~600 a step on
