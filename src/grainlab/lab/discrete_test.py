@@ -25,7 +25,10 @@ otherwise; :meth:`DiscreteTestSettings.numerics_for`):
   many sweeps: docs/discrete_engine.md, "The contact problem on its own") and contact
   dynamics never pushes an overlap back, so overlaps accumulate at a
   rate that falls faster than h: with 0.01 the largest overlap reached 6-9 % of <d> at
-  eps_q = 0.1 on 200 spheres, with 0.003 below 1 %;
+  eps_q = 0.1 on 200 spheres, with 0.003 below 1 %. That h is the stage's shortest step h_0:
+  with contact dynamics the step grows from it to ``time_step_growth`` x h_0 (default 2)
+  while the largest overlap stays below ``overlap_bound`` (0.5 % of <d>) and halves when it
+  exceeds it (:mod:`grainlab.lab.step_control`; the scale is part of the checkpoint);
 * NLGS tolerance, sweep cap and overlap recovery (0 in compaction by default);
 * with polyhedra (shape kinds that spin fast, :func:`spins_fast`), the step is also
   shortened, before every step, to travel / max_i (|v_i| + |omega_i| R_i) (R_i the
