@@ -1,5 +1,6 @@
 """The step of fast-spinning shapes (polyhedra) follows the particles: no point of a particle
-travels more than max(factor x d_min, ALERT_TRAVEL x alert) in a step (lab.discrete_test)."""
+travels more than max(factor x d_min, ALERT_TRAVEL x alert) in a step, times the step
+growth's scale (lab.discrete_test)."""
 
 from __future__ import annotations
 
@@ -71,3 +72,12 @@ def test_a_factor_alone_bounds_the_travel_without_an_alert_distance(monkeypatch)
     assert factor_only == pytest.approx(
         test.stage_numerics.time_step_factor * time_step_length(library) / reach, rel=1e-12)
     assert with_alert > factor_only  # in shear the alert distance allows the longer step
+
+
+@pytest.mark.parametrize("factor", [0.003, 0.05])
+def test_the_step_growth_scales_the_whole_travel(factor):
+    """The overlap control's scale (lab/step_control.py) lengthens the particles' step in
+    proportion, whichever bound (the factor's or the alert distance's) sets the travel."""
+    test = spinning_test(factor)
+    assert test._particle_speed_step(1.5) == pytest.approx(
+        1.5 * test._particle_speed_step(), rel=1e-14)

@@ -591,21 +591,22 @@ class DiscreteTest:
         return self.step_control.after_step(report.max_overlap)
 
     def _particle_speed_step(self, scale: float = 1.0) -> float:
-        """travel / max_i (|v_i| + |omega_i| R_i): the step that moves no point of a particle
-        by more than ``travel`` [m] (inf when all are at rest): the stage's fraction of d_min
-        (times the step's ``scale``) or, when larger, :data:`ALERT_TRAVEL` of the detection's
-        alert distance (module docstring)."""
+        """scale x travel / max_i (|v_i| + |omega_i| R_i): the step that moves no point of a
+        particle by more than ``scale`` x ``travel`` [m] (inf when all are at rest); travel is
+        the stage's fraction of d_min or, when larger, :data:`ALERT_TRAVEL` of the
+        detection's alert distance (module docstring), and ``scale`` the step's growth
+        (:mod:`grainlab.lab.step_control`): the overlaps decide how far it may go."""
         state, library = self.sample.state, self.sample.library
         reach = np.linalg.norm(state.velocities, axis=1) + np.linalg.norm(
             state.angular_velocities, axis=1) * library.bounding_radius[state.shape_ids]
         fastest = float(reach.max()) if reach.size else 0.0
         if fastest <= 0.0:
             return math.inf
-        travel = scale * self.stage_numerics.time_step_factor * time_step_length(library)
+        travel = self.stage_numerics.time_step_factor * time_step_length(library)
         alert = getattr(self.solver, "alert_distance", None)
         if alert is not None:
             travel = max(travel, ALERT_TRAVEL * alert(library))
-        return travel / fastest
+        return scale * travel / fastest
 
     # -- stage ends (module docstring) --------------------------------------------------------
     def wall_strains(self, lengths: np.ndarray | None = None) -> dict[str, float]:
