@@ -33,8 +33,9 @@ otherwise; :meth:`DiscreteTestSettings.numerics_for`):
 * with polyhedra (shape kinds that spin fast, :func:`spins_fast`), the step is also
   shortened, before every step, to travel / max_i (|v_i| + |omega_i| R_i) (R_i the
   circumscribed radius), travel = max(factor x d_min, ALERT_TRAVEL x alert) (alert the
-  detection's alert distance, 0.05 d_min by default: :data:`ALERT_TRAVEL`), whenever the
-  particles' points move faster than that, and the solver adds the gyroscopic term. A
+  detection's alert distance, 0.05 d_min by default: :data:`ALERT_TRAVEL`), times the step's
+  growth (the overlaps decide both), whenever the particles' points move faster than that,
+  and the solver adds the gyroscopic term. A
   polyhedron's contact rows are its close feature pairs: a corner turning towards a face has
   no row until a detection finds it within the alert distance, so no point may cover a
   large share of it in one step; a row's gap is then predicted to first order, with a
