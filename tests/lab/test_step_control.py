@@ -95,26 +95,19 @@ class _Steps:
                               simulation.last_report.max_overlap / test.sample.mean_diameter))
 
 
-def _shear_steps(config: dict):
-    run = start_run_in_memory(config)
+def _shear_steps(config: dict, folder):
+    run = start_run(folder, RunConfig.model_validate(config))
     trace = run.test.simulation.add(_Steps(run.test))
     result = run.run()
     return np.array(trace.rows), result
 
 
-def start_run_in_memory(config: dict, folder=None):
-    import tempfile
-    from pathlib import Path
-
-    folder = folder or Path(tempfile.mkdtemp()) / "run"
-    return start_run(folder, RunConfig.model_validate(config))
-
-
 @pytest.fixture(scope="module")
-def grown_and_fixed():
+def grown_and_fixed(tmp_path_factory):
     fixed = {**TRIAXIAL, "solver": {**TRIAXIAL["solver"], "shear": {
         **TRIAXIAL["solver"]["shear"], "time_step_growth": 1.0}}}
-    return _shear_steps(TRIAXIAL), _shear_steps(fixed)
+    folder = tmp_path_factory.mktemp("steps")
+    return _shear_steps(TRIAXIAL, folder / "grown"), _shear_steps(fixed, folder / "fixed")
 
 
 def test_the_shear_step_grows_to_its_bound_while_the_overlaps_are_small(grown_and_fixed):
@@ -133,12 +126,12 @@ def test_the_shear_step_grows_to_its_bound_while_the_overlaps_are_small(grown_an
         assert table["eps_q"].iloc[-1] == pytest.approx(0.05, abs=2e-3)
 
 
-def test_an_overlap_above_the_bound_shortens_the_next_step():
+def test_an_overlap_above_the_bound_shortens_the_next_step(tmp_path):
     """A bound below the overlaps this sample reaches: wherever a step's overlap is above
     it, the next step is half as long or h_0."""
     config = {**TRIAXIAL, "solver": {**TRIAXIAL["solver"], "shear": {
         **TRIAXIAL["solver"]["shear"], "overlap_bound": 2e-4}}}
-    steps, _ = _shear_steps(config)
+    steps, _ = _shear_steps(config, tmp_path / "run")
     dt, h0, overlap = steps.T
     above = np.flatnonzero(overlap[:-3] > 2e-4)
     assert above.size >= 3
@@ -150,9 +143,9 @@ def test_a_resumed_run_takes_the_same_steps(tmp_path):
     """Checkpointed in the shear with the step grown: the resumed run's rows are the
     uninterrupted run's, bit for bit."""
     config = {**TRIAXIAL, "output": {"record_every": 5, "checkpoint_every": 0}}
-    whole = start_run_in_memory(config, tmp_path / "whole").run().table
+    whole = start_run(tmp_path / "whole", RunConfig.model_validate(config)).run().table
     shear_start = int(whole[whole["stage"] == "shear"]["step"].iloc[0])
-    run = start_run_in_memory(config, tmp_path / "cut")
+    run = start_run(tmp_path / "cut", RunConfig.model_validate(config))
     run.run(max_steps=shear_start + 20)
     assert run.test.step_control.scale > 1.0
     run.checkpoint()
@@ -161,9 +154,8 @@ def test_a_resumed_run_takes_the_same_steps(tmp_path):
         np.testing.assert_array_equal(resumed[column], whole[column], err_msg=column)
 
 
-def test_soft_contact_dem_keeps_a_fixed_step():
-    config = RunConfig.model_validate({**TRIAXIAL, "solver": {**TRIAXIAL["solver"],
-                                                              "method": "dem"}})
-    run = start_run_in_memory(config.model_dump())
+def test_soft_contact_dem_keeps_a_fixed_step(tmp_path):
+    config = {**TRIAXIAL, "solver": {**TRIAXIAL["solver"], "method": "dem"}}
+    run = start_run(tmp_path / "run", RunConfig.model_validate(config))
     run.run(max_steps=3)
     assert run.test.step_control.growth == 1.0
