@@ -63,8 +63,10 @@ length, with the overlap recovery those steps had (docs/discrete_engine.md, "The
 while the overlaps stay small")."""
 
 
-def grainlab_run(n: int, eps_q: float, folder: Path, kinetic_energy: float,
-                 solver: dict | None = None) -> dict:
+def timed_run(n: int, eps_q: float, folder: Path, kinetic_energy: float,
+              solver: dict | None = None):
+    """The ``grainlab triaxial`` defaults on n spheres to eps_q (``solver``: ``[solver]``
+    tables over the defaults): (the run's result, its wall time [s], the compaction's [s])."""
     config = RunConfig.model_validate({
         "sample": {"n_particles": n},
         "test": {"kind": "triaxial", "eps_q_max": eps_q,
@@ -84,21 +86,42 @@ def grainlab_run(n: int, eps_q: float, folder: Path, kinetic_energy: float,
     result = run.run()
     total = time.perf_counter() - start
     compaction_time = stage_ends[0] - start if stage_ends else float("nan")
+    return result, total, compaction_time
+
+
+def stage_costs(result, total: float, compaction_time: float) -> dict[str, dict]:
+    """Per stage (compaction, shear): wall time [s], steps, mean sweeps a step, mean contact
+    rows, contact updates per second (rows x sweeps, skipped open rows included; the means
+    are taken over the recorded rows, every ``record_every`` steps)."""
+    table = result.table
+    stages = result.metadata["outcome"]["stages"]
+    costs = {}
+    for name, part, seconds, steps in (
+            ("compaction", table[table["stage"] == "compaction"], compaction_time,
+             stages[0]["steps"]),
+            ("shear", table[table["stage"] != "compaction"], total - compaction_time,
+             stages[1]["steps"])):
+        updates = (part["solver_iterations"] * part["n_contacts"]).mean() * steps
+        costs[name] = {"seconds": seconds, "steps": steps,
+                       "sweeps": part["solver_iterations"].mean(),
+                       "contacts": part["n_contacts"].mean(),
+                       "updates per second": updates / seconds}
+    return costs
+
+
+def grainlab_run(n: int, eps_q: float, folder: Path, kinetic_energy: float,
+                 solver: dict | None = None) -> dict:
+    result, total, compaction_time = timed_run(n, eps_q, folder, kinetic_energy, solver)
     table = result.table
     compaction = table[table["stage"] == "compaction"]
     shear = table[table["stage"] != "compaction"]
     stages = result.metadata["outcome"]["stages"]
     late = shear[shear["eps_q"] >= 0.6 * shear["eps_q"].max()]
-    figures = {}
-    for name, part, seconds, steps in (
-            ("compaction", compaction, compaction_time, stages[0]["steps"]),
-            ("shear", shear, total - compaction_time, stages[1]["steps"])):
-        # rows every record_every steps: per-step means from the recorded steps
-        sweeps = part["solver_iterations"].mean()
-        updates = (part["solver_iterations"] * part["n_contacts"]).mean() * steps
-        figures[f"{name}: wall time [s], steps, sweeps/step, contacts, updates/s"] = (
-            f"{seconds:.1f}, {steps}, {sweeps:.0f}, {part['n_contacts'].mean():.0f}, "
-            f"{updates / seconds:.3g}")
+    figures = {
+        f"{name}: wall time [s], steps, sweeps/step, contacts, updates/s":
+            f"{c['seconds']:.1f}, {c['steps']}, {c['sweeps']:.0f}, {c['contacts']:.0f}, "
+            f"{c['updates per second']:.3g}"
+        for name, c in stage_costs(result, total, compaction_time).items()}
     return {
         "wall time [s]": total,
         **figures,

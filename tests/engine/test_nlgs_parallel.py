@@ -300,10 +300,45 @@ def test_slab_chains_of_a_parallel_group_share_no_body(n_slabs):
     assert inside > 0.5 * n  # most contacts lie inside a slab
 
 
+def test_slab_count_follows_the_contacts_between_two_and_sixteen():
+    per = nlgs_parallel.SLAB_CONTACTS
+    assert nlgs_parallel.slab_count(0) == 2 and nlgs_parallel.slab_count(3 * per - 1) == 2
+    assert nlgs_parallel.slab_count(5 * per) == 5
+    assert nlgs_parallel.slab_count(10**9) == nlgs_parallel.MAX_SLABS == 16
+
+
+def test_slabs_are_never_thinner_than_a_contact_branch():
+    # a chain of 20 spheres of diameter 1 along x: asked for 16 slabs, it gets 20 / 1 -> the
+    # most that keeps every contact inside a slab or between neighbours (none serial)
+    positions = np.zeros((21, 3))
+    positions[:, 0] = np.arange(21.0)
+    body_i, body_j = np.arange(20), np.arange(1, 21)
+    wall_inv_mass = np.zeros(1)
+    many = slab_contacts(body_i, body_j, positions, wall_inv_mass, n_slabs=16)
+    assert many.chains.shape[0] == 2 * 16 + 1
+    assert many.chains[-1] - many.chains[-2] == 0  # the serial chain is empty
+    # contacts two spheres apart (branches of 2 along x): at most 20 / 2 = 10 slabs
+    wide = slab_contacts(body_i[:-1], body_i[:-1] + 2, positions, wall_inv_mass, n_slabs=16)
+    assert wide.chains.shape[0] == 2 * 10 + 1 and wide.chains[-1] == wide.chains[-2]
+    # a periodic cell's contact across its boundary (the chain's two ends) does not thin the
+    # cut: it goes to the serial chain
+    wrapped = slab_contacts(np.append(body_i, 0), np.append(body_j, 20), positions,
+                            wall_inv_mass, n_slabs=16)
+    assert wrapped.chains.shape[0] == 2 * 16 + 1
+    assert wrapped.order[wrapped.chains[-2]:].tolist() == [20]
+    # cut into 16 slabs anyway, some of those contacts would skip a slab (the serial chain)
+    slab = np.floor(positions[:, 0] / 20.0 * 16).clip(0, 15)
+    assert np.any(np.abs(slab[body_i[:-1]] - slab[body_i[:-1] + 2]) > 1)
+
+
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two Numba threads")
-def test_slab_sweep_obeys_the_laws_and_does_not_depend_on_the_threads(monkeypatch):
-    # a small packing swept in slabs (MIN_SLABS lowered to reach it), on 1 and 2 threads
+@pytest.mark.parametrize("slab_contacts_per", [nlgs_parallel.SLAB_CONTACTS, 8])
+def test_slab_sweep_obeys_the_laws_and_does_not_depend_on_the_threads(monkeypatch,
+                                                                     slab_contacts_per):
+    # a small packing swept in slabs (MIN_SLABS lowered to reach it), on 1 and 2 threads: in
+    # two slabs, and in as many as its size allows (SLAB_CONTACTS lowered)
     monkeypatch.setattr(nlgs_parallel, "MIN_SLABS", 16)
+    monkeypatch.setattr(nlgs_parallel, "SLAB_CONTACTS", slab_contacts_per)
     sample = fcc_sample(cells=(3, 2, 2), seed=5)
     threads = numba.get_num_threads()
     outcomes = []

@@ -68,11 +68,13 @@ share a body (:mod:`~grainlab.engine.contact_colouring`, linear in C) and runs
 :func:`~grainlab.engine.nlgs_parallel.nlgs_coloured_kernel`: the colours one after the other,
 the contacts of a colour in parallel (``numba.prange``), the contacts of mobile
 (stress-controlled) walls last in a serial loop, as they all share their wall. When every
-colour is below :data:`~grainlab.engine.nlgs_parallel.MIN_PARALLEL` contacts (too little work
-to wake the threads: ~1000 spheres) and there are at least
-:data:`~grainlab.engine.nlgs_parallel.MIN_SLABS` contacts, the contacts are swept in two slabs
-of the packing instead (:func:`~grainlab.engine.contact_colouring.slab_contacts`): each slab's
-inside by one thread, then the contacts between the slabs, then the mobile walls'. The same
+colour is below :data:`~grainlab.engine.nlgs_parallel.MIN_COLOURS` contacts (too little work
+per colour to wake the threads for: up to ~10^4 spheres) and there are at least
+:data:`~grainlab.engine.nlgs_parallel.MIN_SLABS` contacts, the contacts are swept in slabs of
+the packing instead (:func:`~grainlab.engine.contact_colouring.slab_contacts`, 2 to 16 of
+them: :func:`~grainlab.engine.nlgs_parallel.slab_count`): each slab's inside by one thread,
+then the contacts between neighbouring slabs, then the mobile walls' and those that span
+more than one slab. The same
 local solver and convergence measures, in a fixed order: the solution agrees with the serial
 sweep within the tolerance and does not depend on the number of threads.
 
@@ -988,21 +990,23 @@ class ContactDynamicsStep:
         else:
             # imported here: nlgs_parallel reuses this module's scalar laws
             from grainlab.engine.nlgs_parallel import (
-                MIN_PARALLEL,
+                MIN_COLOURS,
                 MIN_SLABS,
                 nlgs_coloured_kernel,
                 parallel_colours,
+                slab_count,
             )
 
             serial = crossing if bounds.has_free_cell else None
             colouring = colour_contacts(contacts.body_i, contacts.body_j, kernel_inv_mass,
                                         n_bodies, serial=serial)
             sizes = np.diff(colouring.offsets[: colouring.n_colours + 1])
-            if n_contacts >= MIN_SLABS and (sizes.size == 0 or sizes.max() < MIN_PARALLEL):
-                # colours too small to share between threads: two slabs instead (the same
-                # order whatever the number of threads)
+            if n_contacts >= MIN_SLABS and (sizes.size == 0 or sizes.max() < MIN_COLOURS):
+                # colours too small to be worth waking the threads for each: slabs instead
+                # (their count and order from the packing, whatever the number of threads)
                 groups = slab_contacts(contacts.body_i, contacts.body_j, x_m,
-                                       kernel_inv_mass, serial=serial)
+                                       kernel_inv_mass, serial=serial,
+                                       n_slabs=slab_count(n_contacts))
                 n_parallel = groups.n_colours if get_num_threads() > 1 else 0
                 body_order = groups.body_order
             else:

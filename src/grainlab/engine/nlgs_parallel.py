@@ -83,9 +83,29 @@ _TINY = 1e-300  # as in contact_dynamics
 _BLOCK = 1024  # contacts per block of the parallel reductions (fixed: thread-independent)
 _PARALLEL_BLOCKS = 8  # fewer blocks: the reductions in a plain loop (the same sums)
 MIN_SLABS = 1024
-"""From this many contacts, a step whose colours are all below :data:`MIN_PARALLEL` is swept
-in two slabs (:func:`~grainlab.engine.contact_colouring.slab_contacts`) rather than colour by
-colour, so that two threads share it; below it, colours (too little work to wake threads)."""
+"""From this many contacts, a step whose colours are all below :data:`MIN_COLOURS` is swept
+in slabs (:func:`~grainlab.engine.contact_colouring.slab_contacts`) rather than colour by
+colour, so that the threads share it; below it, colours (too little work to wake threads)."""
+MIN_COLOURS = 8192
+"""From this many contacts in its largest colour, a step is swept colour by colour (the
+colours of :data:`MIN_PARALLEL` contacts or more in parallel); below it, in slabs. Measured
+with ``benchmarks/benchmark_engine_contact_dynamics.py``'s packings on 2 cores, 2 threads,
+ns per contact update: 10^4 spheres (colours of 1.4-2.6 thousand contacts) 34-35 in colours,
+21 in slabs (2 to 16 of them: the same), as each colour's work is little more than waking
+the threads; 10^5 spheres (colours of ~14 thousand) 37 in colours, 39 in slabs."""
+SLAB_CONTACTS = 4096
+"""Contacts per slab when a step is swept in slabs: :func:`slab_count` cuts a packing into
+C // SLAB_CONTACTS slabs, between 2 and :data:`MAX_SLABS` (2 up to 12 287 contacts, 1000
+spheres), so that more threads than two have slabs to share; the count depends on the
+packing only, never on the threads."""
+MAX_SLABS = 16
+"""Most slabs of one step (:data:`SLAB_CONTACTS`)."""
+
+
+def slab_count(n_contacts: int) -> int:
+    """Slabs of a step of ``n_contacts`` contacts swept in slabs (:data:`SLAB_CONTACTS`)."""
+    return int(min(MAX_SLABS, max(2, n_contacts // SLAB_CONTACTS)))
+
 MIN_PARALLEL = 1024
 """Colours with fewer contacts are swept in a plain loop (:func:`parallel_colours`). Measured
 with the TBB layer on 2 cores (``benchmarks/benchmark_engine_contact_dynamics.py``, one
