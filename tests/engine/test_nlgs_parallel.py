@@ -300,10 +300,11 @@ def test_slab_chains_of_a_parallel_group_share_no_body(n_slabs):
     assert inside > 0.5 * n  # most contacts lie inside a slab
 
 
-def test_slab_count_follows_the_contacts_between_two_and_sixteen():
+def test_slab_count_is_a_power_of_two_that_follows_the_contacts():
     per = nlgs_parallel.SLAB_CONTACTS
-    assert nlgs_parallel.slab_count(0) == 2 and nlgs_parallel.slab_count(3 * per - 1) == 2
-    assert nlgs_parallel.slab_count(5 * per) == 5
+    assert nlgs_parallel.slab_count(0) == 2 and nlgs_parallel.slab_count(4 * per - 1) == 2
+    assert nlgs_parallel.slab_count(4 * per) == 4 and nlgs_parallel.slab_count(7 * per) == 4
+    assert nlgs_parallel.slab_count(12 * per) == 8
     assert nlgs_parallel.slab_count(10**9) == nlgs_parallel.MAX_SLABS == 16
 
 
@@ -317,9 +318,9 @@ def test_slabs_are_never_thinner_than_a_contact_branch():
     many = slab_contacts(body_i, body_j, positions, wall_inv_mass, n_slabs=16)
     assert many.chains.shape[0] == 2 * 16 + 1
     assert many.chains[-1] - many.chains[-2] == 0  # the serial chain is empty
-    # contacts two spheres apart (branches of 2 along x): at most 20 / 2 = 10 slabs
+    # contacts two spheres apart (branches of 2 along x): at most 20 / 2 = 10 slabs, so 8
     wide = slab_contacts(body_i[:-1], body_i[:-1] + 2, positions, wall_inv_mass, n_slabs=16)
-    assert wide.chains.shape[0] == 2 * 10 + 1 and wide.chains[-1] == wide.chains[-2]
+    assert wide.chains.shape[0] == 2 * 8 + 1 and wide.chains[-1] == wide.chains[-2]
     # a periodic cell's contact across its boundary (the chain's two ends) does not thin the
     # cut: it goes to the serial chain
     wrapped = slab_contacts(np.append(body_i, 0), np.append(body_j, 20), positions,

@@ -24,8 +24,11 @@ A run is *as asked* when it finished every stage of its load path and each stage
 Steps whose solver ended at its iteration cap (``max_iterations``, not converged) are counted
 per stage and reported; a stage whose share of them is above its ``capped_share_limit``
 (:class:`~grainlab.lab.stage_numerics.StageNumerics`, default 1: never) is not as asked.
-Today's NLGS caps most steps of dense frictional packings (docs/discrete_engine.md,
-"Convergence"), so the default accepts them.
+The default reports the share and accepts it: with the lab's caps (1000 sweeps in
+compaction, 2000 in shear) 0.2-1.4 % of the steps of 1000- and 10 000-sphere triaxial tests
+end capped, and 0.3-2.9 % of 200-1000 polyhedra's, but up to 9-15 % of a 300-sphere
+compaction's, whose capped steps end with a relative change of 1.0-1.7e-4 against its 1e-4
+(the residual below it). Set ``capped_share_limit`` (e.g. 0.02) to have a run fail loudly.
 
 The command line exits with :data:`EXIT_NOT_AS_ASKED` (3) when a run ran but its outcome is not
 as asked, 2 on bad input or when a run cannot go on, 0 otherwise.
