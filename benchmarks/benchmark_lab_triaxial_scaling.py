@@ -10,9 +10,8 @@ then each size's ratios to the first size. The cost per particle-step is the pro
 three: sweeps a step x rows per particle x time per update (plus the detection and the
 step's other passes), so the ratios say which of them grows.
 
-Target printed (issue of the speed at the papers' scale): the whole test's cost per
-particle-step on the largest sample within 1.5 times the first's; the script exits with
-status 1 when it is missed.
+Target printed: the whole test's cost per particle-step on the largest sample within 1.5
+times the first's; the script exits with status 1 when it is missed.
 
     .venv/bin/python benchmarks/benchmark_lab_triaxial_scaling.py [--sizes 1000 10000]
         [--eps-q 0.05] [--threads 2]

@@ -111,6 +111,7 @@ def slab_count(n_contacts: int) -> int:
     wanted = min(MAX_SLABS, max(2, n_contacts // SLAB_CONTACTS))
     return 1 << (int(wanted).bit_length() - 1)
 
+
 MIN_PARALLEL = 1024
 """Colours with fewer contacts are swept in a plain loop (:func:`parallel_colours`). Measured
 with the TBB layer on 2 cores (``benchmarks/benchmark_engine_contact_dynamics.py``, one
