@@ -257,16 +257,20 @@ def slab_contacts_kernel(body_i, body_j, slab, wall_inv_mass, serial, n_slabs, o
         fill[c] += 1
 
 
+def power_of_two_below(n: int) -> int:
+    """The largest power of two <= n (n >= 1): a slab count the threads share evenly."""
+    return 1 << (int(n).bit_length() - 1)
+
+
 def slab_contacts(body_i, body_j, positions, wall_inv_mass, serial=None,
                   n_slabs: int = 2) -> ContactSlabs:
     """Contacts in chains of at most ``n_slabs`` slabs (>= 2) of the bodies at ``positions``
     (N, 3) [m], cut evenly along their longest extent (module docstring, "Slabs"): fewer (a
     power of two, never below 2) where a slab would be thinner than the longest branch
     between two bodies in contact along that axis, whose contacts would otherwise skip a slab
-    and go to the
-    serial chain (branches longer than half the extent are a periodic cell's contacts across
-    its boundary: serial or between slabs 0 and 1 whatever the cut); ``serial`` (C,) bool as
-    in :func:`colour_contacts`."""
+    and go to the serial chain (branches longer than half the extent are a periodic cell's
+    contacts across its boundary: serial or between slabs 0 and 1 whatever the cut);
+    ``serial`` (C,) bool as in :func:`colour_contacts`."""
     x = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
     bi = np.ascontiguousarray(body_i, dtype=np.int64)
     bj = np.ascontiguousarray(body_j, dtype=np.int64)
@@ -280,8 +284,8 @@ def slab_contacts(body_i, body_j, positions, wall_inv_mass, serial=None,
             spans = np.abs(x[bi[pairs], axis] - x[bj[pairs], axis])
             spans = spans[spans <= 0.5 * width]  # not a periodic cell's wrapped contacts
             span = float(spans.max()) if spans.size else 0.0
-            if span > 0.0 and width / span < n_slabs:  # the largest power of two that fits
-                n_slabs = 1 << (max(2, int(width / span)).bit_length() - 1)
+            if span > 0.0 and width / span < n_slabs:
+                n_slabs = power_of_two_below(max(2, int(width / span)))
         slab = np.floor((x[:, axis] - low) / max(width, 1e-300) * n_slabs).astype(np.int64)
         slab = np.clip(slab, 0, n_slabs - 1)
         body_order = np.argsort(x[:, axis], kind="stable").astype(np.int64)

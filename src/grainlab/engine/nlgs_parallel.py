@@ -63,6 +63,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from grainlab.engine.contact_colouring import power_of_two_below
 from grainlab.engine.contact_dynamics import (
     SKIP_OPEN,
     SKIP_REVISIT,
@@ -108,8 +109,7 @@ MAX_SLABS = 16
 def slab_count(n_contacts: int) -> int:
     """Slabs of a step of ``n_contacts`` contacts swept in slabs (:data:`SLAB_CONTACTS`): a
     power of two from 2 to :data:`MAX_SLABS`."""
-    wanted = min(MAX_SLABS, max(2, n_contacts // SLAB_CONTACTS))
-    return 1 << (int(wanted).bit_length() - 1)
+    return power_of_two_below(min(MAX_SLABS, max(2, n_contacts // SLAB_CONTACTS)))
 
 
 MIN_PARALLEL = 1024
