@@ -12,8 +12,43 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import warnings
 
-import pytest
+NUMERICS_TARGET = os.environ.get("GRAINLAB_TEST_TARGET", "baseline")
+"""The processor features the suite's numerical libraries may use: ``baseline`` (the default)
+or ``native`` (the host's own, as a user's run). ``GRAINLAB_TEST_TARGET=native`` runs the
+suite as a user's machine computes; every test but the recorded-trajectory regressions
+(marked ``recorded_trajectory``) must pass either way."""
+
+BASELINE_NUMERICS = {
+    # NumPy's loops at its x86-64-v2 baseline: its AVX2 and AVX-512 loops of tanh, sin, exp,
+    # ..., and its vectorised sorts (the order of equal keys) differ from the baseline in
+    # the last bits, and differ between processors
+    "NPY_DISABLE_CPU_FEATURES": "X86_V3 X86_V4 AVX512_ICL AVX512_SPR AVX AVX2 F16C FMA3 "
+                                "AVX512F AVX512CD AVX512_SKX AVX512_CLX AVX512_CNL",
+    # OpenBLAS's kernels for one processor family (an x86-64-v2 one): its dgemm and
+    # factorisations take other sums per processor family (Haswell, SkylakeX, Zen)
+    "OPENBLAS_CORETYPE": "Nehalem",
+}
+"""The environment that gives the suite one outcome on every x86-64 processor (with
+:data:`NUMERICS_TARGET` ``baseline``): NumPy and OpenBLAS pick their loops and kernels by the
+processor at run time, and their last bits differ between processors. grainlab's compiled
+kernels need no pin: they are compiled without fast-math, so LLVM neither contracts a*b + c into
+a fused multiply-add nor reorders a sum, and give the same bits for any target
+(``NUMBA_CPU_NAME=generic`` or the host's; docs/discrete_engine.md, "One outcome on every
+processor"). Set before NumPy loads, so that the workers and every child process inherit it."""
+
+if NUMERICS_TARGET == "baseline":
+    if "numpy" in sys.modules:
+        warnings.warn("NumPy was imported before tests/conftest.py: its loops are the host's, "
+                      "not the baseline's (BASELINE_NUMERICS)", stacklevel=1)
+    for _name, _value in BASELINE_NUMERICS.items():
+        os.environ.setdefault(_name, _value)
+elif NUMERICS_TARGET != "native":
+    raise SystemExit(f"GRAINLAB_TEST_TARGET={NUMERICS_TARGET!r}: expected 'baseline' or "
+                     "'native'")
+
+import pytest  # noqa: E402
 
 PRECOMPILE_PARTS = ("discrete", "dem,polyhedra", "theories")
 """The compilation split over three processes (measured cold, one after the other: discrete
@@ -50,6 +85,12 @@ def pytest_collection_modifyitems(config, items):
     # the long tests first: xdist hands tests out in this order, and a long test started
     # last keeps one worker busy while the other has nothing left (longest first)
     items.sort(key=lambda item: item.get_closest_marker("long") is None)
+    if NUMERICS_TARGET != "baseline":
+        skip = pytest.mark.skip(reason="a recorded trajectory, reproduced bit for bit by the "
+                                       "baseline numerics only (GRAINLAB_TEST_TARGET=baseline)")
+        for item in items:
+            if "recorded_trajectory" in item.keywords:
+                item.add_marker(skip)
     if config.getoption("--validate"):
         return
     skip = pytest.mark.skip(reason="validation run: use pytest --validate")

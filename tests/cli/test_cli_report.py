@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -13,13 +14,25 @@ runner = CliRunner()
 
 @pytest.fixture(scope="module")
 def run_folder(tmp_path_factory):
+    """A 30-sphere triaxial test to eps_q = 0.04 with a snapshot at every step: at the lab's
+    inertia number a shear step is a few thousandths of strain, so every window 0.01 wide
+    in the shear holds snapshots, whatever path the jammed packing takes."""
     out = tmp_path_factory.mktemp("cli") / "triaxial"
     result = runner.invoke(app, [
-        "triaxial", "--out", str(out), "-n", "30", "--seed", "3", "--eps-q", "0.02",
-        "--inertia", "0.01", "--sweep", "serial", "--no-progress", "--record-every", "2",
-        "--snapshot-every", "5"])
+        "triaxial", "--out", str(out), "-n", "30", "--seed", "3", "--eps-q", "0.04",
+        "--inertia", "0.01", "--sweep", "serial", "--no-progress", "--record-every", "1",
+        "--snapshot-every", "1"])
     assert result.exit_code == 0, result.output
     return out, " ".join(result.output.split())
+
+
+def test_every_shear_step_is_a_small_strain(run_folder):
+    """What makes the window below hold snapshots on every processor."""
+    from grainlab.result.test_result import read_test_result
+
+    table = read_test_result(run_folder[0] / "results.csv").table
+    shear = table[table["stage"] != "compaction"]["eps_q"].to_numpy()
+    assert shear.max() >= 0.04 and np.max(np.diff(shear)) < 0.005
 
 
 def test_a_finished_run_gets_its_report(run_folder):

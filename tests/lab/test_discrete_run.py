@@ -133,6 +133,7 @@ def baseline_run(tmp_path_factory):
     return read_test_result(folder / "run" / RESULTS)
 
 
+@pytest.mark.recorded_trajectory
 def test_the_wall_box_gives_the_results_it_gave_before(baseline_run):
     """Regression on a recorded run: the rows of SMALL recorded before the engine took a
     pluggable boundary (tests/lab/data; the same on a generic processor,
