@@ -53,6 +53,12 @@ class ConvergenceError(GrainlabError, RuntimeError):
     """An iterative solve did not converge; the message gives the residual reached."""
 
 
+class SolverDivergence(ConvergenceError):
+    """An iterative solve diverged: its error or its iterate became non-finite, or its error
+    grew past a bound. The message names the method, what it reached and the setting that
+    would help; nothing non-finite is returned as an answer."""
+
+
 class StrengthReached(GrainlabError, RuntimeError):
     """A specimen has no stiffness state left to carry further load: its strength is reached
     (e.g. the self-consistent overall stiffness of seed 001 eqs. 2.31–2.32 has ceased to
