@@ -6,8 +6,9 @@ test made here (``--n`` spheres, compaction then shear to ``--eps-q``, every ``-
 step's problem kept with ``output.problems_every``). Each problem is solved from zero impulses
 by every method of :mod:`grainlab.engine.contact_solvers` with the same cap; the script prints,
 per stage and method, how many problems reached each error level, the median iterations and
-seconds to get there, and the error at the cap; then the error the engine's own step had
-reached (the stored solution).
+seconds to get there, the error at the cap, and how many problems the method diverged on
+(:class:`~grainlab.errors.SolverDivergence`); then the error the engine's own step had reached
+(the stored solution).
 
     .venv/bin/python benchmarks/benchmark_contact_solvers.py [--n 300] [--eps-q 0.01]
         [--every 50] [--cap 2000] [FCLIB_FILE ...]
@@ -23,6 +24,7 @@ import numpy as np
 
 from grainlab.engine.contact_problem import natural_map_error, read_fclib
 from grainlab.engine.contact_solvers import METHODS, solve
+from grainlab.errors import SolverDivergence
 from grainlab.lab.discrete_run import PROBLEMS, start_run
 from grainlab.lab.run_config import RunConfig
 
@@ -71,9 +73,14 @@ def main() -> None:
         for method in METHODS:
             reached = {level: [] for level in LEVELS}
             finals = []
+            diverged = 0
             for item in items:
-                solution = solve(item.problem, method, tolerance=min(LEVELS),
-                                 max_iterations=args.cap)
+                try:
+                    solution = solve(item.problem, method, tolerance=min(LEVELS),
+                                     max_iterations=args.cap)
+                except SolverDivergence:
+                    diverged += 1
+                    continue
                 per_iteration = solution.seconds / max(solution.iterations, 1)
                 for level in LEVELS:
                     hit = np.flatnonzero(solution.errors <= level)
@@ -89,7 +96,8 @@ def main() -> None:
                     cells.append(f"{len(got):3d} / {its:6.0f} / {ms:7.1f}".ljust(26))
                 else:
                     cells.append(f"{0:3d} / {'-':>6s} / {'-':>7s}".ljust(26))
-            print(f"{method:8s} {'  '.join(cells)}  {np.median(finals):.2e}")
+            final = f"{np.median(finals):.2e}" if finals else "-"
+            print(f"{method:8s} {'  '.join(cells)}  {final:>8s}  {diverged}")
 
 
 if __name__ == "__main__":

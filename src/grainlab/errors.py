@@ -37,9 +37,11 @@ class InputError(GrainlabError, ValueError):
 
 def _shown(value: Any) -> str:
     """``value`` as a user would type it: numbers plain (``3.5``, not ``np.float64(3.5)``),
-    text quoted."""
+    text quoted, booleans as TOML and the command line spell them (``true``)."""
     if hasattr(value, "item") and getattr(value, "shape", None) == ():
         value = value.item()  # a NumPy scalar
+    if isinstance(value, bool):
+        return "true" if value else "false"
     if isinstance(value, float) and value.is_integer() and abs(value) < 1e15:
         return str(int(value))  # 200.0 typed as 200
     return repr(value)
@@ -51,6 +53,12 @@ class GeometryError(GrainlabError, ValueError):
 
 class ConvergenceError(GrainlabError, RuntimeError):
     """An iterative solve did not converge; the message gives the residual reached."""
+
+
+class SolverDivergence(ConvergenceError):
+    """An iterative solve diverged: its error or its iterate became non-finite, or its error
+    grew past a bound. The message names the method, what it reached and the setting that
+    would help; nothing non-finite is returned as an answer."""
 
 
 class StrengthReached(GrainlabError, RuntimeError):

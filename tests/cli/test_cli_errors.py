@@ -163,6 +163,49 @@ def test_a_value_from_the_config_file_is_named_by_its_key(tmp_path, text, key):
             named=(f"{key} (in {config})",))
 
 
+@pytest.mark.parametrize("text, named", [
+    # a boolean is not a count: read as 1 it made another key look wrong
+    ("[sample]\nn_particles = true\n",
+     ("sample.n_particles (in {config}) = true", "an integer >= 1",
+      "true and false are not numbers")),
+    ("[sample]\nd_min = false\n", ("sample.d_min (in {config}) = false", "a finite number > 0")),
+    ("[solver.shear]\nmax_iterations = true\n",
+     ("solver.shear.max_iterations (in {config}) = true", "an integer >= 1")),
+    ("[output]\nsnapshot_every = true\n",
+     ("output.snapshot_every (in {config}) = true", "an integer >= 0")),
+    ("[solver]\nwall_servo = 1\n", ("solver.wall_servo (in {config}) = 1", "true or false")),
+    # a value where a table is expected: the table named, with its keys
+    ("test = 5\n", ("test (in {config}) = 5", "a table [test] of the keys kind, sigma0")),
+    ("[solver]\nshear = 0.4\n",
+     ("solver.shear (in {config}) = 0.4", "a table [solver.shear] of the keys friction")),
+])
+def test_a_config_value_of_the_wrong_type_names_its_key_and_what_it_takes(tmp_path, text,
+                                                                          named):
+    config = tmp_path / "c.toml"
+    config.write_text(text)
+    out = tmp_path / "run"
+    line = refused("triaxial", "--config", config, "--out", out,
+                   named=[part.format(config=config) for part in named],
+                   absent=("finite number.", "test.eps_q_max", "True"))
+    assert line.count(" = ") == 1  # one key blamed: the one the file holds
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("value", ["0", "-3"])
+def test_analyse_synthetic_below_one_is_named_and_makes_no_folder(tmp_path, value):
+    out = tmp_path / "analysis"
+    refused("analyse", "--synthetic", value, "--out", out,
+            named=(f"--synthetic = {value}", "an integer >= 1"), absent=("RUN|SNAPSHOT",))
+    assert not out.exists()
+
+
+def test_analyse_refused_options_make_no_folder(tmp_path):
+    out = tmp_path / "analysis"
+    refused("analyse", "--synthetic", "5", "--snapshot", "9", "--out", out,
+            named=("--snapshot = 9", "[-6, 5]"))
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("arguments, named", [
     (["--alpha", "200"], ("--alpha", "200", "deg")),
     (["--friction-angle", "-5"], ("--friction-angle", "-5", "deg")),

@@ -14,9 +14,12 @@ import numpy as np
 import pytest
 
 from grainlab.engine.contact_dynamics import ContactDynamicsStep, StepReport, nlgs_kernel
+from grainlab.engine.nlgs_parallel import nlgs_coloured_kernel
+from grainlab.engine.simulation import Simulation, SimulationBlowUp
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.errors import ConvergenceError, InputError
+from grainlab.errors import ConvergenceError, InputError, SolverDivergence
 from grainlab.geometry.sphere_aggregate import tetrahedral_aggregate
+from grainlab.prep.loose_sample import loose_sample
 
 G = 9.81
 R = 0.5
@@ -273,6 +276,97 @@ def test_kernel_with_no_contacts_returns_free_velocities():
     np.testing.assert_array_equal(velocities, v_free)
     np.testing.assert_array_equal(spins, w_free)
     np.testing.assert_array_equal(residuals, 0.0)
+
+
+def chain_kernel_arguments(free_velocity_z):
+    """floor - sphere 0 - sphere 1 (unit masses, radius 0.5), both with free velocity
+    (0, 0, ``free_velocity_z``): the arguments of the NLGS kernels up to the visiting order,
+    and their outputs."""
+    body, other = np.array([-1, 0]), np.array([0, 1])
+    frame = np.tile(np.eye(3)[[2, 0, 1]], (2, 1, 1))
+    arm_i = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.5]])
+    arm_j = np.array([[0.0, 0.0, -0.5], [0.0, 0.0, -0.5]])
+    v_free = np.array([[0.0, 0.0, free_velocity_z]] * 2)
+    head = (body, other, frame, arm_i, arm_j, np.ones(2), np.tile(np.eye(3), (2, 1, 1)),
+            v_free, np.zeros((2, 3)), np.array([[0.0, 0.0, 1.0]]), np.zeros(1), np.zeros(1),
+            np.full(1, np.inf), np.full(2, 0.4), np.zeros(2), DT,
+            np.zeros((2, 3)), *NO_CELL[1:])
+    outputs = (np.zeros((2, 3)), np.empty((2, 3)), np.empty((2, 3)), np.zeros(1), np.zeros(0),
+               np.zeros((3, 3)), np.empty((2, 3, 3)), np.zeros(2))
+    return head, outputs
+
+
+@pytest.mark.parametrize("sweep", ["serial", "coloured"])
+def test_the_sweeps_stop_at_the_first_non_finite_sweep(sweep):
+    head, outputs = chain_kernel_arguments(np.nan)
+    if sweep == "serial":
+        done = nlgs_kernel(*head, np.array([0, 1]), TOL, TOL, 1000, *outputs)
+    else:
+        done = nlgs_coloured_kernel(*head, np.array([0, 1]), np.array([0, 1, 2, 2]),
+                                    np.array([0, 1, 2]), np.array([0, 1]), 2, TOL, TOL, 1000,
+                                    *outputs)
+    assert done == 1  # not the cap of 1000
+    assert np.isnan(outputs[-1]).all()  # change and residual say it
+
+
+@pytest.mark.parametrize("sweep", ["serial", "coloured"])
+def test_a_step_whose_solve_overflows_raises_and_leaves_the_state_alone(sweep):
+    # masses of ~5e159 kg: the impulses are finite, their squares are not
+    library = ShapeLibrary.from_spheres([R])
+    state = BodyState.from_library(library, [0, 0], [[0.0, 0.0, R], [0.0, 0.0, 3 * R]],
+                                   density=1e160)
+    state.velocities[:, 2] = -1.0
+    before = {name: getattr(state, name).copy() for name in
+              ("positions", "orientations", "velocities", "angular_velocities")}
+    step = ContactDynamicsStep(dt=DT, gravity=(0.0, 0.0, -G), sweep=sweep)
+    with pytest.raises(SolverDivergence, match=r"diverged at sweep 1: .* the step was not "
+                                               r"applied\. Reduce the time step \(dt = 0\.001 s\)"):
+        step.step(state, library, FLOOR)
+    for name, array in before.items():
+        np.testing.assert_array_equal(getattr(state, name), array)
+
+
+def test_a_step_refuses_a_non_finite_state_by_name():
+    library, state = spheres([[0.0, 0.0, R], [0.0, 0.0, 3 * R]])
+    state.velocities[1, 2] = np.inf
+    with pytest.raises(InputError, match=r"state\.velocities\[1\] = \[0\.0, 0\.0, inf\]"):
+        ContactDynamicsStep(dt=DT).step(state, library, FLOOR)
+
+
+def test_a_diverged_step_stops_a_simulation_as_a_blow_up(monkeypatch):
+    step = ContactDynamicsStep(dt=DT)
+    simulation = Simulation(loose_sample(n_particles=5, seed=1), step)
+
+    def diverging(*args):
+        raise SolverDivergence("the contact solve (NLGS) diverged at sweep 3: ...")
+
+    monkeypatch.setattr(step, "step", diverging)
+    with pytest.raises(SimulationBlowUp, match=r"diverged at sweep 3: \.\.\. \(step 1, t = 0 s\)"):
+        simulation.step()
+    assert simulation.step_index == 0
+
+
+@pytest.mark.parametrize("sweep", ["serial", "coloured"])
+@pytest.mark.parametrize("change_tolerance", [None, np.inf])
+def test_a_steps_flag_is_its_reported_change_and_residual_against_the_tolerances(
+        sweep, change_tolerance):
+    """converged is the kernel's own stop test on the change and residual reported (one
+    evaluation), whether the step converged or hit its cap."""
+    positions = [[0.0, 0.0, R + 2 * R * k] for k in range(5)]
+    verdicts = set()
+    for tolerance, cap in ((1e-4, 1000), (1e-12, 1000), (1e-5, 2), (1e-16, 50)):
+        library, state = spheres(positions)
+        step = ContactDynamicsStep(dt=DT, gravity=(0.0, 0.0, -G), tolerance=tolerance,
+                                   max_iterations=cap, sweep=sweep,
+                                   change_tolerance=change_tolerance)
+        limit = tolerance if change_tolerance is None else change_tolerance
+        for _ in range(5):
+            report = step.step(state, library, FLOOR)
+            assert report.converged == (report.change <= limit
+                                        and report.residual <= tolerance)
+            assert report.converged or report.iterations == cap
+            verdicts.add(report.converged)
+    assert verdicts == {True, False}
 
 
 @pytest.mark.long

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from grainlab.engine import contact_solvers
 from grainlab.engine.contact_dynamics import ContactDynamicsStep, contact_frames
 from grainlab.engine.contact_problem import (
     FrictionalContactProblem,
@@ -18,10 +19,10 @@ from grainlab.engine.contact_problem import (
     read_fclib,
     write_fclib,
 )
-from grainlab.engine.contact_solvers import METHODS, solve
+from grainlab.engine.contact_solvers import METHODS, jacobi_relaxation_bound, solve
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.wall_box import WallBox
-from grainlab.errors import InputError
+from grainlab.errors import InputError, SolverDivergence
 
 G, H, MASS = 9.81, 1e-3, 0.5
 TIGHT = 1e-10
@@ -261,3 +262,81 @@ def test_a_step_may_converge_on_the_residual_alone(sweep):
     assert all(r.converged and r.residual <= 1e-6 for r in both + residual_only)
     assert all(r.change <= 1e-6 for r in both)
     assert sum(r.iterations for r in residual_only) < sum(r.iterations for r in both)
+
+
+def sticking_cluster(n=48, rank=20, spread=0.1, mu=0.7, seed=0):
+    """A local problem of n contacts whose W = A A^T + spread rank 1 (A (3n, rank) random
+    normal) couples every contact to every other through ``rank`` degrees of freedom, as in
+    a dense cluster where every body carries many contacts: lambda_max(D W) ~ 7-9, far above
+    the 4 that Jacobi's default relaxation 0.5 tolerates. q = -W r* for impulses r* inside
+    their cones, so r* (with u = 0, sticking everywhere) is the solution. Returns the
+    problem and r* (3n,) [N s]."""
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(3 * n, rank))
+    w = a @ a.T + spread * rank * np.eye(3 * n)
+    r = np.zeros((n, 3))
+    r[:, 0] = rng.uniform(0.5, 1.5, n)
+    t = rng.normal(size=(n, 2))
+    t /= np.linalg.norm(t, axis=1)[:, None]
+    r[:, 1:] = t * 0.5 * mu * r[:, :1] * rng.uniform(0.0, 1.0, (n, 1))
+    return FrictionalContactProblem(w, -w @ r.ravel(), np.full(n, mu)), r.ravel()
+
+
+def test_a_diverging_jacobi_stops_early_and_names_the_relaxation_that_helps():
+    problem, exact = sticking_cluster()
+    bound = jacobi_relaxation_bound(problem)
+    assert bound < 0.5 / 2  # Jacobi's default is twice beyond its stable bound here
+    with pytest.raises(SolverDivergence) as caught:
+        solve(problem, "jacobi", tolerance=1e-10, max_iterations=100_000)
+    message = str(caught.value)
+    assert "'jacobi' diverged" in message and "48 contacts" in message
+    assert "relaxation = 0.5 (the default)" in message
+    stated = float(message.split("2 / lambda_max(D W) = ")[1].split()[0])
+    assert stated == pytest.approx(bound, rel=1e-2)
+    iterations = int(message.split(" iterations")[0].rsplit(" ", 1)[1])
+    assert iterations < 1000  # stopped once the error passed the bound, not at the cap
+    # the advice works: below the bound Jacobi finds the sticking solution
+    advised = float(message.split("relaxation=")[1].split(")")[0])
+    assert advised < bound
+    solution = solve(problem, "jacobi", tolerance=1e-10, max_iterations=20_000,
+                     relaxation=advised)
+    assert solution.converged
+    np.testing.assert_allclose(solution.reactions, exact, atol=1e-6 * np.abs(exact).max())
+
+
+def test_a_non_finite_error_stops_the_solve_even_without_the_growth_bound(monkeypatch):
+    monkeypatch.setattr(contact_solvers, "DIVERGENCE_FACTOR", np.inf)
+    problem, _ = sticking_cluster(seed=1)
+    with pytest.raises(SolverDivergence, match=r"error became (inf|nan) at iteration"):
+        solve(problem, "jacobi", tolerance=1e-10, max_iterations=100_000)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_the_flag_and_the_error_returned_are_the_stop_tests_own(method, stored_step):
+    """The error returned is the one the iterations stopped on (errors[-1], the same bits),
+    and converged is that number against the tolerance, on problems of several kinds and at
+    tolerances down to where double precision cannot follow (1e-15, 1e-16): the flag and
+    the error may not come from two evaluations that differ in the last bits."""
+    theta = np.radians(35.0)
+    problems = [wall_problem([[np.sin(theta), 0.0, np.cos(theta)]], 0.5),
+                wall_problem([[0.5, 0.0, 0.866], [-0.5, 0.0, 0.866]], 0.3),
+                stored_step.problem]
+    problems += [sticking_cluster(spread=2.0, seed=seed)[0] for seed in range(3)]
+    checked = {True: 0, False: 0}
+    for problem in problems:
+        relaxation = min(0.5, 0.9 * jacobi_relaxation_bound(problem)) \
+            if method == "jacobi" else None
+        for tolerance in (1e-6, 1e-10, 1e-12, 1e-13, 1e-15, 1e-16):
+            solution = solve(problem, method, tolerance=tolerance, max_iterations=CAPS[method],
+                             relaxation=relaxation)
+            assert solution.error == solution.errors[-1]
+            assert solution.converged == (solution.error <= tolerance)
+            assert solution.iterations == solution.errors.size
+            # the compiled error is the twin of natural_map_error, up to round-off
+            assert solution.error == pytest.approx(
+                natural_map_error(problem, solution.reactions), rel=1e-6, abs=1e-14)
+            np.testing.assert_allclose(solution.velocities,
+                                       problem.velocity(solution.reactions), rtol=0,
+                                       atol=1e-12 * np.abs(problem.free_velocity).max())
+            checked[solution.converged] += 1
+    assert checked[True] and checked[False]  # both verdicts were met

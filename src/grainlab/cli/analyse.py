@@ -57,7 +57,12 @@ def parse_window(text: str) -> tuple[float, float]:
     return low, high
 
 
-def synthetic_series(path: Path, n_points: int, n_snapshots: int = 6) -> Path:
+SYNTHETIC_SNAPSHOTS = 6
+"""Snapshots of the series that ``--synthetic`` analyses."""
+
+
+def synthetic_series(path: Path, n_points: int,
+                     n_snapshots: int = SYNTHETIC_SNAPSHOTS) -> Path:
     """A snapshot file whose anisotropies grow with a fictitious eps_q (for trying things)."""
     networks = []
     for k, strain in enumerate(np.linspace(0.0, 1.0, n_snapshots)):
@@ -84,8 +89,9 @@ def analyse_command(
     angle_bins: int = typer.Option(18, help="Bins of the angular distributions."),
     force_bins: int = typer.Option(40, help="Bins of the force PDFs."),
     color_by: str = typer.Option("type", help="Force network colours: type, sliding or none."),
-    synthetic: int = typer.Option(0, help="Analyse a synthetic series of this many contacts "
-                                  "per snapshot instead of PATH (to try the command)."),
+    synthetic: int | None = typer.Option(None, help="Analyse a synthetic series of this many "
+                                         "contacts per snapshot (>= 1) instead of PATH (to "
+                                         "try the command)."),
 ) -> None:
     """Analyse the contact networks of a run: stress (both forms), packing fraction, z and z_c
     with and without rattlers, contact types, fabric and force anisotropies in the contact and
@@ -101,7 +107,7 @@ def analyse_run(path: Path, out: Path, window: tuple[float, float],
     """The analysis of ``grainlab analyse PATH --out OUT`` with its default options and the
     residual state over ``window`` (low, high) of ``strain``."""
     _analyse(path, out, -1, strain, f"{window[0]!r}:{window[1]!r}", 2, "points", 18, 40,
-             "type", 0)
+             "type", None)
 
 
 @friendly_errors
@@ -112,20 +118,26 @@ def _analyse(path, out, snapshot, strain, window, min_contacts, frame_level, ang
     if frame_level not in ("points", "pairs"):
         raise InputError("--frame-level", frame_level, "points or pairs")
     low_high = parse_window(window)
-    output_folder("--out", out)
-    out.mkdir(parents=True, exist_ok=True)
-    if synthetic:
-        source = synthetic_series(out / "synthetic_snapshots.h5", synthetic)
+    # every input checked before the output folder is made: a refused command leaves nothing
+    if synthetic is not None:
+        if synthetic < 1:
+            raise InputError("--synthetic", synthetic, "an integer >= 1: the contacts per "
+                                                       "snapshot of a synthetic series")
+        source, total = None, SYNTHETIC_SNAPSHOTS
     elif path is None:
         raise InputError("RUN|SNAPSHOT", None, "a run folder or snapshot file, or --synthetic N")
     else:
         source = resolve_snapshot_file(path)
-    total = count_snapshots(source)
-    if total == 0:
-        raise InputError("RUN|SNAPSHOT", str(source), "a file holding at least one snapshot")
+        total = count_snapshots(source)
+        if total == 0:
+            raise InputError("RUN|SNAPSHOT", str(source), "a file holding at least one snapshot")
     chosen = snapshot % total if -total <= snapshot < total else None
     if chosen is None:
         raise InputError("--snapshot", snapshot, f"an index in [-{total}, {total - 1}]")
+    output_folder("--out", out)
+    out.mkdir(parents=True, exist_ok=True)
+    if source is None:
+        source = synthetic_series(out / "synthetic_snapshots.h5", synthetic, total)
     trajectory = TrajectoryAnalysis(min_contacts=min_contacts, frame_level=frame_level,
                                     n_angle_bins=angle_bins, n_force_bins=force_bins)
     drawn = {}

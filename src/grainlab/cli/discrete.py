@@ -14,6 +14,7 @@ from typing import Any
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from grainlab.cli.errors import friendly_errors
 from grainlab.cli.inputs import input_file, output_folder
@@ -147,7 +148,7 @@ def complete_run(folder: Path, run, progress: bool) -> tuple[Any, list[Path], An
     try:
         result = run.run(progress=progress)
     except SimulationBlowUp as error:
-        console.print(f"[bold red]blow-up:[/] {error}")
+        console.print(f"[bold red]blow-up:[/] {escape(str(error))}", soft_wrap=True)
         return None, [], None
     outcome = RunOutcome.of_result(result)
     figures = []
@@ -611,7 +612,8 @@ def vtk_command(
     out: Path = typer.Option(None, "--out", help="Folder for the files [RUN/vtk-checkpoint]."),
 ) -> None:
     """Write the run's last checkpoint as ParaView files: particles as their true shapes,
-    the walls, and the contacts of the last snapshot (lines carrying force) if any."""
+    the walls, and the contacts (lines carrying force) of the snapshot taken at the
+    checkpoint's step, if any. A damaged last checkpoint is refused, with how to recover."""
     from grainlab.lab.discrete_run import export_checkpoint_vtk
 
     if out is not None:
@@ -619,4 +621,7 @@ def vtk_command(
     paths = export_checkpoint_vtk(run, out)
     for path in paths:
         console.print(f"wrote {path}")
+    if not any(path.name.startswith("contacts_") for path in paths):
+        console.print("no contacts drawn: no snapshot was taken at the checkpoint's step "
+                      "(output.snapshot_every)")
 

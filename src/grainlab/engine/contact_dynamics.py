@@ -93,7 +93,12 @@ below the tolerance and at the cap):
 with w = W_nn per contact (so w P is a velocity [m/s] and the residual has no units; the
 natural-map residual of Siconos, K the Coulomb cone). A step that hits ``max_iterations`` is
 flagged (``converged=False``) with its residual in the :class:`StepReport`, never silently;
-``strict=True`` raises :class:`~grainlab.errors.ConvergenceError` instead.
+``strict=True`` raises :class:`~grainlab.errors.ConvergenceError` instead. The flag is the
+kernel's own stop test on the change and residual it reports (one evaluation). A sweep whose
+impulses, or whose measures, are not finite ends the sweeps at once, and the step raises
+:class:`~grainlab.errors.SolverDivergence` before anything of it reaches the state: non-finite
+impulses are never an answer. A state that is not finite at the start of a step is refused
+(:class:`~grainlab.errors.InputError`).
 
 >>> import numpy as np
 >>> from grainlab.engine.state import BodyState, ShapeLibrary
@@ -133,7 +138,7 @@ from grainlab.engine.narrow_phase import Contacts
 from grainlab.engine.quaternion import quat_to_matrices, turn_quaternions_kernel
 from grainlab.engine.shape_kinds import library_time_step_length
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.errors import ConvergenceError, InputError
+from grainlab.errors import ConvergenceError, InputError, SolverDivergence
 
 _TINY = 1e-300
 _WTT_CLAMP = 1e-6  # W_tt >= 1e-6 W_nn (LMGC90, pitfall 5)
@@ -568,7 +573,8 @@ def nlgs_kernel(
     wall normal speeds; ``cell_dofs`` (D,) end-of-step free degrees of freedom and
     ``cell_rate`` (3, 3) the cell's hdot [m/s]; ``delassus`` (C, 3, 3);
     ``residuals`` (2,) = (relative change, natural-map residual) of the last sweep.
-    Returns the number of sweeps done (``max_iterations`` when not converged).
+    Returns the number of sweeps done (``max_iterations`` when not converged, fewer when
+    a change or residual was not finite: ``residuals`` then holds it).
     """
     n_contacts = body_i.shape[0]
     velocities[:, :] = free_velocities
@@ -647,6 +653,9 @@ def _serial_sweeps(
         full = iterations % SKIP_REVISIT == 0
         change = 0.0 if change2 == 0.0 else math.sqrt(change2 / max(sweep_p2, _TINY))
         residuals[0] = change
+        if not math.isfinite(change):  # non-finite impulses: stop, the caller refuses them
+            residuals[1] = math.nan
+            break
         if iterations < max_iterations:
             if change_tolerance < np.inf:
                 if change > change_tolerance or not check_spaced(iterations, last_check):
@@ -680,7 +689,8 @@ def _serial_sweeps(
         residual = math.sqrt(res2) / scale
         residuals[0] = change
         residuals[1] = residual
-        if change <= change_tolerance and residual <= tolerance:
+        if (change <= change_tolerance and residual <= tolerance) \
+                or not math.isfinite(residual):
             break
         full = True
     return iterations
@@ -906,6 +916,7 @@ class ContactDynamicsStep:
         (points (W, 3) [m], normals (W, 3)) of fixed planes with normals pointing into the
         bodies' region (friction ``self.friction``)."""
         h, theta = self.dt, self.theta
+        _check_finite_state(state)
         boundary = as_boundary(walls, self.friction)
         bounds = boundary.constraints(h, theta)
         # largest approach within the step: two bodies (or a body and a wall) closing in
@@ -1025,6 +1036,9 @@ class ContactDynamicsStep:
                 residuals,
             )
         change, residual = float(residuals[0]), float(residuals[1])
+        _check_finite_solve(iterations, change, residual, impulses,
+                            {"body velocities": velocities, "angular velocities": spins,
+                             "wall speeds": wall_speeds, "cell rate": cell_rate}, h, speed)
         converged = n_contacts == 0 or (change <= change_tolerance
                                         and residual <= self.tolerance)
         if not converged and self.strict:
@@ -1109,6 +1123,40 @@ class ContactDynamicsStep:
     @rng_state.setter
     def rng_state(self, value: dict) -> None:
         self._rng.bit_generator.state = value
+
+
+def _check_finite_state(state: BodyState) -> None:
+    """Refuse a state whose positions, orientations or velocities are not all finite
+    (:class:`~grainlab.errors.InputError` naming the array and the first body)."""
+    for name in ("positions", "orientations", "velocities", "angular_velocities"):
+        array = getattr(state, name)
+        bad = np.flatnonzero(~np.all(np.isfinite(array.reshape(len(array), -1)), axis=1))
+        if bad.size:
+            raise InputError(f"state.{name}[{int(bad[0])}]", array[bad[0]].tolist(),
+                             "finite values at the start of a step")
+
+
+def _check_finite_solve(iterations: int, change: float, residual: float,
+                        impulses: np.ndarray, outputs: dict, dt: float, speed: float) -> None:
+    """Raise :class:`~grainlab.errors.SolverDivergence` when the sweeps ended on non-finite
+    impulses, velocities (``outputs``: name -> array) or convergence measures (module
+    docstring, "Convergence"), before the step touches the state; the message says where
+    and the likely cause."""
+    bad = [name for name, array in outputs.items() if not np.all(np.isfinite(array))]
+    finite_impulses = bool(np.all(np.isfinite(impulses)))
+    if finite_impulses and not bad and math.isfinite(change) and math.isfinite(residual):
+        return
+    if not finite_impulses:
+        rows = np.flatnonzero(~np.all(np.isfinite(impulses), axis=1))
+        bad.insert(0, f"impulses at contacts {rows[:5].tolist()}")
+    what = f"non-finite {', '.join(bad)}" if bad else (
+        f"its convergence measures overflowed (impulses up to {np.abs(impulses).max():.3g} "
+        "N s)")
+    raise SolverDivergence(
+        f"the contact solve (NLGS) diverged at sweep {iterations}: {what}, beyond the range "
+        f"of double precision; the step was not applied. Reduce the time step (dt = {dt:g} s) "
+        f"if the speeds grew during the run (up to {speed:.3g} m/s at this step's start), "
+        "else check the units of the densities, sizes and speeds.")
 
 
 def _find_keys(sorted_keys: np.ndarray, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

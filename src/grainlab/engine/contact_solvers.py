@@ -6,7 +6,18 @@ and runs one of :data:`METHODS` until the natural-map error ||F(r)|| / ||q|| (Ac
 Huber 2018) is at most ``tolerance`` or ``max_iterations`` iterations are done. Every method
 measures that same error on its iterate after each iteration (the cost of one product W r),
 so that methods are compared at equal accuracy, in time and in iterations; the history is
-returned.
+returned. The error that stopped the iterations is the one returned, and the convergence flag
+is that same number against ``tolerance`` (one evaluation: the compiled twin of
+:func:`~grainlab.engine.contact_problem.natural_map_error`, which may differ from it in the
+last bits).
+
+Divergence. A method whose error becomes non-finite, or exceeds :data:`DIVERGENCE_FACTOR` x
+max(1, the error of the starting impulses), stops at once and raises
+:class:`~grainlab.errors.SolverDivergence` naming the method and the setting that would help
+(an error of 1 is that of r = 0, relative to ||q||). Projected Jacobi is stable only for
+relaxations omega below about 2 / lambda_max(D W), D = diag(1 / W_nn,a)
+(:func:`jacobi_relaxation_bound`); its default 0.5 diverges where lambda_max(D W) > 4, as in
+dense clusters where every body carries many contacts.
 
 W is held in 3 x 3 blocks (compressed block rows), so an iteration costs one pass over the
 nonzero blocks, O(C) for a contact network.
@@ -32,7 +43,7 @@ Methods
 ``"jacobi"``
     Projected Jacobi: every contact solved locally against the others' previous values,
     all at once, then r <- r + omega (local - r) with omega = 0.5 (undamped Jacobi
-    oscillates on packings).
+    oscillates on packings; stable below :func:`jacobi_relaxation_bound`).
 
 >>> import numpy as np, scipy.sparse as sp
 >>> from grainlab.engine.contact_problem import FrictionalContactProblem
@@ -57,13 +68,16 @@ from grainlab._validate import at_least
 from grainlab.engine.contact_dynamics import local_solve, project_cone
 from grainlab.engine.contact_problem import (
     FrictionalContactProblem,
-    natural_map_error,
     problem_scale,
 )
-from grainlab.errors import InputError
+from grainlab.errors import InputError, SolverDivergence
 
 METHODS = ("nlgs", "psor", "apgd", "jacobi")
 """The methods of :func:`solve` (module docstring)."""
+
+DIVERGENCE_FACTOR = 1e6
+"""A solve stops as diverged once its error exceeds this many times max(1, the error of its
+starting impulses), or is not finite (module docstring, "Divergence")."""
 
 _TINY = 1e-300
 _POWER_ITERATIONS = 30
@@ -75,10 +89,11 @@ class ContactSolution:
     """Outcome of :func:`solve`.
 
     ``reactions`` r (3C,) [N s] and ``velocities`` u = W r + q (3C,) [m/s] (contact a at
-    3a .. 3a + 2, (n, t, s)); ``iterations`` done; ``error`` the natural-map error of r;
-    ``converged`` (error <= tolerance); ``errors`` (iterations,) the error after each
-    iteration; ``seconds`` the wall time of the iterations (compilation excluded once the
-    kernels are compiled); ``method``.
+    3a .. 3a + 2, (n, t, s)); ``iterations`` done; ``error`` the natural-map error of r, the
+    one the stop test measured (``errors[-1]``; 0 without contacts); ``converged`` that same
+    number against the tolerance (error <= tolerance); ``errors`` (iterations,) the error
+    after each iteration; ``seconds`` the wall time of the iterations (compilation excluded
+    once the kernels are compiled); ``method``.
     """
 
     reactions: np.ndarray
@@ -125,7 +140,8 @@ def solve(problem: FrictionalContactProblem, method: str = "nlgs", *,
     error of at most ``tolerance``, in at most ``max_iterations`` iterations, from
     ``reactions`` (3C,) [N s] (a warm start; default zero). ``order`` (C,): the NLGS / PSOR
     visiting order (default 0 .. C-1); ``relaxation``: omega of PSOR (default 1.3) and
-    Jacobi (default 0.5)."""
+    Jacobi (default 0.5). A solve that diverges raises
+    :class:`~grainlab.errors.SolverDivergence` (module docstring, "Divergence")."""
     if method not in METHODS:
         raise InputError("method", method, "one of " + ", ".join(map(repr, METHODS)))
     tolerance = at_least("tolerance", tolerance)
@@ -158,22 +174,71 @@ def solve(problem: FrictionalContactProblem, method: str = "nlgs", *,
         return ContactSolution(r.ravel(), np.zeros(0), 0, 0.0, True, errors[:0], 0.0, method)
     w = BlockDelassus.of(problem)
     u = np.empty((n, 3))
+    start_error = _error(w.indptr, w.indices, w.blocks, q, mu, r, u, scale)
+    limit = DIVERGENCE_FACTOR * max(1.0, start_error)
     start = time.perf_counter()
     if method in ("nlgs", "psor"):
         done = _gauss_seidel(w.indptr, w.indices, w.blocks, w.diagonal, q, mu, visit, omega,
-                             tolerance, scale, r, u, errors)
+                             tolerance, limit, scale, r, u, errors)
     elif method == "jacobi":
         done = _jacobi(w.indptr, w.indices, w.blocks, w.diagonal, q, mu, omega, tolerance,
-                       scale, r, u, errors, np.empty((n, 3)))
+                       limit, scale, r, u, errors, np.empty((n, 3)))
     else:
         step = 1.0 / (_STEP_SAFETY * _largest_scaled_eigenvalue(w, n))
         done = _apgd(w.indptr, w.indices, w.blocks, w.diagonal, q, mu, step, tolerance,
-                     scale, r, u, errors, np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)))
+                     limit, scale, r, u, errors, np.empty((n, 3)), np.empty((n, 3)),
+                     np.empty((n, 3)))
     seconds = time.perf_counter() - start
-    flat = r.ravel().copy()
-    error = natural_map_error(problem, flat)
-    return ContactSolution(flat, problem.velocity(flat), int(done), float(error),
+    if done < 0:
+        raise SolverDivergence(_divergence(problem, w, method, omega, relaxation is None,
+                                           errors[:-done], start_error))
+    error = float(errors[done - 1])  # the error the stop test measured, and no other
+    return ContactSolution(r.ravel().copy(), u.ravel().copy(), int(done), error,
                            bool(error <= tolerance), errors[:done].copy(), seconds, method)
+
+
+def jacobi_relaxation_bound(problem: FrictionalContactProblem) -> float:
+    """2 / lambda_max(D W), D = diag(1 / W_nn,a) per contact (power iteration): about the
+    largest relaxation omega for which projected Jacobi does not diverge on ``problem``
+    (its linear iteration on sticking contacts amplifies by |1 - omega lambda| per
+    iteration); inf without contacts."""
+    if problem.n_contacts == 0:
+        return math.inf
+    return 2.0 / _largest_scaled_eigenvalue(BlockDelassus.of(problem), problem.n_contacts)
+
+
+def _divergence(problem: FrictionalContactProblem, w: BlockDelassus, method: str,
+                omega: float, default: bool, errors: np.ndarray, start_error: float) -> str:
+    """The message of a diverged solve: the method, where its error went, and what to
+    change."""
+    n = problem.n_contacts
+    last = float(errors[-1])
+    went = (f"its natural-map error became {last:g} at iteration {errors.size}"
+            if not math.isfinite(last) else
+            f"its natural-map error grew from {start_error:.3g} to {last:.3g} in "
+            f"{errors.size} iterations (limit {DIVERGENCE_FACTOR:g} x max(1, start))")
+    head = f"method {method!r} diverged on this problem ({n} contacts): {went}; "
+    setting = f"relaxation = {omega:g}{' (the default)' if default else ''}"
+    if method == "jacobi":
+        bound = 2.0 / _largest_scaled_eigenvalue(w, n)
+        return head + (
+            f"{setting} is above this problem's stable bound 2 / lambda_max(D W) = "
+            f"{bound:.3g} (D = diag(1 / W_nn)); pass relaxation below it (e.g. "
+            f"relaxation={_round_down(0.9 * bound)}) or use method 'nlgs'.")
+    if method == "psor":
+        return head + (f"{setting} over-relaxes it; pass a relaxation in (0, 1] "
+                       "(1 is 'nlgs') or use method 'nlgs'.")
+    if method == "apgd":
+        return head + ("its step, 1 / (1.05 lambda_max(D W)) from 30 power iterations, was "
+                       "too long for this problem; use method 'nlgs'.")
+    return head + ("check that the problem's W is symmetric positive semi-definite and that "
+                   "the problem has a solution, or try method 'apgd'.")
+
+
+def _round_down(value: float) -> str:
+    """``value`` > 0 rounded down to two significant digits, as text."""
+    digits = 1 - math.floor(math.log10(value))
+    return f"{math.floor(value * 10**digits) / 10**digits:g}"
 
 
 def _largest_scaled_eigenvalue(w: BlockDelassus, n: int) -> float:
@@ -235,6 +300,15 @@ def _error(indptr, indices, blocks, q, mu, r, u, scale):
 
 
 @njit(inline="always")
+def _verdict(error, tolerance, limit):
+    """1 when ``error`` <= ``tolerance`` (converged), -1 when it is not finite or above
+    ``limit`` (diverged), else 0."""
+    if not math.isfinite(error) or error > limit:
+        return -1
+    return 1 if error <= tolerance else 0
+
+
+@njit(inline="always")
 def _local(a, indptr, indices, blocks, diagonal, q, mu, r):
     """Contact a solved exactly against the current impulses of the others."""
     u0, u1, u2 = _row(a, indptr, indices, blocks, r, a)
@@ -243,9 +317,10 @@ def _local(a, indptr, indices, blocks, diagonal, q, mu, r):
 
 
 @njit(cache=True)
-def _gauss_seidel(indptr, indices, blocks, diagonal, q, mu, order, omega, tolerance, scale,
-                  r, u, errors):
-    """NLGS (omega = 1) or PSOR sweeps in ``order``; returns the iterations done."""
+def _gauss_seidel(indptr, indices, blocks, diagonal, q, mu, order, omega, tolerance, limit,
+                  scale, r, u, errors):
+    """NLGS (omega = 1) or PSOR sweeps in ``order``; returns the iterations done (negated
+    when the error went past ``limit`` or became non-finite: :func:`_verdict`)."""
     for iteration in range(errors.shape[0]):
         for m in range(order.shape[0]):
             a = order[m]
@@ -257,15 +332,17 @@ def _gauss_seidel(indptr, indices, blocks, diagonal, q, mu, order, omega, tolera
                 x0, x1, x2 = project_cone(mu[a], x0, x1, x2)
             r[a, 0], r[a, 1], r[a, 2] = x0, x1, x2
         errors[iteration] = _error(indptr, indices, blocks, q, mu, r, u, scale)
-        if errors[iteration] <= tolerance:
-            return iteration + 1
+        verdict = _verdict(errors[iteration], tolerance, limit)
+        if verdict != 0:
+            return verdict * (iteration + 1)
     return errors.shape[0]
 
 
 @njit(cache=True)
-def _jacobi(indptr, indices, blocks, diagonal, q, mu, omega, tolerance, scale, r, u, errors,
-            local):
-    """Damped projected Jacobi; returns the iterations done."""
+def _jacobi(indptr, indices, blocks, diagonal, q, mu, omega, tolerance, limit, scale, r, u,
+            errors, local):
+    """Damped projected Jacobi; returns the iterations done (negated on divergence, as
+    :func:`_gauss_seidel`)."""
     n = r.shape[0]
     for iteration in range(errors.shape[0]):
         for a in range(n):
@@ -277,16 +354,17 @@ def _jacobi(indptr, indices, blocks, diagonal, q, mu, omega, tolerance, scale, r
             x2 = r[a, 2] + omega * (local[a, 2] - r[a, 2])
             r[a, 0], r[a, 1], r[a, 2] = project_cone(mu[a], x0, x1, x2)
         errors[iteration] = _error(indptr, indices, blocks, q, mu, r, u, scale)
-        if errors[iteration] <= tolerance:
-            return iteration + 1
+        verdict = _verdict(errors[iteration], tolerance, limit)
+        if verdict != 0:
+            return verdict * (iteration + 1)
     return errors.shape[0]
 
 
 @njit(cache=True)
-def _apgd(indptr, indices, blocks, diagonal, q, mu, step, tolerance, scale, r, u, errors,
-          y, previous, gradient):
+def _apgd(indptr, indices, blocks, diagonal, q, mu, step, tolerance, limit, scale, r, u,
+          errors, y, previous, gradient):
     """Accelerated projected gradient with adaptive restart (module docstring); returns the
-    iterations done."""
+    iterations done (negated on divergence, as :func:`_gauss_seidel`)."""
     n = r.shape[0]
     for a in range(n):
         y[a, 0], y[a, 1], y[a, 2] = r[a, 0], r[a, 1], r[a, 2]
@@ -318,6 +396,7 @@ def _apgd(indptr, indices, blocks, diagonal, q, mu, step, tolerance, scale, r, u
                 for d in range(3):
                     y[a, d] = r[a, d] + beta * (r[a, d] - previous[a, d])
         errors[iteration] = _error(indptr, indices, blocks, q, mu, r, u, scale)
-        if errors[iteration] <= tolerance:
-            return iteration + 1
+        verdict = _verdict(errors[iteration], tolerance, limit)
+        if verdict != 0:
+            return verdict * (iteration + 1)
     return errors.shape[0]

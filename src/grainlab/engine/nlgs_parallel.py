@@ -22,7 +22,8 @@ The sweeps are compiled without the Numba runtime (``_nrt=False``, see
 :func:`_coloured_sweeps`).
 
 Convergence as in ``nlgs_kernel``: the relative change after every sweep, the residual pass
-only after a sweep whose change is below the tolerance (and at the cap).
+only after a sweep whose change is below the tolerance (and at the cap); a non-finite change
+or residual ends the sweeps at once (the step then refuses the impulses).
 
 Determinism. The update sweep is bitwise independent of the number of threads: the colour
 order is fixed and contacts within a colour commute exactly. The sums of the convergence
@@ -333,6 +334,9 @@ def _coloured_sweeps(
             run_u2 += partial[b, 4]
         change = 0.0 if change2 == 0.0 else math.sqrt(change2 / max(p_norm2, _TINY))
         residuals[0] = change
+        if not math.isfinite(change):  # non-finite impulses: stop, the caller refuses them
+            residuals[1] = math.nan
+            break
         if iterations < max_iterations:
             # the residual pass only once the change (or, without a change tolerance, the
             # running residual) is small, and at the cap
@@ -362,7 +366,8 @@ def _coloured_sweeps(
         scale = max(math.sqrt(free_norm2), math.sqrt(wp_norm2), math.sqrt(u_norm2), _TINY)
         residual = math.sqrt(res2) / scale
         residuals[1] = residual
-        if change <= change_tolerance and residual <= tolerance:
+        if (change <= change_tolerance and residual <= tolerance) \
+                or not math.isfinite(residual):
             break
         full = True  # a skipped contact may be the one that fails
     return iterations
@@ -402,7 +407,8 @@ def nlgs_coloured_kernel(
     ``velocities``, ``spins`` (N, 3) end-of-step velocities [m/s], [rad/s]; ``wall_speeds``
     (W,) end-of-step wall normal speeds [m/s]; ``delassus`` (C, 3, 3) [1/kg];
     ``residuals`` (2,) = (relative change, natural-map residual) of the last sweep.
-    Returns the number of sweeps done (``max_iterations`` when not converged).
+    Returns the number of sweeps done (``max_iterations`` when not converged, fewer when
+    a change or residual was not finite: ``residuals`` then holds it).
     """
     n_contacts = body_i.shape[0]
     n_bodies = inv_mass.shape[0]

@@ -11,7 +11,8 @@ progress bars, or a user's own action, added without touching any kernel.
 
 Health check (a run that blows up stops with a diagnosis, :class:`SimulationBlowUp`):
 
-* non-finite positions, velocities or wall coordinates;
+* non-finite positions, velocities or wall coordinates; a solver step that diverged
+  (:class:`~grainlab.errors.SolverDivergence`: non-finite impulses, nothing applied);
 * runaway overlap: the largest overlap at detection above ``max_overlap`` x the mean
   particle diameter (default 0.1);
 * solver divergence: ``max_unconverged`` consecutive steps (default 200) whose NLGS hit its
@@ -49,7 +50,7 @@ import numpy as np
 from grainlab.engine.contact_dynamics import StepReport
 from grainlab.engine.discrete_sample import DiscreteSample
 from grainlab.engine.solver import Solver
-from grainlab.errors import GrainlabError, InputError
+from grainlab.errors import GrainlabError, InputError, SolverDivergence
 
 
 class SimulationBlowUp(GrainlabError, RuntimeError):
@@ -161,7 +162,11 @@ class Simulation:
         self._check_finite()
         self._previous_velocities = sample.state.velocities.copy()
         self.last_dt = self.solver.dt
-        report = self.solver.step(sample.state, sample.library, sample.boundary)
+        try:
+            report = self.solver.step(sample.state, sample.library, sample.boundary)
+        except SolverDivergence as error:  # nothing of the step was applied
+            raise SimulationBlowUp(
+                f"{error} (step {self.step_index + 1}, t = {self.time:.6g} s)") from None
         self.step_index += 1
         self.time += self.last_dt
         self.last_report = report

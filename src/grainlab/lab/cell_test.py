@@ -42,7 +42,6 @@ from grainlab.lab.discrete_test import (
     THIN_BOX,
     DiscreteTest,
     _stop_reason,
-    time_step_length,
 )
 from grainlab.lab.load_path import LoadPath
 from grainlab.lab.specimen import tensor_to_voigt
@@ -129,8 +128,7 @@ class CellTest(DiscreteTest):
         v_max = self.stage_wall_speed
         self.solver.overlap_recovery_speed = RECOVERY_SPEED_FRACTION * v_max
         if s.dt is None:
-            self.stage_dt = self._whole_substeps(numerics.time_step_factor * time_step_length(
-                self.sample.library) / v_max)
+            self.stage_dt = self.automatic_step()
         else:
             self.stage_dt = s.dt
         self.solver.dt = self._last_step(self.stage_dt)

@@ -71,6 +71,7 @@ from grainlab.lab.run_checkpoint import (
     PREVIOUS_CHECKPOINT,
     STATE_FIELDS,
     CheckpointContents,
+    CheckpointDamaged,
     load_checkpoint,
     read_checkpoint,
     set_damaged_aside,
@@ -79,6 +80,7 @@ from grainlab.lab.run_checkpoint import (
 )
 from grainlab.lab.run_config import CHANGEABLE_ON_RESUME, RunConfig, parse_assignments
 from grainlab.lab.run_outcome import RunCost, RunOutcome
+from grainlab.lab.stage_numerics import COMPACTION, SHEAR
 from grainlab.lab.wall_stages import QuasiStaticCriteria
 from grainlab.prep.inscribed_sample import deposited_sample, inscribed_sample
 from grainlab.prep.loose_sample import loose_sample
@@ -98,6 +100,12 @@ PROBLEMS = "problems"
 RUN_FILES = (CHECKPOINT, PREVIOUS_CHECKPOINT, CHECKPOINT + DAMAGED_SUFFIX, RESULTS, RESULTS_H5,
              SNAPSHOTS, LOG, "curves.png", "vtk", "vtk-checkpoint", PROBLEMS, "report")
 """What ``--restart`` moves aside (config.toml stays, a copy goes with them)."""
+DT_BLAME_FACTOR = 10.0
+"""A blow-up is put down to the given time step (``solver.dt``, ``--dt``) when it is at least
+this many times the stage's own step (:meth:`DiscreteRun._blamed_setting`)."""
+CAPPED_BLAME_SHARE = 0.9
+"""... and to a sweep cap lowered below its default when at least this share of the stage's
+steps ended at it."""
 
 
 class RunInterrupted(GrainlabError, KeyboardInterrupt):
@@ -431,22 +439,34 @@ class DiscreteRun:
             self._clock = None
 
     def _blow_up_diagnosis(self, error: SimulationBlowUp) -> str:
-        """The blow-up's message, with the box's thickness where the box is thinner than a
-        few particles (then no time step helps), and how to resume with other settings."""
+        """The blow-up's message, with the setting that most likely caused it
+        (:meth:`_blamed_setting`: a given time step far above the stage's own, a sweep cap
+        that every step of the stage hit) or else the box's thickness where the box is
+        thinner than a few particles (then no time step helps), and how to go on."""
         test, folder = self.test, self.folder
         text = str(error)
-        lengths = test.sample.box.lengths
-        ratios = lengths / test.largest_diameter
-        a = int(np.argmin(ratios))
-        if ratios[a] < BOX_MIN_DIAMETERS:
-            text += (f" The box is only {lengths[a] * 1e3:.3g} mm along {'xyz'[a]}, "
-                     f"{ratios[a]:.2f} largest particle diameters (d_max = "
-                     f"{test.largest_diameter * 1e3:.3g} mm): squeezed into one or two layers "
-                     "the particles lock, and a smaller time step or tolerance will not help; "
-                     "ask a smaller strain or use more particles.")
+        blamed = self._blamed_setting()
+        if blamed is not None:
+            text += f" Likely cause: {blamed[0]}"
+        else:
+            lengths = test.sample.box.lengths
+            ratios = lengths / test.largest_diameter
+            a = int(np.argmin(ratios))
+            if ratios[a] < BOX_MIN_DIAMETERS:
+                text += (f" The box is only {lengths[a] * 1e3:.3g} mm along {'xyz'[a]}, "
+                         f"{ratios[a]:.2f} largest particle diameters (d_max = "
+                         f"{test.largest_diameter * 1e3:.3g} mm): squeezed into one or two "
+                         "layers the particles lock, and a smaller time step or tolerance "
+                         "will not help; ask a smaller strain or use more particles.")
         if self.last_checkpoint_step < 0:
-            return text + (" No checkpoint was written: edit config.toml and start over "
-                           f"with `grainlab resume {folder} --restart`.")
+            change = (f"set {blamed[1]} = {blamed[2]} in {folder / CONFIG}" if blamed
+                      else f"edit {folder / CONFIG}")
+            return text + (f" No checkpoint was written: {change} and start over with "
+                           f"`grainlab resume {folder} --restart`.")
+        if blamed is not None:
+            return text + (
+                f" The last good checkpoint is at step {self.last_checkpoint_step}; resume it "
+                f"with `grainlab resume {folder} --set {blamed[1]}={blamed[2]}`.")
         key, numerics = f"solver.{test.stage_kind}", test.stage_numerics
         return text + (
             f" The last good checkpoint is at step {self.last_checkpoint_step}; resume it with "
@@ -454,6 +474,39 @@ class DiscreteRun:
             f"{key}.time_step_factor={numerics.time_step_factor / 2:g} --set "
             f"{key}.tolerance={numerics.tolerance / 10:g}` (keys that can change on resume: "
             + ", ".join(CHANGEABLE_ON_RESUME) + ").")
+
+    def _blamed_setting(self) -> tuple[str, str, str] | None:
+        """The setting that most likely made the run blow up, as (words naming it, its
+        value and what to try; its config key; the value to try), or None: a time step
+        ``solver.dt`` (``--dt``) at least :data:`DT_BLAME_FACTOR` times the stage's own
+        step (:meth:`~grainlab.lab.discrete_test.DiscreteTest.automatic_step`), or a sweep
+        cap ``solver.<kind>.max_iterations`` below its default that at least
+        :data:`CAPPED_BLAME_SHARE` of the stage's steps so far hit."""
+        test = self.test
+        if test.stage is None:
+            return None
+        kind, numerics, dt = test.stage_kind, test.stage_numerics, test.settings.dt
+        own = test.automatic_step() if test.stage_wall_speed > 0.0 else math.nan
+        if dt is not None and dt >= DT_BLAME_FACTOR * own:
+            longest = own * (numerics.time_step_growth if self.config.solver.method == "cd"
+                             else 1.0)
+            return (f"the time step solver.dt = {dt:g} s (--dt) is {dt / own:.3g} times this "
+                    f"{kind} stage's own step, {own:.3g} s (time_step_factor "
+                    f"{numerics.time_step_factor:g} x d_min / wall speed): leave --dt out "
+                    "(solver.dt = 0: each stage chooses its step, the lab's), or give at most "
+                    f"{longest:.2g} s.", "solver.dt", "0")
+        steps = test.simulation.step_index - test.stage_start_step
+        capped = test.simulation.unconverged_steps - test.stage_start_unconverged
+        default = {"compaction": COMPACTION, "shear": SHEAR}[kind].max_iterations
+        if steps > 0 and capped >= CAPPED_BLAME_SHARE * steps \
+                and numerics.max_iterations < default:
+            option = " (--max-iterations)" if kind == "shear" else ""
+            share = f"all {steps}" if capped >= steps else f"{capped} of the {steps}"
+            return (f"{share} steps of this {kind} stage ended unconverged at the sweep cap "
+                    f"solver.{kind}.max_iterations = {numerics.max_iterations}{option}: "
+                    f"raise it (default {default}; 100 to 1000 is usual).",
+                    f"solver.{kind}.max_iterations", str(default))
+        return None
 
 
 class _Every:
@@ -688,9 +741,7 @@ def resume_run(folder: str | Path, changes: list[str] | dict | None = None, *,
         checkpoint raises :class:`~grainlab.lab.run_checkpoint.NoCheckpoint` or
         :class:`~grainlab.lab.run_checkpoint.CheckpointDamaged` and is left as it is.
     """
-    folder = Path(folder)
-    if not (folder / CONFIG).exists():
-        raise InputError("run folder", str(folder), f"a run folder with a {CONFIG}")
+    folder = _run_folder(folder)
     edited = RunConfig.read(folder / CONFIG, saved=True)
     if isinstance(changes, list):
         changes = parse_assignments(changes)
@@ -792,29 +843,59 @@ def _truncate_snapshots(path: Path, keep: int) -> None:
 
 def export_checkpoint_vtk(folder: str | Path, out: str | Path | None = None) -> list[Path]:
     """ParaView files of a run's last checkpoint (particles, walls) and of the contacts of
-    its last snapshot (if any) in ``out`` (default RUN/vtk-checkpoint); returns the paths."""
+    the snapshot taken at its step (none when no snapshot was taken at that step) in ``out``
+    (default RUN/vtk-checkpoint); returns the paths. A folder that holds no run raises
+    :class:`InputError` saying how to start one; a damaged ``checkpoint.h5`` is refused
+    (:class:`~grainlab.lab.run_checkpoint.CheckpointDamaged`), not passed over for the
+    previous checkpoint, whose particles would be drawn among later snapshots and results."""
     from grainlab.analysis.snapshot_files import count_snapshots, read_snapshot
     from grainlab.report.vtk_export import ContactLines, write_vtk_frame
 
-    folder = Path(folder)
-    saved = load_checkpoint(folder).saved
+    folder = _run_folder(folder)
+    loaded = load_checkpoint(folder)
+    for path, damage in loaded.passed_over:
+        if damage != "missing":
+            raise CheckpointDamaged(
+                f"{path} is damaged ({damage}): the run's last checkpoint cannot be drawn, and "
+                f"{loaded.path.name} (step {loaded.saved['progress']['step_index']}) is older "
+                f"than the run's snapshots and results. `grainlab resume {folder}` goes on from "
+                f"{loaded.path.name} (the damaged file kept as {path.name}{DAMAGED_SUFFIX}) "
+                f"and writes a new checkpoint; then `grainlab vtk {folder}` draws it.")
+    saved = loaded.saved
     library, state, box = saved["library"], saved["state"], saved["box"]
+    progress = saved["progress"]
+    step = progress["step_index"]
     contacts = None
     snapshots = folder / SNAPSHOTS
-    if snapshots.exists() and count_snapshots(snapshots):
-        net = read_snapshot(snapshots, -1)
-        first = net.pair_particles[net.point_pairs, 0]
-        start = net.positions[first]
-        polyhedra = net.pair_types is not None and net.type_names == PAIR_TYPE_NAMES
-        contacts = ContactLines(start=start, end=start + net.pair_branches[net.point_pairs],
-                                force=net.point_forces, normal=net.point_normals,
-                                sliding=net.point_sliding,
-                                contact_type=net.pair_types[net.point_pairs] if polyhedra
-                                else None)
+    present = count_snapshots(snapshots) if snapshots.exists() else 0
+    # the checkpoint's own last snapshot (a run killed after a later one holds more)
+    own = min(int(progress.get("n_snapshots", present)), present)
+    if own:
+        net = read_snapshot(snapshots, own - 1)
+        if net.state.get("step", step) == step:
+            first = net.pair_particles[net.point_pairs, 0]
+            start = net.positions[first]
+            polyhedra = net.pair_types is not None and net.type_names == PAIR_TYPE_NAMES
+            contacts = ContactLines(start=start, end=start + net.pair_branches[net.point_pairs],
+                                    force=net.point_forces, normal=net.point_normals,
+                                    sliding=net.point_sliding,
+                                    contact_type=net.pair_types[net.point_pairs] if polyhedra
+                                    else None)
     out = Path(out) if out is not None else folder / "vtk-checkpoint"
-    files = write_vtk_frame(out, 0, float(saved["progress"]["time"]), positions=state.positions,
+    files = write_vtk_frame(out, 0, float(progress["time"]), positions=state.positions,
                             orientations=state.orientations, shape_ids=state.shape_ids,
                             library=library, contacts=contacts,
                             walls=_walls(box), velocities=state.velocities,
                             angular_velocities=state.angular_velocities)
     return sorted(files.values())
+
+
+def _run_folder(folder: str | Path) -> Path:
+    """``folder`` as a :class:`Path` if it holds a run (its config.toml), else an
+    :class:`InputError` that says how to start one there."""
+    folder = Path(folder)
+    if not (folder / CONFIG).exists():
+        raise InputError("run folder", str(folder), (
+            f"a run folder, with its {CONFIG}: this folder holds no run; start one there with "
+            f"e.g. `grainlab triaxial --out {folder}` (the tests: `grainlab --help`)"))
+    return folder

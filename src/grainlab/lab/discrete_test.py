@@ -458,8 +458,7 @@ class DiscreteTest:
         # the step shortens (spinning polyhedra), and then blows the sample apart
         self.solver.overlap_recovery_speed = RECOVERY_SPEED_FRACTION * v_max
         if s.dt is None:
-            d_min = time_step_length(self.sample.library)
-            self.stage_dt = self._whole_substeps(numerics.time_step_factor * d_min / v_max)
+            self.stage_dt = self.automatic_step()
         else:  # the last step of the previous stage may have been cut short
             self.stage_dt = s.dt
         self.step_control = self._step_control(self.step_control.scale)
@@ -484,6 +483,16 @@ class DiscreteTest:
         growth = numerics.time_step_growth if s.dt is None and s.method == "cd" else 1.0
         return OverlapStepControl(growth, numerics.overlap_bound * self.sample.mean_diameter,
                                   scale=min(scale, growth))
+
+    def automatic_step(self) -> float:
+        """The step h [s] the current stage takes when the test's ``dt`` is not given: its
+        ``time_step_factor`` x d_min [m] (:func:`time_step_length`) / the stage's wall speed
+        [m/s] (the shortest: the step may grow from it by ``time_step_growth``), in whole
+        sub-steps for the soft-contact solver."""
+        numerics = self.stage_numerics
+        return self._whole_substeps(numerics.time_step_factor
+                                    * time_step_length(self.sample.library)
+                                    / self.stage_wall_speed)
 
     def _whole_substeps(self, dt: float) -> float:
         """The stage's step [s] from the time step factor's ``dt``: for the soft-contact

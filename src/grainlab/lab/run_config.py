@@ -34,6 +34,10 @@ every key has a default, an unknown key is an error that names it::
     [output]   record_every, snapshot_every, checkpoint_every, vtk_every, problems_every
                (steps; 0: never)
 
+Types are strict: a key that takes a number or a count refuses ``true`` and ``false`` (and a
+count refuses 2.0), a switch refuses numbers, and a key that is a table (``test``,
+``solver.shear``) refuses a value, each with a message naming the key and what it takes.
+
 A config of the earlier layout, with the per-stage keys flat in ``[solver]`` (``friction``,
 ``compaction_friction``, ``tolerance``, ``compaction_tolerance``, ...: :data:`EARLIER_SOLVER_KEYS`),
 is read as the same config (:func:`current_layout`), so that runs made with it can be resumed;
@@ -62,7 +66,16 @@ from pathlib import Path
 from typing import Annotated, Any, Literal, get_args, get_origin
 
 import tomli_w
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    StrictBool,
+    StrictFloat,
+    StrictInt,
+    ValidationError,
+    field_validator,
+)
 
 from grainlab._validate import MAX_SEED, read_toml
 from grainlab.engine.shape_kinds import MEMBER_SPHERES, SPHERE
@@ -162,18 +175,18 @@ class SampleConfig(_Section):
     """
 
     shape: str = SPHERE.name
-    n_particles: int = Field(1000, ge=1)
-    d_min: float = Field(1e-3, gt=0)
-    size_ratio: float = Field(2.0, ge=1)
-    eta: float = Field(0.4, ge=0, le=0.828)
-    n_faces: int = Field(30, ge=8, le=MAX_FACES, description=_FACES_NOTE)
-    templates: int = Field(0, ge=0)
-    density: float = Field(2600.0, gt=0)
-    packing_fraction: float = Field(0.3, gt=0, le=0.35)
-    wall_friction: float = Field(0.0, ge=0)
-    seed: int = Field(0, ge=0, le=MAX_SEED)
+    n_particles: StrictInt = Field(1000, ge=1)
+    d_min: StrictFloat = Field(1e-3, gt=0)
+    size_ratio: StrictFloat = Field(2.0, ge=1)
+    eta: StrictFloat = Field(0.4, ge=0, le=0.828)
+    n_faces: StrictInt = Field(30, ge=8, le=MAX_FACES, description=_FACES_NOTE)
+    templates: StrictInt = Field(0, ge=0)
+    density: StrictFloat = Field(2600.0, gt=0)
+    packing_fraction: StrictFloat = Field(0.3, gt=0, le=0.35)
+    wall_friction: StrictFloat = Field(0.0, ge=0)
+    seed: StrictInt = Field(0, ge=0, le=MAX_SEED)
     boundary: Literal["walls", "periodic"] = "walls"
-    height_ratio: float = Field(1.0, ge=0.25, le=4.0)
+    height_ratio: StrictFloat = Field(1.0, ge=0.25, le=4.0)
     preparation: Literal["loose", "deposition", "file"] = "loose"
     skeleton_file: str = ""
     particle_file: str = ""
@@ -202,10 +215,10 @@ class QuasiStaticConfig(_Section):
 
     model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=True)
 
-    stress_tolerance: float = Field(_SETTLED.stress_tolerance, gt=0, lt=1)
-    unbalanced_force: float = Field(_SETTLED.unbalanced_force, gt=0,
+    stress_tolerance: StrictFloat = Field(_SETTLED.stress_tolerance, gt=0, lt=1)
+    unbalanced_force: StrictFloat = Field(_SETTLED.unbalanced_force, gt=0,
                                     description="or inf: not checked")
-    kinetic_energy: float = Field(_SETTLED.kinetic_energy, gt=0,
+    kinetic_energy: StrictFloat = Field(_SETTLED.kinetic_energy, gt=0,
                                   description="or inf: not checked")
 
     def criteria(self) -> QuasiStaticCriteria:
@@ -226,28 +239,28 @@ class TestConfig(_Section):
 
     kind: Literal["compaction", "triaxial", "extension", "oedometer", "true_triaxial",
                   "simple_shear", "circular", "cyclic_shear"] = "triaxial"
-    sigma0: float = Field(1e4, gt=0)
-    eps_q_max: float = Field(0.5, gt=0, le=2.0)
-    axial_strain: float = Field(0.05, gt=0, le=1.0)
-    unload_strain: float = Field(0.0, ge=0, le=1.0)
-    b: float = Field(0.5, ge=0, le=1)
-    gamma_max: float = Field(0.5, gt=0, le=10.0)
-    q_ratio: float = Field(0.3, gt=0, le=1.5)
-    circle_points: int = Field(36, ge=4, le=3600)
-    amplitude: float = Field(0.01, gt=0, le=1.0)
-    n_cycles: int = Field(2, ge=1, le=1000)
+    sigma0: StrictFloat = Field(1e4, gt=0)
+    eps_q_max: StrictFloat = Field(0.5, gt=0, le=2.0)
+    axial_strain: StrictFloat = Field(0.05, gt=0, le=1.0)
+    unload_strain: StrictFloat = Field(0.0, ge=0, le=1.0)
+    b: StrictFloat = Field(0.5, ge=0, le=1)
+    gamma_max: StrictFloat = Field(0.5, gt=0, le=10.0)
+    q_ratio: StrictFloat = Field(0.3, gt=0, le=1.5)
+    circle_points: StrictInt = Field(36, ge=4, le=3600)
+    amplitude: StrictFloat = Field(0.01, gt=0, le=1.0)
+    n_cycles: StrictInt = Field(2, ge=1, le=1000)
     quasi_static: QuasiStaticConfig = Field(default_factory=QuasiStaticConfig)
 
 
-Friction = Annotated[float, Field(ge=0)]
-InertiaBound = Annotated[float, Field(gt=0, le=1.0)]
-TimeStepFactor = Annotated[float, Field(gt=0, le=0.5)]
-Tolerance = Annotated[float, Field(gt=0, lt=1)]
-SweepCap = Annotated[int, Field(ge=1)]
-OverlapRecovery = Annotated[float, Field(ge=0, le=1)]
-ShareLimit = Annotated[float, Field(ge=0, le=1)]
-StepGrowth = Annotated[float, Field(ge=1)]
-OverlapBound = Annotated[float, Field(gt=0, lt=0.1)]
+Friction = Annotated[StrictFloat, Field(ge=0)]
+InertiaBound = Annotated[StrictFloat, Field(gt=0, le=1.0)]
+TimeStepFactor = Annotated[StrictFloat, Field(gt=0, le=0.5)]
+Tolerance = Annotated[StrictFloat, Field(gt=0, lt=1)]
+SweepCap = Annotated[StrictInt, Field(ge=1)]
+OverlapRecovery = Annotated[StrictFloat, Field(ge=0, le=1)]
+ShareLimit = Annotated[StrictFloat, Field(ge=0, le=1)]
+StepGrowth = Annotated[StrictFloat, Field(ge=1)]
+OverlapBound = Annotated[StrictFloat, Field(gt=0, lt=0.1)]
 
 
 class _StageSection(_Section):
@@ -294,16 +307,16 @@ class DemConfig(_Section):
     kappa at sigma0 unless ``normal_stiffness`` or ``young_modulus`` is given)."""
 
     law: Literal["linear", "hertz_mindlin"] = _DEM.law
-    kappa: float = Field(_DEM.kappa, gt=0)
-    normal_stiffness: float = Field(_DEM.normal_stiffness, ge=0)
-    young_modulus: float = Field(_DEM.young_modulus, ge=0)
-    poisson_ratio: float = Field(_DEM.poisson_ratio, gt=-1, lt=0.5)
-    stiffness_ratio: float = Field(_DEM.stiffness_ratio, gt=0)
-    restitution: float = Field(_DEM.restitution, gt=0, le=1)
-    rolling_friction: float = Field(_DEM.rolling_friction, ge=0)
-    local_damping: float = Field(_DEM.local_damping, ge=0, lt=1)
-    time_step_fraction: float = Field(_DEM.time_step_fraction, gt=0, le=1)
-    rigid_walls: bool = _DEM.rigid_walls
+    kappa: StrictFloat = Field(_DEM.kappa, gt=0)
+    normal_stiffness: StrictFloat = Field(_DEM.normal_stiffness, ge=0)
+    young_modulus: StrictFloat = Field(_DEM.young_modulus, ge=0)
+    poisson_ratio: StrictFloat = Field(_DEM.poisson_ratio, gt=-1, lt=0.5)
+    stiffness_ratio: StrictFloat = Field(_DEM.stiffness_ratio, gt=0)
+    restitution: StrictFloat = Field(_DEM.restitution, gt=0, le=1)
+    rolling_friction: StrictFloat = Field(_DEM.rolling_friction, ge=0)
+    local_damping: StrictFloat = Field(_DEM.local_damping, ge=0, lt=1)
+    time_step_fraction: StrictFloat = Field(_DEM.time_step_fraction, gt=0, le=1)
+    rigid_walls: StrictBool = _DEM.rigid_walls
 
     def settings(self) -> SoftContactSettings:
         """The :class:`~grainlab.lab.soft_contact_settings.SoftContactSettings` of this
@@ -316,15 +329,15 @@ class SolverConfig(_Section):
     run-wide keys, a table per kind of stage and the soft-contact law."""
 
     method: Literal["cd", "dem"] = _RUN_WIDE.method
-    dt: float = Field(0.0, ge=0)
-    theta: float = Field(_RUN_WIDE.theta, ge=0.5, le=1.0)
+    dt: StrictFloat = Field(0.0, ge=0)
+    theta: StrictFloat = Field(_RUN_WIDE.theta, ge=0.5, le=1.0)
     sweep: Literal["coloured", "serial"] = _RUN_WIDE.sweep
-    warm_start_extrapolation: float = Field(_RUN_WIDE.warm_start_extrapolation, ge=0, le=1)
-    max_stage_steps: int = Field(_RUN_WIDE.max_stage_steps, ge=1)
+    warm_start_extrapolation: StrictFloat = Field(_RUN_WIDE.warm_start_extrapolation, ge=0, le=1)
+    max_stage_steps: StrictInt = Field(_RUN_WIDE.max_stage_steps, ge=1)
     at_max_stage_steps: Literal["stop", "next_stage"] = _RUN_WIDE.at_max_stage_steps
-    wall_mass_factor: float = Field(_RUN_WIDE.wall_mass_factor, gt=0)
-    wall_servo: bool = _RUN_WIDE.wall_servo
-    seed: int = Field(_RUN_WIDE.seed, ge=0, le=MAX_SEED)
+    wall_mass_factor: StrictFloat = Field(_RUN_WIDE.wall_mass_factor, gt=0)
+    wall_servo: StrictBool = _RUN_WIDE.wall_servo
+    seed: StrictInt = Field(_RUN_WIDE.seed, ge=0, le=MAX_SEED)
     compaction: CompactionConfig = Field(default_factory=CompactionConfig)
     shear: ShearConfig = Field(default_factory=ShearConfig)
     dem: DemConfig = Field(default_factory=DemConfig)
@@ -339,11 +352,11 @@ class OutputConfig(_Section):
     layout (:mod:`grainlab.engine.contact_problem`), to compare solvers on it
     (``benchmarks/benchmark_contact_solvers.py``)."""
 
-    record_every: int = Field(_RUN_WIDE.record_every, ge=1)
-    snapshot_every: int = Field(500, ge=0)
-    checkpoint_every: int = Field(500, ge=0)
-    vtk_every: int = Field(0, ge=0)
-    problems_every: int = Field(0, ge=0)
+    record_every: StrictInt = Field(_RUN_WIDE.record_every, ge=1)
+    snapshot_every: StrictInt = Field(500, ge=0)
+    checkpoint_every: StrictInt = Field(500, ge=0)
+    vtk_every: StrictInt = Field(0, ge=0)
+    problems_every: StrictInt = Field(0, ge=0)
 
 
 class RunConfig(_Section):
@@ -627,7 +640,10 @@ def _input_error(error: ValidationError) -> InputError:
     info = _field_info(first["loc"])
     if info is None:
         return InputError(field, first.get("input"), first["msg"].lower())
-    return InputError(field, first.get("input"), _allowed_text(info, UNITS.get(field, "")))
+    allowed = _allowed_text(info, UNITS.get(field, ""), field)
+    if isinstance(first.get("input"), bool) and info.annotation is not bool:
+        allowed += " (true and false are not numbers)"
+    return InputError(field, first.get("input"), allowed)
 
 
 def _field_info(loc: tuple) -> Any:
@@ -648,12 +664,15 @@ def _number(value: Any) -> str:
     return str(value) if isinstance(value, int) else f"{value:g}"
 
 
-def _allowed_text(info: Any, unit: str = "") -> str:
+def _allowed_text(info: Any, unit: str = "", field: str = "") -> str:
     """What a config field allows, in words: ``"a finite number in (0, 1] (in Pa)"``,
-    ``"an integer >= 1"``, ``"one of 'coloured', 'serial'"`` (plus the field's
-    description)."""
+    ``"an integer >= 1"``, ``"one of 'coloured', 'serial'"``, ``"a table [test] of the
+    keys kind, sigma0, ..."`` for a table named ``field`` (plus the field's description)."""
     annotation = info.annotation
-    if get_origin(annotation) is Literal:
+    if hasattr(annotation, "model_fields"):
+        text = (f"a table [{field}] of the keys {', '.join(annotation.model_fields)} (each "
+                "optional)")
+    elif get_origin(annotation) is Literal:
         text = "one of " + ", ".join(repr(a) for a in get_args(annotation))
     elif annotation is bool:
         text = "true or false"
