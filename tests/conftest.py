@@ -74,6 +74,46 @@ def pytest_configure(config):
             print(f"grainlab compile --part {part} failed:\n{errors}", file=sys.stderr)
 
 
+PERTURBED_FOLDERS = ("lab", "cli", "report", "study", "test_readme.py", "test_examples.py")
+"""Where ``GRAINLAB_TEST_PERTURB=1`` moves the samples (the tests that run lab tests)."""
+_RUNNING = {"path": None}
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    _RUNNING["path"] = item.path  # module fixtures are made inside their first test's protocol
+    yield
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _another_trajectory():
+    """With ``GRAINLAB_TEST_PERTURB=1``, every body state made from a library
+    (:meth:`~grainlab.engine.state.BodyState.from_library`) in the tests that run lab tests
+    (:data:`PERTURBED_FOLDERS`) has its positions scaled by 1 + 2^-45: a difference in the
+    last bits, as another processor's, that takes a jammed packing along another trajectory.
+    A probe for tests that need one particular trajectory (docs/discrete_engine.md, "One
+    outcome on every processor"); a run and its resumed twin start from the same moved
+    state, so bit-for-bit resumption still holds."""
+    if os.environ.get("GRAINLAB_TEST_PERTURB") != "1":
+        yield
+        return
+    import numpy as np
+
+    from grainlab.engine.state import BodyState
+
+    made = BodyState.from_library.__func__
+
+    def moved(cls, library, shape_ids, positions, *args, **kwargs):
+        path = _RUNNING["path"]
+        if path is not None and any(part in PERTURBED_FOLDERS for part in path.parts):
+            positions = np.asarray(positions, dtype=np.float64) * (1.0 + 2.0**-45)
+        return made(cls, library, shape_ids, positions, *args, **kwargs)
+
+    BodyState.from_library = classmethod(moved)
+    yield
+    BodyState.from_library = classmethod(made)
+
+
 def pytest_addoption(parser):
     parser.addoption(
         "--validate", action="store_true", default=False,
