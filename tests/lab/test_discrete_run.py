@@ -113,22 +113,17 @@ def test_triaxial_run_records_every_column_and_agrees_with_walls(finished_run):
     np.testing.assert_allclose(again.table["q_over_trace"], table["q_over_trace"])
 
 
-NUMPY_BASELINE = "X86_V3 X86_V4 AVX512_ICL AVX512_SPR"
-"""NumPy's processor-specific loops switched off (NPY_DISABLE_CPU_FEATURES): its sums and
-transcendental functions then round alike on every x86-64 processor (with AVX-512 they
-round otherwise, and 40 spheres amplify the last bits into another compaction length)."""
-
-
 @pytest.fixture(scope="module")
 def baseline_run(tmp_path_factory):
-    """SMALL run by the CLI in a process with NumPy's baseline loops (:data:`NUMPY_BASELINE`)."""
+    """SMALL run by the CLI in a child process, which inherits the suite's baseline numerics
+    (tests/conftest.py, BASELINE_NUMERICS: with AVX-512 NumPy's loops round otherwise, and 40
+    spheres amplify the last bits into another compaction length)."""
     folder = tmp_path_factory.mktemp("baseline")
     small_config().write(folder / "input.toml")
-    env = {**os.environ, "NPY_DISABLE_CPU_FEATURES": NUMPY_BASELINE}
     done = subprocess.run(
         [sys.executable, "-m", "grainlab.cli.main", "triaxial", "--out", str(folder / "run"),
          "--config", str(folder / "input.toml"), "--no-progress"],
-        env=env, capture_output=True, text=True, timeout=600)
+        capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     return read_test_result(folder / "run" / RESULTS)
 
