@@ -231,3 +231,33 @@ def test_the_capped_steps_bound_trips_when_the_cap_is_absurdly_low(tmp_path, lim
 def test_the_capped_share_limit_is_checked():
     with pytest.raises(InputError, match="capped_share_limit"):
         RunConfig.model_validate({"solver": {"shear": {"capped_share_limit": 1.5}}})
+
+
+@pytest.mark.parametrize(("spin", "driven"), [(5.0, True), (50.0, True), (230.0, False)])
+def test_a_dem_stage_whose_grains_spin_with_no_load_is_not_as_asked(spin, driven):
+    """The spin energy of the load-bearing grains, per grain over p <d>^3 I^2 (the median past
+    the first tenth): what a flow driven at I keeps (1-50) passes; what an unstable sub-step
+    fed (229 and more) is flagged, with the settings that help."""
+    from types import SimpleNamespace
+
+    record = {"name": "shear", "reason": "stop", "steps": 100, "strain_controlled": True}
+    settings = SimpleNamespace(method="dem", numerics_for=lambda moving: SimpleNamespace(
+        max_iterations=0, inertia_number=1e-3), quasi_static=None)
+    inertia = 8e-4
+    rows = [{"inertia_number": inertia, "z": 4.0, "spin_energy_ratio": 1e4 * inertia**2}
+            for _ in range(2)]  # the first tenth: the start of the stage, not judged
+    rows += [{"inertia_number": inertia, "z": 4.0,
+              "spin_energy_ratio": spin * inertia**2 * (1.0 + 0.1 * k)} for k in range(-9, 10)]
+    stage = stage_outcome(record, rows, settings, {})
+    assert stage.spin_energy == pytest.approx(spin)
+    assert stage.spins_driven is driven
+    problems = stage.problems()
+    assert (problems == []) is driven
+    if not driven:
+        assert "spin with no load" in problems[0] and "time_step_fraction" in problems[0]
+        assert "SPINNING" in stage.words()
+        assert RunOutcome(stages=(stage,), finished=True, steps=100).status == "not as asked"
+    assert type(stage).from_dict(stage.to_dict()) == stage
+    cd = stage_outcome(record, rows, SimpleNamespace(
+        method="cd", numerics_for=settings.numerics_for, quasi_static=None), {})
+    assert cd.spins_driven is None  # contact dynamics: not judged

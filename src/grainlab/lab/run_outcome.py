@@ -21,6 +21,17 @@ A run is *as asked* when it finished every stage of its load path and each stage
   spheres, rattlers included) to 4-6; below 1 most particles touch nothing: a granular gas
   (z median 0.07 in the run at a bound of 1).
 
+* (soft-contact DEM, stages with a strain-controlled axis) kept the grains' spins to what the
+  loading drives: the spin energy of the load-bearing grains per particle, over the inertia
+  number's scale p <d>^3 I^2 (I the stage's median; the median over its records past the
+  first tenth), at most :data:`SPIN_ENERGY_FACTOR` (100). A quasi-static flow driven at I keeps
+  it of order 1-50 (measured below); a flow fed by a numerical instability of the explicit
+  scheme (its dashpots taken explicitly, the sub-step too long for their damping rate) spins
+  its grains far beyond, with no load to drive them, and loses its friction: a periodic
+  triaxial test at e = 0.2 on a sub-step sized by the springs alone read 229 (peak q/p 0.14
+  against 0.40 at e = 0.5), 333 in a wall box, 1930 at e = 0.1; the sub-step now counts the
+  dashpots (:mod:`grainlab.engine.soft_stability`), and the same tests read 2-14.
+
 Steps whose solver ended at its iteration cap (``max_iterations``, not converged) are counted
 per stage and reported; a stage whose share of them is above its ``capped_share_limit``
 (:class:`~grainlab.lab.stage_numerics.StageNumerics`, default 1: never) is not as asked.
@@ -71,6 +82,12 @@ HELD_STRESS_ROWS = 10
 """Fewest records (past the first tenth) on which the held stresses are judged: a shorter
 stage is mostly the servo's start."""
 EXIT_NOT_AS_ASKED = 3
+SPIN_ENERGY_FACTOR = 100.0
+"""Largest median spin energy of a strain-controlled DEM stage, per particle, over
+p <d>^3 I^2 (module docstring). Measured medians of 200-sphere triaxial tests at e = 0.5
+(linear springs at kappa = 1e3 and 1e4, Hertz at 1e4; periodic cell and wall box; I = 1e-4
+to 1e-2): 1.9 to 50 (the largest, Hertz in a wall box); driven by an unstable sub-step: 229
+to 1930."""
 
 
 def _fmt(value: float) -> str:
@@ -100,6 +117,10 @@ class StageOutcome:
     unsettled:
         For a stage without a strain-controlled axis that did not settle: each quasi-static
         criterion that its last record missed, in words.
+    spin_energy:
+        Soft-contact DEM stages with a strain-controlled axis: the median spin energy of the
+        load-bearing grains per particle over p <d>^3 I^2 (module docstring; NaN where not
+        judged).
     """
 
     name: str
@@ -118,6 +139,7 @@ class StageOutcome:
     start_step: int = -1
     end_step: int = -1
     capped_share_limit: float = 1.0
+    spin_energy: float = math.nan
 
     @property
     def capped_share(self) -> float:
@@ -131,6 +153,14 @@ class StageOutcome:
             return None
         return (self.inertia_median <= INERTIA_MEDIAN_FACTOR * self.inertia_bound
                 and self.inertia_q90 <= INERTIA_QUANTILE_FACTOR * self.inertia_bound)
+
+    @property
+    def spins_driven(self) -> bool | None:
+        """Whether the grains' spins stayed at what the loading drives (None where not
+        judged): :attr:`spin_energy` at most :data:`SPIN_ENERGY_FACTOR`."""
+        if not math.isfinite(self.spin_energy):
+            return None
+        return self.spin_energy <= SPIN_ENERGY_FACTOR
 
     @property
     def solid(self) -> bool | None:
@@ -171,6 +201,12 @@ class StageOutcome:
                        f"{self.max_iterations} sweeps unconverged, above the limit of "
                        f"{100 * self.capped_share_limit:g} % ({table}.capped_share_limit); "
                        f"raise {table}.max_iterations or loosen {table}.tolerance")
+        if self.spins_driven is False:
+            out.append(f"stage {self.name}: the grains spin with no load to drive them (spin "
+                       f"energy {self.spin_energy:.3g} x p <d>^3 I^2 per grain, more than "
+                       f"{SPIN_ENERGY_FACTOR:g}): a numerical instability of the explicit "
+                       "dashpots, whose results are not those of the material; lower "
+                       "solver.dem.time_step_fraction or raise solver.dem.restitution")
         if self.solid is False:
             out.append(f"stage {self.name}: the sample lost its contact network (median z "
                        f"{_fmt(self.z_median)} < {MIN_COORDINATION:g}): a granular gas, not a "
@@ -195,6 +231,8 @@ class StageOutcome:
             text += (f"; inertia number {'held' if held else 'EXCEEDED'} its bound "
                      f"{self.inertia_bound:g} (median {_fmt(self.inertia_median)}, largest "
                      f"{_fmt(self.inertia_max)} = {ratio:.3g} x the bound)")
+        if self.spins_driven is False:
+            text += f"; grains SPINNING with no load ({self.spin_energy:.3g} x p <d>^3 I^2)"
         if self.solid is False:
             text += f"; contact network LOST (median z {_fmt(self.z_median)})"
         if self.steps and self.max_iterations:  # 0: an explicit solver, no iterations
@@ -209,7 +247,7 @@ class StageOutcome:
         data["unsettled"] = list(self.unsettled)
         data["stress_errors"] = [list(pair) for pair in self.stress_errors]
         data.update(inertia_held=self.inertia_held, solid=self.solid,
-                    problems=self.problems())
+                    spins_driven=self.spins_driven, problems=self.problems())
         return data
 
     @classmethod
@@ -220,7 +258,7 @@ class StageOutcome:
         values["unsettled"] = tuple(values.get("unsettled", ()))
         values["stress_errors"] = tuple((str(a), float(e))
                                         for a, e in values.get("stress_errors", ()))
-        for key in ("inertia_median", "inertia_q90", "inertia_max", "z_median"):
+        for key in ("inertia_median", "inertia_q90", "inertia_max", "z_median", "spin_energy"):
             if values.get(key) is None:
                 values[key] = math.nan
         return cls(**values)
@@ -378,6 +416,18 @@ def _held_stress_errors(rows: list[dict[str, Any]], stress_targets: dict[str, fl
     return tuple(errors)
 
 
+def _spin_energy(rows: list[dict[str, Any]]) -> float:
+    """The median of ``spin_energy_ratio`` over the rows past the first tenth, over the
+    square of their median inertia number (NaN without such rows: not judged)."""
+    later = rows[len(rows) // 10:]
+    spins = np.array([r.get("spin_energy_ratio", math.nan) for r in later], dtype=float)
+    inertia = np.array([r.get("inertia_number", math.nan) for r in later], dtype=float)
+    spins, inertia = spins[np.isfinite(spins)], inertia[np.isfinite(inertia)]
+    if not spins.size or not inertia.size or not np.median(inertia) > 0.0:
+        return math.nan
+    return float(np.median(spins) / np.median(inertia) ** 2)
+
+
 def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
                   stress_targets: dict[str, float]) -> StageOutcome:
     """Judge one stage from its record (``name``, ``reason``, ``steps``, ``ended``,
@@ -409,6 +459,7 @@ def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
             values["z_median"] = float(np.median(z))
         if getattr(settings, "method", "cd") == "dem":
             values["stress_errors"] = _held_stress_errors(rows, stress_targets)
+            values["spin_energy"] = _spin_energy(rows)
     elif ended != REACHED and rows:
         values["unsettled"] = _unsettled(rows[-1], settings.quasi_static, stress_targets)
     return StageOutcome(**values)
