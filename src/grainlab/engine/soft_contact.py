@@ -109,7 +109,13 @@ from grainlab.engine.soft_contact_kernels import (
     substeps_kernel,
 )
 from grainlab.engine.soft_polyhedra import PolyhedronRows, has_polyhedra, smallest_radius
-from grainlab.engine.soft_stability import HORIZON_STEPS, damped_limit, sphere_rows_rates
+from grainlab.engine.soft_stability import (
+    HORIZON_STEPS,
+    damped_limit,
+    sphere_rows_rates,
+    zigzag_index,
+    zigzag_sums_kernel,
+)
 from grainlab.engine.soft_step_report import SoftStepReport
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
@@ -188,6 +194,11 @@ class SoftContactStep:
         self.damped_substep = math.inf
         """The dashpots' bound [s] of the last step's contacts (:mod:`grainlab.engine.
         soft_stability`; inf without contacts or with a fixed sub-step)."""
+        self.velocity_zigzag = 0.0
+        """How much the contacts' relative velocities changed between the last step's last
+        force evaluation and its end, over themselves (:func:`~grainlab.engine.
+        soft_stability.zigzag_index`): small for a motion the sub-steps resolve, about 1 for
+        one that flips sign at every sub-step (an unstable sub-step)."""
         # read and set by the lab as for contact dynamics; an explicit step has no iterations
         self.tolerance = 1.0
         self.max_iterations = 1
@@ -356,6 +367,7 @@ class SoftContactStep:
         self._wall_load = np.column_stack([run.wall_impulse / macro, run.wall_stiffness,
                                            memory])
         report, closed = run.report(rows, macro)
+        self.velocity_zigzag = run.zigzag(rows)
         boundary.finish_step(BoundaryMotion(
             dt=macro, theta=1.0, wall_speeds=run.mean_wall_speeds(),
             wall_reactions=run.wall_impulse / macro, cell_dofs=run.cell_dofs.copy(),
@@ -751,6 +763,19 @@ class _Run:
                 f"are too soft for the load ({law.model}) or the sub-step "
                 f"{h:.3g} s too long for their stiffness.")
         return int(done)
+
+    def zigzag(self, rows) -> float:
+        """:func:`~grainlab.engine.soft_stability.zigzag_index` of the contacts between bodies
+        closed at the end of the step."""
+        state, sums = self.state, np.zeros(4)
+        if isinstance(rows, PolyhedronRows):
+            contacts = rows.closed_points()
+        else:
+            contacts = (rows.body_i, rows.body_j, rows.images, rows.gap < 0.0, rows.point,
+                        rows.normal, rows.rel_vel)
+        zigzag_sums_kernel(*contacts, state.positions, state.velocities,
+                           state.angular_velocities, self.cell_h, self.cell_rate, sums)
+        return zigzag_index(sums)
 
     def report(self, rows: _Rows, macro: float) -> tuple[StepReport | SoftStepReport,
                                                           ClosedContacts | SoftStepReport]:

@@ -274,7 +274,7 @@ class PolyhedronRows:
         elements = np.empty((e, LAW_COLUMNS))
         polyhedron_elements_kernel(
             float(horizon), law.code, law.params, self.pair_i, self.pair_j, self.images,
-            self.r_eff, run.inv_mass, state.positions, run.cell_h, self.n_points,
+            self.r_eff, self.mu, run.inv_mass, state.positions, run.cell_h, self.n_points,
             self.point_gap, self.point_normal, self.point_position, self.point_velocity,
             self.point, self.normal, self.rel_vel, elem_i, elem_j, normal, arm_i, arm_j,
             elements)
@@ -282,6 +282,17 @@ class PolyhedronRows:
         return damped_limit(*stable_rates_kernel(
             elem_i, elem_j, normal, arm_i, arm_j, elements, run.inv_mass, run.inv_inertia,
             np.empty((n, 2)), np.empty((n, 2, BLOCK))))
+
+    def closed_points(self) -> tuple:
+        """The penetrating points of the last evaluation as contacts of
+        :func:`~grainlab.engine.soft_stability.zigzag_sums_kernel`: (body_i, body_j, images,
+        closed (all true), points, normals, relative velocities)."""
+        k = self.point_gap.shape[1]
+        kept = np.arange(k)[None, :] < self.n_points[:, None]
+        pair = np.repeat(np.arange(self.pair_j.shape[0]), self.n_points)
+        return (self.pair_i[pair], self.pair_j[pair], self.images[pair],
+                np.ones(pair.shape[0], dtype=np.bool_), self.point_position[kept],
+                self.point_normal[kept], self.point_velocity[kept])
 
     def report(self, run, macro: float) -> tuple[StepReport, np.ndarray]:
         """The penetrating points at the end of the step, as a step report (module

@@ -57,11 +57,13 @@ Which contacts. Each row of the neighbour list (the pairs that can close while t
 lives) counts at the overlap it would reach at the end of the step if it kept approaching
 at twice its current normal speed, delta + ``horizon`` max(0, -U_n) (``horizon`` = twice the
 step): its stiffness and dashpots are the law's at that overlap (a Hertz contact stiffens as
-delta^1/2; a linear one does not), and a row that stays open counts nothing. Polyhedra count
-their penetrating manifold points (a point's share of the pair's normal force,
-w_r F_n(delta_r) with w_r = delta_r / sum delta, has a stiffness at most 2 w_r k_n: the
-Jacobian k (2 diag(w) - w w^T) <= 2 k diag(w)) and the pair's tangential spring at its mean
-point.
+delta^1/2; a linear one does not), and a row that stays open counts nothing. A row without
+friction has no tangential spring or dashpot (its Coulomb cap mu F_n is 0), so a
+frictionless stage (the lab's compactions) leaves the spins free and counts the normal
+springs only. Polyhedra count their penetrating manifold points (a point's share of the
+pair's normal force, w_r F_n(delta_r) with w_r = delta_r / sum delta, has a stiffness at most
+2 w_r k_n: the Jacobian k (2 diag(w) - w w^T) <= 2 k diag(w)) and the pair's tangential
+spring at its mean point.
 
 Safety. The sub-step is :data:`DAMPED_FRACTION` of the bound: at the bound itself the
 uniform spin of a lattice neither grows nor decays, and within a step a Hertz contact may
@@ -242,27 +244,32 @@ def stable_rates_kernel(elem_i, elem_j, normal, arm_i, arm_j, law, inv_mass, inv
 
 
 @njit(inline="always")
-def _element_law(code, params, rolling, overlap, r_eff, m_eff, law, e):
+def _element_law(code, params, rolling, friction, overlap, r_eff, m_eff, law, e):
     """law[e] = the law's k_n (normal tangent stiffness), k_t, c_n, c_t and the rolling
-    stiffness at ``overlap`` [m] (zeros for an overlap <= 0)."""
+    stiffness at ``overlap`` [m] (zeros for an overlap <= 0; no tangential spring or dashpot
+    without ``friction``: the Coulomb cap mu F_n = 0 holds them at zero)."""
     if overlap <= 0.0:
         for a in range(law.shape[1]):
             law[e, a] = 0.0
         return
     _, s_n, k_t, c_n, c_t = contact_law(code, params, overlap, r_eff, m_eff)
+    if friction == 0.0:
+        k_t = c_t = 0.0
     law[e, 0], law[e, 1], law[e, 2], law[e, 3] = s_n, k_t, c_n, c_t
     law[e, 4] = 2.25 * s_n * rolling * rolling * r_eff * r_eff
 
 
 @njit(cache=True, _nrt=False)
 def sphere_elements_kernel(horizon, code, params, rolling, body_i, body_j, off_i, off_j,
-                           rad_i, rad_j, images, inv_mass, positions, orientations,
+                           rad_i, rad_j, images, mu, inv_mass, positions, orientations,
                            velocities, spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h,
                            cell_rate, normal, arm_i, arm_j, law):
     """The contact elements of a list of member spheres (:mod:`grainlab.engine.
     soft_contact_kernels`' rows, its argument names): per row its normal, the arms from the
     bodies' centres to its contact point [m] and the law at the overlap it reaches after
-    ``horizon`` [s] of approach at its current normal speed (module docstring)."""
+    ``horizon`` [s] of approach at its current normal speed (module docstring); a row without
+    friction (``mu`` 0) has no tangential spring or dashpot: the Coulomb cap holds them at
+    zero."""
     for k in range(body_j.shape[0]):
         j, i = body_j[k], body_i[k]
         mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
@@ -316,7 +323,7 @@ def sphere_elements_kernel(horizon, code, params, rolling, body_i, body_j, off_i
         normal[k, 0], normal[k, 1], normal[k, 2] = nx, ny, nz
         arm_i[k, 0], arm_i[k, 1], arm_i[k, 2] = rix, riy, riz
         arm_j[k, 0], arm_j[k, 1], arm_j[k, 2] = rjx, rjy, rjz
-        _element_law(code, params[0 if i >= 0 else 1], rolling,
+        _element_law(code, params[0 if i >= 0 else 1], rolling, mu[k],
                      -g + horizon * max(0.0, -un), r_eff, m_eff, law, k)
 
 
@@ -332,7 +339,7 @@ def sphere_rows_rates(rows, horizon: float, law, inv_mass, inv_inertia, position
     elements = np.empty((c, LAW_COLUMNS))
     sphere_elements_kernel(float(horizon), law.code, law.params, law.rolling_friction,
                            rows.body_i, rows.body_j, rows.off_i, rows.off_j, rows.rad_i,
-                           rows.rad_j, rows.images, inv_mass, positions, orientations,
+                           rows.rad_j, rows.images, rows.mu, inv_mass, positions, orientations,
                            velocities, spins, wall_points, wall_normals, wall_disp,
                            wall_speed, cell_h, cell_rate, normal, arm_i, arm_j, elements)
     return stable_rates_kernel(rows.body_i, rows.body_j, normal, arm_i, arm_j, elements,
@@ -341,7 +348,8 @@ def sphere_rows_rates(rows, horizon: float, law, inv_mass, inv_inertia, position
 
 
 @njit(cache=True, _nrt=False)
-def polyhedron_elements_kernel(horizon, code, params, pair_i, pair_j, images, r_eff, inv_mass,
+def polyhedron_elements_kernel(horizon, code, params, pair_i, pair_j, images, r_eff, mu,
+                               inv_mass,
                                positions, cell_h, n_points, point_gap, point_normal,
                                point_position, point_velocity, mean_point, mean_normal,
                                mean_velocity, elem_i, elem_j, normal, arm_i, arm_j, law):
@@ -350,7 +358,8 @@ def polyhedron_elements_kernel(horizon, code, params, pair_i, pair_j, images, r_
     points kept): each penetrating point r with normal stiffness 2 w_r S_n and damping
     w_r c_n at its overlap after ``horizon`` [s] of approach (w_r = delta_r / sum delta, module
     docstring), then the pair's tangential spring and dashpot at its mean point and mean
-    depth sum delta^2 / sum delta; unused slots count nothing."""
+    depth sum delta^2 / sum delta (none without friction ``mu``); unused slots count
+    nothing."""
     slots = point_gap.shape[1] + 1
     for p in range(pair_j.shape[0]):
         i, j = pair_i[p], pair_j[p]
@@ -387,7 +396,8 @@ def polyhedron_elements_kernel(horizon, code, params, pair_i, pair_j, images, r_
                     + mean_velocity[p, 2] * nz
                 _, _, k_t, _, c_t = contact_law(code, row, squares / total
                                                 + horizon * max(0.0, -un), r_eff[p], m_eff)
-                law[e, 1], law[e, 3] = k_t, c_t
+                if mu[p] > 0.0:  # (no friction: no tangential force)
+                    law[e, 1], law[e, 3] = k_t, c_t
             else:
                 nx, ny, nz, cx, cy, cz = 0.0, 0.0, 1.0, jx, jy, jz
             normal[e, 0], normal[e, 1], normal[e, 2] = nx, ny, nz
@@ -397,3 +407,59 @@ def polyhedron_elements_kernel(horizon, code, params, pair_i, pair_j, images, r_
                 arm_i[e, 2] = cz - positions[i, 2]
             else:
                 arm_i[e, 0], arm_i[e, 1], arm_i[e, 2] = 0.0, 0.0, 0.0
+
+
+@njit(cache=True, _nrt=False)
+def zigzag_sums_kernel(body_i, body_j, images, closed, point, normal, half, positions,
+                       velocities, spins, cell_h, cell_rate, sums):
+    """What an unstable sub-step leaves (module docstring): per contact k between two bodies
+    with ``closed[k]`` (body j's image at x_j + h m_k, ``images`` (C, 3); wall rows, whose
+    servo may change the wall's speed after the last evaluation, are left out), its relative
+    velocity ``half`` (C, 3) [m/s] at its ``point`` as the step's last force evaluation saw it
+    (velocity Verlet's half-step velocities, half a sub-step before the end) against the one
+    of the bodies' velocities and spins at the end (the cell's rate ``cell_rate`` = hdot
+    (3, 3) [m/s] for an image); ``sums`` (4,) becomes (sum du_n^2, sum u_n^2, sum |du_t|^2,
+    sum |u_t|^2) [m^2/s^2] of the normal and tangential parts (n = ``normal[k]``),
+    du = u_end - u_half, u = u_half."""
+    for a in range(4):
+        sums[a] = 0.0
+    for k in range(body_j.shape[0]):
+        j, i = body_j[k], body_i[k]
+        if not closed[k] or i < 0:
+            continue
+        mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
+        px, py, pz = point[k, 0], point[k, 1], point[k, 2]
+        rx = px - positions[j, 0] - (cell_h[0, 0] * mx + cell_h[0, 1] * my + cell_h[0, 2] * mz)
+        ry = py - positions[j, 1] - (cell_h[1, 0] * mx + cell_h[1, 1] * my + cell_h[1, 2] * mz)
+        rz = pz - positions[j, 2] - (cell_h[2, 0] * mx + cell_h[2, 1] * my + cell_h[2, 2] * mz)
+        wx, wy, wz = spins[j, 0], spins[j, 1], spins[j, 2]
+        ux = velocities[j, 0] + wy * rz - wz * ry \
+            + cell_rate[0, 0] * mx + cell_rate[0, 1] * my + cell_rate[0, 2] * mz
+        uy = velocities[j, 1] + wz * rx - wx * rz \
+            + cell_rate[1, 0] * mx + cell_rate[1, 1] * my + cell_rate[1, 2] * mz
+        uz = velocities[j, 2] + wx * ry - wy * rx \
+            + cell_rate[2, 0] * mx + cell_rate[2, 1] * my + cell_rate[2, 2] * mz
+        rx, ry, rz = px - positions[i, 0], py - positions[i, 1], pz - positions[i, 2]
+        wx, wy, wz = spins[i, 0], spins[i, 1], spins[i, 2]
+        ux -= velocities[i, 0] + wy * rz - wz * ry
+        uy -= velocities[i, 1] + wz * rx - wx * rz
+        uz -= velocities[i, 2] + wx * ry - wy * rx
+        nx, ny, nz = normal[k, 0], normal[k, 1], normal[k, 2]
+        hx, hy, hz = half[k, 0], half[k, 1], half[k, 2]
+        dx, dy, dz = ux - hx, uy - hy, uz - hz
+        dn, hn = dx * nx + dy * ny + dz * nz, hx * nx + hy * ny + hz * nz
+        sums[0] += dn * dn
+        sums[1] += hn * hn
+        sums[2] += dx * dx + dy * dy + dz * dz - dn * dn
+        sums[3] += hx * hx + hy * hy + hz * hz - hn * hn
+
+
+def zigzag_index(sums) -> float:
+    """max(sum du_n^2 / sum u_n^2, sum |du_t|^2 / sum |u_t|^2) of :func:`zigzag_sums_kernel`
+    (0 without moving contacts): about (h a / 2u)^2, small, for a motion the sub-steps
+    resolve; about 1 and more for one that flips sign at every sub-step."""
+    out = 0.0
+    for change, speed in ((sums[0], sums[1]), (sums[2], sums[3])):
+        if speed > 0.0:
+            out = max(out, float(change / speed))
+    return out

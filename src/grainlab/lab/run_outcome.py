@@ -21,16 +21,20 @@ A run is *as asked* when it finished every stage of its load path and each stage
   spheres, rattlers included) to 4-6; below 1 most particles touch nothing: a granular gas
   (z median 0.07 in the run at a bound of 1).
 
-* (soft-contact DEM, stages with a strain-controlled axis) kept the grains' spins to what the
-  loading drives: the spin energy of the load-bearing grains per particle, over the inertia
-  number's scale p <d>^3 I^2 (I the stage's median; the median over its records past the
-  first tenth), at most :data:`SPIN_ENERGY_FACTOR` (100). A quasi-static flow driven at I keeps
-  it of order 1-50 (measured below); a flow fed by a numerical instability of the explicit
-  scheme (its dashpots taken explicitly, the sub-step too long for their damping rate) spins
-  its grains far beyond, with no load to drive them, and loses its friction: a periodic
-  triaxial test at e = 0.2 on a sub-step sized by the springs alone read 229 (peak q/p 0.14
-  against 0.40 at e = 0.5), 333 in a wall box, 1930 at e = 0.1; the sub-step now counts the
-  dashpots (:mod:`grainlab.engine.soft_stability`), and the same tests read 2-14.
+* (soft-contact DEM) moved as its load drives it, with no kinetic energy made by the scheme:
+  the median over the stage's records past its first tenth of the contacts' *velocity
+  zigzag* (:attr:`~grainlab.engine.soft_contact.SoftContactStep.velocity_zigzag`: how much
+  the relative velocities at the contacts changed in the last half sub-step of a step, over
+  themselves, the larger of the normal and tangential parts) at most :data:`ZIGZAG_LIMIT`.
+  A motion the sub-steps resolve changes little in half a sub-step (measured below); a
+  numerical instability of the explicit scheme (its dashpots taken explicitly, a sub-step too
+  long for their damping rate) flips the velocities at every sub-step and feeds the grains
+  kinetic energy no load drives: a periodic triaxial test at e = 0.2 on a sub-step sized by
+  the springs alone lost its friction (peak q/p 0.12-0.14 against 0.40 at e = 0.5) with 30
+  times the kinetic energy. The energy itself is no sure sign (an unstable run at e = 0.3
+  with k_t = k_n lost its friction at an ordinary kinetic energy); the zigzag is. The
+  sub-step now counts the dashpots (:mod:`grainlab.engine.soft_stability`); this is the
+  check that it did.
 
 Steps whose solver ended at its iteration cap (``max_iterations``, not converged) are counted
 per stage and reported; a stage whose share of them is above its ``capped_share_limit``
@@ -82,12 +86,8 @@ HELD_STRESS_ROWS = 10
 """Fewest records (past the first tenth) on which the held stresses are judged: a shorter
 stage is mostly the servo's start."""
 EXIT_NOT_AS_ASKED = 3
-SPIN_ENERGY_FACTOR = 100.0
-"""Largest median spin energy of a strain-controlled DEM stage, per particle, over
-p <d>^3 I^2 (module docstring). Measured medians of 200-sphere triaxial tests at e = 0.5
-(linear springs at kappa = 1e3 and 1e4, Hertz at 1e4; periodic cell and wall box; I = 1e-4
-to 1e-2): 1.9 to 50 (the largest, Hertz in a wall box); driven by an unstable sub-step: 229
-to 1930."""
+ZIGZAG_LIMIT = 0.2
+"""Largest median velocity zigzag of a DEM stage (module docstring)."""
 
 
 def _fmt(value: float) -> str:
@@ -117,10 +117,9 @@ class StageOutcome:
     unsettled:
         For a stage without a strain-controlled axis that did not settle: each quasi-static
         criterion that its last record missed, in words.
-    spin_energy:
-        Soft-contact DEM stages with a strain-controlled axis: the median spin energy of the
-        load-bearing grains per particle over p <d>^3 I^2 (module docstring; NaN where not
-        judged).
+    zigzag:
+        Soft-contact DEM stages: the median velocity zigzag of the stage's records past its
+        first tenth (module docstring; NaN where not judged).
     """
 
     name: str
@@ -139,7 +138,7 @@ class StageOutcome:
     start_step: int = -1
     end_step: int = -1
     capped_share_limit: float = 1.0
-    spin_energy: float = math.nan
+    zigzag: float = math.nan
 
     @property
     def capped_share(self) -> float:
@@ -155,12 +154,12 @@ class StageOutcome:
                 and self.inertia_q90 <= INERTIA_QUANTILE_FACTOR * self.inertia_bound)
 
     @property
-    def spins_driven(self) -> bool | None:
-        """Whether the grains' spins stayed at what the loading drives (None where not
-        judged): :attr:`spin_energy` at most :data:`SPIN_ENERGY_FACTOR`."""
-        if not math.isfinite(self.spin_energy):
+    def scheme_stable(self) -> bool | None:
+        """Whether the explicit scheme resolved the motion (None where not judged):
+        :attr:`zigzag` at most :data:`ZIGZAG_LIMIT`."""
+        if not math.isfinite(self.zigzag):
             return None
-        return self.spin_energy <= SPIN_ENERGY_FACTOR
+        return self.zigzag <= ZIGZAG_LIMIT
 
     @property
     def solid(self) -> bool | None:
@@ -201,11 +200,11 @@ class StageOutcome:
                        f"{self.max_iterations} sweeps unconverged, above the limit of "
                        f"{100 * self.capped_share_limit:g} % ({table}.capped_share_limit); "
                        f"raise {table}.max_iterations or loosen {table}.tolerance")
-        if self.spins_driven is False:
-            out.append(f"stage {self.name}: the grains spin with no load to drive them (spin "
-                       f"energy {self.spin_energy:.3g} x p <d>^3 I^2 per grain, more than "
-                       f"{SPIN_ENERGY_FACTOR:g}): a numerical instability of the explicit "
-                       "dashpots, whose results are not those of the material; lower "
+        if self.scheme_stable is False:
+            out.append(f"stage {self.name}: kinetic energy made by the time steps, not driven "
+                       f"by the load: the contacts' velocities flip from one sub-step to the "
+                       f"next (median zigzag {self.zigzag:.3g} > {ZIGZAG_LIMIT:g}), an unstable "
+                       "explicit scheme whose results are not those of the material; lower "
                        "solver.dem.time_step_fraction or raise solver.dem.restitution")
         if self.solid is False:
             out.append(f"stage {self.name}: the sample lost its contact network (median z "
@@ -231,8 +230,8 @@ class StageOutcome:
             text += (f"; inertia number {'held' if held else 'EXCEEDED'} its bound "
                      f"{self.inertia_bound:g} (median {_fmt(self.inertia_median)}, largest "
                      f"{_fmt(self.inertia_max)} = {ratio:.3g} x the bound)")
-        if self.spins_driven is False:
-            text += f"; grains SPINNING with no load ({self.spin_energy:.3g} x p <d>^3 I^2)"
+        if self.scheme_stable is False:
+            text += f"; UNSTABLE sub-steps (velocity zigzag {self.zigzag:.3g})"
         if self.solid is False:
             text += f"; contact network LOST (median z {_fmt(self.z_median)})"
         if self.steps and self.max_iterations:  # 0: an explicit solver, no iterations
@@ -247,7 +246,7 @@ class StageOutcome:
         data["unsettled"] = list(self.unsettled)
         data["stress_errors"] = [list(pair) for pair in self.stress_errors]
         data.update(inertia_held=self.inertia_held, solid=self.solid,
-                    spins_driven=self.spins_driven, problems=self.problems())
+                    scheme_stable=self.scheme_stable, problems=self.problems())
         return data
 
     @classmethod
@@ -258,7 +257,7 @@ class StageOutcome:
         values["unsettled"] = tuple(values.get("unsettled", ()))
         values["stress_errors"] = tuple((str(a), float(e))
                                         for a, e in values.get("stress_errors", ()))
-        for key in ("inertia_median", "inertia_q90", "inertia_max", "z_median", "spin_energy"):
+        for key in ("inertia_median", "inertia_q90", "inertia_max", "z_median", "zigzag"):
             if values.get(key) is None:
                 values[key] = math.nan
         return cls(**values)
@@ -416,16 +415,13 @@ def _held_stress_errors(rows: list[dict[str, Any]], stress_targets: dict[str, fl
     return tuple(errors)
 
 
-def _spin_energy(rows: list[dict[str, Any]]) -> float:
-    """The median of ``spin_energy_ratio`` over the rows past the first tenth, over the
-    square of their median inertia number (NaN without such rows: not judged)."""
-    later = rows[len(rows) // 10:]
-    spins = np.array([r.get("spin_energy_ratio", math.nan) for r in later], dtype=float)
-    inertia = np.array([r.get("inertia_number", math.nan) for r in later], dtype=float)
-    spins, inertia = spins[np.isfinite(spins)], inertia[np.isfinite(inertia)]
-    if not spins.size or not inertia.size or not np.median(inertia) > 0.0:
-        return math.nan
-    return float(np.median(spins) / np.median(inertia) ** 2)
+def _zigzag(rows: list[dict[str, Any]]) -> float:
+    """The median ``velocity_zigzag`` of the rows past the first tenth (NaN without such
+    rows: not judged)."""
+    later = np.array([r.get("velocity_zigzag", math.nan) for r in rows[len(rows) // 10:]],
+                     dtype=float)
+    later = later[np.isfinite(later)]
+    return float(np.median(later)) if later.size else math.nan
 
 
 def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
@@ -459,7 +455,8 @@ def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
             values["z_median"] = float(np.median(z))
         if getattr(settings, "method", "cd") == "dem":
             values["stress_errors"] = _held_stress_errors(rows, stress_targets)
-            values["spin_energy"] = _spin_energy(rows)
     elif ended != REACHED and rows:
         values["unsettled"] = _unsettled(rows[-1], settings.quasi_static, stress_targets)
+    if getattr(settings, "method", "cd") == "dem":
+        values["zigzag"] = _zigzag(rows)
     return StageOutcome(**values)
