@@ -378,10 +378,13 @@ class SoftContactLaw:
         return math.pi * radius * math.sqrt(density / shear) / (0.1631 * nu + 0.8766)
 
     def time_step(self, lightest_mass: float, smallest_radius: float, density: float) -> float:
-        """The stable explicit time step [s]: :attr:`time_step_fraction` of the Rayleigh time
-        of the smallest grain (radius [m], density [kg/m^3]), or of the collision time
-        pi sqrt(m / (2 max(k_n, k_t))) of two grains of the lightest mass [kg] (0.2 of it is
-        0.44 sqrt(m / k): a grain held by a dozen damped springs stays stable)."""
+        """The springs' rule for the explicit time step [s]: :attr:`time_step_fraction` of the
+        Rayleigh time of the smallest grain (radius [m], density [kg/m^3]), or of the
+        collision time pi sqrt(m / (2 max(k_n, k_t))) of two grains of the lightest mass [kg]
+        (0.2 of it is 0.44 sqrt(m / k)). It does not see the dashpots, which the explicit
+        scheme takes with the half-step velocity: the solver also keeps the sub-step within
+        their bound (:mod:`grainlab.engine.soft_stability`; a lattice of twelve-fold
+        contacts at e = 0.5 is unstable at this step alone)."""
         if self.model == "hertz_mindlin":
             return self.time_step_fraction * self.rayleigh_time(smallest_radius, density)
         stiffest = self.normal_stiffness * max(1.0, self.stiffness_ratio)

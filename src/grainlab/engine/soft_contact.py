@@ -16,9 +16,15 @@ free body follows from keeping L = I_w omega through the turn), explicit and sec
 
 One step of the solver is one step of the simulation, of length ``dt`` (the lab's step,
 chosen from the loading speed as for contact dynamics); it is cut into ``n`` equal sub-steps
-h = dt / n no longer than the stable step of the law (:meth:`~grainlab.contact.
-soft_contact_law.SoftContactLaw.time_step`: a fraction of the Rayleigh time for Hertz, of the
-oscillation period sqrt(m/k) 2 pi for springs; ``substep`` reports it). The sub-steps run in
+h = dt / n no longer than the stable step: the shorter of the springs' rule (:meth:`~grainlab.
+contact.soft_contact_law.SoftContactLaw.time_step`: a fraction of the Rayleigh time for Hertz,
+of the collision time pi sqrt(m / (2 k)) for springs) and the dashpots' bound of the step's
+contacts (:mod:`grainlab.engine.soft_stability`: the dashpots act with the half-step velocity,
+explicitly, and a damping rate beta needs h^2 w^2 + 2 h beta < 4), taken at the step's start
+and again when a list is rebuilt within it (the rest of the step is then cut again if the new
+contacts need it); ``substep`` reports it, ``spring_substep`` and ``damped_substep`` its two
+limits, and ``velocity_zigzag`` how much the contacts' velocities changed in the step's last
+half sub-step (about 1 where a sub-step was unstable). The sub-steps run in
 compiled code (:mod:`grainlab.engine.soft_contact_kernels`) on a neighbour list: the member
 pairs within a ``skin`` [m] (default 0.1 x the smallest member diameter) found by the
 boundary's own detection (every shape kind's broad and narrow phase, walls, the periodic
@@ -167,7 +173,8 @@ class SoftContactStep:
         Skin of the neighbour list [m] > 0; None: :data:`SKIN_FRACTION` x the smallest
         member diameter or polyhedron inscribed diameter.
     substep:
-        Sub-step [s] > 0; None: the law's stable step for the bodies of the first step.
+        Sub-step [s] > 0, used as given; None: at every step the shorter of the springs'
+        rule for the bodies and the dashpots' bound of the contacts.
     """
 
     def __init__(self, law: SoftContactLaw, dt: float, gravity=(0.0, 0.0, 0.0),
@@ -299,9 +306,10 @@ class SoftContactStep:
 
     # -- stepping ------------------------------------------------------------------------------
     def stable_substep(self, state: BodyState, library: ShapeLibrary) -> float:
-        """The law's stable sub-step [s] for these bodies (the lightest mass, counting the
-        rotational inertia about a member's surface, and the smallest member radius or
-        polyhedron inradius)."""
+        """The springs' rule for the sub-step [s] for these bodies (the lightest mass,
+        counting the rotational inertia about a member's surface, and the smallest member
+        radius or polyhedron inradius); each step also keeps within the dashpots' bound of
+        its contacts (:attr:`damped_substep`)."""
         has_polyhedra(library, self.law)
         ids = state.shape_ids
         reach = library.bounding_radius[ids]
@@ -312,10 +320,12 @@ class SoftContactStep:
 
     def whole_substeps(self, dt: float, state: BodyState, library: ShapeLibrary) -> float:
         """``dt`` [s] rounded down to a whole number (at least one) of sub-steps of full
-        length: the fixed sub-step, or the stable one of these bodies. A step of ``dt`` is
-        cut into ceil(dt / sub-step) equal sub-steps, so a lab step of 10.3 stable sub-steps
-        would run 11 of 0.94 of the stable length; rounded down it runs 10 of full length
-        (the peers' test: 5 % fewer sub-steps)."""
+        length: the fixed sub-step, or the springs' rule for these bodies. A step of ``dt``
+        is cut into ceil(dt / sub-step) equal sub-steps, so a lab step of 10.3 stable
+        sub-steps would run 11 of 0.94 of the stable length; rounded down it runs 10 of full
+        length (the peers' test: 5 % fewer sub-steps). Where the dashpots' bound is the
+        shorter (it changes with the contacts, step to step), the step is cut into
+        ceil(dt / bound) equal sub-steps."""
         substep = self.fixed_substep or self.stable_substep(state, library)
         return max(1, math.floor(dt / substep * (1.0 + 1e-12))) * substep
 
