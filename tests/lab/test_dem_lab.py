@@ -218,3 +218,39 @@ def test_dem_lab_steps_are_whole_stable_substeps(tmp_path, boundary):
     # every step but a stage's cut last one runs full-length sub-steps
     assert len(whole) >= len(trace.steps) - 2 and len(trace.steps) == 60
     assert sum(whole) >= 60
+
+
+def low_restitution_shear(tmp_path, restitution):
+    """80 frictional spheres (size ratio 1.2) compacted for 400 steps in a periodic cell,
+    then sheared at I <= 1e-2 to eps_q = 0.03: the result."""
+    return start_run(tmp_path / f"e{restitution}", config(
+        sample={"n_particles": 80, "size_ratio": 1.2, "seed": 2, "boundary": "periodic"},
+        solver={"dem": {"restitution": restitution}, "max_stage_steps": 400,
+                "at_max_stage_steps": "next_stage"},
+        output={"record_every": 5})).run()
+
+
+def test_a_periodic_dem_shear_keeps_its_friction_at_a_low_restitution(tmp_path):
+    """At e = 0.1 the springs' sub-step made the grains' spins unstable: they slid at every
+    contact and the peak q/p of this test fell to 0.14 (0.34-0.40 at e = 0.5). With the
+    dashpots in the sub-step it stays a frictional packing's, and the outcome finds the
+    sub-steps stable."""
+    result = low_restitution_shear(tmp_path, 0.1)
+    shear = result.table[result.table["stage"] == "shear"]
+    assert shear["eps_q"].iloc[-1] >= 0.03
+    assert shear["q_over_trace"].max() > 0.25
+    stages = result.metadata["outcome"]["stages"]
+    assert [s["scheme_stable"] for s in stages] == [True, True]
+
+
+def test_unstable_sub_steps_are_flagged_in_the_outcome(tmp_path, monkeypatch):
+    """The same test on sub-steps sized by the springs alone, as before the dashpots' bound:
+    its contacts' velocities flip at every sub-step and its shear is NOT as asked, saying
+    what happened and which setting helps."""
+    monkeypatch.setattr(SoftContactStep, "_longest_substep",
+                        lambda self, run, rows, span: self.spring_substep)
+    result = low_restitution_shear(tmp_path, 0.1)
+    shear = result.metadata["outcome"]["stages"][-1]
+    assert shear["name"] == "shear" and shear["scheme_stable"] is False
+    assert any("not driven by the load" in p and "time_step_fraction" in p
+               for p in shear["problems"])

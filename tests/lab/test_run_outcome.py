@@ -231,3 +231,33 @@ def test_the_capped_steps_bound_trips_when_the_cap_is_absurdly_low(tmp_path, lim
 def test_the_capped_share_limit_is_checked():
     with pytest.raises(InputError, match="capped_share_limit"):
         RunConfig.model_validate({"solver": {"shear": {"capped_share_limit": 1.5}}})
+
+
+@pytest.mark.parametrize(("zigzag", "stable"), [(1e-4, True), (0.05, True), (0.9, False)])
+def test_a_dem_stage_whose_sub_steps_were_unstable_is_not_as_asked(zigzag, stable):
+    """The contacts' velocity zigzag, the median past the stage's first tenth: what a motion
+    the sub-steps resolve leaves (at most 0.05 measured) passes; what an unstable sub-step
+    leaves (0.3-1) is flagged, with the settings that help; contact dynamics is not
+    judged."""
+    from types import SimpleNamespace
+
+    record = {"name": "shear", "reason": "stop", "steps": 100, "strain_controlled": True}
+    settings = SimpleNamespace(method="dem", numerics_for=lambda moving: SimpleNamespace(
+        max_iterations=0, inertia_number=1e-3), quasi_static=None)
+    rows = [{"inertia_number": 8e-4, "z": 4.0, "velocity_zigzag": 1.0} for _ in range(2)]
+    rows += [{"inertia_number": 8e-4, "z": 4.0, "velocity_zigzag": zigzag * (1.0 + 0.1 * k)}
+             for k in range(-9, 10)]  # the first tenth (the stage's start) not judged
+    stage = stage_outcome(record, rows, settings, {})
+    assert stage.zigzag == pytest.approx(zigzag)
+    assert stage.scheme_stable is stable
+    problems = stage.problems()
+    assert (problems == []) is stable
+    if not stable:
+        assert "not driven by the load" in problems[0]
+        assert "time_step_fraction" in problems[0]
+        assert "UNSTABLE" in stage.words()
+        assert RunOutcome(stages=(stage,), finished=True, steps=100).status == "not as asked"
+    assert type(stage).from_dict(stage.to_dict()) == stage
+    cd = stage_outcome(record, rows, SimpleNamespace(
+        method="cd", numerics_for=settings.numerics_for, quasi_static=None), {})
+    assert cd.scheme_stable is None

@@ -62,6 +62,7 @@ from functools import lru_cache
 
 import numpy as np
 from numba import njit
+from scipy.integrate import solve_ivp
 
 from grainlab._validate import at_least, in_range, positive
 from grainlab._vector_loops import root
@@ -103,13 +104,25 @@ def contact_law(code, params, overlap, r_eff, m_eff):
 
 def linear_restitution(zeta: float) -> float:
     """Coefficient of restitution of an isolated linear spring-dashpot contact of damping
-    ratio ``zeta`` whose force is never attractive: the contact ends when
-    k delta - c U_n reaches 0, at omega_d t* = pi - atan(2 zeta sqrt(1 - zeta^2) /
-    (1 - 2 zeta^2)), and e = -U_n(t*) / U_n(0) (Schwager & Poeschel 2007)."""
+    ratio ``zeta`` whose force is never attractive (Schwager & Poeschel 2007): the contact
+    ends when k delta - c U_n reaches 0, and e = -U_n(t*) / U_n(0).
+
+    * Underdamped (zeta < 1): omega_d t* = pi - atan(2 zeta sqrt(1 - zeta^2) /
+      (1 - 2 zeta^2)).
+    * Critically damped and overdamped (zeta >= 1): delta(t) = U (e^(-a w t) - e^(-b w t)) /
+      ((b - a) w) with b = zeta + sqrt(zeta^2 - 1) and a = 1 / b; the force
+      m delta'' vanishes at the inflection, e^((b - a) w t*) = b^2 / a^2, where
+      e = a^2 e^(-a w t*) (e^-2 = 0.1353 at zeta = 1, about 1 / (4 zeta^2) for large zeta):
+      e > 0 for every finite zeta, so every e in (0, 1] has its zeta.
+    """
     if zeta <= 0.0:
         return 1.0
     if zeta >= 1.0:
-        return 0.0
+        b = zeta + math.sqrt(zeta * zeta - 1.0)
+        a = 1.0 / b
+        # w t* = 4 ln b / (b - a), and 2 / 1 at b = 1 (critical)
+        scaled = 2.0 if b - a == 0.0 else 4.0 * math.log(b) / (b - a)
+        return a * a * math.exp(-a * scaled)
     root = math.sqrt(1.0 - zeta * zeta)
     phase = math.pi - math.atan2(2.0 * zeta * root, 1.0 - 2.0 * zeta * zeta)
     # U_n(t) / U_n(0) = e^{-zeta w t} (cos(w_d t) - zeta / root sin(w_d t)), w_d t = phase
@@ -143,9 +156,40 @@ def hertz_restitution(gamma: float) -> float:
     return -v
 
 
-def _bisect(function, target: float, low: float, high: float) -> float:
+STIFF_GAMMA = 20.0
+"""Largest gamma (:func:`hertz_restitution`) integrated with its fixed step; beyond it (e below
+:func:`hertz_restitution` (20) = 0.0030) the rebound lasts ~gamma^1.2 time units, and
+:func:`stiff_hertz_restitution` integrates with an adaptive step."""
+
+
+def stiff_hertz_restitution(gamma: float) -> float:
+    """:func:`hertz_restitution` for a large gamma (> :data:`STIFF_GAMMA`): the same equation
+    by SciPy's LSODA with a terminal event where the force vanishes on the rebound
+    (relative tolerance 1e-11). There e approaches 1.25 / gamma^2 from below (1.2418 / gamma^2
+    at gamma = 50, 1.24996 / gamma^2 at 1000)."""
+
+    def motion(_, y):
+        x, v = y
+        if x <= 0.0:
+            return [v, 0.0]
+        return [v, -max(0.0, x**1.5 + gamma * x**0.25 * v)]
+
+    def released(_, y):
+        x, v = y
+        if v >= 0.0:
+            return 1.0
+        return x**1.5 + gamma * x**0.25 * v if x > 0.0 else -1.0
+
+    released.terminal = True
+    released.direction = -1.0
+    path = solve_ivp(motion, (0.0, math.inf), [0.0, 1.0], method="LSODA", rtol=1e-11,
+                     atol=1e-14, events=released)
+    return float(-path.y[1, -1])
+
+
+def _bisect(function, target: float, low: float, high: float, halvings: int = 60) -> float:
     """The x in [low, high] where the decreasing ``function`` reaches ``target``."""
-    for _ in range(60):
+    for _ in range(halvings):
         middle = 0.5 * (low + high)
         if function(middle) > target:
             low = middle
@@ -156,25 +200,41 @@ def _bisect(function, target: float, low: float, high: float) -> float:
 
 @lru_cache(maxsize=64)
 def damping_ratio(restitution: float) -> float:
-    """zeta of the linear law giving ``restitution`` e (:func:`linear_restitution`; 0 for
-    e = 1): the spring-dashpot's zeta = -ln e / sqrt(pi^2 + ln^2 e) corrected for a force
-    that never pulls."""
-    if restitution >= 1.0:
+    """zeta of the linear law giving ``restitution`` e in (0, 1] (:func:`linear_restitution`;
+    0 for e = 1): the spring-dashpot's zeta = -ln e / sqrt(pi^2 + ln^2 e) corrected for a force
+    that never pulls; below e^-2 = 0.1353 (zeta = 1) on the overdamped branch, where
+    1 <= zeta <= 1 / (2 sqrt(e)) (e < 1 / (4 zeta^2) there)."""
+    e = _restitution(restitution)
+    if e >= 1.0:
         return 0.0
-    return _bisect(linear_restitution, restitution, 0.0, 1.0)
+    if e >= linear_restitution(1.0):
+        return _bisect(linear_restitution, e, 0.0, 1.0)
+    return _bisect(linear_restitution, e, 1.0, max(1.0, 0.5 / math.sqrt(e)))
 
 
 @lru_cache(maxsize=64)
 def tsuji_beta(restitution: float) -> float:
-    """beta (< 0) of the Hertz-Mindlin damping giving ``restitution`` e
+    """beta (< 0) of the Hertz-Mindlin damping giving ``restitution`` e in (0, 1]
     (:func:`hertz_restitution`; 0 for e = 1). The Antypov & Elliott value
     ln e / sqrt(ln^2 e + pi^2) is exact only with a force that may pull at the end of the
-    impact; with one that never pulls (here) it gives e too high (0.55 for 0.5)."""
-    if restitution >= 1.0:
+    impact; with one that never pulls (here) it gives e too high (0.55 for 0.5). Below
+    e(:data:`STIFF_GAMMA`) = 0.0030, gamma lies in [sqrt(1.2 / e), sqrt(1.25 / e)]
+    (:func:`stiff_hertz_restitution`)."""
+    e = _restitution(restitution)
+    if e >= 1.0:
         return 0.0
     scale = 2.0 * math.sqrt(5.0 / 6.0) * math.sqrt(1.5)
-    gamma = _bisect(lambda g: hertz_restitution(g), restitution, 0.0, 20.0)
+    if e >= hertz_restitution(STIFF_GAMMA):
+        gamma = _bisect(lambda g: hertz_restitution(g), e, 0.0, STIFF_GAMMA)
+    else:
+        gamma = _bisect(stiff_hertz_restitution, e, max(STIFF_GAMMA, math.sqrt(1.2 / e)),
+                        max(STIFF_GAMMA, math.sqrt(1.25 / e)), 40)
     return -gamma / scale
+
+
+def _restitution(value: float) -> float:
+    """``value`` as a coefficient of restitution in (0, 1], else :class:`InputError`."""
+    return in_range("restitution", value, 0.0, 1.0, closed="(]")
 
 
 @dataclass(frozen=True)
@@ -318,10 +378,13 @@ class SoftContactLaw:
         return math.pi * radius * math.sqrt(density / shear) / (0.1631 * nu + 0.8766)
 
     def time_step(self, lightest_mass: float, smallest_radius: float, density: float) -> float:
-        """The stable explicit time step [s]: :attr:`time_step_fraction` of the Rayleigh time
-        of the smallest grain (radius [m], density [kg/m^3]), or of the collision time
-        pi sqrt(m / (2 max(k_n, k_t))) of two grains of the lightest mass [kg] (0.2 of it is
-        0.44 sqrt(m / k): a grain held by a dozen damped springs stays stable)."""
+        """The springs' rule for the explicit time step [s]: :attr:`time_step_fraction` of the
+        Rayleigh time of the smallest grain (radius [m], density [kg/m^3]), or of the
+        collision time pi sqrt(m / (2 max(k_n, k_t))) of two grains of the lightest mass [kg]
+        (0.2 of it is 0.44 sqrt(m / k)). It does not see the dashpots, which the explicit
+        scheme takes with the half-step velocity: the solver also keeps the sub-step within
+        their bound (:mod:`grainlab.engine.soft_stability`; a lattice of twelve-fold
+        contacts at e = 0.5 is unstable at this step alone)."""
         if self.model == "hertz_mindlin":
             return self.time_step_fraction * self.rayleigh_time(smallest_radius, density)
         stiffest = self.normal_stiffness * max(1.0, self.stiffness_ratio)

@@ -16,9 +16,15 @@ free body follows from keeping L = I_w omega through the turn), explicit and sec
 
 One step of the solver is one step of the simulation, of length ``dt`` (the lab's step,
 chosen from the loading speed as for contact dynamics); it is cut into ``n`` equal sub-steps
-h = dt / n no longer than the stable step of the law (:meth:`~grainlab.contact.
-soft_contact_law.SoftContactLaw.time_step`: a fraction of the Rayleigh time for Hertz, of the
-oscillation period sqrt(m/k) 2 pi for springs; ``substep`` reports it). The sub-steps run in
+h = dt / n no longer than the stable step: the shorter of the springs' rule (:meth:`~grainlab.
+contact.soft_contact_law.SoftContactLaw.time_step`: a fraction of the Rayleigh time for Hertz,
+of the collision time pi sqrt(m / (2 k)) for springs) and the dashpots' bound of the step's
+contacts (:mod:`grainlab.engine.soft_stability`: the dashpots act with the half-step velocity,
+explicitly, and a damping rate beta needs h^2 w^2 + 2 h beta < 4), taken at the step's start
+and again when a list is rebuilt within it (the rest of the step is then cut again if the new
+contacts need it); ``substep`` reports it, ``spring_substep`` and ``damped_substep`` its two
+limits, and ``velocity_zigzag`` how much the contacts' velocities changed in the step's last
+half sub-step (about 1 where a sub-step was unstable). The sub-steps run in
 compiled code (:mod:`grainlab.engine.soft_contact_kernels`) on a neighbour list: the member
 pairs within a ``skin`` [m] (default 0.1 x the smallest member diameter) found by the
 boundary's own detection (every shape kind's broad and narrow phase, walls, the periodic
@@ -109,6 +115,13 @@ from grainlab.engine.soft_contact_kernels import (
     substeps_kernel,
 )
 from grainlab.engine.soft_polyhedra import PolyhedronRows, has_polyhedra, smallest_radius
+from grainlab.engine.soft_stability import (
+    HORIZON_STEPS,
+    damped_limit,
+    sphere_rows_rates,
+    zigzag_index,
+    zigzag_sums_kernel,
+)
 from grainlab.engine.soft_step_report import SoftStepReport
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
@@ -160,7 +173,8 @@ class SoftContactStep:
         Skin of the neighbour list [m] > 0; None: :data:`SKIN_FRACTION` x the smallest
         member diameter or polyhedron inscribed diameter.
     substep:
-        Sub-step [s] > 0; None: the law's stable step for the bodies of the first step.
+        Sub-step [s] > 0, used as given; None: at every step the shorter of the springs'
+        rule for the bodies and the dashpots' bound of the contacts.
     """
 
     def __init__(self, law: SoftContactLaw, dt: float, gravity=(0.0, 0.0, 0.0),
@@ -178,6 +192,20 @@ class SoftContactStep:
         self.skin = None if skin is None else at_least("skin", skin)
         self.fixed_substep = None if substep is None else at_least("substep", substep)
         self.substep = self.fixed_substep
+        """The longest sub-step [s] of the last step: the fixed one, or the shorter of
+        :attr:`spring_substep` and :attr:`damped_substep` at the step's start (a list rebuilt
+        in the step may shorten it further); the step is cut into equal sub-steps no longer
+        than it."""
+        self.spring_substep = self.fixed_substep
+        """The springs' rule [s] (:meth:`stable_substep`), or the fixed sub-step."""
+        self.damped_substep = math.inf
+        """The dashpots' bound [s] of the last step's contacts (:mod:`grainlab.engine.
+        soft_stability`; inf without contacts or with a fixed sub-step)."""
+        self.velocity_zigzag = 0.0
+        """How much the contacts' relative velocities changed between the last step's last
+        force evaluation and its end, over themselves (:func:`~grainlab.engine.
+        soft_stability.zigzag_index`): small for a motion the sub-steps resolve, about 1 for
+        one that flips sign at every sub-step (an unstable sub-step)."""
         # read and set by the lab as for contact dynamics; an explicit step has no iterations
         self.tolerance = 1.0
         self.max_iterations = 1
@@ -272,15 +300,16 @@ class SoftContactStep:
     @property
     def filter_time(self) -> float:
         """Time [s] over which the periodic cell's servo low-passes the contacts' stress:
-        :data:`FILTER_SUBSTEPS` stable sub-steps (a few collisions: the law's stable step is
-        0.2 of a contact's half period)."""
-        return FILTER_SUBSTEPS * float(self.substep)
+        :data:`FILTER_SUBSTEPS` sub-steps of the springs' rule (a few collisions: the law's
+        stable step is 0.2 of a contact's half period)."""
+        return FILTER_SUBSTEPS * float(self.spring_substep)
 
     # -- stepping ------------------------------------------------------------------------------
     def stable_substep(self, state: BodyState, library: ShapeLibrary) -> float:
-        """The law's stable sub-step [s] for these bodies (the lightest mass, counting the
-        rotational inertia about a member's surface, and the smallest member radius or
-        polyhedron inradius)."""
+        """The springs' rule for the sub-step [s] for these bodies (the lightest mass,
+        counting the rotational inertia about a member's surface, and the smallest member
+        radius or polyhedron inradius); each step also keeps within the dashpots' bound of
+        its contacts (:attr:`damped_substep`)."""
         has_polyhedra(library, self.law)
         ids = state.shape_ids
         reach = library.bounding_radius[ids]
@@ -291,10 +320,12 @@ class SoftContactStep:
 
     def whole_substeps(self, dt: float, state: BodyState, library: ShapeLibrary) -> float:
         """``dt`` [s] rounded down to a whole number (at least one) of sub-steps of full
-        length: the fixed sub-step, or the stable one of these bodies. A step of ``dt`` is
-        cut into ceil(dt / sub-step) equal sub-steps, so a lab step of 10.3 stable sub-steps
-        would run 11 of 0.94 of the stable length; rounded down it runs 10 of full length
-        (the peers' test: 5 % fewer sub-steps)."""
+        length: the fixed sub-step, or the springs' rule for these bodies. A step of ``dt``
+        is cut into ceil(dt / sub-step) equal sub-steps, so a lab step of 10.3 stable
+        sub-steps would run 11 of 0.94 of the stable length; rounded down it runs 10 of full
+        length (the peers' test: 5 % fewer sub-steps). Where the dashpots' bound is the
+        shorter (it changes with the contacts, step to step), the step is cut into
+        ceil(dt / bound) equal sub-steps."""
         substep = self.fixed_substep or self.stable_substep(state, library)
         return max(1, math.floor(dt / substep * (1.0 + 1e-12))) * substep
 
@@ -308,33 +339,45 @@ class SoftContactStep:
                              "solver: walls with mass are a contact-dynamics option")
         bodies = self._body_constants(state, library)
         if self.fixed_substep is None:
-            self.substep = bodies.substep
+            self.spring_substep = bodies.substep
         else:
             has_polyhedra(library, self.law)
-        n_sub = max(1, math.ceil(macro / self.substep * (1.0 - 1e-12)))
-        h = macro / n_sub
+            self.spring_substep = self.fixed_substep
         n_walls, n_dofs = bounds.n_walls, bounds.cell_inv_mass.shape[0]
         run = _Run(state, bodies, bounds, n_walls, n_dofs, macro)
         rows = self._kept_list(state, library, bounds, run)
         if rows is None:
             rows = self._build_list(state, library, boundary, bounds, run)
         if self._wall_load.shape[0] != n_walls:
-            run.advance(self, rows, 0, h)  # the loads now: the servos' first input
-            self._wall_load = np.column_stack([run.wall_force, run.wall_stiffness,
+            run.advance(self, rows, 0, self.spring_substep)  # the loads now: the servos'
+            self._wall_load = np.column_stack([run.wall_force, run.wall_stiffness,  # input
                                                np.zeros(n_walls)])
         run.was_driven = self._driven
         memory = run.servo(self._wall_load, macro)
         self._driven = run.driven
+        self.substep = self._longest_substep(run, rows, macro)
+        left = max(1, math.ceil(macro / self.substep * (1.0 - 1e-12)))
+        h = macro / left
         done = 0
-        while done < n_sub:
+        while left > 0:
             if done:
                 rows = self._build_list(state, library, boundary, bounds, run)
-            done += run.advance(self, rows, n_sub - done, h)
+                longest = self._longest_substep(run, rows, h * left)
+                if longest < h:  # the new list's contacts need shorter sub-steps
+                    self.substep = longest
+                    rest = h * left
+                    left = math.ceil(rest / longest * (1.0 - 1e-12))
+                    h = rest / left
+            did = run.advance(self, rows, left, h)
+            done += did
+            left -= did
+        n_sub = done
         self.n_substeps += n_sub
         self.last_substeps = n_sub
         self._wall_load = np.column_stack([run.wall_impulse / macro, run.wall_stiffness,
                                            memory])
         report, closed = run.report(rows, macro)
+        self.velocity_zigzag = run.zigzag(rows)
         boundary.finish_step(BoundaryMotion(
             dt=macro, theta=1.0, wall_speeds=run.mean_wall_speeds(),
             wall_reactions=run.wall_impulse / macro, cell_dofs=run.cell_dofs.copy(),
@@ -342,6 +385,15 @@ class SoftContactStep:
             stress=run.stress_impulse / macro if n_walls == 0 else None))
         self._end = (state.positions.copy(), state.orientations.copy())
         return report
+
+    def _longest_substep(self, run: _Run, rows, span: float) -> float:
+        """The longest sub-step [s] for the next ``span`` [s] on ``rows``: the fixed one, or
+        the springs' rule and the dashpots' bound of these contacts, whichever is shorter
+        (:mod:`grainlab.engine.soft_stability`; :attr:`damped_substep`)."""
+        if self.fixed_substep is not None:
+            return self.fixed_substep
+        self.damped_substep = run.damped_substep(self, rows, HORIZON_STEPS * span)
+        return min(self.spring_substep, self.damped_substep)
 
     def _body_constants(self, state: BodyState, library: ShapeLibrary) -> _BodyConstants:
         """The bodies' constants for the kernels, made again only for other bodies (other
@@ -562,7 +614,8 @@ def rotation_arms(library: ShapeLibrary, shape_ids: np.ndarray) -> np.ndarray:
 class _BodyConstants:
     """What the kernels read of the bodies and does not change while they are the same:
     inverse masses (N,) [1/kg] and masses, principal moments (N, 3) [kg m^2], whether they
-    are equal (``isotropic`` (N,)), rotation arms (N,) [m] (:func:`rotation_arms`: the
+    are equal (``isotropic`` (N,)), the inverse of the smallest (``inv_inertia`` (N,)
+    [1/(kg m^2)]: the dashpots' bound), rotation arms (N,) [m] (:func:`rotation_arms`: the
     neighbour list's travel), and the law's stable sub-step [s]. Holds the arrays it was made
     from, so that :meth:`describes` is an identity test."""
 
@@ -574,6 +627,7 @@ class _BodyConstants:
         self.principal = np.ascontiguousarray(state.inertias, dtype=np.float64)
         self.isotropic = np.all(np.isclose(state.inertias, state.inertias[:, :1], rtol=1e-12,
                                            atol=0.0), axis=1)
+        self.inv_inertia = 1.0 / np.min(self.principal, axis=1)
         self.arm = rotation_arms(library, ids)
         self.plain_bodies = isotropic_blocks(self.isotropic)
         self.substep = solver.stable_substep(state, library)
@@ -595,6 +649,7 @@ class _Run:
         self.masses = bodies.masses
         self.inv_mass = bodies.inv_mass
         self.principal = bodies.principal
+        self.inv_inertia = bodies.inv_inertia
         self.isotropic = bodies.isotropic
         self.arm = bodies.arm
         self.plain_bodies = bodies.plain_bodies
@@ -664,6 +719,20 @@ class _Run:
         self.driven = driven
         return wall_memory
 
+    def damped_substep(self, solver: SoftContactStep, rows: _Rows, horizon: float) -> float:
+        """The dashpots' bound [s] on the sub-step for the contacts of ``rows``, each at its
+        overlap after ``horizon`` [s] of approach (:mod:`grainlab.engine.soft_stability`)."""
+        if isinstance(rows, PolyhedronRows):
+            return rows.damped_substep(self, solver, horizon, OVERLAP_LIMIT)
+        bounds, f64 = self.bounds, np.float64
+        state = self.state
+        return damped_limit(*sphere_rows_rates(
+            rows, horizon, solver.law, self.inv_mass, self.inv_inertia, state.positions,
+            state.orientations, state.velocities, state.angular_velocities,
+            np.ascontiguousarray(bounds.wall_points, dtype=f64),
+            np.ascontiguousarray(bounds.wall_normals, dtype=f64), self.wall_disp,
+            self.wall_speed, self.cell_h, solver._carried @ self.cell_h))
+
     def advance(self, solver: SoftContactStep, rows: _Rows, n_steps: int, h: float) -> int:
         """Up to ``n_steps`` sub-steps of ``h`` [s] on ``rows`` (0: only the loads now);
         returns those done."""
@@ -704,6 +773,19 @@ class _Run:
                 f"are too soft for the load ({law.model}) or the sub-step "
                 f"{h:.3g} s too long for their stiffness.")
         return int(done)
+
+    def zigzag(self, rows) -> float:
+        """:func:`~grainlab.engine.soft_stability.zigzag_index` of the contacts between bodies
+        closed at the end of the step."""
+        state, sums = self.state, np.zeros(4)
+        if isinstance(rows, PolyhedronRows):
+            contacts = rows.closed_points()
+        else:
+            contacts = (rows.body_i, rows.body_j, rows.images, rows.gap < 0.0, rows.point,
+                        rows.normal, rows.rel_vel)
+        zigzag_sums_kernel(*contacts, state.positions, state.velocities,
+                           state.angular_velocities, self.cell_h, self.cell_rate, sums)
+        return zigzag_index(sums)
 
     def report(self, rows: _Rows, macro: float) -> tuple[StepReport | SoftStepReport,
                                                           ClosedContacts | SoftStepReport]:

@@ -117,6 +117,13 @@ from grainlab.engine.shape_kinds import (
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.soft_contact_kernels import SUBSTEP_SERVO_FRACTION, body_rows
 from grainlab.engine.soft_polyhedra_kernels import polyhedra_substeps_kernel
+from grainlab.engine.soft_stability import (
+    BLOCK,
+    LAW_COLUMNS,
+    damped_limit,
+    polyhedron_elements_kernel,
+    stable_rates_kernel,
+)
 from grainlab.engine.state import BodyState, ReadOnlyArrays, ShapeLibrary
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron_contact import ANGLE_TOLERANCE, DEFAULT_MAX_POINTS
@@ -252,6 +259,40 @@ class PolyhedronRows:
                 f"{self.smallest_radius:.3g} m; the contacts are too soft for the load "
                 f"({law.model}) or the sub-step {h:.3g} s too long for their stiffness.")
         return int(done)
+
+    def damped_substep(self, run, solver, horizon: float, overlap_limit: float) -> float:
+        """The dashpots' bound [s] on the sub-step for these pairs, their manifolds evaluated
+        now (a step of no sub-step: the loads, as the step's own start then computes them
+        again), each penetrating point at its overlap after ``horizon`` [s] of approach
+        (:func:`~grainlab.engine.soft_stability.polyhedron_elements_kernel`)."""
+        self.advance(run, solver, 0, solver.spring_substep, overlap_limit)
+        law, state = solver.law, run.state
+        p, k = self.point_gap.shape
+        e = p * (k + 1)
+        elem_i, elem_j = np.empty(e, dtype=np.int64), np.empty(e, dtype=np.int64)
+        normal, arm_i, arm_j = np.empty((e, 3)), np.empty((e, 3)), np.empty((e, 3))
+        elements = np.empty((e, LAW_COLUMNS))
+        polyhedron_elements_kernel(
+            float(horizon), law.code, law.params, self.pair_i, self.pair_j, self.images,
+            self.r_eff, self.mu, run.inv_mass, state.positions, run.cell_h, self.n_points,
+            self.point_gap, self.point_normal, self.point_position, self.point_velocity,
+            self.point, self.normal, self.rel_vel, elem_i, elem_j, normal, arm_i, arm_j,
+            elements)
+        n = state.n_bodies
+        return damped_limit(*stable_rates_kernel(
+            elem_i, elem_j, normal, arm_i, arm_j, elements, run.inv_mass, run.inv_inertia,
+            np.empty((n, 2)), np.empty((n, 2, BLOCK))))
+
+    def closed_points(self) -> tuple:
+        """The penetrating points of the last evaluation as contacts of
+        :func:`~grainlab.engine.soft_stability.zigzag_sums_kernel`: (body_i, body_j, images,
+        closed (all true), points, normals, relative velocities)."""
+        k = self.point_gap.shape[1]
+        kept = np.arange(k)[None, :] < self.n_points[:, None]
+        pair = np.repeat(np.arange(self.pair_j.shape[0]), self.n_points)
+        return (self.pair_i[pair], self.pair_j[pair], self.images[pair],
+                np.ones(pair.shape[0], dtype=np.bool_), self.point_position[kept],
+                self.point_normal[kept], self.point_velocity[kept])
 
     def report(self, run, macro: float) -> tuple[StepReport, np.ndarray]:
         """The penetrating points at the end of the step, as a step report (module

@@ -101,7 +101,10 @@ records. The cut step length is the solver's step, saved in checkpoints like the
 resumed run takes the same steps.
 
 Columns besides :mod:`grainlab.engine.sample_measures`: ``stage``, ``step``, ``time`` [s],
-``dt`` [s], ``unbalanced_force_ratio``, ``kinetic_energy_ratio``, ``friction``, and in tests
+``dt`` [s], ``unbalanced_force_ratio``, ``kinetic_energy_ratio``, ``velocity_zigzag`` (the
+soft-contact solver's :attr:`~grainlab.engine.soft_contact.SoftContactStep.velocity_zigzag`,
+NaN for contact dynamics: the run's outcome reads it, :mod:`grainlab.lab.run_outcome`),
+``friction``, and in tests
 with a one-dimensional stage (:attr:`~grainlab.lab.wall_stages.WallStage.oedometric`)
 ``K0`` = (sigma_xx + sigma_yy) / (2 sigma_zz) [-] of the contact stresses.
 """
@@ -821,6 +824,7 @@ class DiscreteTest:
         free_spin = float(np.sum(self.sample.state.rotational_energies()[~loaded_bodies]))
         row["kinetic_energy_ratio"] = (row["kinetic_energy"] - free_spin) \
             / (n * p * d_mean**3) if p > 0.0 else math.nan
+        row["velocity_zigzag"] = float(getattr(self.solver, "velocity_zigzag", math.nan))
         stage = self.stage
         full = {"stage": stage.name if stage else "end", "step": sim.step_index,
                 "time": sim.time, "dt": sim.last_dt, "friction": self.solver.friction}

@@ -21,6 +21,21 @@ A run is *as asked* when it finished every stage of its load path and each stage
   spheres, rattlers included) to 4-6; below 1 most particles touch nothing: a granular gas
   (z median 0.07 in the run at a bound of 1).
 
+* (soft-contact DEM) moved as its load drives it, with no kinetic energy made by the scheme:
+  the median over the stage's records past its first tenth of the contacts' *velocity
+  zigzag* (:attr:`~grainlab.engine.soft_contact.SoftContactStep.velocity_zigzag`: how much
+  the relative velocities at the contacts changed in the last half sub-step of a step, over
+  themselves, the larger of the normal and tangential parts) at most :data:`ZIGZAG_LIMIT`.
+  A motion the sub-steps resolve changes little in half a sub-step (measured below); a
+  numerical instability of the explicit scheme (its dashpots taken explicitly, a sub-step too
+  long for their damping rate) flips the velocities at every sub-step and feeds the grains
+  kinetic energy no load drives: a periodic triaxial test at e = 0.2 on a sub-step sized by
+  the springs alone lost its friction (peak q/p 0.12-0.14 against 0.40 at e = 0.5) with 30
+  times the kinetic energy. The energy itself is no sure sign (an unstable run at e = 0.3
+  with k_t = k_n lost its friction at an ordinary kinetic energy); the zigzag is. The
+  sub-step now counts the dashpots (:mod:`grainlab.engine.soft_stability`); this is the
+  check that it did.
+
 Steps whose solver ended at its iteration cap (``max_iterations``, not converged) are counted
 per stage and reported; a stage whose share of them is above its ``capped_share_limit``
 (:class:`~grainlab.lab.stage_numerics.StageNumerics`, default 1: never) is not as asked.
@@ -71,6 +86,8 @@ HELD_STRESS_ROWS = 10
 """Fewest records (past the first tenth) on which the held stresses are judged: a shorter
 stage is mostly the servo's start."""
 EXIT_NOT_AS_ASKED = 3
+ZIGZAG_LIMIT = 0.2
+"""Largest median velocity zigzag of a DEM stage (module docstring)."""
 
 
 def _fmt(value: float) -> str:
@@ -100,6 +117,9 @@ class StageOutcome:
     unsettled:
         For a stage without a strain-controlled axis that did not settle: each quasi-static
         criterion that its last record missed, in words.
+    zigzag:
+        Soft-contact DEM stages: the median velocity zigzag of the stage's records past its
+        first tenth (module docstring; NaN where not judged).
     """
 
     name: str
@@ -118,6 +138,7 @@ class StageOutcome:
     start_step: int = -1
     end_step: int = -1
     capped_share_limit: float = 1.0
+    zigzag: float = math.nan
 
     @property
     def capped_share(self) -> float:
@@ -131,6 +152,14 @@ class StageOutcome:
             return None
         return (self.inertia_median <= INERTIA_MEDIAN_FACTOR * self.inertia_bound
                 and self.inertia_q90 <= INERTIA_QUANTILE_FACTOR * self.inertia_bound)
+
+    @property
+    def scheme_stable(self) -> bool | None:
+        """Whether the explicit scheme resolved the motion (None where not judged):
+        :attr:`zigzag` at most :data:`ZIGZAG_LIMIT`."""
+        if not math.isfinite(self.zigzag):
+            return None
+        return self.zigzag <= ZIGZAG_LIMIT
 
     @property
     def solid(self) -> bool | None:
@@ -171,6 +200,12 @@ class StageOutcome:
                        f"{self.max_iterations} sweeps unconverged, above the limit of "
                        f"{100 * self.capped_share_limit:g} % ({table}.capped_share_limit); "
                        f"raise {table}.max_iterations or loosen {table}.tolerance")
+        if self.scheme_stable is False:
+            out.append(f"stage {self.name}: kinetic energy made by the time steps, not driven "
+                       f"by the load: the contacts' velocities flip from one sub-step to the "
+                       f"next (median zigzag {self.zigzag:.3g} > {ZIGZAG_LIMIT:g}), an unstable "
+                       "explicit scheme whose results are not those of the material; lower "
+                       "solver.dem.time_step_fraction or raise solver.dem.restitution")
         if self.solid is False:
             out.append(f"stage {self.name}: the sample lost its contact network (median z "
                        f"{_fmt(self.z_median)} < {MIN_COORDINATION:g}): a granular gas, not a "
@@ -195,6 +230,8 @@ class StageOutcome:
             text += (f"; inertia number {'held' if held else 'EXCEEDED'} its bound "
                      f"{self.inertia_bound:g} (median {_fmt(self.inertia_median)}, largest "
                      f"{_fmt(self.inertia_max)} = {ratio:.3g} x the bound)")
+        if self.scheme_stable is False:
+            text += f"; UNSTABLE sub-steps (velocity zigzag {self.zigzag:.3g})"
         if self.solid is False:
             text += f"; contact network LOST (median z {_fmt(self.z_median)})"
         if self.steps and self.max_iterations:  # 0: an explicit solver, no iterations
@@ -209,7 +246,7 @@ class StageOutcome:
         data["unsettled"] = list(self.unsettled)
         data["stress_errors"] = [list(pair) for pair in self.stress_errors]
         data.update(inertia_held=self.inertia_held, solid=self.solid,
-                    problems=self.problems())
+                    scheme_stable=self.scheme_stable, problems=self.problems())
         return data
 
     @classmethod
@@ -220,7 +257,7 @@ class StageOutcome:
         values["unsettled"] = tuple(values.get("unsettled", ()))
         values["stress_errors"] = tuple((str(a), float(e))
                                         for a, e in values.get("stress_errors", ()))
-        for key in ("inertia_median", "inertia_q90", "inertia_max", "z_median"):
+        for key in ("inertia_median", "inertia_q90", "inertia_max", "z_median", "zigzag"):
             if values.get(key) is None:
                 values[key] = math.nan
         return cls(**values)
@@ -378,6 +415,15 @@ def _held_stress_errors(rows: list[dict[str, Any]], stress_targets: dict[str, fl
     return tuple(errors)
 
 
+def _zigzag(rows: list[dict[str, Any]]) -> float:
+    """The median ``velocity_zigzag`` of the rows past the first tenth (NaN without such
+    rows: not judged)."""
+    later = np.array([r.get("velocity_zigzag", math.nan) for r in rows[len(rows) // 10:]],
+                     dtype=float)
+    later = later[np.isfinite(later)]
+    return float(np.median(later)) if later.size else math.nan
+
+
 def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
                   stress_targets: dict[str, float]) -> StageOutcome:
     """Judge one stage from its record (``name``, ``reason``, ``steps``, ``ended``,
@@ -411,4 +457,6 @@ def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
             values["stress_errors"] = _held_stress_errors(rows, stress_targets)
     elif ended != REACHED and rows:
         values["unsettled"] = _unsettled(rows[-1], settings.quasi_static, stress_targets)
+    if getattr(settings, "method", "cd") == "dem":
+        values["zigzag"] = _zigzag(rows)
     return StageOutcome(**values)

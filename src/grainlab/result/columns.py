@@ -124,6 +124,8 @@ COLUMNS: dict[str, Column] = _columns(
     ("inertia_number", "-", "I = max strain rate <d> sqrt(rho / p)"),
     ("kinetic_energy", "J", "kinetic energy of the particles"),
     ("kinetic_energy_ratio", "-", "kinetic energy over N p <d>^3"),
+    ("velocity_zigzag", "-", "change of the contacts' relative velocities over the last "
+     "half sub-step, over themselves (soft-contact DEM)"),
     ("unbalanced_force_ratio", "-", "mean net force on a particle over the mean contact force"),
     ("max_overlap_over_d", "-", "largest overlap over the mean diameter"),
     # solvers and drivers
