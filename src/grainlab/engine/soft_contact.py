@@ -348,9 +348,9 @@ class SoftContactStep:
         rows = self._kept_list(state, library, bounds, run)
         if rows is None:
             rows = self._build_list(state, library, boundary, bounds, run)
-        if self._wall_load.shape[0] != n_walls:
-            run.advance(self, rows, 0, self.spring_substep)  # the loads now: the servos'
-            self._wall_load = np.column_stack([run.wall_force, run.wall_stiffness,  # input
+        if self._wall_load.shape[0] != n_walls:  # the loads now: the servos' first input
+            run.advance(self, rows, 0, self.spring_substep)
+            self._wall_load = np.column_stack([run.wall_force, run.wall_stiffness,
                                                np.zeros(n_walls)])
         run.was_driven = self._driven
         memory = run.servo(self._wall_load, macro)

@@ -126,45 +126,66 @@ def symmetric_max_eigenvalue(a00, a11, a22, a12, a02, a01):
 
 
 @njit(inline="always")
-def _add_element(blocks, b, which, w, kn, kt, kr, nx, ny, nz, rx, ry, rz):
-    """Body b's block ``which`` (0: stiffness, 1: damping) += w E^T D E (+ kr (I - n n^T) on
-    the spins), D = kt I + (kn - kt) n n^T at arm r (module docstring)."""
-    s = kn - kt
-    blk = blocks[b, which]
-    blk[0] += w * (kt + s * nx * nx)
-    blk[1] += w * (kt + s * ny * ny)
-    blk[2] += w * (kt + s * nz * nz)
-    blk[3] += w * s * ny * nz
-    blk[4] += w * s * nx * nz
-    blk[5] += w * s * nx * ny
-    mx, my, mz = ny * rz - nz * ry, nz * rx - nx * rz, nx * ry - ny * rx  # n x r
-    # X = -kt [r]x - s n m^T
-    blk[6] += w * (-s * nx * mx)
-    blk[7] += w * (kt * rz - s * nx * my)
-    blk[8] += w * (-kt * ry - s * nx * mz)
-    blk[9] += w * (-kt * rz - s * ny * mx)
-    blk[10] += w * (-s * ny * my)
-    blk[11] += w * (kt * rx - s * ny * mz)
-    blk[12] += w * (kt * ry - s * nz * mx)
-    blk[13] += w * (-kt * rx - s * nz * my)
-    blk[14] += w * (-s * nz * mz)
-    # R = kt (|r|^2 I - r r^T) + s m m^T + kr (I - n n^T)
+def _add_element(blocks, b, wk, wc, kn, kt, kr, cn, ct, nx, ny, nz, rx, ry, rz):
+    """Body b's stiffness block += wk E^T D_k E (+ kr (I - n n^T) on the spins) and its
+    damping block += wc E^T D_c E, D = d_t I + (d_n - d_t) n n^T at arm r (module
+    docstring): blocks[b, 0] and blocks[b, 1], each T (xx, yy, zz, yz, xz, xy), X
+    (row-major), R as :data:`BLOCK` lays them out."""
+    mx, my, mz = ny * rz - nz * ry, nz * rx - nx * rz, nx * ry - ny * rx  # m = n x r
     r2 = rx * rx + ry * ry + rz * rz
-    blk[15] += w * (kt * (r2 - rx * rx) + s * mx * mx + kr * (1.0 - nx * nx))
-    blk[16] += w * (kt * (r2 - ry * ry) + s * my * my + kr * (1.0 - ny * ny))
-    blk[17] += w * (kt * (r2 - rz * rz) + s * mz * mz + kr * (1.0 - nz * nz))
-    blk[18] += w * (-kt * ry * rz + s * my * mz - kr * ny * nz)
-    blk[19] += w * (-kt * rx * rz + s * mx * mz - kr * nx * nz)
-    blk[20] += w * (-kt * rx * ry + s * mx * my - kr * nx * ny)
+    # the geometric parts: n n^T, [r]x, n m^T, |r|^2 I - r r^T, m m^T
+    nxx, nyy, nzz, nyz, nxz, nxy = nx * nx, ny * ny, nz * nz, ny * nz, nx * nz, nx * ny
+    for which in range(2):
+        if which == 0:
+            w, dt, s, dr = wk, kt, kn - kt, kr
+        else:
+            w, dt, s, dr = wc, ct, cn - ct, 0.0
+        if w == 0.0:
+            continue
+        blk = blocks[b, which]
+        wt, ws, wr = w * dt, w * s, w * dr
+        blk[0] += wt + ws * nxx  # T = dt I + s n n^T
+        blk[1] += wt + ws * nyy
+        blk[2] += wt + ws * nzz
+        blk[3] += ws * nyz
+        blk[4] += ws * nxz
+        blk[5] += ws * nxy
+        blk[6] -= ws * nx * mx  # X = -dt [r]x - s n m^T
+        blk[7] += wt * rz - ws * nx * my
+        blk[8] -= wt * ry + ws * nx * mz
+        blk[9] -= wt * rz + ws * ny * mx
+        blk[10] -= ws * ny * my
+        blk[11] += wt * rx - ws * ny * mz
+        blk[12] += wt * ry - ws * nz * mx
+        blk[13] -= wt * rx + ws * nz * my
+        blk[14] -= ws * nz * mz
+        # R = dt (|r|^2 I - r r^T) + s m m^T + dr (I - n n^T)
+        blk[15] += wt * (r2 - rx * rx) + ws * mx * mx + wr * (1.0 - nxx)
+        blk[16] += wt * (r2 - ry * ry) + ws * my * my + wr * (1.0 - nyy)
+        blk[17] += wt * (r2 - rz * rz) + ws * mz * mz + wr * (1.0 - nzz)
+        blk[18] += -wt * ry * rz + ws * my * mz - wr * nyz
+        blk[19] += -wt * rx * rz + ws * mx * mz - wr * nxz
+        blk[20] += -wt * rx * ry + ws * mx * my - wr * nxy
 
 
 @njit(inline="always")
-def _block_bound(blk, inv_mass, inv_inertia):
+def symmetric_eigenvalue_ceiling(a00, a11, a22, a12, a02, a01):
+    """q + 2 p >= the largest eigenvalue of a symmetric 3 x 3 matrix
+    (:func:`symmetric_max_eigenvalue` with cos(phi / 3) <= 1: exact when the two smaller
+    eigenvalues are equal), without its arccosine and cosine."""
+    off = a01 * a01 + a02 * a02 + a12 * a12
+    q = (a00 + a11 + a22) / 3.0
+    b00, b11, b22 = a00 - q, a11 - q, a22 - q
+    return q + 2.0 * math.sqrt((b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * off) / 6.0)
+
+
+@njit(inline="always")
+def _block_bound(blk, inv_mass, inv_inertia, exact):
     """An upper bound of lambda_max of the 6 x 6 block in the body's mass metric (module
-    docstring)."""
-    t = inv_mass * symmetric_max_eigenvalue(blk[0], blk[1], blk[2], blk[3], blk[4], blk[5])
-    r = inv_inertia * symmetric_max_eigenvalue(blk[15], blk[16], blk[17], blk[18], blk[19],
-                                               blk[20])
+    docstring); with ``exact`` False a cheaper and larger one (the eigenvalue ceilings)."""
+    eigenvalue = symmetric_max_eigenvalue if exact else symmetric_eigenvalue_ceiling
+    t = inv_mass * eigenvalue(blk[0], blk[1], blk[2], blk[3], blk[4], blk[5])
+    r = inv_inertia * eigenvalue(blk[15], blk[16], blk[17], blk[18], blk[19], blk[20])
     x00, x01, x02 = blk[6], blk[7], blk[8]
     x10, x11, x12 = blk[9], blk[10], blk[11]
     x20, x21, x22 = blk[12], blk[13], blk[14]
@@ -175,8 +196,7 @@ def _block_bound(blk, inv_mass, inv_inertia):
     g12 = x01 * x02 + x11 * x12 + x21 * x22
     g02 = x00 * x02 + x10 * x12 + x20 * x22
     g01 = x00 * x01 + x10 * x11 + x20 * x21
-    x2 = max(0.0, symmetric_max_eigenvalue(g00, g11, g22, g12, g02, g01)) * inv_mass \
-        * inv_inertia
+    x2 = max(0.0, eigenvalue(g00, g11, g22, g12, g02, g01)) * inv_mass * inv_inertia
     half = 0.5 * (t - r)
     return 0.5 * (t + r) + math.sqrt(half * half + x2)
 
@@ -221,25 +241,26 @@ def stable_rates_kernel(elem_i, elem_j, normal, arm_i, arm_j, law, inv_mass, inv
             continue
         j, i = elem_j[e], elem_i[e]
         nx, ny, nz = normal[e, 0], normal[e, 1], normal[e, 2]
-        for which in range(2):
-            k_n, k_t, k_r = (kn, kt, kr) if which == 0 else (cn, ct, 0.0)
-            wj = 1.0
-            if i >= 0 and degree[j, which] > 0.0:
-                wj += degree[i, which] / degree[j, which]
-            _add_element(blocks, j, which, wj, k_n, k_t, k_r, nx, ny, nz, arm_j[e, 0],
-                         arm_j[e, 1], arm_j[e, 2])
-            if i >= 0:
-                wi = 1.0
-                if degree[i, which] > 0.0:
-                    wi += degree[j, which] / degree[i, which]
-                _add_element(blocks, i, which, wi, k_n, k_t, k_r, nx, ny, nz, arm_i[e, 0],
-                             arm_i[e, 1], arm_i[e, 2])
-    a = b = 0.0
-    for n in range(inv_mass.shape[0]):
-        if degree[n, 0] > 0.0:
-            a = max(a, _block_bound(blocks[n, 0], inv_mass[n], inv_inertia[n]))
-        if degree[n, 1] > 0.0:
-            b = max(b, _block_bound(blocks[n, 1], inv_mass[n], inv_inertia[n]))
+        wk = 0.0 if degree[j, 0] == 0.0 else 1.0  # (a block that has nothing: no weight)
+        wc = 0.0 if degree[j, 1] == 0.0 else 1.0
+        if i >= 0:  # Merris' weights: 1 + the other side's degree over this one's
+            wk += 0.0 if degree[j, 0] == 0.0 else degree[i, 0] / degree[j, 0]
+            wc += 0.0 if degree[j, 1] == 0.0 else degree[i, 1] / degree[j, 1]
+        _add_element(blocks, j, wk, wc, kn, kt, kr, cn, ct, nx, ny, nz, arm_j[e, 0],
+                     arm_j[e, 1], arm_j[e, 2])
+        if i >= 0:
+            wk = 0.0 if degree[i, 0] == 0.0 else 1.0 + degree[j, 0] / degree[i, 0]
+            wc = 0.0 if degree[i, 1] == 0.0 else 1.0 + degree[j, 1] / degree[i, 1]
+            _add_element(blocks, i, wk, wc, kn, kt, kr, cn, ct, nx, ny, nz, arm_i[e, 0],
+                         arm_i[e, 1], arm_i[e, 2])
+    a = b = 0.0  # the largest exact block bounds: a body whose ceiling is no larger than
+    for n in range(inv_mass.shape[0]):  # the largest so far cannot raise it (same result)
+        if degree[n, 0] > 0.0 and _block_bound(blocks[n, 0], inv_mass[n], inv_inertia[n],
+                                               False) > a:
+            a = max(a, _block_bound(blocks[n, 0], inv_mass[n], inv_inertia[n], True))
+        if degree[n, 1] > 0.0 and _block_bound(blocks[n, 1], inv_mass[n], inv_inertia[n],
+                                               False) > b:
+            b = max(b, _block_bound(blocks[n, 1], inv_mass[n], inv_inertia[n], True))
     return a, b
 
 

@@ -87,7 +87,11 @@ HELD_STRESS_ROWS = 10
 stage is mostly the servo's start."""
 EXIT_NOT_AS_ASKED = 3
 ZIGZAG_LIMIT = 0.2
-"""Largest median velocity zigzag of a DEM stage (module docstring)."""
+"""Largest median velocity zigzag of a DEM stage (module docstring). Measured medians, the
+compaction and the shear of triaxial tests (200 spheres in a periodic cell or a wall box,
+linear springs at kappa = 1e3 and 1e4 and Hertz at 1e4, e = 0.05 to 1, I = 1e-4 to 1e-2,
+mu = 0 to 1; 100 aggregates): 2e-6 to 0.028; on sub-steps sized by the springs alone
+(e = 0.2; k_t = k_n at e = 0.3 and 0.5): 0.65 to 0.96 in the shear."""
 
 
 def _fmt(value: float) -> str:
