@@ -95,7 +95,7 @@ def random_network(seed, n_bodies=6, n_elements=14, anisotropic=False, walls=Tru
 def test_the_bound_is_never_below_the_assembled_networks_largest_rates(seed, anisotropic):
     network = random_network(seed, anisotropic=anisotropic, walls=seed % 2 == 0)
     exact_k, exact_c = assembled(*network)
-    a, b = bound(*network)
+    a, b, _ = bound(*network)
     assert a >= exact_k * (1.0 - 1e-12) and b >= exact_c * (1.0 - 1e-12)
     assert a <= 30.0 * exact_k  # a bound, but not a useless one
 
@@ -131,7 +131,7 @@ def test_the_bound_is_exact_on_the_uniform_spin_of_a_lattice(kind, z):
     """The uniform spin of equal spheres with z contacts: w^2 = (10 z / 3) k_t / m and
     beta = (10 z / 3) c_t / m, the largest rates of the lattice and those of the bound."""
     network = lattice_elements(kind)
-    a, b = bound(*network)
+    a, b, _ = bound(*network)
     kt, ct = network[5][0, 1], network[5][0, 3]
     assert a == pytest.approx(10.0 * z / 3.0 * kt, rel=1e-9)
     assert b == pytest.approx(10.0 * z / 3.0 * ct, rel=1e-9)
@@ -152,3 +152,18 @@ def test_the_limit_keeps_one_damped_mode_of_the_explicit_scheme_stable(w2, beta)
 
     assert growth(h) <= 1.0 + 1e-12
     assert growth(1.05 * h / DAMPED_FRACTION) > 1.0
+
+
+def test_a_dashpot_does_not_reverse_the_approach_it_damps_within_a_sub_step():
+    """Two spheres head-on: the relaxation rate of the contact's normal dashpot is
+    c_n (1/m_i + 1/m_j), and the limit keeps h c_n / m* <= the safety fraction; an overdamped
+    dashpot is held by it, not by the stability bound (which allows h c_n / m* up to 2)."""
+    masses = np.array([1.0, 3.0])
+    tensors = np.array([np.eye(3) * 0.1, np.eye(3) * 0.3])
+    n = np.array([[1.0, 0.0, 0.0]])
+    law = np.array([[1.0, 0.5, 10.0, 0.0, 0.0]])
+    network = (np.array([0]), np.array([1]), n, 0.5 * n, -0.5 * n, law, masses, tensors)
+    a, b, relaxation = bound(*network)
+    assert relaxation == pytest.approx(10.0 * (1.0 + 1.0 / 3.0))
+    assert damped_limit(a, b, relaxation) == pytest.approx(DAMPED_FRACTION / relaxation)
+    assert damped_limit(a, b, relaxation) < damped_limit(a, b)

@@ -272,16 +272,18 @@ class PolyhedronRows:
         elem_i, elem_j = np.empty(e, dtype=np.int64), np.empty(e, dtype=np.int64)
         normal, arm_i, arm_j = np.empty((e, 3)), np.empty((e, 3)), np.empty((e, 3))
         elements = np.empty((e, LAW_COLUMNS))
-        polyhedron_elements_kernel(
+        pairs = polyhedron_elements_kernel(
             float(horizon), law.code, law.params, self.pair_i, self.pair_j, self.images,
-            self.r_eff, self.mu, run.inv_mass, state.positions, run.cell_h, self.n_points,
+            self.r_eff, self.mu, run.inv_mass, run.inv_inertia, state.positions, run.cell_h,
+            self.n_points,
             self.point_gap, self.point_normal, self.point_position, self.point_velocity,
             self.point, self.normal, self.rel_vel, elem_i, elem_j, normal, arm_i, arm_j,
             elements)
         n = state.n_bodies
-        return damped_limit(*stable_rates_kernel(
+        a, b, relaxation = stable_rates_kernel(
             elem_i, elem_j, normal, arm_i, arm_j, elements, run.inv_mass, run.inv_inertia,
-            np.empty((n, 2)), np.empty((n, 2, BLOCK))))
+            np.empty((n, 2)), np.empty((n, 2, BLOCK)))
+        return damped_limit(a, b, max(relaxation, pairs))
 
     def closed_points(self) -> tuple:
         """The penetrating points of the last evaluation as contacts of
