@@ -80,8 +80,8 @@ stiffen further than its predicted overlap says.
 >>> limit = damped_limit(4.0, 0.0)        # w^2 = 4 / s^2, no damping: h < 2 / w = 1 s
 >>> round(limit / DAMPED_FRACTION, 12)
 1.0
->>> round(damped_limit(4.0, 2.0) / DAMPED_FRACTION, 12)  # beta = 2 / s: (sqrt(20) - 2) / 4
-0.618033988749
+>>> round(damped_limit(4.0, 2.0) / DAMPED_FRACTION, 9)  # beta = 2 / s: (sqrt(20) - 2) / 4
+0.618033989
 """
 
 from __future__ import annotations
