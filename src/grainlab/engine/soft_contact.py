@@ -363,7 +363,7 @@ class SoftContactStep:
             if done:
                 rows = self._build_list(state, library, boundary, bounds, run)
                 longest = self._longest_substep(run, rows, h * left)
-                if longest < h:  # the new list's contacts need shorter sub-steps
+                if longest < h * (1.0 - 1e-12):  # the new list's contacts need shorter ones
                     self.substep = longest
                     rest = h * left
                     left = math.ceil(rest / longest * (1.0 - 1e-12))
