@@ -164,6 +164,7 @@ FIGURES: dict[str, tuple[str, Callable[[TestResult], Any]]] = {
     "triaxial_compression": ("triaxial.png", triaxial_figure),
     "triaxial_extension": ("triaxial.png", triaxial_figure),
     "true_triaxial": ("triaxial.png", triaxial_figure),
+    "cubical_constant_sigma3": ("triaxial.png", triaxial_figure),
     "biaxial": ("biaxial.png", triaxial_figure),
     "circular_octahedral": ("circular_path.png", circular_path_figure),
     "simple_shear": ("simple_shear.png", simple_shear_figure),
@@ -323,9 +324,17 @@ def run_command(
                   f"in {out}/")
 
 
+SWEEP_PATHS = {"constant-sigma3": "cubical_constant_sigma3", "constant-p": "true_triaxial"}
+"""The cubical paths of ``sweep-b --path``: what is held besides b, and the preset."""
+
+
 @app.command("sweep-b")
 @friendly_errors
 def sweep_b_command(
+    cubical_path: str = typer.Option(
+        "constant-sigma3", "--path", help="What is held besides b: constant-sigma3 (the "
+        "minor stress sigma_3 = sigma0, Lade & Duncan's cubical tests, with which Chang 1991 "
+        "compares; b = 1 is its 'extension') or constant-p (the mean stress p = sigma0)."),
     b: str = typer.Option("0,0.2,0.4,0.6,0.8,1", "--b", help="Values of b = (sigma_2 - "
                           "sigma_3)/(sigma_1 - sigma_3): '0,0.5,1' or start:stop:step."),
     sets: list[str] | None = SET_OPTION,
@@ -345,8 +354,10 @@ def sweep_b_command(
     steps: int = typer.Option(100, "--steps", help="Steps of each test (the preset's n_steps)."),
     out: Path = typer.Option(Path("microelement-b-sweep"), help="Output folder."),
 ) -> None:
-    """Cubical (true) triaxial tests at constant mean stress p = sigma0, one per b (Chang 1991
-    §4.2.2): z major, x intermediate, y minor principal axis.
+    """Cubical (true) triaxial tests at constant minor stress sigma_3 = sigma0 (`--path
+    constant-sigma3`, preset cubical_constant_sigma3) or constant mean stress p = sigma0
+    (`--path constant-p`, preset true_triaxial), one per b (Chang 1991 §4.2.2): z major, x
+    intermediate, y minor principal axis.
 
     Writes one result per b (b0.csv/.h5, b0.5.csv/.h5, ...), a summary (summary.csv/.h5: per
     b the peak friction angle, the failure point on the octahedral plane and the strain
@@ -355,6 +366,9 @@ def sweep_b_command(
     angle; strain-increment directions at failure) and stress_strain.png (Fig. 4.9).
     `--set strain=...` changes the deviator strain of every test.
     """
+    if cubical_path not in SWEEP_PATHS:
+        raise InputError("--path", cubical_path, "one of " + ", ".join(SWEEP_PATHS))
+    preset_name = SWEEP_PATHS[cubical_path]
     values = parse_list("--b", b, 0.0, 1.0)
     options = _options(law, kn, ks, friction_angle, shear_modulus, poisson_ratio, None,
                        sigma0, distribution, non_affine, spin, large_strain)
@@ -365,29 +379,30 @@ def sweep_b_command(
     if specimen.dimension != 3:
         raise InputError("--structure", structure, "a 3D structure (cubical tests)")
     models = [options.build(specimen) for _ in values]
-    paths = [_path("true_triaxial", m, steps, user, {"b": v}) for m, v in zip(models, values,
-                                                                                  strict=True)]
+    paths = [_path(preset_name, m, steps, user, {"b": v}) for m, v in zip(models, values,
+                                                                              strict=True)]
     results: list[TestResult] = []
     total = sum(p.n_steps for p, _ in paths)
-    with _progress(f"true triaxial at {len(values)} values of b", total) as (bar, task):
+    with _progress(f"{preset_name} at {len(values)} values of b", total) as (bar, task):
         offset = 0
         for model, (load_path, _) in zip(models, paths, strict=True):
             results.append(_run(model, load_path, lambda done, o=offset: bar.update(
                 task, completed=o + done)))
             offset += load_path.n_steps
-    setup = _setup(structure, seed, specimen, options, preset="true_triaxial",
+    setup = _setup(structure, seed, specimen, options, preset=preset_name,
                    preset_parameters=_jsonable({k: v for k, v in paths[0][1].items()
                                                 if k != "b"}))
     for value, result in zip(values, results, strict=True):
         result.metadata["setup"] = setup
         result.save(out, f"b{value:g}")
-    summary = b_sweep_summary(values, results, setup)
+    summary = b_sweep_summary(values, results, setup, preset_name)
     summary.save(out, "summary")
     save_figure(b_sweep_figure(summary), out / "b_sweep.png")
     save_figure(triaxial_figure(results, [f"b = {v:g}" for v in values]),
                 out / "stress_strain.png")
-    view = Table(title="Peak friction angle against b (at the peak: converged?, eps_zz, "
-                 "direction of the strain increment on the octahedral plane)")
+    view = Table(title=f"Peak friction angle against b, {cubical_path} (at the peak: "
+                 "converged?, eps_zz, direction of the strain increment on the octahedral "
+                 "plane)")
     for column in ("b", "status", "peak phi [deg]", "converged", "eps_zz [%]",
                    "d_eps angle [deg]"):
         view.add_column(column, justify="right")
@@ -413,13 +428,15 @@ SUMMARY_UNITS = {
 
 
 def b_sweep_summary(b_values: Sequence[float], results: Sequence[TestResult],
-                    setup: dict[str, Any] | None = None) -> TestResult:
+                    setup: dict[str, Any] | None = None,
+                    preset_name: str = "true_triaxial") -> TestResult:
     """One row per b: the failure point (peak mobilised friction angle,
     :func:`grainlab.lab.derived.failure_point`) and the strain increment of the step that
     reached it (``converged_at_failure``: whether the driver met its stress tolerance on that
     row; ``deps_*``; on the octahedral plane ``deps_oct_x`` = (de_x - de_y)/sqrt 2,
     ``deps_oct_y`` = (2 de_z - de_x - de_y)/sqrt 6, ``deps_direction`` = atan2 of the two,
-    the angle from the z projection as ``alpha`` of the stresses)."""
+    the angle from the z projection as ``alpha`` of the stresses). ``preset_name``: the
+    cubical path of the tests (``true_triaxial`` or ``cubical_constant_sigma3``)."""
     rows = []
     for b, result in zip(b_values, results, strict=True):
         table = result.table
@@ -446,7 +463,7 @@ def b_sweep_summary(b_values: Sequence[float], results: Sequence[TestResult],
     specimen = results[0].specimen if results else {}
     return TestResult.create(
         pd.DataFrame(rows, columns=list(SUMMARY_UNITS)), specimen=specimen,
-        load_path={"name": "b_sweep", "preset": "true_triaxial",
+        load_path={"name": "b_sweep", "preset": preset_name,
                    "b_values": [float(v) for v in b_values]},
         parameters={"setup": setup or {}}, outcome={"status": "completed", "n_tests": len(rows)},
         units=SUMMARY_UNITS, dimension=3, title="peak friction angle against b")

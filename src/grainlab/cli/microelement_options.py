@@ -47,6 +47,7 @@ class Distribution(StrEnum):
     homogeneous = "homogeneous"
     maxwellian = "maxwellian"
     maxwellian_average = "maxwellian-average"
+    maxwellian_first_order = "maxwellian-first-order"
 
 
 class Spin(StrEnum):
@@ -85,8 +86,10 @@ THICKNESS_OPTION = typer.Option(None, "--thickness", help="2D only: disc thickne
 DISTRIBUTION_OPTION = typer.Option(
     Distribution.homogeneous, help="How the overall strain is shared among micro-elements: "
     "homogeneous (eq. 2.30), maxwellian (eqs. 2.32-2.35 with the overall stiffness C in "
-    "eq. 2.32 as printed, solved self-consistently) or maxwellian-average (the average "
-    "stiffness C_bar in eq. 2.32).")
+    "eq. 2.32 as printed, solved self-consistently), maxwellian-average (the average "
+    "stiffness C_bar in eq. 2.32) or maxwellian-first-order (C_bar, the series of eq. 2.35 "
+    "cut after its first-order term: G^n = (V^n/V)(2I - C_bar^-1 C^n); the reading that "
+    "gives the report's cubical strengths, see docs/micro_element.md).")
 AFFINE_OPTION = typer.Option(True, "--non-affine/--affine", help="Let each centre particle "
                              "move to balance its contact forces (eq. 2.14), or not.")
 SPIN_OPTION = typer.Option(None, help="Particle spin: none, micro-element or uniform "

@@ -357,7 +357,9 @@ def build_model(
     Law options as :func:`build_law`. ``distribution`` ``"homogeneous"`` (eq. 2.30) or
     ``"maxwellian"`` (eqs. 2.32–2.35; default: :func:`structure_defaults`, homogeneous) with
     ``maxwellian_reference`` ``"overall"`` (eq. 2.32 as printed, self-consistent) or
-    ``"average"`` (C_bar); ``non_affine`` the
+    ``"average"`` (C_bar), or ``"maxwellian-first-order"`` (C_bar and the series of eq. 2.35
+    cut after its first-order term, G^n = (V^n/V)(2I - C_bar^-1 C^n); the reading that gives
+    the report's cubical strengths); ``non_affine`` the
     centre particle's move (eq. 2.14); ``spin`` ``"none"``, ``"micro-element"`` or
     ``"uniform"`` (default ``"uniform"`` for binary units, which need it, ``"none"``
     otherwise); ``update_geometry`` large-strain updates.
@@ -425,7 +427,7 @@ def reference_strain(model: MicroElementModel) -> float:
 
 
 THREE_D_ONLY = ("triaxial_compression", "triaxial_extension", "true_triaxial",
-                "circular_octahedral")
+                "cubical_constant_sigma3", "circular_octahedral")
 TWO_D_ONLY = ("biaxial",)
 
 
@@ -446,6 +448,7 @@ def default_path_parameters(name: str, model: MicroElementModel,
     triaxial_compression/      confining p, axial strain 30 eps_ref, drained
     triaxial_extension
     true_triaxial              p, b = 0.5, strain 30 eps_ref along the deviator direction
+    cubical_constant_sigma3    sigma_3 = p, b = 0.5, strain 30 eps_ref
     biaxial (2D)               confining p, vertical strain 30 eps_ref
     circular_octahedral        p, q = 0.5 p, one turn in n steps after 20 approach steps
     simple_shear               K0 to sigma_v = 1.344 p (20 steps; seed 001 §4.2.4), then
@@ -480,6 +483,8 @@ def default_path_parameters(name: str, model: MicroElementModel,
                                "consolidation_steps": 0},
         "true_triaxial": {"p": p, "b": 0.5, "strain": 30.0 * eps, "n_steps": n_steps,
                           "consolidation_steps": 0},
+        "cubical_constant_sigma3": {"confining": p, "b": 0.5, "strain": 30.0 * eps,
+                                    "n_steps": n_steps, "consolidation_steps": 0},
         "biaxial": {"confining": p, "strain": 30.0 * eps, "n_steps": n_steps,
                     "consolidation_steps": 0},
         "circular_octahedral": {"p": p, "radius_q": 0.5 * p, "n_steps": n_steps,

@@ -246,6 +246,69 @@ def true_triaxial(
                     f"p = {p:g} Pa and b = {b:g} held; z major, x intermediate, y minor")
 
 
+def cubical_constant_sigma3_basis(b: float) -> np.ndarray:
+    """Orthonormal rows (u_strain, u_3, u_b) on the principal stresses (x, y, z) of the
+    cubical test at constant sigma_3 (z major, x intermediate, y minor):
+
+    * u_3 = (0, 1, 0): sigma . u_3 = sigma_3;
+    * u_b = (1, 0, -b)/sqrt(1 + b^2): b = (sigma_2 - sigma_3)/(sigma_1 - sigma_3) is
+      sigma_xx - (1 - b) sigma_yy - b sigma_zz = 0, i.e. with sigma_yy = sigma_3,
+      sigma . u_b = (1 - b) sigma_3 / sqrt(1 + b^2);
+    * u_strain = (b, 0, 1)/sqrt(1 + b^2), orthogonal to both: its conjugate strain
+      (b eps_xx + eps_zz)/sqrt(1 + b^2) drives the test (eps_zz at b = 0).
+
+    >>> np.round(cubical_constant_sigma3_basis(1.0) * np.sqrt(2), 12).tolist()
+    [[1.0, 0.0, 1.0], [0.0, 1.414213562373, 0.0], [1.0, 0.0, -1.0]]
+    """
+    b = _finite("b", b)
+    if not 0.0 <= b <= 1.0:
+        raise InputError("b", b, "a number in [0, 1]")
+    norm = math.sqrt(1.0 + b * b)
+    return np.array([[b / norm, 0.0, 1.0 / norm], [0.0, 1.0, 0.0], [1.0 / norm, 0.0, -b / norm]])
+
+
+def cubical_constant_sigma3(
+    *,
+    confining: float,
+    b: float,
+    strain: float,
+    n_steps: int,
+    consolidation_steps: int = 10,
+) -> LoadPath:
+    """Cubical (true) triaxial test at constant minor stress sigma_3 and constant b (the
+    protocol of Lade & Duncan's cubical tests, with which seed 001 §4.2.2 compares; eq. 4.7:
+    b = (sigma_2 - sigma_3)/(sigma_1 - sigma_3)); 3D, z major, x intermediate, y minor
+    principal axis, shear stresses 0. b = 0 is triaxial compression, b = 1 the report's
+    "extension" (sigma_1 = sigma_2 > sigma_3 held), not reduced-axial-stress extension.
+
+    Stage ``"consolidation"`` (skipped with 0 steps): isotropic to ``confining`` [Pa]. Stage
+    ``"shear"`` controls, through an orthogonal ``component_basis`` on (xx, yy, zz) with the
+    rows of :func:`cubical_constant_sigma3_basis` (b):
+
+    * sigma_yy = ``confining`` and sigma_xx - (1 - b) sigma_yy - b sigma_zz = 0 (stress
+      targets), so sigma_3 and b stay constant while p grows;
+    * the strain (b eps_xx + eps_zz)/sqrt(1 + b^2) grows by ``strain`` [-] in ``n_steps``
+      increments (strain control: a softening branch past the peak can be followed).
+    """
+    confining = _positive("confining", confining, "Pa")
+    rows = cubical_constant_sigma3_basis(b)
+    b = float(b)
+    n = _integer("n_steps", n_steps, 1)
+    m = _integer("consolidation_steps", consolidation_steps, 0)
+    amount = _positive("strain", strain)
+    basis = np.eye(6)
+    basis[:3, :3] = rows
+    control = ("strain", "stress", "stress", "stress", "stress", "stress")
+    values = (amount / n, confining, (1.0 - b) * confining / math.sqrt(1.0 + b * b),
+              0.0, 0.0, 0.0)
+    shear = LoadStage("shear", n, 3, control, values, stress_mode="target",
+                      component_basis=tuple(map(tuple, basis)))
+    stages = ([_isotropic_stage("consolidation", confining, m, 3)] if m else []) + [shear]
+    return LoadPath("cubical_constant_sigma3", 3, tuple(stages),
+                    f"sigma_3 = {confining:g} Pa and b = {b:g} held; z major, x intermediate, "
+                    "y minor")
+
+
 def octahedral_stress(p: float, q: float, alpha: float) -> np.ndarray:
     """Voigt stress (3D) [Pa] at mean stress ``p``, deviator q = sqrt(3 J2) and angle
     ``alpha`` [rad] on the octahedral plane, measured from the projection of the z axis
@@ -409,6 +472,8 @@ _PRESETS: dict[str, tuple[Callable[..., LoadPath], str]] = {
     "triaxial_extension": (triaxial_extension,
                            "eps_zz down at constant lateral stress (or constant volume)"),
     "true_triaxial": (true_triaxial, "cubical test at constant p and b (strain or q_final)"),
+    "cubical_constant_sigma3": (cubical_constant_sigma3,
+                                "cubical test at constant sigma_3 and b (Lade & Duncan)"),
     "circular_octahedral": (circular_octahedral,
                             "full circle on the octahedral plane at constant p and q"),
     "simple_shear": (simple_shear,

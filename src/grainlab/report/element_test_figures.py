@@ -82,7 +82,8 @@ def _label(result: TestResult, k: int, labels: Sequence[str] | None) -> str:
     if labels is not None:
         return str(labels[k])
     table = result.table
-    if result.load_path.get("name") == "true_triaxial" and "b" in table:
+    if result.load_path.get("name") in ("true_triaxial", "cubical_constant_sigma3") and \
+            "b" in table:
         b = table["b"].to_numpy(dtype=float)
         if np.any(np.isfinite(b)):
             return f"b = {np.nanmedian(b):.2g}"
@@ -341,7 +342,10 @@ def b_sweep_figure(summary: TestResult, reference_phi: float | None = None) -> F
     ax_b.plot(b, np.degrees(phi), "o-")
     ax_b.set_xlabel("b = (sigma_2 - sigma_3)/(sigma_1 - sigma_3)")
     ax_b.set_ylabel("peak friction angle [deg]")
-    ax_b.set_title("Peak friction angle against b", fontsize="medium")
+    held = {"true_triaxial": ", constant p",
+            "cubical_constant_sigma3": ", constant sigma_3"}.get(
+        str(summary.load_path.get("preset", "")), "")
+    ax_b.set_title(f"Peak friction angle against b{held}", fontsize="medium")
     _finish(ax_b)
     x = table["oct_x_over_p"].to_numpy(dtype=float)
     y = table["oct_y_over_p"].to_numpy(dtype=float)

@@ -28,7 +28,8 @@ to M contacts in d dimensions):
   strain G^n, homogeneous (eq. 2.30: every micro-element takes the overall strain) or
   Maxwellian in stiffness space (eqs. 2.32–2.35: v^n = C_bar^-1 (C^n - C_bar),
   G^n = A Exp(-v^n) V^n/V, A^-1 = sum (V^n/V) Exp(-v^n), the exponential summed as a series to
-  a stated order with a convergence check); overall tangent C = sum_n C^n G^n (eq. 2.31) and
+  a stated order with a convergence check) or that series cut after its first-order term
+  with C_bar (G^n = (V^n/V)(2I - C_bar^-1 C^n), :mod:`first_order_law`); overall tangent C = sum_n C^n G^n (eq. 2.31) and
   local strains eps^n = (V/V^n) G^n eps (eq. 2.27, G acting on strain fractions).
 
 After every increment the structure is updated: contact forces, sliding, separation and bonds;
@@ -50,6 +51,10 @@ from grainlab.micromech.micro_element.distribution_kernels import (
     maxwellian_tensors,
     relative_stiffness,
 )
+from grainlab.micromech.micro_element.first_order_law import (
+    first_order_tensors,
+    strain_share_eigenvalues,
+)
 from grainlab.micromech.micro_element.kernels import (
     condense_local_stiffness,
     contact_census,
@@ -61,7 +66,9 @@ from grainlab.micromech.micro_element.kernels import (
 from grainlab.micromech.micro_element.structure import MicroElementStructure
 from grainlab.micromech.micro_element.tensor_basis import bases
 
-DISTRIBUTIONS = ("homogeneous", "maxwellian")
+DISTRIBUTIONS = ("homogeneous", "maxwellian", "maxwellian-first-order")
+"""Distributive laws of strain: eq. 2.30; eqs. 2.32–2.35 (the series summed to convergence);
+eqs. 2.32–2.35 with C_bar and the series cut after its first-order term (Table 2.1)."""
 MAXWELLIAN_REFERENCES = ("overall", "average")
 """Stiffness whose inverse scales the heterogeneity v^n of eq. 2.32: the overall tangent C
 (as printed; self-consistent, iterated) or the volume average C_bar of eq. 2.24."""
@@ -123,7 +130,11 @@ class MicroElementModel:
     law:
         The contact law (constant or Hertz–Mindlin springs, Coulomb, separation, bonds).
     distribution:
-        ``"homogeneous"`` (eq. 2.30) or ``"maxwellian"`` (eqs. 2.32–2.35).
+        ``"homogeneous"`` (eq. 2.30), ``"maxwellian"`` (eqs. 2.32–2.35) or
+        ``"maxwellian-first-order"``: Table 2.1's H^n = f(C^n, C_bar) with the series of
+        eq. 2.35 cut after its first-order term, G^n = (V^n/V)(2I - C_bar^-1 C^n)
+        (:func:`~grainlab.micromech.micro_element.first_order_law.first_order_tensors`;
+        ``maxwellian_reference`` and the series options do not apply).
     non_affine:
         Include the centre particle's equilibrium move (eq. 2.14).
     series_order:
@@ -250,6 +261,9 @@ class MicroElementModel:
         if self.distribution == "homogeneous":
             g = weights[:, None, None] * np.eye(k)[None]
             tangent, last = c_bar, 0.0
+        elif self.distribution == "maxwellian-first-order":
+            g, tangent = first_order_tensors(c_local, c_bar, weights)
+            last = 0.0
         elif self.maxwellian_reference == "average":
             g, tangent, last = self._maxwellian(c_local, c_bar, c_bar, weights, shift=False)
         else:
@@ -459,7 +473,22 @@ class MicroElementModel:
             "series_last_term": float(info["series_last_term"]),
             "self_consistent_iterations": int(info.get("reference_iterations", 0)),
             "stress_asymmetry": self._asymmetry(),
+            **self._strain_share(info),
         }
+
+    def _strain_share(self, info: dict[str, Any]) -> dict[str, float]:
+        """For the first-order law, whose G^n need not be positive definite: the lowest
+        eigenvalue of (V/V^n) G^n over the micro-elements [-] (1: the overall strain, < 0: a
+        micro-element strains against it) and the fraction of micro-elements with a negative
+        one [-]; nothing for the other laws."""
+        if self.distribution != "maxwellian-first-order":
+            return {}
+        if "c_bar" not in info:
+            return {"strain_share_lowest_eigenvalue": math.nan,
+                    "strain_share_negative_fraction": math.nan}
+        lowest = strain_share_eigenvalues(info["c_local"], info["c_bar"])[:, 0]
+        return {"strain_share_lowest_eigenvalue": float(lowest.min(initial=math.inf)),
+                "strain_share_negative_fraction": float(np.mean(lowest < 0.0))}
 
     def _asymmetry(self) -> float:
         """|skew part| / |stress| of the overall stress tensor [-]."""
