@@ -120,7 +120,8 @@ def test_run_cyclic_path_on_binary_units(tmp_path):
 
 
 def test_sweep_b_summary_has_one_row_per_b(tmp_path):
-    ok("sweep-b", "--b", "0,0.5,1", "--steps", "12", "--out", tmp_path)
+    ok("sweep-b", "--path", "constant-p", "--b", "0,0.5,1", "--steps", "12", "--out",
+       tmp_path)
     summary = read_test_result(tmp_path / "summary.csv").table
     assert summary["b"].tolist() == [0.0, 0.5, 1.0]
     # b is stress-controlled: the failure point has the b asked for
@@ -139,6 +140,32 @@ def test_sweep_b_summary_has_one_row_per_b(tmp_path):
     np.testing.assert_allclose(converged["p"], 1e5, rtol=2e-4)  # constant mean stress
     for name in ("b0.5.h5", "b1.csv", "summary.h5", "b_sweep.png", "stress_strain.png"):
         assert (tmp_path / name).stat().st_size > 0
+
+
+@pytest.mark.parametrize("choice", ["maxwellian-first-order", "homogeneous"])
+def test_sweep_b_at_constant_sigma3_holds_sigma3_and_b(tmp_path, choice):
+    """The default sweep holds sigma_3 = sigma0 (Lade & Duncan's cubical tests, the report's
+    comparison): on every converged row of every test sigma_yy = sigma_3 = 100 kPa and
+    sigma_xx - sigma_3 = b (sigma_zz - sigma_3); the law named on the command line is the
+    model's."""
+    result = ok("sweep-b", "--b", "0,0.6,1", "--steps", "12", "--distribution", choice,
+                "--out", tmp_path)
+    assert "constant-sigma3" in result.output
+    summary = read_test_result(tmp_path / "summary.csv")
+    assert summary.load_path["preset"] == "cubical_constant_sigma3"
+    assert summary.table["b"].tolist() == [0.0, 0.6, 1.0]
+    for b in (0.0, 0.6, 1.0):
+        test = read_test_result(tmp_path / f"b{b:g}.csv")
+        assert test.metadata["setup"]["model"]["distribution"] == choice
+        rows = test.table[test.table["converged"] & (test.table["step"] > 0)]
+        assert len(rows) >= 3
+        size = np.sqrt(rows["sigma_1"] ** 2 + rows["sigma_2"] ** 2
+                       + rows["sigma_3"] ** 2).to_numpy()
+        assert np.all(np.abs(rows["sigma_yy"] - 1e5).to_numpy() <= 2e-4 * size)
+        assert np.all(np.abs(rows["sigma_xx"] - rows["sigma_yy"] - b * (
+            rows["sigma_zz"] - rows["sigma_yy"])).to_numpy() <= 2e-4 * size)
+        assert rows["p"].iloc[-1] > 1e5  # sigma_3 held: the mean stress grows
+    assert (tmp_path / "b_sweep.png").stat().st_size > 0
 
 
 def test_circular_keeps_the_radius(tmp_path):
@@ -183,6 +210,9 @@ def test_bad_inputs_are_named(tmp_path):
     refused("--friction-angle", "run", "--friction-angle", "95", "--out", tmp_path)
     refused("--b", "sweep-b", "--b", "0,2", "--out", tmp_path)
     refused("--set b", "sweep-b", "--set", "b=0.3", "--out", tmp_path)
+    bad_path = refused("--path", "sweep-b", "--path", "constant-q", "--out", tmp_path)
+    assert "constant-sigma3" in bad_path.output and "constant-p" in bad_path.output
+    refused("--distribution", "run", "--distribution", "first-order", "--out", tmp_path)
     refused("--amplitudes", "cyclic", "--amplitudes", "small", "--out", tmp_path)
     refused("--cycles", "cyclic", "--cycles", "0", "--out", tmp_path)
     refused("--steps", "run", "--steps", "3", "--out", tmp_path)

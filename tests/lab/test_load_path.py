@@ -127,6 +127,7 @@ PRESET_ARGUMENTS = {
     "triaxial_extension": {"confining": 1e5, "axial_strain": 0.01, "n_steps": 5,
                            "drained": False},
     "true_triaxial": {"p": 1e5, "b": 0.5, "n_steps": 5, "q_final": 5e4},
+    "cubical_constant_sigma3": {"confining": 1e5, "b": 0.4, "strain": 0.01, "n_steps": 5},
     "circular_octahedral": {"p": 1e5, "radius_q": 3e4, "n_steps": 8},
     "simple_shear": {"gamma_final": 0.01, "n_steps": 5, "vertical_stress": 1e5,
                      "dimension": 2},
@@ -164,6 +165,10 @@ def test_registry_rejects_unknown_names_and_parameters():
                           unload_strain=0.01), "unload_strain"),
     (lambda: presets.true_triaxial(p=1e5, b=1.5, strain=0.01, n_steps=3), "b"),
     (lambda: presets.true_triaxial(p=1e5, b=0.5, n_steps=3), "strain"),
+    (lambda: presets.cubical_constant_sigma3(confining=1e5, b=-0.1, strain=0.01, n_steps=3),
+     "b"),
+    (lambda: presets.cubical_constant_sigma3(confining=0.0, b=0.5, strain=0.01, n_steps=3),
+     "confining"),
     (lambda: presets.simple_shear(gamma_final=0.1, n_steps=3, vertical_stress=1e5,
                              constant="volume"), "constant"),
     (lambda: presets.triaxial_compression(confining=1e5, axial_strain=0.1, n_steps=3,
@@ -262,6 +267,29 @@ def test_true_triaxial_keeps_p_and_b(b):
     if 0.0 < b < 1.0:
         for lab, principal in major.items():
             assert np.allclose(shear[lab], shear[principal], rtol=1e-12)
+
+
+@pytest.mark.parametrize("b", [0.0, 0.3, 0.6, 1.0])
+def test_cubical_constant_sigma3_holds_sigma3_and_b(b):
+    """sigma_yy = sigma_3 held, sigma_xx - sigma_3 = b (sigma_zz - sigma_3): with
+    d sigma_x = b d sigma_z and d sigma_y = 0, Hooke's law gives the driven strain
+    e = (b eps_xx + eps_zz)/sqrt(1 + b^2) = d sigma_z (1 + b^2 - 2 nu b)/(E sqrt(1 + b^2))."""
+    result = run(presets.cubical_constant_sigma3(confining=1e5, b=b, strain=0.002, n_steps=6,
+                                                 consolidation_steps=2))
+    shear = stage_rows(result, "shear")
+    start = stage_rows(result, "consolidation").iloc[-1]
+    assert np.allclose(shear["sigma_yy"], 1e5, rtol=1e-10)
+    assert np.allclose(shear["b"], b, atol=1e-9)
+    assert np.allclose(shear[["sigma_yz", "sigma_xz", "sigma_xy"]], 0.0, atol=1e-6)
+    d_eps = shear[["eps_xx", "eps_yy", "eps_zz"]].to_numpy() - start[
+        ["eps_xx", "eps_yy", "eps_zz"]].to_numpy(dtype=float)
+    driven = (b * d_eps[:, 0] + d_eps[:, 2]) / math.sqrt(1.0 + b * b)
+    np.testing.assert_allclose(driven, 0.002 * np.arange(1, 7) / 6, rtol=1e-10)
+    expected = E * math.sqrt(1.0 + b * b) / (1.0 + b * b - 2.0 * NU * b) * driven
+    np.testing.assert_allclose(shear["sigma_zz"] - 1e5, expected, rtol=1e-9)
+    np.testing.assert_allclose(shear["sigma_xx"] - 1e5, b * expected, rtol=1e-9, atol=1e-6)
+    assert np.allclose(shear["sigma_3"], shear["sigma_yy"], rtol=1e-12)
+    assert np.allclose(shear["sigma_1"], shear["sigma_zz"], rtol=1e-12)
 
 
 def test_true_triaxial_to_q_final():

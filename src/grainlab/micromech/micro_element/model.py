@@ -29,7 +29,8 @@ to M contacts in d dimensions):
   Maxwellian in stiffness space (eqs. 2.32–2.35: v^n = C_bar^-1 (C^n - C_bar),
   G^n = A Exp(-v^n) V^n/V, A^-1 = sum (V^n/V) Exp(-v^n), the exponential summed as a series to
   a stated order with a convergence check) or that series cut after its first-order term
-  with C_bar (G^n = (V^n/V)(2I - C_bar^-1 C^n), :mod:`first_order_law`); overall tangent C = sum_n C^n G^n (eq. 2.31) and
+  with C_bar (G^n = (V^n/V)(2I - C_bar^-1 C^n), :mod:`first_order_law`); overall tangent
+  C = sum_n C^n G^n (eq. 2.31) and
   local strains eps^n = (V/V^n) G^n eps (eq. 2.27, G acting on strain fractions).
 
 After every increment the structure is updated: contact forces, sliding, separation and bonds;
