@@ -4,14 +4,15 @@ Times a 1000-increment triaxial compression (lateral stress held by the mixed-co
 on the idealized material of 30 micro-elements and on 10 002 micro-elements (1667 random
 micro-elements in 6 orientations), homogeneous and Maxwellian distributions (with C_bar,
 ``maxwellian-average``, and self-consistent, ``maxwellian``: the latter fails after a few
-hundred increments, so its rates are per increment actually run); prints wall and
+hundred increments, so its rates are per increment actually run; and the first-order C_bar
+law, ``maxwellian-first-order``, which can fail too); prints wall and
 process CPU seconds per test (CPU counts every thread: on a shared machine it is the steadier
 figure), increments per second, micro-element updates per second and the load average.
 Numba compilation is excluded (one short warm-up run per size and distribution).
 
     .venv/bin/python benchmarks/benchmark_micromech_micro_element.py
         [--large N_RANDOM] [--only small|large]
-        [--distribution homogeneous|maxwellian-average|maxwellian]
+        [--distribution homogeneous|maxwellian-average|maxwellian|maxwellian-first-order]
         [--repeat R]
 """
 
@@ -32,7 +33,8 @@ from grainlab.micromech.micro_element.structures import idealized_material
 
 DISTRIBUTIONS = {"homogeneous": ("homogeneous", "overall"),
                  "maxwellian-average": ("maxwellian", "average"),
-                 "maxwellian": ("maxwellian", "overall")}
+                 "maxwellian": ("maxwellian", "overall"),
+                 "maxwellian-first-order": ("maxwellian-first-order", "overall")}
 
 
 def run(n_random: int, distribution: str, n_steps: int = 1000

@@ -11,7 +11,11 @@ Run:  .venv/bin/python examples/02_micro_element_against_the_report.py [OUTPUT_F
 The defaults are a quick look (the self-consistent law on seed 1, a few seconds). The table
 of docs/micro_element.md is
 
-      ... OUTPUT_FOLDER --laws homogeneous,average,overall --seeds 1,2,3,4,5 --with-2d
+      ... OUTPUT_FOLDER --laws homogeneous,average,overall,first-order --seeds 1,2,3,4,5
+          --with-2d
+
+(true triaxial here at constant p; the cubical tests at constant sigma_3 and simple shear
+of every reading: examples/04_micro_element_readings.py)
 
 about 20 s per seed for the homogeneous law, 50 s for the Maxwellian law with C_bar and 5 s
 for the self-consistent one (it fails early) on one core; the 2D packing is generated first
@@ -43,6 +47,7 @@ LAWS = {
     "homogeneous": ("homogeneous", "overall"),
     "average": ("maxwellian", "average"),  # Table 2.1: H^n = f(C^n, C_bar)
     "overall": ("maxwellian", "overall"),  # eq. 2.32 as printed, self-consistent
+    "first-order": ("maxwellian-first-order", "overall"),  # Table 2.1, eq. 2.35 to order 1
 }
 
 

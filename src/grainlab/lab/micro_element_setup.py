@@ -38,7 +38,10 @@ Distribution law: homogeneous (eq. 2.30) for every structure unless told otherwi
 the unit never fails (contacts near the major principal axis stay elastic). With
 ``distribution="maxwellian"`` and its default reference, the overall C of eq. 2.32
 (self-consistent), the unit fails, at angles below the report's (a lower bound; it needs steps
-of <= 0.005 eps_ref to converge); see docs/micro_element.md for the three laws side by side.
+of <= 0.005 eps_ref to converge). ``distribution="maxwellian-first-order"`` (C_bar, the series
+of eq. 2.35 cut after its first-order term) gives the report's cubical strengths at constant
+sigma_3, with defects (G^n not positive definite, dependence on the step and the seed); see
+docs/micro_element.md for the four readings side by side.
 
 A snapshot file takes the ``idealized`` defaults in 3D and the ``chang2d`` ones in 2D; a
 packing file those of ``chang2d``.
