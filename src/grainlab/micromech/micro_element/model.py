@@ -109,6 +109,9 @@ class MicroElementState:
     overall_stiffness: np.ndarray | None = None  # last self-consistent C (warm start) [Pa]
 
 
+DIVERGED_RESIDUAL = 1e3
+"""Stress residual, relative to the target, beyond which :meth:`MicroElementModel.solve_stress`
+reports divergence instead of iterating on [-]."""
 SELF_CONSISTENT_RELAXATION = 0.5
 """Mixing factor beta of the Anderson-accelerated fixed point on the overall C [-]."""
 SELF_CONSISTENT_HISTORY = 6
@@ -580,6 +583,15 @@ class MicroElementModel:
             if np.linalg.norm(residual) <= tolerance * scale:
                 return iteration
             tangent = self.tangent()
+            if not (np.all(np.isfinite(residual)) and np.all(np.isfinite(tangent))
+                    and np.linalg.norm(residual) <= DIVERGED_RESIDUAL * scale):
+                raise ConvergenceError(
+                    f"The iterations towards the stress {np.round(target, 6).tolist()} Pa "
+                    f"diverged (iteration {iteration}, residual "
+                    f"{np.linalg.norm(residual) / scale:.3g} of the stress): the "
+                    f"'{self.distribution}' distribution gives this structure no stable "
+                    "stiffness there (for the first-order law: its tangent is not positive "
+                    "definite). Use another distribution law.")
             try:
                 step = np.linalg.solve(tangent, residual)
             except np.linalg.LinAlgError:
