@@ -7,7 +7,7 @@ import pytest
 from scipy.linalg import expm
 
 from grainlab.contact.spring_contact import SpringContactLaw, force_vectors, mindlin_c2
-from grainlab.errors import InputError, StrengthReached
+from grainlab.errors import ConvergenceError, InputError, StrengthReached
 from grainlab.micromech.micro_element import MicroElementModel, exponential_series
 from grainlab.micromech.micro_element.small_strain import (
     poisson_ratio_eq41,
@@ -244,3 +244,19 @@ def test_bad_options_are_named(idealized):
         MicroElementModel(idealized, linear_law(), distribution="maxwellian", spin="uniform")
     with pytest.raises(InputError, match="contact law"):
         SpringContactLaw(normal_stiffness=1.0, shear_modulus=1.0)
+
+
+def test_diverging_stress_iterations_are_reported_not_carried_on(idealized):
+    """A tangent of the wrong sign (as an indefinite distribution law can give) doubles the
+    stress residual at every Newton step (r_k+1 = 2 r_k for linear springs): solve_stress
+    stops with a ConvergenceError naming the law once the residual passes 1e3 of the
+    target, instead of iterating to non-finite strains."""
+    model = MicroElementModel(idealized, linear_law(), update_geometry=False)
+    model.consolidate_isotropically(P0)
+    true_tangent = model.tangent()
+    model.tangent = lambda: -true_tangent  # the instance's own tangent, negated
+    target = np.array([0.5, 0.5, 0.5, 0.0, 0.0, 0.0]) * P0
+    with pytest.raises(ConvergenceError, match=r"diverged.*'homogeneous' distribution"):
+        model.solve_stress(target)
+    residual = np.linalg.norm(target - model.stress()) / np.linalg.norm(target)
+    assert 1e3 < residual < 4e3  # stopped at the first doubling past the bound
