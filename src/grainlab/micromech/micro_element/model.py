@@ -50,6 +50,7 @@ from grainlab.micromech.micro_element.distribution_kernels import (
     maxwellian_tensors,
     relative_stiffness,
 )
+from grainlab.micromech.micro_element.from_snapshot import spring_state_from_forces
 from grainlab.micromech.micro_element.kernels import (
     condense_local_stiffness,
     contact_census,
@@ -187,6 +188,9 @@ class MicroElementModel:
             strain=np.zeros(6 if self.dimension == 3 else 3),
             residual_stress=np.zeros(6 if self.dimension == 3 else 3),
         )
+        if structure.initial_forces is not None:  # a simulated packing, with its forces
+            self.state.contacts = spring_state_from_forces(
+                law, structure.initial_forces, self.state.branches, self.state.mask, radius)
         self.force_floor = 0.0
         self._cache: dict[str, Any] | None = None
         self._derived: dict[str, np.ndarray] = {}
