@@ -228,13 +228,13 @@ def _options(law, kn, ks, friction_angle, shear_modulus, poisson_ratio, thicknes
         spin=None if spin is None else Spin(spin).value, update_geometry=large_strain)
 
 
-def load_structure(name: str, seed: int) -> MicroElementStructure:
+def load_structure(name: str, seed: int, **options: Any) -> MicroElementStructure:
     """:func:`build_structure` with a status line while slow structures are made."""
     if name == "chang2d":
         with console.status(f"making the random packing of chang2d (seed {seed}): seconds to "
                             "minutes..."):
-            return build_structure(name, seed)
-    return build_structure(name, seed)
+            return build_structure(name, seed, **options)
+    return build_structure(name, seed, **options)
 
 
 def _structure_label(name: str) -> str:

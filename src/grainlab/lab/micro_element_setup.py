@@ -69,6 +69,7 @@ from grainlab.analysis.snapshot_files import read_snapshot
 from grainlab.contact.spring_contact import SpringContactLaw
 from grainlab.errors import InputError
 from grainlab.lab.presets import preset_names
+from grainlab.micromech.micro_element.from_snapshot import micro_elements_from_snapshot
 from grainlab.micromech.micro_element.model import DISTRIBUTIONS, MicroElementModel
 from grainlab.micromech.micro_element.structure import MicroElementStructure
 from grainlab.micromech.micro_element.structures import (
@@ -78,7 +79,6 @@ from grainlab.micromech.micro_element.structures import (
     from_disc_packing,
     idealized_material,
 )
-from grainlab.micromech.micro_element.from_snapshot import micro_elements_from_snapshot
 from grainlab.prep.packing_files import read_packing
 
 STRUCTURE_NAMES = ("idealized", "binary", "chang2d")
