@@ -111,11 +111,16 @@ def main() -> None:
         path = triaxial_compression(confining=sigma0, axial_strain=float(eps.max()),
                                     n_steps=args.steps, consolidation_steps=0)
         try:
-            answer = run_element_test(model, path).table
+            test = run_element_test(model, path)
         except GrainlabError as failure:
             print("    failed:", failure)
             continue
+        answer, outcome = test.table, test.metadata["outcome"]
         m_eps = answer["eps_zz"].to_numpy()
+        ratio = (answer["q"] / answer["p"]).to_numpy()
+        print(f"    {outcome['status']} ({outcome.get('reason', '')}); reached axial strain "
+              f"{m_eps.max():.4f}, peak q/p {ratio.max():.3f} (run: "
+              f"{(shear['q'] / shear['p']).max():.3f})")
         for line in at_strains(m_eps, {"qp": (answer["q"] / answer["p"]).to_numpy(),
                                        "ev": answer["eps_vol"].to_numpy()}):
             print("   ", line[0])

@@ -172,7 +172,8 @@ def test_non_affine_move_softens_a_non_centrosymmetric_packing(packing):
 # -- (c) periodic-image contacts kept or dropped ----------------------------------------------
 def test_dropping_periodic_contacts_loses_coordination_and_stress():
     """A 3 x 3 x 3 simple cubic periodic lattice: one in three contacts along each axis
-    crosses the cell's faces. Kept: z = 6, stress forces[k]/a^2 and C_kk = k_n/a. Dropped:
+    crosses the cell's faces. Kept: z = 6, stress forces[k]/a^2 and the regular-packing
+    stiffness (C_kk = k_n/a, shear k_s/2a). Dropped:
     z = 4, stress and (affine) normal stiffness 2/3 of those."""
     n, radius, forces = 3, 1e-3, np.array([30.0, 20.0, 10.0])
     a = 2 * radius
@@ -187,8 +188,12 @@ def test_dropping_periodic_contacts_loses_coordination_and_stress():
     np.testing.assert_allclose(kept_model.stress_tensor(), full, atol=ROUND_OFF * full.max())
     np.testing.assert_allclose(dropped_model.stress_tensor(), 2.0 / 3.0 * full,
                                atol=ROUND_OFF * full.max())
-    kn = LAW.normal_stiffness
-    np.testing.assert_allclose(np.diag(kept_model.tangent())[:3], kn / a, rtol=1e-12)
+    kn, ks = LAW.normal_stiffness, LAW.shear_stiffness
+    # seed 000's D = (1/V) sum_c B^T K B for the cubic lattice (V = a^3 per sphere, 3
+    # contacts): C_xx = k_n / a, C_yz = k_s / (2 a) on engineering shears, no coupling
+    expected = np.diag([kn / a] * 3 + [ks / (2 * a)] * 3)
+    np.testing.assert_allclose(kept_model.tangent(), expected, rtol=1e-12,
+                               atol=1e-12 * kn / a)
     affine = MicroElementModel(dropped, LAW, non_affine=False)
     np.testing.assert_allclose(np.diag(affine.tangent())[:3], 2.0 / 3.0 * kn / a, rtol=1e-12)
     # the particles on the cell's faces, left with a contact on one side only, move to
