@@ -12,7 +12,7 @@ the run and for each distribution law.
 Run:  .venv/bin/python -m grainlab.cli.main triaxial --no-progress --boundary periodic \\
           --solver dem --law linear -n 150 --size-ratio 1.5 --eps-q 0.1 --sigma0 1e5 \\
           --mu 0.4 --inertia 0.001 --record-every 5 --snapshot-every 100000 --seed 1 -o RUN
-      .venv/bin/python examples/04_micro_element_from_a_run.py RUN [--steps 200]
+      .venv/bin/python examples/05_micro_element_from_a_run.py RUN [--steps 200]
           [--laws homogeneous,maxwellian-average,maxwellian]
 """
 
