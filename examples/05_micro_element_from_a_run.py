@@ -4,8 +4,9 @@ The model is built from the run's snapshot at the start of shear (the end of the
 stage: one micro-element per sphere with its contacting neighbours, periodic-image contacts
 kept, the run's contact forces as the initial state), with the run's contact law (linear
 springs k_n = kappa sigma0 <d>, k_s = stiffness_ratio k_n, friction mu of the shear stage),
-and driven by the same path: lateral stresses held at sigma0, the axial strain the run
-reached, shear strains zero. Prints the initial stresses (snapshot, model, run) and q/p
+and driven by the run's own load path from its shear stage on (lateral stresses held at
+sigma0, the axial strain rising, shear strains zero, the run's stop criterion), cut into
+--steps steps. Prints the initial stresses (snapshot, model, run) and q/p
 (q = sigma_1 - sigma_3, p = trace/3) and the volumetric strain at a few axial strains for
 the run and for each distribution law.
 
@@ -29,7 +30,7 @@ from grainlab.analysis.snapshot_files import read_snapshots
 from grainlab.contact.spring_contact import SpringContactLaw
 from grainlab.errors import GrainlabError
 from grainlab.lab.element_test import run_element_test
-from grainlab.lab.presets import triaxial_compression
+from grainlab.lab.run_path import element_path, run_load_path
 from grainlab.micromech.micro_element.from_snapshot import micro_elements_from_snapshot
 from grainlab.micromech.micro_element.model import MicroElementModel
 from grainlab.result.test_result import read_test_result
@@ -83,7 +84,6 @@ def main() -> None:
     eps = shear["eps_zz"].to_numpy()  # the run counts the shear stage's strains from its start
     ev = shear["eps_vol"].to_numpy()
     network = shear_start(args.run)
-    sigma0 = float(np.mean([before["sigma_xx"], before["sigma_yy"]]))
     law = run_law(args.run, result, network)
     snapshot_stress = stress_from_network(network)
     print(f"snapshot: {network.n_particles} spheres, {network.n_pairs} loaded pairs, "
@@ -108,8 +108,7 @@ def main() -> None:
               f"{structure.coordination_number:.3f}; initial stress "
               f"{np.round(np.diag(tensor), 2)} Pa, |model - snapshot| / |snapshot| "
               f"{error:.1e}")
-        path = triaxial_compression(confining=sigma0, axial_strain=float(eps.max()),
-                                    n_steps=args.steps, consolidation_steps=0)
+        path = element_path(run_load_path(result.metadata), "shear", args.steps)
         try:
             test = run_element_test(model, path)
         except GrainlabError as failure:
