@@ -129,6 +129,8 @@ def test_run_starts_from_the_forces_of_a_snapshot(tmp_path):
     table = read_test_result(tmp_path / "out" / "result.h5").table
     assert table["p"].iloc[0] == pytest.approx(17.24e3, rel=1e-12)
     assert table["p"].iloc[-1] == pytest.approx(2 * 17.24e3, rel=1e-4)
+    setup = read_test_result(tmp_path / "out" / "result.h5").metadata["setup"]["model"]
+    assert setup["sigma0_Pa"] is None and "snapshot" in setup["initial_state"]
     refused("--sigma0", "run", "--structure", snapshots, "--sigma0", "1e5", "--out",
             tmp_path / "x")
     # the hexagonal cell's one disc touches only its own images: nothing left when dropped

@@ -197,6 +197,8 @@ class ModelOptions:
             "distribution": self.distribution, "non_affine": self.non_affine,
             "spin": self.spin or defaults.spin, "update_geometry": self.update_geometry,
         }
+        if structure.initial_forces is not None:  # a snapshot taken with its forces
+            out.update(sigma0_Pa=None, initial_state="the snapshot's contact forces")
         if self.distribution == "maxwellian":
             out["maxwellian_reference"] = self.maxwellian_reference
         if law == "hertz":
