@@ -15,12 +15,18 @@ Run:  .venv/bin/python -m grainlab.cli.main triaxial --no-progress --boundary pe
           --mu 0.4 --inertia 0.001 --record-every 5 --snapshot-every 100000 --seed 1 -o RUN
       .venv/bin/python examples/05_micro_element_from_a_run.py RUN [--steps 200]
           [--laws homogeneous,maxwellian-average,maxwellian]
+
+Given a folder without a run (``python examples/05_micro_element_from_a_run.py OUT``), it
+first makes a small one there (150 spheres, soft springs kappa = 1e3, to eps_q 0.02) with
+:data:`SMALL_RUN`, so that the example runs on its own in about a minute.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +40,12 @@ from grainlab.lab.run_path import element_path, run_load_path
 from grainlab.micromech.micro_element.from_snapshot import micro_elements_from_snapshot
 from grainlab.micromech.micro_element.model import MicroElementModel
 from grainlab.result.test_result import read_test_result
+
+SMALL_RUN = ("triaxial", "--no-progress", "--boundary", "periodic", "--solver", "dem",
+             "--law", "linear", "--kappa", "1e3", "-n", "150", "--size-ratio", "1.5",
+             "--eps-q", "0.02", "--sigma0", "1e5", "--mu", "0.4", "--inertia", "0.01",
+             "--record-every", "5", "--snapshot-every", "100000", "--seed", "1")
+"""The discrete run made when the folder given holds none (grainlab's command line)."""
 
 STRAINS = (0.002, 0.005, 0.01, 0.02, 0.04, 0.06, 0.08)
 """Axial strains (from the start of shear) at which the responses are printed [-]."""
@@ -77,6 +89,10 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=200)
     parser.add_argument("--laws", default="homogeneous,maxwellian-average")
     args = parser.parse_args()
+    if not (args.run / "results.h5").exists():
+        args.run = args.run / "run"
+        subprocess.run([sys.executable, "-m", "grainlab.cli.main", *SMALL_RUN, "-o",
+                        str(args.run)], check=True)
     result = read_test_result(args.run / "results.h5")
     table = result.table
     shear = table[table["stage"] == "shear"]
