@@ -62,8 +62,9 @@ class CellTest(DiscreteTest):
         super().__init__(sample, path, settings, **callbacks)
 
     def load_stages(self, path: LoadPath) -> list[CellStage]:
-        """The path's stages as cell controls (refuses what rigid grains cannot follow)."""
-        return cell_stages(path)
+        """The path's stages as cell controls (refuses what rigid grains cannot follow;
+        soft-contact DEM's deformable contacts follow a strain on every component)."""
+        return cell_stages(path, deformable=self.settings.method == "dem")
 
     # -- stage logic -----------------------------------------------------------------------------
     def _confining(self, stage: CellStage) -> float:
