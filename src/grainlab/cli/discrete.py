@@ -227,7 +227,12 @@ def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any]
     from grainlab.lab.discrete_run import start_run
 
     output_folder("--out", out)
+    if kind == "compaction":  # the loading's numerics, asked of a compaction: its own
+        for option in ("tolerance", "max_iterations"):
+            if options.get(option) is not None:
+                options[f"compaction_{option}"] = options.pop(option)
     config, given = command_config(kind, config_file, options)
+    refuse_inert_options([config], given, config_file)
     try:
         run = start_run(out, config, overwrite=overwrite)
     except InputError as error:
@@ -238,6 +243,30 @@ def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any]
                   f"Ctrl-C checkpoints, "
                   f"`grainlab resume {out}` continues")
     finish_run(out, run, progress)
+
+
+def refuse_inert_options(configs: list[RunConfig], given: dict[str, Any],
+                         config_file: Path | None) -> None:
+    """Refuse an option given (or a key of ``--config``'s file that differs from its default)
+    that none of the runs of ``configs`` reads (:mod:`grainlab.lab.option_scope`): an
+    :class:`InputError` naming it as typed, and why it would do nothing."""
+    from grainlab.lab.option_scope import inert_settings
+    from grainlab.lab.run_config import flat_keys
+
+    keys = [_OPTIONS[key][1] for key in given]
+    if config_file is not None:
+        written = flat_keys(RunConfig.read(config_file).model_dump())
+        default = flat_keys(RunConfig().model_dump())
+        keys += [key for key, value in written.items()
+                 if value != default.get(key) and key not in keys]
+    inert = [inert_settings(config, keys) for config in configs]
+    for key in keys:
+        if all(key in each for each in inert):
+            value: Any = configs[0]
+            for name in key.split("."):
+                value = getattr(value, name)
+            error = InputError(key, value, f"not given: it does nothing here ({inert[0][key]})")
+            raise as_typed(error, given, config_file)
 
 
 def as_typed(error: InputError, given: dict[str, Any], config_file: Path | None
@@ -271,6 +300,7 @@ _OPTIONS = {
     "compaction_tolerance": ("--tolerance", "solver.compaction.tolerance"),
     "sweep": ("--sweep", "solver.sweep"),
     "max_iterations": ("--max-iterations", "solver.shear.max_iterations"),
+    "compaction_max_iterations": ("--max-iterations", "solver.compaction.max_iterations"),
     "record_every": ("--record-every", "output.record_every"),
     "snapshot_every": ("--snapshot-every", "output.snapshot_every"),
     "checkpoint_every": ("--checkpoint-every", "output.checkpoint_every"),

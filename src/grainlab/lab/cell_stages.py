@@ -185,5 +185,13 @@ def cell_stages(path: LoadPath, deformable: bool = False) -> list[CellStage]:
                 "shear at constant height) without a stress that grows without bound; that "
                 "needs deformable contacts (solver.method = 'dem', --solver dem), or run it in the "
                 "wall box")
-        stages.append(cell_stage)
+        stages.append(CellStage(stage, oedometric=_oedometric(cell_stage)))
     return stages
+
+
+def _oedometric(stage: CellStage) -> bool:
+    """Whether ``stage`` is a one-dimensional compression: every component strain-controlled,
+    only eps_zz moving (its rows then carry K0)."""
+    moving = stage.strain_per_step != 0.0
+    return (not np.any(stage.stress_controlled) and bool(moving[2])
+            and not np.any(np.delete(moving, 2)))

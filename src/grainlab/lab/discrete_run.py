@@ -80,6 +80,7 @@ from grainlab.lab.run_checkpoint import (
     write_checkpoint,
 )
 from grainlab.lab.run_config import CHANGEABLE_ON_RESUME, RunConfig, parse_assignments
+from grainlab.lab.run_estimate import refuse_endless_run
 from grainlab.lab.run_outcome import RunCost, RunOutcome
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR
 from grainlab.lab.wall_stages import QuasiStaticCriteria
@@ -685,6 +686,7 @@ def _new_test(config: RunConfig) -> DiscreteTest:
     _refuse_flattening(test)
     if sample.periodic:
         refuse_thin_cell(test, config.sample)
+    refuse_endless_run(test, config)
     return test
 
 
