@@ -590,8 +590,8 @@ def lab_test_command(
 ) -> None:
     """Any lab test on a discrete sample: a loose random sample, frictionless isotropic
     compaction to SIGMA0 until quasi-static, then KIND: triaxial (compression to EPS_Q at
-    lateral stress SIGMA0), extension, oedometer (walls only: rigid grains in a periodic cell
-    cannot follow it), true_triaxial (constant p and B to EPS_Q), simple_shear (gamma_xz to
+    lateral stress SIGMA0), extension, oedometer (in a periodic cell with --solver dem only:
+    rigid grains cannot follow it there), true_triaxial (constant p and B to EPS_Q), simple_shear (gamma_xz to
     GAMMA, sigma_zz held, eps_xx = eps_yy = 0), circular (a full turn on the octahedral plane
     at q = Q_RATIO x SIGMA0), cyclic_shear (CYCLES of gamma_xz between +-AMPLITUDE), in a box
     of walls or (--boundary periodic) a periodic cell whose six components follow the

@@ -20,8 +20,8 @@ settling at the end of the compaction left out: the estimate is a lower bound).
   follows the wall speed, a fixed number of steps per unit strain, and is not bounded here).
 
 A run whose estimate is above :data:`MAX_SUBSTEPS` or :data:`MAX_PARTICLE_SUBSTEPS` (DEM) or
-:data:`MAX_STEPS` (CD, given dt) is refused before anything is written, with the estimate and the settings that set
-it.
+:data:`MAX_STEPS` (CD, given dt) is refused before anything is written, with the estimate
+and the setting that sets it.
 
 >>> round(loading_time(0.01, 1e-3, 1e4, 2600.0, 1.5e-3) * 1e3, 2)
 7.65
