@@ -227,12 +227,7 @@ def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any]
     from grainlab.lab.discrete_run import start_run
 
     output_folder("--out", out)
-    if kind == "compaction":  # the loading's numerics, asked of a compaction: its own
-        for option in ("tolerance", "max_iterations"):
-            if options.get(option) is not None:
-                options[f"compaction_{option}"] = options.pop(option)
-    config, given = command_config(kind, config_file, options)
-    refuse_inert_options([config], given, config_file)
+    config, given = asked_config(kind, config_file, options)
     try:
         run = start_run(out, config, overwrite=overwrite)
     except InputError as error:
@@ -243,6 +238,21 @@ def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any]
                   f"Ctrl-C checkpoints, "
                   f"`grainlab resume {out}` continues")
     finish_run(out, run, progress)
+
+
+def asked_config(kind: str, config_file: Path | None, options: dict[str, Any]
+                 ) -> tuple[RunConfig, dict[str, Any]]:
+    """:func:`command_config` for a run of one solver, an option that would do nothing in it
+    refused (:func:`refuse_inert_options`); ``--tolerance`` and ``--max-iterations`` of a
+    compaction set the compaction's numerics (it has no loading)."""
+    options = dict(options)
+    if kind == "compaction":
+        for option in ("tolerance", "max_iterations"):
+            if options.get(option) is not None:
+                options[f"compaction_{option}"] = options.pop(option)
+    config, given = command_config(kind, config_file, options)
+    refuse_inert_options([config], given, config_file)
+    return config, given
 
 
 def refuse_inert_options(configs: list[RunConfig], given: dict[str, Any],
@@ -591,11 +601,11 @@ def lab_test_command(
     """Any lab test on a discrete sample: a loose random sample, frictionless isotropic
     compaction to SIGMA0 until quasi-static, then KIND: triaxial (compression to EPS_Q at
     lateral stress SIGMA0), extension, oedometer (in a periodic cell with --solver dem only:
-    rigid grains cannot follow it there), true_triaxial (constant p and B to EPS_Q), simple_shear (gamma_xz to
-    GAMMA, sigma_zz held, eps_xx = eps_yy = 0), circular (a full turn on the octahedral plane
-    at q = Q_RATIO x SIGMA0), cyclic_shear (CYCLES of gamma_xz between +-AMPLITUDE), in a box
-    of walls or (--boundary periodic) a periodic cell whose six components follow the
-    test."""
+    rigid grains cannot follow it there), true_triaxial (constant p and B to EPS_Q),
+    simple_shear (gamma_xz to GAMMA, sigma_zz held, eps_xx = eps_yy = 0), circular (a full
+    turn on the octahedral plane at q = Q_RATIO x SIGMA0), cyclic_shear (CYCLES of gamma_xz
+    between +-AMPLITUDE), in a box of walls or (--boundary periodic) a periodic cell whose
+    six components follow the test."""
     if kind not in TEST_KINDS:
         raise InputError("KIND", kind, "one of " + ", ".join(TEST_KINDS))
     _run(kind, out, config, dict(

@@ -80,17 +80,22 @@ def simulated_time(config: Any, mean_diameter: float, density: float) -> float:
     return total
 
 
+def substep(test: Any) -> float:
+    """The longest sub-step [s] of a soft-contact ``test``: its contact law's stable step
+    for its lightest grain (module docstring)."""
+    state, library = test.sample.state, test.sample.library
+    radius = float(np.min(library.bounding_radius[state.shape_ids]))
+    return test.contact_law.time_step(float(np.min(state.masses)), radius,
+                                      float(state.density))
+
+
 def refuse_endless_run(test: Any, config: Any) -> None:
     """An :class:`InputError` naming the setting that makes the run of ``config`` (its test
     ``test`` built, not run) too long to run (module docstring); nothing when it is not."""
-    sample = test.sample
-    state, library = sample.state, sample.library
-    density = float(state.density)
-    total = simulated_time(config, sample.mean_diameter, density)
+    state = test.sample.state
+    total = simulated_time(config, test.sample.mean_diameter, float(state.density))
     if config.solver.method == "dem":
-        law = test.contact_law
-        radius = float(np.min(library.bounding_radius[state.shape_ids]))
-        dt = law.time_step(float(np.min(state.masses)), radius, density)
+        dt = substep(test)
         substeps = total / dt
         work = substeps * state.n_bodies
         if substeps <= MAX_SUBSTEPS and work <= MAX_PARTICLE_SUBSTEPS:
