@@ -11,10 +11,11 @@ law reads ``normal_stiffness`` (or ``kappa``), Hertz-Mindlin ``young_modulus`` a
 ``poisson_ratio`` (or ``kappa``). The periodic cell has no walls (``solver.wall_servo``,
 ``solver.wall_mass_factor``, ``sample.wall_friction``, ``solver.dem.rigid_walls``), and
 ``wall_mass_factor`` acts only on walls with momentum (``wall_servo = false``). Each test
-reads its own targets (:data:`TEST_TARGETS`), a compaction no ``[solver.shear]`` (it has no
-loading stage), each particle shape its own parameters, and a sample read from a file takes
-its sizes (a skeleton) or everything but its density and wall friction (a particle file) from
-the file.
+reads its own targets (:data:`TEST_TARGETS`); a path with no strain-controlled stage (a
+compaction, the stress-driven circular path) reads no ``[solver.shear]``: its stages take
+``[solver.compaction]``'s numerics, friction included. Each particle shape reads its own
+parameters, and a sample read from a file takes its sizes (a skeleton) or everything but its
+density and wall friction (a particle file) from the file.
 
 :func:`inert_settings` lists, for the keys asked about, those that do nothing and why;
 :func:`refuse_inert` refuses the first. The command line asks about the options given and
@@ -111,10 +112,28 @@ def _test_reason(config: Any, key: str) -> str:
     if key in TEST_TARGETS and kind not in TEST_TARGETS[key]:
         return (f"it is a target of {' and '.join(TEST_TARGETS[key])}, not of "
                 f"test.kind = {kind!r}")
-    if kind == "compaction" and key.startswith("solver.shear."):
-        return ("it sets the loading stages; a compaction has none (its numerics are "
-                "[solver.compaction]'s)")
+    if key.startswith("solver.shear.") and not _has_loading(config):
+        return (f"it sets the stages with a strain-controlled axis; test.kind = {kind!r} has "
+                "none: every stage of its path is stress-driven and takes "
+                "[solver.compaction]'s numerics (friction: solver.compaction.friction, "
+                "in --config)")
     return ""
+
+
+def _has_loading(config: Any) -> bool:
+    """Whether the path of ``config`` has a stage with a strain-controlled axis that moves
+    (the stages :data:`~grainlab.lab.stage_numerics.SHEAR`'s table sets); True for a path
+    its boundary refuses (judged there)."""
+    from grainlab.lab.cell_stages import cell_stages
+    from grainlab.lab.wall_stages import wall_stages
+
+    try:
+        path = config.load_path()
+        stages = cell_stages(path, deformable=True) \
+            if config.sample.boundary == "periodic" else wall_stages(path)
+    except InputError:
+        return True
+    return any(stage.moving_axes for stage in stages)
 
 
 def _sample_reason(config: Any, key: str) -> str:
