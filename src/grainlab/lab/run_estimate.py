@@ -56,7 +56,7 @@ def loading_time(strain: float, inertia_number: float, confining: float, density
     return abs(strain) / rate
 
 
-def test_strain(test: Any) -> float:
+def loading_strain(test: Any) -> float:
     """The strain [-] the loading stages of the ``[test]`` table travel (0 for a compaction
     and for the stress-driven circular path)."""
     travel = {"triaxial": test.eps_q_max, "extension": test.eps_q_max,
@@ -75,7 +75,7 @@ def simulated_time(config: Any, mean_diameter: float, density: float) -> float:
     total = loading_time(max(compaction, 0.0), s.compaction.inertia_number, t.sigma0,
                          density, mean_diameter)
     if t.kind != "compaction":
-        total += loading_time(test_strain(t), s.shear.inertia_number, t.sigma0, density,
+        total += loading_time(loading_strain(t), s.shear.inertia_number, t.sigma0, density,
                               mean_diameter)
     return total
 
