@@ -152,3 +152,13 @@ def test_the_loading_numerics_asked_of_a_compaction_are_its_own():
     config, _ = asked_config("compaction", None, {"tolerance": 1e-5, "max_iterations": 300})
     assert config.solver.compaction.tolerance == 1e-5
     assert config.solver.compaction.max_iterations == 300
+
+
+@pytest.mark.parametrize(("shape", "option"), [("aggregate", "eta"), ("polyhedron", "faces"),
+                                               ("polyhedron", "templates")])
+def test_a_shapes_own_parameter_changes_its_sample(shape, option):
+    base = {"n": 20, "shape": shape, "templates": 3} if shape == "polyhedron" \
+        else {"n": 20, "shape": shape}
+    before = what_the_run_reads(asked_config("triaxial", None, base)[0])
+    after = what_the_run_reads(asked_config("triaxial", None, {**base, option: VALUES[option]})[0])
+    assert after["sample"] != before["sample"]
