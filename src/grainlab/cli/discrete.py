@@ -251,32 +251,41 @@ def asked_config(kind: str, config_file: Path | None, options: dict[str, Any]
             if options.get(option) is not None:
                 options[f"compaction_{option}"] = options.pop(option)
     config, given = command_config(kind, config_file, options)
-    refuse_inert_options([config], given, config_file)
+    for note in refuse_inert_options([config], given, config_file):
+        console.print(f"[bold yellow]note:[/] {escape(note)}", soft_wrap=True)
     return config, given
 
 
 def refuse_inert_options(configs: list[RunConfig], given: dict[str, Any],
-                         config_file: Path | None) -> None:
-    """Refuse an option given (or a key of ``--config``'s file that differs from its default)
-    that none of the runs of ``configs`` reads (:mod:`grainlab.lab.option_scope`): an
-    :class:`InputError` naming it as typed, and why it would do nothing."""
+                         config_file: Path | None) -> list[str]:
+    """Refuse an option given that none of the runs of ``configs`` reads
+    (:mod:`grainlab.lab.option_scope`): an :class:`InputError` naming it as typed, and why it
+    would do nothing. A key of ``--config``'s file that differs from its default and that no
+    run reads is not refused (a file may serve several commands): returned, in words, for a
+    note."""
     from grainlab.lab.option_scope import inert_settings
     from grainlab.lab.run_config import flat_keys
 
-    keys = [_OPTIONS[key][1] for key in given]
+    options = [_OPTIONS[key][1] for key in given]
+    keys = list(options)
     if config_file is not None:
         written = flat_keys(RunConfig.read(config_file).model_dump())
         default = flat_keys(RunConfig().model_dump())
         keys += [key for key, value in written.items()
                  if value != default.get(key) and key not in keys]
     inert = [inert_settings(config, keys) for config in configs]
+    notes = []
     for key in keys:
-        if all(key in each for each in inert):
-            value: Any = configs[0]
-            for name in key.split("."):
-                value = getattr(value, name)
+        if not all(key in each for each in inert):
+            continue
+        value: Any = configs[0]
+        for name in key.split("."):
+            value = getattr(value, name)
+        if key in options:
             error = InputError(key, value, f"not given: it does nothing here ({inert[0][key]})")
             raise as_typed(error, given, config_file)
+        notes.append(f"{key} = {value!r} (in {config_file}) does nothing here: {inert[0][key]}")
+    return notes
 
 
 def as_typed(error: InputError, given: dict[str, Any], config_file: Path | None

@@ -18,8 +18,9 @@ parameters, and a sample read from a file takes its sizes (a skeleton) or everyt
 density and wall friction (a particle file) from the file.
 
 :func:`inert_settings` lists, for the keys asked about, those that do nothing and why;
-:func:`refuse_inert` refuses the first. The command line asks about the options given and
-the keys of a ``--config`` file that differ from the defaults.
+:func:`refuse_inert` refuses the first. The command line refuses the options given that do
+nothing, and notes the keys of a ``--config`` file that differ from their defaults and do
+nothing (a file may serve several commands).
 
 >>> from grainlab.lab.run_config import RunConfig
 >>> config = RunConfig.model_validate({"solver": {"dem": {"kappa": 1e3}}})
