@@ -162,3 +162,15 @@ def test_a_shapes_own_parameter_changes_its_sample(shape, option):
     before = what_the_run_reads(asked_config("triaxial", None, base)[0])
     after = what_the_run_reads(asked_config("triaxial", None, {**base, option: VALUES[option]})[0])
     assert after["sample"] != before["sample"]
+
+
+def test_a_config_key_that_does_nothing_is_noted_not_refused(tmp_path, capsys):
+    path = tmp_path / "shared.toml"
+    path.write_text("[solver.shear]\ninertia_number = 0.01\n")
+    config, _ = asked_config("compaction", path, {})
+    assert config.solver.shear.inertia_number == 0.01
+    said = " ".join(capsys.readouterr().out.split())
+    assert f"solver.shear.inertia_number = 0.01 (in {path}) does nothing here" in said
+    with pytest.raises(InputError) as caught:  # given as an option, it is refused
+        asked_config("compaction", path, {"inertia": 0.02})
+    assert caught.value.field == "--inertia"
