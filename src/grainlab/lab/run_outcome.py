@@ -241,8 +241,10 @@ class StageOutcome:
                 out.append(f"stage {self.name}: the boundary did not hold sigma_{axis} at its "
                            f"target (median error {100 * error:.3g} % > "
                            f"{100 * HELD_STRESS_ERROR:.0f} %, worst "
-                           f"{100 * worst.get(axis, math.nan):.3g} %): the servo lagged; "
-                           "lower solver.shear.inertia_number (--inertia)")
+                           f"{100 * worst.get(axis, math.nan):.3g} %): the boundary lagged "
+                           "its target; lower solver.shear.inertia_number (--inertia), and "
+                           "for walls with momentum (solver.wall_servo = false) use the "
+                           "servo walls")
         for axis, error in self.stress_worst:
             if error > HELD_STRESS_WORST and dict(self.stress_errors).get(
                     axis, 0.0) <= HELD_STRESS_ERROR:
