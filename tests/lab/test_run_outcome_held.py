@@ -96,3 +96,36 @@ def test_a_stage_judged_keeps_its_worst_stress_through_plain_data():
     stage = _judge("cd", rows, {"xx": SIGMA0}, steps=1)
     again = StageOutcome.from_dict(stage.to_dict())
     assert again == stage and again.problems() == stage.problems() != []
+
+
+def test_a_true_triaxial_stage_judges_its_generalised_stresses():
+    """Constant p and b are held as components of c = B sigma (sqrt(3) p, and 0 along the
+    deviator's direction that b fixes): judged like the normal stresses, against sqrt(3) p."""
+    from grainlab.lab.cell_stages import cell_stages
+    from grainlab.lab.cell_test import generalised_targets
+    from grainlab.lab.run_config import RunConfig
+
+    config = RunConfig.model_validate({"sample": {"boundary": "periodic"},
+                                       "test": {"kind": "true_triaxial", "b": 0.3}})
+    stage = cell_stages(config.load_path())[1]
+    targets = generalised_targets(stage)
+    first = next(iter(targets.values()))
+    assert first[0] == pytest.approx(3.0 ** 0.5 * SIGMA0, rel=1e-12)  # sqrt(3) p
+    b = stage.control(0.0)
+
+    def rows(p: float) -> list[dict]:
+        # principal stresses at b = 0.3 about p: z major, x intermediate, y minor
+        s1, s3 = p + 0.4 * p, p - 0.4 * p
+        s2 = s3 + 0.3 * (s1 - s3)
+        shift = (3 * p - (s1 + s2 + s3)) / 3.0
+        sigma = {"cell_sigma_xx": s2 + shift, "cell_sigma_yy": s3 + shift,
+                 "cell_sigma_zz": s1 + shift, "cell_sigma_yz": 0.0, "cell_sigma_xz": 0.0,
+                 "cell_sigma_xy": 0.0}
+        return [{"stage": "shear", "inertia_number": 5e-4, "z": 4.5, **sigma}] * 10
+
+    held = _judge("cd", rows(SIGMA0), targets)
+    voigt = [rows(SIGMA0)[0][f"cell_sigma_{a}"] for a in ("xx", "yy", "zz", "yz", "xz", "xy")]
+    assert abs(float(b[2] @ voigt)) < 1e-8 * SIGMA0  # the deviator's direction of b = 0.3
+    assert held.problems() == []
+    low = _judge("cd", rows(0.7 * SIGMA0), targets)
+    assert any("did not hold (B sigma)_2" in p for p in low.problems())

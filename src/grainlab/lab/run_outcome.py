@@ -110,6 +110,11 @@ mu = 0 to 1; 100 aggregates): 2e-6 to 0.028; on sub-steps sized by the springs a
 (e = 0.2; k_t = k_n at e = 0.3 and 0.5): 0.65 to 0.96 in the shear."""
 
 
+def _stress(axis: str) -> str:
+    """``"sigma_xx"`` of ``"xx"``; a generalised component's own name."""
+    return f"sigma_{axis}" if len(axis) == 2 else axis
+
+
 def _fmt(value: float) -> str:
     return f"{value:.3g}" if math.isfinite(value) else "n/a"
 
@@ -238,7 +243,7 @@ class StageOutcome:
         worst = dict(self.stress_worst)
         for axis, error in self.stress_errors:
             if error > HELD_STRESS_ERROR:
-                out.append(f"stage {self.name}: the boundary did not hold sigma_{axis} at its "
+                out.append(f"stage {self.name}: the boundary did not hold {_stress(axis)} at its "
                            f"target (median error {100 * error:.3g} % > "
                            f"{100 * HELD_STRESS_ERROR:.0f} %, worst "
                            f"{100 * worst.get(axis, math.nan):.3g} %): the boundary lagged "
@@ -248,7 +253,7 @@ class StageOutcome:
         for axis, error in self.stress_worst:
             if error > HELD_STRESS_WORST and dict(self.stress_errors).get(
                     axis, 0.0) <= HELD_STRESS_ERROR:
-                out.append(f"stage {self.name}: sigma_{axis} left its target by "
+                out.append(f"stage {self.name}: {_stress(axis)} left its target by "
                            f"{100 * error:.3g} % of it in a record (> "
                            f"{100 * HELD_STRESS_WORST:.0f} %): a step the solver did not "
                            "resolve; raise solver.shear.max_iterations (--max-iterations) "
@@ -441,29 +446,34 @@ def _unsettled(row: dict[str, Any], criteria, targets: dict[str, float]) -> tupl
     return tuple(out)
 
 
-def _held_stress_errors(rows: list[dict[str, Any]], stress_targets: dict[str, float]
+def _held_stress_errors(rows: list[dict[str, Any]], stress_targets: dict[str, Any]
                         ) -> tuple[tuple[tuple[str, float], ...], tuple[tuple[str, float], ...]]:
     """Per stress-controlled axis ("xx": target [Pa]), the median relative error of the
     boundary's stress (``wall_sigma_`` or ``cell_sigma_`` column) over the rows past the first
     tenth of the stage (none when fewer than :data:`HELD_STRESS_ROWS` are left), and the
     largest over those rows however few (a stress that is not finite counts as infinitely
-    far)."""
+    far). A generalised component is given as (target [Pa], scale [Pa], its value of a row):
+    its error is |value - target| / scale."""
     later = rows[len(rows) // 10:]
     medians, worst = [], []
-    for axis, target in stress_targets.items():
-        if not target > 0.0:
-            continue
-        for column in (f"wall_sigma_{axis}", f"cell_sigma_{axis}"):
-            values = np.array([r.get(column, math.nan) for r in later], dtype=float)
-            if not any(column in r for r in later):
+    for axis, held in stress_targets.items():
+        if isinstance(held, tuple):
+            target, scale, value_of = held
+            values = np.array([value_of(r) for r in later], dtype=float)
+        else:
+            target = scale = held
+            column = next((c for c in (f"wall_sigma_{axis}", f"cell_sigma_{axis}")
+                           if any(c in r for r in later)), None)
+            if column is None:
                 continue
-            errors = np.abs(values / target - 1.0)
-            errors[~np.isfinite(errors)] = math.inf
-            if errors.size:
-                worst.append((axis, float(np.max(errors))))
-            if errors.size >= HELD_STRESS_ROWS:
-                medians.append((axis, float(np.median(errors))))
-            break
+            values = np.array([r.get(column, math.nan) for r in later], dtype=float)
+        if not scale > 0.0 or not values.size:
+            continue
+        errors = np.abs(values - target) / scale
+        errors[~np.isfinite(errors)] = math.inf
+        worst.append((axis, float(np.max(errors))))
+        if errors.size >= HELD_STRESS_ROWS:
+            medians.append((axis, float(np.median(errors))))
     return tuple(medians), tuple(worst)
 
 
@@ -477,12 +487,13 @@ def _zigzag(rows: list[dict[str, Any]]) -> float:
 
 
 def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
-                  stress_targets: dict[str, float]) -> StageOutcome:
+                  stress_targets: dict[str, Any]) -> StageOutcome:
     """Judge one stage from its record (``name``, ``reason``, ``steps``, ``ended``,
     ``capped_steps``, ``strain_controlled``), its rows and the test's settings
     (:class:`~grainlab.lab.discrete_test.DiscreteTestSettings`); ``stress_targets`` maps
-    ``"xx"``... to the stress-controlled axes' targets [Pa] (for the words of an unsettled
-    stage)."""
+    ``"xx"``... to the stress-controlled axes' targets [Pa], or a generalised component's
+    name to (target, scale, value of a row) (:func:`_held_stress_errors`; the normal ones
+    also give the words of an unsettled stage)."""
     moving = bool(record.get("strain_controlled", False))
     numerics = settings.numerics_for(moving)
     ended = record.get("ended", REACHED)
@@ -508,7 +519,8 @@ def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
         values["stress_errors"], values["stress_worst"] = _held_stress_errors(
             rows, stress_targets)
     elif ended != REACHED and rows:
-        values["unsettled"] = _unsettled(rows[-1], settings.quasi_static, stress_targets)
+        normal = {a: t for a, t in stress_targets.items() if not isinstance(t, tuple)}
+        values["unsettled"] = _unsettled(rows[-1], settings.quasi_static, normal)
     if getattr(settings, "method", "cd") == "dem":
         values["zigzag"] = _zigzag(rows)
     return StageOutcome(**values)
