@@ -51,8 +51,10 @@ Every strain-controlled stage, either solver, either boundary, judges its stress
 axes (the walls' or the cell's stresses against their targets, past the stage's first
 tenth): the median relative error at most :data:`HELD_STRESS_ERROR` (on at least
 :data:`HELD_STRESS_ROWS` records) and the worst at most :data:`HELD_STRESS_WORST` (on any
-records). Measured: a one-step simple shear of 200 rigid spheres whose step did not converge
-took sigma_zz from 1e4 to 3e8 Pa; the 100-sphere test above, 6 records of its loading, median
+records; the generalised components c = B sigma a true triaxial test holds, sqrt(3) p and 0
+along the deviator's direction its b fixes, against sqrt(3) p). Measured: a one-step simple
+shear of 200 rigid spheres whose step did not converge took the cell's sigma_zz from 1e4 to
+3.4e6 Pa (the contacts' to 8.4e7); the 100-sphere test above, 6 records of its loading, median
 errors 20 and 23 % on sigma_xx and sigma_yy (worst 47 and 57 %).
 
 The command line exits with :data:`EXIT_NOT_AS_ASKED` (3) when a run ran but its outcome is not
