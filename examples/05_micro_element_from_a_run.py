@@ -17,8 +17,10 @@ Run:  .venv/bin/python -m grainlab.cli.main triaxial --no-progress --boundary pe
           [--laws homogeneous,maxwellian-average,maxwellian]
 
 Given a folder without a run (``python examples/05_micro_element_from_a_run.py OUT``), it
-first makes a small one there (150 spheres, soft springs kappa = 1e3, to eps_q 0.02) with
-:data:`SMALL_RUN`, so that the example runs on its own in about a minute.
+first makes a small one there (150 rigid spheres, contact dynamics, to eps_q 0.02) with
+:data:`SMALL_RUN`, so that the example runs on its own in about a minute; the model's springs
+are then the soft-contact defaults of the run's settings (kappa, stiffness_ratio), given to
+grains the run held rigid.
 """
 
 from __future__ import annotations
@@ -41,8 +43,7 @@ from grainlab.micromech.micro_element.from_snapshot import micro_elements_from_s
 from grainlab.micromech.micro_element.model import MicroElementModel
 from grainlab.result.test_result import read_test_result
 
-SMALL_RUN = ("triaxial", "--no-progress", "--boundary", "periodic", "--solver", "dem",
-             "--law", "linear", "--kappa", "1e3", "-n", "150", "--size-ratio", "1.5",
+SMALL_RUN = ("triaxial", "--no-progress", "--boundary", "periodic", "-n", "150", "--size-ratio", "1.5",
              "--eps-q", "0.02", "--sigma0", "1e5", "--mu", "0.4", "--inertia", "0.01",
              "--record-every", "5", "--snapshot-every", "100000", "--seed", "1")
 """The discrete run made when the folder given holds none (grainlab's command line)."""
