@@ -103,13 +103,40 @@ def test_run_biaxial_on_a_packing_file(tmp_path):
 def test_run_isotropic_compression_on_a_snapshot_file(tmp_path):
     snapshots = write_snapshots(tmp_path / "snapshots.h5",
                                 [synthetic_network(60, dimension=3, seed=1)])
-    ok("run", "--structure", snapshots, "--path", "isotropic_compression", "--steps", "8",
-       "--out", tmp_path / "out")
+    ok("run", "--structure", snapshots, "--consolidate", "--path", "isotropic_compression",
+       "--steps", "8", "--out", tmp_path / "out")
     table = read_test_result(tmp_path / "out" / "result.h5").table
     # p_final = 2 sigma0, to the driver's default stress tolerance (1e-4 of |sigma|): this
     # network has micro-elements of 2-3 contacts whose non-affine move cancels the approach,
     # so round-off decides whether they touch, and the last correction lands anywhere within it
     assert table["p"].iloc[-1] == pytest.approx(2e5, rel=1e-4)
+
+
+def test_run_starts_from_the_forces_of_a_snapshot(tmp_path):
+    """A regular packing's isotropic state as a snapshot: the path starts at its stress (no
+    consolidation) and its defaults scale with it (p_final = 2 p)."""
+    from grainlab.contact import LinearSpring2D
+    from grainlab.micromech.regular_packing import (
+        RegularPackingModel,
+        consolidate_isotropically,
+    )
+
+    theory = RegularPackingModel(named_packing("hexagonal"), LinearSpring2D(3e8, 1.1e8))
+    network = theory.contact_network(consolidate_isotropically(theory, 17.24e3, steps=2))
+    snapshots = write_snapshots(tmp_path / "snapshots.h5", [network])
+    ok("run", "--structure", snapshots, "--path", "isotropic_compression", "--steps", "8",
+       "--kn", "3e8", "--ks", "1.1e8", "--thickness", "1", "--out", tmp_path / "out")
+    table = read_test_result(tmp_path / "out" / "result.h5").table
+    assert table["p"].iloc[0] == pytest.approx(17.24e3, rel=1e-12)
+    assert table["p"].iloc[-1] == pytest.approx(2 * 17.24e3, rel=1e-4)
+    setup = read_test_result(tmp_path / "out" / "result.h5").metadata["setup"]["model"]
+    assert setup["sigma0_Pa"] is None and "snapshot" in setup["initial_state"]
+    refused("--sigma0", "run", "--structure", snapshots, "--sigma0", "1e5", "--out",
+            tmp_path / "x")
+    # the hexagonal cell's one disc touches only its own images: nothing left when dropped
+    refused("periodic", "run", "--structure", snapshots, "--periodic-contacts", "drop",
+            "--out", tmp_path / "y")
+    refused("--wall-contacts", "run", "--wall-contacts", "balance", "--out", tmp_path / "z")
 
 
 def test_run_cyclic_path_on_binary_units(tmp_path):

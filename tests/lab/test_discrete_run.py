@@ -124,7 +124,11 @@ def baseline_run(tmp_path_factory):
         [sys.executable, "-m", "grainlab.cli.main", "triaxial", "--out", str(folder / "run"),
          "--config", str(folder / "input.toml"), "--no-progress"],
         capture_output=True, text=True, timeout=600)
-    assert done.returncode == 0, done.stderr[-2000:]
+    # 40 spheres at 400 sweeps leave 12 of their 20 loading steps unsolved: the run says so
+    # (exit 3, the capped share alone); the record is of its numerics
+    assert done.returncode == 3, done.stderr[-2000:]
+    why = " ".join(done.stdout.split()).split("why: ")[1:]
+    assert len(why) == 1 and "solver.shear.capped_share_limit" in why[0], done.stdout
     return read_test_result(folder / "run" / RESULTS)
 
 

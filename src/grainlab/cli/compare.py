@@ -59,6 +59,7 @@ from grainlab.cli.discrete import (
     command_config,
     complete_run,
     console,
+    refuse_inert_options,
 )
 from grainlab.cli.errors import friendly_errors
 from grainlab.cli.inputs import output_folder
@@ -164,6 +165,8 @@ def compare_command(
         "vtk_every": vtk_every, "law": law, "kappa": kappa, "young_modulus": young_modulus,
         "restitution": restitution})
     configs = solver_configs(asked)
+    for note in refuse_inert_options([configs[method] for method in SOLVERS], given, config):
+        console.print(f"[bold yellow]note:[/] {escape(note)}", soft_wrap=True)
     try:
         for method in SOLVERS:  # both refused or accepted before either is written
             check_solver_run(out / method, configs[method], overwrite=overwrite)

@@ -227,7 +227,7 @@ def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any]
     from grainlab.lab.discrete_run import start_run
 
     output_folder("--out", out)
-    config, given = command_config(kind, config_file, options)
+    config, given = asked_config(kind, config_file, options)
     try:
         run = start_run(out, config, overwrite=overwrite)
     except InputError as error:
@@ -238,6 +238,54 @@ def _run(kind: str, out: Path, config_file: Path | None, options: dict[str, Any]
                   f"Ctrl-C checkpoints, "
                   f"`grainlab resume {out}` continues")
     finish_run(out, run, progress)
+
+
+def asked_config(kind: str, config_file: Path | None, options: dict[str, Any]
+                 ) -> tuple[RunConfig, dict[str, Any]]:
+    """:func:`command_config` for a run of one solver, an option that would do nothing in it
+    refused (:func:`refuse_inert_options`); ``--tolerance`` and ``--max-iterations`` of a
+    compaction set the compaction's numerics (it has no loading)."""
+    options = dict(options)
+    if kind == "compaction":
+        for option in ("tolerance", "max_iterations"):
+            if options.get(option) is not None:
+                options[f"compaction_{option}"] = options.pop(option)
+    config, given = command_config(kind, config_file, options)
+    for note in refuse_inert_options([config], given, config_file):
+        console.print(f"[bold yellow]note:[/] {escape(note)}", soft_wrap=True)
+    return config, given
+
+
+def refuse_inert_options(configs: list[RunConfig], given: dict[str, Any],
+                         config_file: Path | None) -> list[str]:
+    """Refuse an option given that none of the runs of ``configs`` reads
+    (:mod:`grainlab.lab.option_scope`): an :class:`InputError` naming it as typed, and why it
+    would do nothing. A key of ``--config``'s file that differs from its default and that no
+    run reads is not refused (a file may serve several commands): returned, in words, for a
+    note."""
+    from grainlab.lab.option_scope import inert_settings
+    from grainlab.lab.run_config import flat_keys
+
+    options = [_OPTIONS[key][1] for key in given]
+    keys = list(options)
+    if config_file is not None:
+        written = flat_keys(RunConfig.read(config_file).model_dump())
+        default = flat_keys(RunConfig().model_dump())
+        keys += [key for key, value in written.items()
+                 if value != default.get(key) and key not in keys]
+    inert = [inert_settings(config, keys) for config in configs]
+    notes = []
+    for key in keys:
+        if not all(key in each for each in inert):
+            continue
+        value: Any = configs[0]
+        for name in key.split("."):
+            value = getattr(value, name)
+        if key in options:
+            error = InputError(key, value, f"not given: it does nothing here ({inert[0][key]})")
+            raise as_typed(error, given, config_file)
+        notes.append(f"{key} = {value!r} (in {config_file}) does nothing here: {inert[0][key]}")
+    return notes
 
 
 def as_typed(error: InputError, given: dict[str, Any], config_file: Path | None
@@ -271,6 +319,7 @@ _OPTIONS = {
     "compaction_tolerance": ("--tolerance", "solver.compaction.tolerance"),
     "sweep": ("--sweep", "solver.sweep"),
     "max_iterations": ("--max-iterations", "solver.shear.max_iterations"),
+    "compaction_max_iterations": ("--max-iterations", "solver.compaction.max_iterations"),
     "record_every": ("--record-every", "output.record_every"),
     "snapshot_every": ("--snapshot-every", "output.snapshot_every"),
     "checkpoint_every": ("--checkpoint-every", "output.checkpoint_every"),
@@ -560,12 +609,12 @@ def lab_test_command(
 ) -> None:
     """Any lab test on a discrete sample: a loose random sample, frictionless isotropic
     compaction to SIGMA0 until quasi-static, then KIND: triaxial (compression to EPS_Q at
-    lateral stress SIGMA0), extension, oedometer (walls only: rigid grains in a periodic cell
-    cannot follow it), true_triaxial (constant p and B to EPS_Q), simple_shear (gamma_xz to
-    GAMMA, sigma_zz held, eps_xx = eps_yy = 0), circular (a full turn on the octahedral plane
-    at q = Q_RATIO x SIGMA0), cyclic_shear (CYCLES of gamma_xz between +-AMPLITUDE), in a box
-    of walls or (--boundary periodic) a periodic cell whose six components follow the
-    test."""
+    lateral stress SIGMA0), extension, oedometer (in a periodic cell with --solver dem only:
+    rigid grains cannot follow it there), true_triaxial (constant p and B to EPS_Q),
+    simple_shear (gamma_xz to GAMMA, sigma_zz held, eps_xx = eps_yy = 0), circular (a full
+    turn on the octahedral plane at q = Q_RATIO x SIGMA0), cyclic_shear (CYCLES of gamma_xz
+    between +-AMPLITUDE), in a box of walls or (--boundary periodic) a periodic cell whose
+    six components follow the test."""
     if kind not in TEST_KINDS:
         raise InputError("KIND", kind, "one of " + ", ".join(TEST_KINDS))
     _run(kind, out, config, dict(

@@ -53,6 +53,15 @@ from grainlab.cli.microelement_options import (
     parse_list,
     parse_sets,
 )
+from grainlab.cli.microelement_snapshot import (
+    PERIODIC_OPTION,
+    SNAPSHOT_FORCES_OPTION,
+    SNAPSHOT_INDEX_OPTION,
+    WALLS_OPTION,
+    PeriodicContacts,
+    WallContacts,
+    snapshot_options,
+)
 from grainlab.errors import InputError
 from grainlab.lab import presets as preset_functions
 from grainlab.lab.derived import (
@@ -280,9 +289,17 @@ def run_command(
     steps: int = STEPS_OPTION,
     out: Path | None = typer.Option(None, help="Output folder [default: "
                                     "microelement-PATH-STRUCTURE]."),
+    snapshot_forces: bool = SNAPSHOT_FORCES_OPTION,
+    snapshot_index: int = SNAPSHOT_INDEX_OPTION,
+    periodic_contacts: PeriodicContacts = PERIODIC_OPTION,
+    wall_contacts: WallContacts = WALLS_OPTION,
 ) -> None:
     """Run one load path on one structure and write the test result, derived outputs and
     the figure of Chang 1991 that fits the path.
+
+    A snapshot of a discrete run (`--structure RUN/snapshots.h5`) starts from the run's
+    contact forces (its stress) unless --consolidate is given; the path's defaults then
+    scale with that stress.
 
     The specimen is consolidated isotropically to sigma0, then loaded along the preset with
     defaults scaled to it (stresses ~ sigma0, strains ~ sigma0 / stiffness): e.g.
@@ -304,7 +321,8 @@ def run_command(
     check_seed("--seed", seed)
     if out is not None:
         output_folder("--out", out)
-    specimen = load_structure(structure, seed)
+    specimen = load_structure(structure, seed, **snapshot_options(
+        structure, snapshot_forces, snapshot_index, periodic_contacts, wall_contacts))
     model = options.build(specimen)
     eps_ref = reference_strain(model)
     load_path, parameters = _path(path, model, steps, user)

@@ -200,6 +200,8 @@ class ModelOptions:
             "distribution": self.distribution, "non_affine": self.non_affine,
             "spin": self.spin or defaults.spin, "update_geometry": self.update_geometry,
         }
+        if structure.initial_forces is not None:  # a snapshot taken with its forces
+            out.update(sigma0_Pa=None, initial_state="the snapshot's contact forces")
         if self.distribution == "maxwellian":
             out["maxwellian_reference"] = self.maxwellian_reference
         if law == "hertz":
@@ -231,13 +233,13 @@ def _options(law, kn, ks, friction_angle, shear_modulus, poisson_ratio, thicknes
         spin=None if spin is None else Spin(spin).value, update_geometry=large_strain)
 
 
-def load_structure(name: str, seed: int) -> MicroElementStructure:
+def load_structure(name: str, seed: int, **options: Any) -> MicroElementStructure:
     """:func:`build_structure` with a status line while slow structures are made."""
     if name == "chang2d":
         with console.status(f"making the random packing of chang2d (seed {seed}): seconds to "
                             "minutes..."):
-            return build_structure(name, seed)
-    return build_structure(name, seed)
+            return build_structure(name, seed, **options)
+    return build_structure(name, seed, **options)
 
 
 def _structure_label(name: str) -> str:

@@ -28,7 +28,8 @@ the conjugate stress c_d = -G_d : sigma = (B sigma)_d.
 Rigid grains cannot follow a stage whose every component is strain-controlled with a
 compression (an oedometer, a simple shear at constant height): there is no volume change a
 rigid packing can give without a stress that grows without bound. Such a stage needs
-deformable contacts and is refused (:func:`cell_stages`).
+deformable contacts: soft-contact DEM runs it, contact dynamics refuses it
+(:func:`cell_stages`).
 """
 
 from __future__ import annotations
@@ -164,22 +165,33 @@ class CellStage:
         return self.control(progress) @ voigt
 
 
-def cell_stages(path: LoadPath) -> list[CellStage]:
-    """The stages of a 3D ``path`` for a periodic cell of rigid grains; refuses a stage whose
-    every component is strain-controlled and that compresses or shears (module
-    docstring)."""
+def cell_stages(path: LoadPath, deformable: bool = False) -> list[CellStage]:
+    """The stages of a 3D ``path`` for a periodic cell; for rigid grains (``deformable``
+    False: contact dynamics) refuses a stage whose every component is strain-controlled and
+    that compresses or shears (module docstring); deformable contacts (soft-contact DEM)
+    follow it."""
     if path.dimension != 3:
         raise InputError("load path dimension", path.dimension, "3 for a periodic cell")
     stages = []
     for stage in path.stages:
         cell_stage = CellStage(stage)
-        if not np.any(stage.stress_controlled) and cell_stage.strain_driven:
+        if not deformable and not np.any(stage.stress_controlled) \
+                and cell_stage.strain_driven:
             labels = ", ".join(voigt_labels(3))
             raise InputError(
                 f"stage {stage.name!r}: control", stage.control,
                 f"at least one stress-controlled component ({labels}): a packing of rigid "
                 "grains cannot follow a strain imposed on every component (an oedometer, a "
                 "shear at constant height) without a stress that grows without bound; that "
-                "needs deformable contacts (soft-contact DEM), or run it in the wall box")
-        stages.append(cell_stage)
+                "needs deformable contacts (solver.method = 'dem', --solver dem), or run it in the "
+                "wall box")
+        stages.append(CellStage(stage, oedometric=_oedometric(cell_stage)))
     return stages
+
+
+def _oedometric(stage: CellStage) -> bool:
+    """Whether ``stage`` is a one-dimensional compression: every component strain-controlled,
+    only eps_zz moving (its rows then carry K0)."""
+    moving = stage.strain_per_step != 0.0
+    return (not np.any(stage.stress_controlled) and bool(moving[2])
+            and not np.any(np.delete(moving, 2)))

@@ -62,8 +62,9 @@ class CellTest(DiscreteTest):
         super().__init__(sample, path, settings, **callbacks)
 
     def load_stages(self, path: LoadPath) -> list[CellStage]:
-        """The path's stages as cell controls (refuses what rigid grains cannot follow)."""
-        return cell_stages(path)
+        """The path's stages as cell controls (refuses what rigid grains cannot follow;
+        soft-contact DEM's deformable contacts follow a strain on every component)."""
+        return cell_stages(path, deformable=self.settings.method == "dem")
 
     # -- stage logic -----------------------------------------------------------------------------
     def _confining(self, stage: CellStage) -> float:
@@ -86,14 +87,16 @@ class CellTest(DiscreteTest):
                           [row["sigma_xz"], row["sigma_yz"], row["sigma_zz"]]])
         return stage.conjugate(sigma, progress)
 
-    def outcome_stress_targets(self, stage: CellStage) -> dict[str, float]:
+    def outcome_stress_targets(self, stage: CellStage) -> dict[str, Any]:
         """The normal stress targets [Pa] of a stage controlled in the cell's own axes
-        (``"target"`` stress mode, no rotation, the Voigt basis), by ``"xx"``...; empty for
-        the other stages."""
+        (``"target"`` stress mode, no rotation, the Voigt basis), by ``"xx"``...; those of a
+        stage in a fixed mixed basis (a true triaxial test: sqrt(3) p and the deviator's
+        direction) as :func:`generalised_targets`; empty for the other stages."""
         load = stage.stage
-        if load.stress_mode != "target" or load.rotation_start or load.rotation_per_step \
-                or load.component_basis is not None:
+        if load.stress_mode != "target" or load.rotation_start or load.rotation_per_step:
             return {}
+        if load.component_basis is not None:
+            return generalised_targets(stage)
         return {AXES[a] * 2: float(load.values[a]) for a in range(3)
                 if load.control[a] == "stress" and load.values[a] > 0.0}
 
@@ -312,3 +315,29 @@ class CellTest(DiscreteTest):
         self.progress_step = int(data["progress_step"])
         self.reference_stress = float(data["reference_stress"])
         self.stage_start_stress = np.asarray(data["stage_start_stress"], dtype=float)
+
+
+_VOIGT_COLUMNS = tuple(f"cell_sigma_{a}" for a in ("xx", "yy", "zz", "yz", "xz", "xy"))
+
+
+def generalised_targets(stage: CellStage) -> dict[str, Any]:
+    """The stress-controlled generalised components c = B sigma of a ``"target"`` stage in a
+    fixed basis B (:mod:`grainlab.lab.cell_stages`), for the run's outcome: ``{"(B
+    sigma)_i": (target [Pa], scale [Pa], value of a results row)}``, the scale the largest
+    target (components held at 0, the deviator's direction of a true triaxial test, are
+    judged against it); empty when every target is 0."""
+    b = stage.control(0.0)
+    targets = stage.targets(np.zeros(6), float(stage.n_steps))
+    held = np.flatnonzero(stage.stress_controlled)
+    scale = float(np.max(np.abs(targets[held]))) if held.size else 0.0
+    if not scale > 0.0:
+        return {}
+
+    def component(i: int):
+        def value(row: dict[str, Any]) -> float:
+            voigt = np.array([row.get(c, np.nan) for c in _VOIGT_COLUMNS], dtype=float)
+            return float(b[i] @ voigt)
+        return value
+
+    return {f"(B sigma)_{i + 1}": (float(targets[i]), scale, component(int(i)))
+            for i in held}

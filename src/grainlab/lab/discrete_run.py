@@ -63,6 +63,7 @@ from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.errors import GrainlabError, InputError
 from grainlab.lab.box_thickness import BOX_MIN_DIAMETERS
 from grainlab.lab.cell_test import CellTest
+from grainlab.lab.cell_thickness import refuse_thin_cell
 from grainlab.lab.discrete_test import DiscreteTest
 from grainlab.lab.run_checkpoint import (
     CHECKPOINT,
@@ -79,6 +80,7 @@ from grainlab.lab.run_checkpoint import (
     write_checkpoint,
 )
 from grainlab.lab.run_config import CHANGEABLE_ON_RESUME, RunConfig, parse_assignments
+from grainlab.lab.run_estimate import refuse_endless_run
 from grainlab.lab.run_outcome import RunCost, RunOutcome
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR
 from grainlab.lab.wall_stages import QuasiStaticCriteria
@@ -682,6 +684,9 @@ def _new_test(config: RunConfig) -> DiscreteTest:
     config.check_solver(kinds_present(sample.library.kind))  # the file's shapes
     test = test_for(sample, config)
     _refuse_flattening(test)
+    if sample.periodic:
+        refuse_thin_cell(test, config.sample)
+    refuse_endless_run(test, config)
     return test
 
 

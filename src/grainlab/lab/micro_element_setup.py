@@ -18,8 +18,10 @@ name           structure
 ``chang2d``    seed 001 ch. 3: micro-elements of the random periodic packing of 12 + 13
                discs (:func:`chang_periodic_discs` -> :func:`from_disc_packing`); making
                the packing takes seconds to minutes, depending on the seed
-FILE ``.h5``   a contact-network snapshot file (:func:`read_snapshot` ->
-               :func:`from_contact_network`)
+FILE ``.h5``   a contact-network snapshot file of a discrete run (:func:`read_snapshot`
+               -> :func:`micro_elements_from_snapshot`): one micro-element per particle,
+               the run's contact forces as the initial state (no consolidation);
+               ``forces=False``: :func:`from_contact_network`, consolidated from zero
 FILE ``.toml``, ``.csv``  a periodic disc packing (:func:`read_packing` ->
                :func:`from_disc_packing`)
 =============  ==========================================================================
@@ -44,7 +46,8 @@ sigma_3, with defects (G^n not positive definite, dependence on the step and the
 docs/micro_element.md for the four readings side by side.
 
 A snapshot file takes the ``idealized`` defaults in 3D and the ``chang2d`` ones in 2D; a
-packing file those of ``chang2d``.
+packing file those of ``chang2d``. A structure that carries its snapshot's forces
+(``initial_forces``) is not consolidated: sigma0 does not apply to it.
 
 Units in 2D. A 2D structure holds areas [m^2], so its stress sum (1/2A) sum f L is a force per
 unit thickness over an area: the springs must be given per unit thickness [N/m^2] for the
@@ -69,6 +72,7 @@ from grainlab.analysis.snapshot_files import read_snapshot
 from grainlab.contact.spring_contact import SpringContactLaw
 from grainlab.errors import InputError
 from grainlab.lab.presets import preset_names
+from grainlab.micromech.micro_element.from_snapshot import micro_elements_from_snapshot
 from grainlab.micromech.micro_element.model import DISTRIBUTIONS, MicroElementModel
 from grainlab.micromech.micro_element.structure import MicroElementStructure
 from grainlab.micromech.micro_element.structures import (
@@ -150,6 +154,8 @@ DEFAULTS = {
 _BINARY_DEFAULTS = {"directions": "icosahedron", "radius": 0.2e-3, "void_ratio": 0.7,
                     "coordination_number": 7.0}
 _NETWORK_OPTIONS = ("index", "volumes", "active_only", "threshold")
+_SNAPSHOT_OPTIONS = ("index", "volumes", "periodic", "walls", "wall_threshold", "forces")
+"""Options of a snapshot file taken with its forces (``forces=True``, the default)."""
 _PACKING_OPTIONS = ("tolerance",)
 
 
@@ -178,8 +184,12 @@ def build_structure(name: str, seed: int = 1, **options: Any) -> MicroElementStr
         Keyword arguments of the generator, each checked by name: idealized
         ``n_random, n_neighbours, radius, void_ratio``; binary ``directions, radius,
         void_ratio, coordination_number, dimension``; chang2d ``n_large, r_large, n_small,
-        r_small, max_rattlers, max_attempts``; snapshot file ``index`` (default -1, the last),
-        ``volumes, active_only, threshold``; packing file ``tolerance``.
+        r_small, max_rattlers, max_attempts``; snapshot file ``index`` (default -1, the last)
+        and ``forces`` (default True: the run's contact forces are the initial state,
+        :func:`micro_elements_from_snapshot` with ``periodic`` "keep"/"drop", ``walls``
+        "drop"/"balance", ``volumes``, ``wall_threshold``; False: geometry only,
+        :func:`from_contact_network` with ``volumes, active_only, threshold``, consolidated
+        by :func:`build_model`); packing file ``tolerance``.
 
     Raises
     ------
@@ -208,10 +218,16 @@ def build_structure(name: str, seed: int = 1, **options: Any) -> MicroElementStr
     if not path.is_file():
         raise InputError("--structure", key, "an existing file (" + _structure_choices() + ")")
     if suffix in SNAPSHOT_SUFFIXES:
-        _check_options("snapshot file", options, _NETWORK_OPTIONS)
+        forces = options.pop("forces", True)
+        if not isinstance(forces, bool | np.bool_):
+            raise InputError("snapshot file option 'forces'", forces, "True or False")
+        _check_options("snapshot file", options,
+                       _SNAPSHOT_OPTIONS if forces else _NETWORK_OPTIONS)
         index = options.pop("index", -1)
         if isinstance(index, bool) or not isinstance(index, int):
             raise InputError("snapshot file option 'index'", index, "an integer")
+        if forces:
+            return micro_elements_from_snapshot(read_snapshot(path, index), **options)
         return from_contact_network(read_snapshot(path, index), **options)
     _check_options("packing file", options, _PACKING_OPTIONS)
     return from_disc_packing(read_packing(path), **options)
@@ -355,7 +371,9 @@ def build_model(
     maxwellian_reference: str = "overall",
 ) -> MicroElementModel:
     """A :class:`MicroElementModel` of ``structure`` consolidated isotropically to
-    ``sigma0`` [Pa] (default: :func:`structure_defaults`).
+    ``sigma0`` [Pa] (default: :func:`structure_defaults`), or, for a structure that carries
+    its simulation's contact forces (``initial_forces``, a snapshot file), starting from
+    them (``sigma0`` must then be None).
 
     Law options as :func:`build_law`. ``distribution`` ``"homogeneous"`` (eq. 2.30) or
     ``"maxwellian"`` (eqs. 2.32–2.35; default: :func:`structure_defaults`, homogeneous) with
@@ -394,6 +412,11 @@ def build_model(
     if spin == "uniform" and distribution != "homogeneous":
         raise InputError("--spin", spin, "'none' or 'micro-element' with the Maxwellian "
                          "distribution (a uniform spin needs the homogeneous one)")
+    loaded = structure.initial_forces is not None
+    if loaded and sigma0 is not None:
+        raise InputError("--sigma0", sigma0, "no value for a structure that starts from its "
+                         "snapshot's contact forces (take the snapshot without its forces to "
+                         "consolidate it)")
     pressure = _positive("--sigma0", defaults.sigma0 if sigma0 is None else sigma0, "Pa")
     contact_law = build_law(
         structure, law=law, normal_stiffness=normal_stiffness, shear_stiffness=shear_stiffness,
@@ -403,7 +426,8 @@ def build_model(
                               non_affine=bool(non_affine), spin=spin,
                               update_geometry=bool(update_geometry),
                               maxwellian_reference=maxwellian_reference)
-    model.consolidate_isotropically(pressure, tolerance=CONSOLIDATION_TOLERANCE)
+    if not loaded:
+        model.consolidate_isotropically(pressure, tolerance=CONSOLIDATION_TOLERANCE)
     return model
 
 

@@ -394,7 +394,9 @@ class RunConfig(_Section):
         """Validate the config a run saved (its checkpoint's, its folder's ``config.toml``).
         A run writes every key; a stage table without ``time_step_growth`` was saved before
         the step grew (:mod:`grainlab.lab.step_control`), with fixed steps, and is read with
-        ``time_step_growth = 1`` so that the run resumes as it ran."""
+        ``time_step_growth = 1`` so that the run resumes as it ran; one without
+        ``capped_share_limit`` was saved before capped steps were limited, and is read with
+        1 (any share accepted, as it was)."""
         data, _ = current_layout(data)
         if isinstance(data, dict) and isinstance(data.get("solver"), dict):
             solver = dict(data["solver"])
@@ -402,6 +404,9 @@ class RunConfig(_Section):
                 table = solver.get(kind, {})
                 if isinstance(table, dict) and "time_step_growth" not in table:
                     solver[kind] = {**table, "time_step_growth": 1.0}
+                if isinstance(solver.get(kind), dict) \
+                        and "capped_share_limit" not in solver[kind]:
+                    solver[kind] = {**solver[kind], "capped_share_limit": 1.0}
             data = {**data, "solver": solver}
         return cls.model_validate(data)
 

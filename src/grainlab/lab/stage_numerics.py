@@ -88,8 +88,8 @@ class StageNumerics:
     capped_share_limit:
         Largest share [-] in [0, 1] of a stage's steps that may end at the sweep cap
         unconverged: above it the stage is not as asked (:mod:`grainlab.lab.run_outcome`;
-        the command line exits with status 3). 1 (default): any share is accepted, and
-        reported.
+        the command line exits with status 3). 1 (the compaction's default): any share is
+        accepted, and reported; the loading's default is 0.5 (:data:`SHEAR`).
     """
 
     friction: float
@@ -141,11 +141,15 @@ capped 3.5 % of its steps)."""
 
 SHEAR = StageNumerics(friction=0.4, inertia_number=1e-3, time_step_factor=0.003,
                       tolerance=1.666e-4, max_iterations=2000, overlap_recovery=0.5,
-                      time_step_growth=2.0)
+                      time_step_growth=2.0, capped_share_limit=0.5)
 """Default numerics of shearing stages: mu = 0.4, I <= 1e-3 (quasi-static), h = 0.003 d_min
 / v (with 0.01 the overlaps grew to 6-9 % of <d> at eps_q = 0.1 on 200 spheres, below 1 %
 with 0.003), growing to 2 h while the largest overlap stays below 0.5 % of <d>
 (:mod:`grainlab.lab.step_control`), tolerance 1.666e-4, 2000 sweeps (1000 spheres to
 eps_q = 0.5: ~600 a step on average, 0.1 % at the cap), overlap recovery beta = 0.5 (it holds
 the overlaps the longer steps leave: at v h / d_min = 0.01, beta = 0.05 / 0.5 left 3.6 / 0.6 %
-of <d>; 0.05 with fixed steps before)."""
+of <d>; 0.05 with fixed steps before); at most half the loading's steps may end at the sweep cap
+unconverged (measured 0.1-1.4 % on 200-10 000 spheres, 0.3-2.9 % on polyhedra, 24 % on 150
+spheres sheared in a periodic cell; a 100-sphere triaxial test on walls with momentum of 1e-6
+the particles' mass capped 57 % and let the lateral stresses swing between 4.3 and 13.7 kPa
+around 10 kPa)"""

@@ -56,6 +56,7 @@ from grainlab.micromech.micro_element.first_order_law import (
     first_order_tensors,
     strain_share_eigenvalues,
 )
+from grainlab.micromech.micro_element.from_snapshot import spring_state_from_forces
 from grainlab.micromech.micro_element.kernels import (
     condense_local_stiffness,
     contact_census,
@@ -202,6 +203,9 @@ class MicroElementModel:
             strain=np.zeros(6 if self.dimension == 3 else 3),
             residual_stress=np.zeros(6 if self.dimension == 3 else 3),
         )
+        if structure.initial_forces is not None:  # a simulated packing, with its forces
+            self.state.contacts = spring_state_from_forces(
+                law, structure.initial_forces, self.state.branches, self.state.mask, radius)
         self.force_floor = 0.0
         self._cache: dict[str, Any] | None = None
         self._derived: dict[str, np.ndarray] = {}

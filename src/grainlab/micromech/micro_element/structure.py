@@ -38,6 +38,11 @@ class MicroElementStructure:
         Label for reports.
     description:
         Plain data on how the structure was made (generator, seed, source).
+    initial_forces:
+        (E, M, d) force the centre particle exerts on neighbour m [N] (N/m in 2D) at the
+        start, or None (default: no force; the model is consolidated from zero force). A
+        structure taken from a simulated packing carries the simulation's forces
+        (:mod:`~grainlab.micromech.micro_element.from_snapshot`).
     """
 
     branches: np.ndarray
@@ -47,6 +52,7 @@ class MicroElementStructure:
     neighbour_radii: np.ndarray
     name: str = "micro-elements"
     description: dict[str, Any] = field(default_factory=dict)
+    initial_forces: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         branches = np.array(self.branches, dtype=float)
@@ -76,6 +82,14 @@ class MicroElementStructure:
             raise InputError(f"mask[{k}]", "no contact", "at least one contact per micro-element")
         branches[~mask] = 0.0
         neighbour = np.where(mask, neighbour, 1.0)
+        if self.initial_forces is not None:
+            forces = np.array(self.initial_forces, dtype=float)
+            if forces.shape != branches.shape or not np.all(np.isfinite(forces)):
+                raise InputError("initial_forces", f"array of shape {forces.shape}",
+                                 f"a finite array of shape {branches.shape} (or None)")
+            forces[~mask] = 0.0
+            forces.setflags(write=False)
+            object.__setattr__(self, "initial_forces", forces)
         for name, value in (("branches", branches), ("mask", mask), ("volumes", volumes),
                             ("centre_radii", centre), ("neighbour_radii", neighbour)):
             value.setflags(write=False)
@@ -137,4 +151,5 @@ class MicroElementStructure:
         return MicroElementStructure(
             self.branches @ rotation.T, self.mask, self.volumes, self.centre_radii,
             self.neighbour_radii, self.name, {**self.description, "rotated": True},
+            None if self.initial_forces is None else self.initial_forces @ rotation.T,
         )

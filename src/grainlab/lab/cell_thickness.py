@@ -1,0 +1,97 @@
+"""A periodic cell against the particles it holds: whether its compaction would make it too
+thin for the contact detection, judged before a run starts.
+
+The detection of a periodic cell refuses a cell narrower than three interaction ranges
+across any pair of faces, 3 (2 r_max + alert) (:func:`~grainlab.engine.periodic_detection.
+checked_cutoff`), so that no pair touches through two images. A loose sample is compacted
+isotropically: the cell shrinks with it, and a sample of few particles reaches that width
+before it settles (30 spheres of 1-2 mm: the cell was 5.36 mm across, against 6.13 mm asked,
+and the run stopped with the folder already made). The cell's end is predicted from the
+solid volume V_s: an isotropic compaction to a packing fraction phi scales every width by
+(V_s / (phi V_cell))^(1/3). With :data:`CELL_PACKING_ESTIMATE`, a packing fraction on the low
+side, the cell predicted is on the large side, and with the interaction range taken as the
+largest diameter alone (no alert distance) so is the width allowed: only a sample whose cell
+is certain to get too thin is refused; each detection still checks the real cell.
+
+The particles a cell needs scale with its volume: widths w_i x (N / n)^(1/3) reach the limit
+w_min at N = n (w_min / min w_i)^3 (:func:`particles_needed`).
+
+>>> import numpy as np
+
+from grainlab.errors import InputError
+>>> widths = compacted_widths(np.array([10e-3, 10e-3, 10e-3]), 1e-7, 0.5)
+>>> [round(float(w) * 1e3, 3) for w in widths]
+[5.848, 5.848, 5.848]
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from grainlab.errors import InputError
+
+CELL_PACKING_ESTIMATE = 0.55
+"""Packing fraction [-] assumed for the end of a compaction in a periodic cell when a run is
+checked before it starts: on the low side (frictionless spheres settle at 0.62-0.64 with no
+walls to loosen them; the random loose packing of frictional spheres is near 0.55)."""
+
+CELL_MIN_DIAMETERS = 3.0
+"""Smallest width of the cell across a pair of faces, in largest particle diameters (three
+interaction ranges 2 r_max, the alert distance left out: the module docstring)."""
+
+
+def compacted_widths(widths: np.ndarray, solid_volume: float, packing: float
+                     ) -> np.ndarray:
+    """(3,) widths [m] across the faces of a cell of ``widths`` [m] holding ``solid_volume``
+    [m^3] of particles once compacted isotropically to the packing fraction ``packing`` [-]
+    (unchanged if it is denser already)."""
+    widths = np.asarray(widths, dtype=float)
+    volume = float(np.prod(widths))  # the volume of a cell of these widths, not sheared
+    scale = (solid_volume / (packing * volume)) ** (1.0 / 3.0)
+    return widths * min(scale, 1.0)
+
+
+def particles_needed(n_particles: int, width: float, limit: float) -> int:
+    """The particles a cell of the same shape and particle sizes needs to keep ``width`` [m]
+    above ``limit`` [m] (module docstring)."""
+    return math.ceil(n_particles * (limit / width) ** 3)
+
+
+def thin_cell_after_compaction(widths: np.ndarray, solid_volume: float,
+                               largest_diameter: float, n_particles: int) -> str:
+    """Why a cell of ``widths`` [m] with ``n_particles`` of ``solid_volume`` [m^3] and
+    largest diameter ``largest_diameter`` [m] gets too thin in its compaction, in words;
+    "" when it need not (module docstring)."""
+    end = compacted_widths(widths, solid_volume, CELL_PACKING_ESTIMATE)
+    limit = CELL_MIN_DIAMETERS * largest_diameter
+    axis = int(np.argmin(end))
+    if end[axis] >= limit:
+        return ""
+    needed = particles_needed(n_particles, float(end[axis]), limit)
+    return (f"at least about {needed} for this cell: {n_particles} particles compacted to a "
+            f"packing fraction of {CELL_PACKING_ESTIMATE:g} leave the periodic cell "
+            f"{end[axis] * 1e3:.3g} mm across its faces along axis {axis}, "
+            f"{end[axis] / largest_diameter:.2f} largest particle diameters, below the "
+            f"{limit * 1e3:.3g} mm ({CELL_MIN_DIAMETERS:g} diameters) the contact detection "
+            "needs so that no pair touches through two images")
+
+
+def refuse_thin_cell(test, sample_config) -> None:
+    """An :class:`InputError` naming ``sample.n_particles`` (or the file that gave the
+    particles) when the compaction would make the periodic cell of ``test`` (a
+    :class:`~grainlab.lab.cell_test.CellTest`, not yet run) too thin for its particles
+    (:func:`thin_cell_after_compaction`); ``sample_config`` is the run's ``[sample]``."""
+    state, library = test.sample.state, test.sample.library
+    why = thin_cell_after_compaction(test.sample.boundary.widths,
+                                     float(np.sum(library.volume[state.shape_ids])),
+                                     test.largest_diameter, state.n_bodies)
+    if not why:
+        return
+    s = sample_config
+    if s.preparation == "file":
+        key = "sample.particle_file" if s.particle_file else "sample.skeleton_file"
+        raise InputError(key, s.particle_file or s.skeleton_file,
+                         f"a sample of more particles ({why})")
+    raise InputError("sample.n_particles", s.n_particles, why)
