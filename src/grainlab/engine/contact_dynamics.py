@@ -121,6 +121,8 @@ from numba import get_num_threads, njit, types
 from numba.core.extending import intrinsic
 
 from grainlab._validate import at_least, in_range
+from grainlab.contact.contact_kinematics import point_velocity
+from grainlab.contact.coulomb_cone import local_solve, natural_map
 from grainlab.engine.boundary import (
     BoundaryMotion,
     ClosedContacts,
@@ -142,9 +144,6 @@ from grainlab.errors import ConvergenceError, InputError, SolverDivergence
 
 _TINY = 1e-300
 _WTT_CLAMP = 1e-6  # W_tt >= 1e-6 W_nn (LMGC90, pitfall 5)
-_DET_TINY = 1e-12  # det W below 1e-12 W_nn^3: singular block, use projections
-_LOCAL_ITERATIONS = 100
-_LOCAL_TOLERANCE = 1e-12
 _SWEEPS = ("coloured", "serial")
 SKIP_OPEN = 2
 """A contact found open (P = 0) at this many visits in a row is skipped by the sweeps
@@ -193,66 +192,6 @@ def _dot3(a0, a1, a2, b0, b1, b2):
 
 
 @njit(inline="always")
-def project_cone(mu, zn, zt, zs):
-    """Projection of (zn, zt, zs) on the Coulomb cone {|z_T| <= mu z_n}."""
-    norm_t = math.sqrt(zt * zt + zs * zs)
-    if zn >= 0.0 and norm_t <= mu * zn:
-        return zn, zt, zs
-    if mu * norm_t <= -zn:
-        return 0.0, 0.0, 0.0
-    a = (zn + mu * norm_t) / (1.0 + mu * mu)
-    if norm_t > 0.0:
-        f = mu * a / norm_t
-        return a, f * zt, f * zs
-    return a, 0.0, 0.0
-
-
-@njit(inline="always")
-def local_solve(w, un, ut, us, mu, pn, pt, ps):
-    """Impulse (P_n, P_t, P_s) [N s] of one contact with Delassus block ``w`` (3, 3) [1/kg]
-    and corrected free relative velocity (un, ut, us) [m/s] (U' with P = 0), starting from
-    (pn, pt, ps): open, stick (3 x 3 solve) or projections (module docstring)."""
-    if un >= 0.0:
-        return 0.0, 0.0, 0.0
-    wnn = w[0, 0]
-    a, b, c = w[1, 1], w[1, 2], w[2, 2]
-    det = (wnn * (a * c - b * w[2, 1]) - w[0, 1] * (w[1, 0] * c - b * w[2, 0])
-           + w[0, 2] * (w[1, 0] * w[2, 1] - a * w[2, 0]))
-    if det > _DET_TINY * wnn * wnn * wnn:
-        # Cramer's rule: W x = -U
-        rn, rt, rs = -un, -ut, -us
-        xn = (rn * (a * c - b * w[2, 1]) - w[0, 1] * (rt * c - b * rs)
-              + w[0, 2] * (rt * w[2, 1] - a * rs)) / det
-        xt = (wnn * (rt * c - b * rs) - rn * (w[1, 0] * c - b * w[2, 0])
-              + w[0, 2] * (w[1, 0] * rs - rt * w[2, 0])) / det
-        xs = (wnn * (a * rs - rt * w[2, 1]) - w[0, 1] * (w[1, 0] * rs - rt * w[2, 0])
-              + rn * (w[1, 0] * w[2, 1] - a * w[2, 0])) / det
-        if xn > 0.0 and math.sqrt(xt * xt + xs * xs) <= mu * xn * (1.0 + 1e-12):
-            return xn, xt, xs
-    # projections, normal first then tangential on the disc
-    half = 0.5 * (a + c)
-    lam = half + math.sqrt(0.25 * (a - c) * (a - c) + 0.5 * (b + w[2, 1]) * 0.5 * (b + w[2, 1]))
-    rho_t = 1.0 / lam
-    pn, pt, ps = project_cone(mu, pn, pt, ps)
-    for _ in range(_LOCAL_ITERATIONS):
-        vn = un + wnn * pn + w[0, 1] * pt + w[0, 2] * ps
-        qn = max(0.0, pn - vn / wnn)
-        vt = ut + w[1, 0] * qn + a * pt + b * ps
-        vs = us + w[2, 0] * qn + w[2, 1] * pt + c * ps
-        qt, qs = pt - rho_t * vt, ps - rho_t * vs
-        norm_t = math.sqrt(qt * qt + qs * qs)
-        limit = mu * qn
-        if norm_t > limit:
-            f = limit / norm_t
-            qt, qs = f * qt, f * qs
-        change = abs(qn - pn) + abs(qt - pt) + abs(qs - ps)
-        pn, pt, ps = qn, qt, qs
-        if change <= _LOCAL_TOLERANCE * (abs(pn) + abs(pt) + abs(ps)) + _TINY:
-            break
-    return pn, pt, ps
-
-
-@njit(inline="always")
 def _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j, velocities, spins,
                        wall_normals, wall_speeds, images, cell_rate):
     """Local (n, t, s) velocity of body j relative to body i at contact k [m/s]; a wall
@@ -263,10 +202,9 @@ def _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j, velocities, spins
     j = body_j[k]
     if j >= 0:
         wx, wy, wz = spins[j, 0], spins[j, 1], spins[j, 2]
-        rx, ry, rz = arm_j[k, 0], arm_j[k, 1], arm_j[k, 2]
-        ux += velocities[j, 0] + wy * rz - wz * ry
-        uy += velocities[j, 1] + wz * rx - wx * rz
-        uz += velocities[j, 2] + wx * ry - wy * rx
+        px, py, pz = point_velocity(velocities[j, 0], velocities[j, 1], velocities[j, 2],
+                                    wx, wy, wz, arm_j[k, 0], arm_j[k, 1], arm_j[k, 2])
+        ux, uy, uz = ux + px, uy + py, uz + pz
         mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
         if mx != 0.0 or my != 0.0 or mz != 0.0:
             ux += cell_rate[0, 0] * mx + cell_rate[0, 1] * my + cell_rate[0, 2] * mz
@@ -275,10 +213,9 @@ def _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j, velocities, spins
     i = body_i[k]
     if i >= 0:
         wx, wy, wz = spins[i, 0], spins[i, 1], spins[i, 2]
-        rx, ry, rz = arm_i[k, 0], arm_i[k, 1], arm_i[k, 2]
-        ux -= velocities[i, 0] + wy * rz - wz * ry
-        uy -= velocities[i, 1] + wz * rx - wx * rz
-        uz -= velocities[i, 2] + wx * ry - wy * rx
+        px, py, pz = point_velocity(velocities[i, 0], velocities[i, 1], velocities[i, 2],
+                                    wx, wy, wz, arm_i[k, 0], arm_i[k, 1], arm_i[k, 2])
+        ux, uy, uz = ux - px, uy - py, uz - pz
     else:
         w = -1 - i
         ux -= wall_speeds[w] * wall_normals[w, 0]
@@ -412,13 +349,8 @@ def update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia
     p0, p1, p2 = impulses[k, 0], impulses[k, 1], impulses[k, 2]
     vn = un + shift[k]
     if running.shape[0] > 0:  # only when the running residual decides (no change tolerance)
-        wk = w[0, 0]
-        wn, wt, ws = wk * p0, wk * p1, wk * p2
-        slip = math.sqrt(ut * ut + us * us)
-        cn, ct, cs = project_cone(mu[k], wn - (vn + mu[k] * slip), wt - ut, ws - us)
-        running[k, 0] = (wn - cn) ** 2 + (wt - ct) ** 2 + (ws - cs) ** 2
-        running[k, 1] = wn * wn + wt * wt + ws * ws
-        running[k, 2] = vn * vn + ut * ut + us * us
+        running[k, 0], running[k, 1], running[k, 2] = natural_map(mu[k], w[0, 0], p0, p1, p2,
+                                                                  vn, ut, us)
     # free (P_k = 0) corrected velocity
     fn = vn - (w[0, 0] * p0 + w[0, 1] * p1 + w[0, 2] * p2)
     ft = ut - (w[1, 0] * p0 + w[1, 1] * p1 + w[1, 2] * p2)
@@ -676,15 +608,12 @@ def _serial_sweeps(
             un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
                                             velocities, spins, wall_normals, wall_speeds,
                                             images, cell_rate)
-            un += shift[k]
-            wk = delassus[k, 0, 0]
-            pn, pt, ps = wk * impulses[k, 0], wk * impulses[k, 1], wk * impulses[k, 2]
             p_norm2 += impulses[k, 0] ** 2 + impulses[k, 1] ** 2 + impulses[k, 2] ** 2
-            wp_norm2 += pn * pn + pt * pt + ps * ps
-            u_norm2 += un * un + ut * ut + us * us
-            slip = math.sqrt(ut * ut + us * us)
-            cn, ct, cs = project_cone(mu[k], pn - (un + mu[k] * slip), pt - ut, ps - us)
-            res2 += (pn - cn) ** 2 + (pt - ct) ** 2 + (ps - cs) ** 2
+            r2, z2, u2 = natural_map(mu[k], delassus[k, 0, 0], impulses[k, 0], impulses[k, 1],
+                                     impulses[k, 2], un + shift[k], ut, us)
+            wp_norm2 += z2
+            u_norm2 += u2
+            res2 += r2
         scale = max(math.sqrt(free_norm2), math.sqrt(wp_norm2), math.sqrt(u_norm2), _TINY)
         residual = math.sqrt(res2) / scale
         residuals[0] = change

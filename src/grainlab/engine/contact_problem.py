@@ -135,7 +135,7 @@ def natural_map_error(problem: FrictionalContactProblem, reactions,
 
 def project_on_cones(z: np.ndarray, mu: np.ndarray) -> np.ndarray:
     """Projections (C, 3) of the local vectors z (C, 3) (n, t, s) on the Coulomb cones
-    {|z_T| <= mu z_n} (NumPy twin of :func:`~grainlab.engine.contact_dynamics.project_cone`,
+    {|z_T| <= mu z_n} (NumPy twin of :func:`~grainlab.contact.coulomb_cone.project_cone`,
     STYLE.md 12)."""
     z = np.asarray(z, dtype=np.float64).reshape(-1, 3)
     mu = np.asarray(mu, dtype=np.float64)

@@ -27,7 +27,7 @@ Methods
 ``"nlgs"``
     Nonlinear Gauss-Seidel (Jean & Moreau; Siconos' NSGS): contacts visited in order (by
     default 0 .. C-1), each solved exactly against the current others with the local solver
-    of the contact-dynamics step (:func:`~grainlab.engine.contact_dynamics.local_solve`:
+    of the contact-dynamics step (:func:`~grainlab.contact.coulomb_cone.local_solve`:
     open, sticking 3 x 3 solve, or projections), updated in place.
 ``"psor"``
     NLGS with over-relaxation: r_a <- proj_K(r_a + omega (local - r_a)), omega = 1.3 by
@@ -65,7 +65,7 @@ import scipy.sparse as sp
 from numba import njit
 
 from grainlab._validate import at_least
-from grainlab.engine.contact_dynamics import local_solve, project_cone
+from grainlab.contact.coulomb_cone import local_solve, project_cone
 from grainlab.engine.contact_problem import (
     FrictionalContactProblem,
     problem_scale,

@@ -64,6 +64,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from grainlab.contact.coulomb_cone import natural_map
 from grainlab.engine.contact_colouring import power_of_two_below
 from grainlab.engine.contact_dynamics import (
     SKIP_OPEN,
@@ -75,7 +76,6 @@ from grainlab.engine.contact_dynamics import (
     check_due,
     check_spaced,
     delassus_kernel,
-    project_cone,
     running_residual,
     skipped_update,
     start_cell,
@@ -181,14 +181,11 @@ def _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins, wall
         un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
                                         velocities, spins, wall_normals, wall_speeds, images,
                                         cell_rate)
-        un += shift[k]
-        wk = delassus[k, 0, 0]
-        pn, pt, ps = wk * impulses[k, 0], wk * impulses[k, 1], wk * impulses[k, 2]
-        wp_norm2 += pn * pn + pt * pt + ps * ps
-        u_norm2 += un * un + ut * ut + us * us
-        slip = math.sqrt(ut * ut + us * us)
-        cn, ct, cs = project_cone(mu[k], pn - (un + mu[k] * slip), pt - ut, ps - us)
-        res2 += (pn - cn) ** 2 + (pt - ct) ** 2 + (ps - cs) ** 2
+        r2, z2, u2 = natural_map(mu[k], delassus[k, 0, 0], impulses[k, 0], impulses[k, 1],
+                                 impulses[k, 2], un + shift[k], ut, us)
+        wp_norm2 += z2
+        u_norm2 += u2
+        res2 += r2
     partial[b, 0] = wp_norm2
     partial[b, 1] = u_norm2
     partial[b, 2] = res2

@@ -36,11 +36,14 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from grainlab.contact.contact_kinematics import less_body_i, point_velocity
+from grainlab.contact.rolling_resistance import rolling_spring
 from grainlab.contact.soft_contact_law import contact_law
+from grainlab.contact.tangential_spring import mindlin_coulomb
 from grainlab.engine.narrow_phase import sphere_sphere
 from grainlab.engine.quaternion import half_turn, rotate, turned
 from grainlab.engine.sphere_bodies import large_turns, sphere_bodies_kernel
-from grainlab.engine.sphere_rows import sphere_rows_kernel, turn_with_frame
+from grainlab.engine.sphere_rows import sphere_rows_kernel
 
 OUTWARD_FACTOR = 4.0
 """A servo wall or cell component moves out at most this many times its inward limit (as
@@ -235,24 +238,14 @@ def _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_
         # relative velocity of j (image) with respect to i at the contact point
         rjx, rjy, rjz = cx - jx, cy - jy, cz - jz
         wjx, wjy, wjz = spins[j, 0], spins[j, 1], spins[j, 2]
-        ux = velocities[j, 0] + wjy * rjz - wjz * rjy
-        uy = velocities[j, 1] + wjz * rjx - wjx * rjz
-        uz = velocities[j, 2] + wjx * rjy - wjy * rjx
+        ux, uy, uz = point_velocity(velocities[j, 0], velocities[j, 1], velocities[j, 2],
+                                    wjx, wjy, wjz, rjx, rjy, rjz)
         if image:
             ux += cell_rate[0, 0] * mx + cell_rate[0, 1] * my + cell_rate[0, 2] * mz
             uy += cell_rate[1, 0] * mx + cell_rate[1, 1] * my + cell_rate[1, 2] * mz
             uz += cell_rate[2, 0] * mx + cell_rate[2, 1] * my + cell_rate[2, 2] * mz
-        rix, riy, riz = 0.0, 0.0, 0.0
-        wix, wiy, wiz = 0.0, 0.0, 0.0
-        if i >= 0:
-            rix, riy, riz = cx - positions[i, 0], cy - positions[i, 1], cz - positions[i, 2]
-            wix, wiy, wiz = spins[i, 0], spins[i, 1], spins[i, 2]
-            ux -= velocities[i, 0] + wiy * riz - wiz * riy
-            uy -= velocities[i, 1] + wiz * rix - wix * riz
-            uz -= velocities[i, 2] + wix * riy - wiy * rix
-        else:
-            sw = wall_speed[-1 - i]
-            ux, uy, uz = ux - sw * nx, uy - sw * ny, uz - sw * nz
+        ux, uy, uz, rix, riy, riz, wix, wiy, wiz = less_body_i(
+            i, ux, uy, uz, cx, cy, cz, positions, velocities, spins, wall_n, wall_speed)
         if record:
             rel_vel[k, 0], rel_vel[k, 1], rel_vel[k, 2] = ux, uy, uz
         overlap = -g
@@ -263,19 +256,11 @@ def _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_
                                               m_eff)
         fn = max(0.0, fne - c_n * un)
         stiffness[k] = s_n
-        hx, hy, hz = xi[k, 0], xi[k, 1], xi[k, 2]  # the tangential spring's force [N]
-        if step > 0.0:
-            spin_n = 0.5 * ((wix + wjx) * nx + (wiy + wjy) * ny + (wiz + wjz) * nz)
-            hx, hy, hz = turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, step)
-            f = k_t * step  # incremental: dF_t = -k_t dU_t with the stiffness of the moment
-            hx, hy, hz = hx - f * utx, hy - f * uty, hz - f * utz
-        ftx, fty, ftz = hx - c_t * utx, hy - c_t * uty, hz - c_t * utz
-        ft2 = ftx * ftx + fty * fty + ftz * ftz
-        limit = mu[k] * fn
-        if ft2 > limit * limit:  # sliding: the spring holds the Coulomb force less the
-            f = limit / math.sqrt(ft2)  # dashpot's
-            ftx, fty, ftz = f * ftx, f * fty, f * ftz
-            hx, hy, hz = ftx + c_t * utx, fty + c_t * uty, ftz + c_t * utz
+        turn = step > 0.0  # the springs carried with the contact frame and loaded
+        spin_n = 0.5 * ((wix + wjx) * nx + (wiy + wjy) * ny + (wiz + wjz) * nz)
+        ftx, fty, ftz, hx, hy, hz = mindlin_coulomb(turn, step, xi[k, 0], xi[k, 1], xi[k, 2],
+                                                    nx, ny, nz, spin_n, utx, uty, utz, k_t,
+                                                    c_t, mu[k] * fn)
         xi[k, 0], xi[k, 1], xi[k, 2] = hx, hy, hz
         fx, fy, fz = fn * nx + ftx, fn * ny + fty, fn * nz + ftz
         force[k, 0], force[k, 1], force[k, 2] = fx, fy, fz
@@ -288,20 +273,9 @@ def _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_
         mjx, mjy, mjz = rjy * fz - rjz * fy, rjz * fx - rjx * fz, rjx * fy - rjy * fx
         mix, miy, miz = -(riy * fz - riz * fy), -(riz * fx - rix * fz), -(rix * fy - riy * fx)
         if rolling > 0.0:
-            k_r = 2.25 * s_n * rolling * rolling * r_eff * r_eff
-            ex, ey, ez = wjx - wix, wjy - wiy, wjz - wiz
-            en = ex * nx + ey * ny + ez * nz
-            ex, ey, ez = ex - en * nx, ey - en * ny, ez - en * nz
-            lx, ly, lz = roll[k, 0], roll[k, 1], roll[k, 2]
-            if step > 0.0:
-                spin_n = 0.5 * ((wix + wjx) * nx + (wiy + wjy) * ny + (wiz + wjz) * nz)
-                lx, ly, lz = turn_with_frame(lx, ly, lz, nx, ny, nz, spin_n, step)
-                lx, ly, lz = lx - k_r * ex * step, ly - k_r * ey * step, lz - k_r * ez * step
-            moment = math.sqrt(lx * lx + ly * ly + lz * lz)
-            cap = rolling * r_eff * fn
-            if moment > cap:
-                f = cap / moment
-                lx, ly, lz = f * lx, f * ly, f * lz
+            lx, ly, lz = rolling_spring(turn, step, roll[k, 0], roll[k, 1], roll[k, 2], nx, ny,
+                                        nz, spin_n, wjx - wix, wjy - wiy, wjz - wiz, s_n,
+                                        rolling, r_eff, fn)
             roll[k, 0], roll[k, 1], roll[k, 2] = lx, ly, lz
             mjx, mjy, mjz = mjx + lx, mjy + ly, mjz + lz
             mix, miy, miz = mix - lx, miy - ly, miz - lz

@@ -34,7 +34,9 @@ import math
 import numpy as np
 from numba import njit
 
+from grainlab.contact.contact_kinematics import less_body_i, point_velocity
 from grainlab.contact.soft_contact_law import contact_law
+from grainlab.contact.tangential_spring import mindlin_coulomb
 from grainlab.engine.polyhedron_narrow_phase import _body_features, world_polyhedron
 from grainlab.engine.soft_contact_kernels import (
     _det3,
@@ -48,7 +50,6 @@ from grainlab.engine.soft_contact_kernels import (
     virial_kernel,
     wall_loads_kernel,
 )
-from grainlab.engine.sphere_rows import turn_with_frame
 from grainlab.geometry.polyhedron_contact import MAX_POINTS, signed_distance
 from grainlab.geometry.polyhedron_manifold import pair_manifold, wall_manifold
 
@@ -73,21 +74,12 @@ def world_boundaries_kernel(positions, orientations, bodies, world):
 def _velocity_at(i, j, px, py, pz, cj, rate, positions, velocities, spins, wall_n, wall_speed):
     """Velocity (3 floats) [m/s] of body j's image (centre ``cj`` (3,), image speed ``rate``
     (3,)) relative to body i (or wall -1 - i) at the point p."""
-    rx, ry, rz = px - cj[0], py - cj[1], pz - cj[2]
-    wx, wy, wz = spins[j, 0], spins[j, 1], spins[j, 2]
-    ux = velocities[j, 0] + wy * rz - wz * ry + rate[0]
-    uy = velocities[j, 1] + wz * rx - wx * rz + rate[1]
-    uz = velocities[j, 2] + wx * ry - wy * rx + rate[2]
-    if i >= 0:
-        rx, ry, rz = px - positions[i, 0], py - positions[i, 1], pz - positions[i, 2]
-        wx, wy, wz = spins[i, 0], spins[i, 1], spins[i, 2]
-        ux -= velocities[i, 0] + wy * rz - wz * ry
-        uy -= velocities[i, 1] + wz * rx - wx * rz
-        uz -= velocities[i, 2] + wx * ry - wy * rx
-    else:
-        w = -1 - i
-        s = wall_speed[w]
-        ux, uy, uz = ux - s * wall_n[w, 0], uy - s * wall_n[w, 1], uz - s * wall_n[w, 2]
+    ux, uy, uz = point_velocity(velocities[j, 0], velocities[j, 1], velocities[j, 2],
+                                spins[j, 0], spins[j, 1], spins[j, 2], px - cj[0], py - cj[1],
+                                pz - cj[2])
+    ux, uy, uz, _, _, _, _, _, _ = less_body_i(i, ux + rate[0], uy + rate[1], uz + rate[2],
+                                               px, py, pz, positions, velocities, spins,
+                                               wall_n, wall_speed)
     return ux, uy, uz
 
 
@@ -241,21 +233,12 @@ def polyhedron_forces_kernel(step, code, params, library, world, pair_i, pair_j,
         utx, uty, utz = ux - un * nx, uy - un * ny, uz - un * nz
         _, s_n, k_t, _, c_t = contact_law(code, params[row], squares / total, r_eff[p], m_eff)
         stiffness[p] = s_n
-        hx, hy, hz = xi[p, 0], xi[p, 1], xi[p, 2]
-        if step > 0.0:
-            spin_n = spins[j, 0] * nx + spins[j, 1] * ny + spins[j, 2] * nz
-            if i >= 0:
-                spin_n += spins[i, 0] * nx + spins[i, 1] * ny + spins[i, 2] * nz
-            hx, hy, hz = turn_with_frame(hx, hy, hz, nx, ny, nz, 0.5 * spin_n, step)
-            f = k_t * step
-            hx, hy, hz = hx - f * utx, hy - f * uty, hz - f * utz
-        ftx, fty, ftz = hx - c_t * utx, hy - c_t * uty, hz - c_t * utz
-        ft = math.sqrt(ftx * ftx + fty * fty + ftz * ftz)
-        limit = mu[p] * normal_sum
-        if ft > limit:  # sliding: the spring holds the Coulomb force less the dashpot's
-            f = limit / ft
-            ftx, fty, ftz = f * ftx, f * fty, f * ftz
-            hx, hy, hz = ftx + c_t * utx, fty + c_t * uty, ftz + c_t * utz
+        spin_n = spins[j, 0] * nx + spins[j, 1] * ny + spins[j, 2] * nz
+        if i >= 0:
+            spin_n += spins[i, 0] * nx + spins[i, 1] * ny + spins[i, 2] * nz
+        ftx, fty, ftz, hx, hy, hz = mindlin_coulomb(step > 0.0, step, xi[p, 0], xi[p, 1],
+                                                    xi[p, 2], nx, ny, nz, 0.5 * spin_n, utx,
+                                                    uty, utz, k_t, c_t, mu[p] * normal_sum)
         xi[p, 0], xi[p, 1], xi[p, 2] = hx, hy, hz
         force[p, 0] += ftx
         force[p, 1] += fty

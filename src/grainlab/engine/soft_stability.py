@@ -110,6 +110,7 @@ import math
 import numpy as np
 from numba import njit
 
+from grainlab.contact.contact_kinematics import less_body_i, point_velocity
 from grainlab.contact.soft_contact_law import contact_law
 from grainlab.engine.narrow_phase import sphere_sphere
 from grainlab.engine.quaternion import rotate
@@ -372,22 +373,13 @@ def sphere_elements_kernel(horizon, code, params, rolling, body_i, body_j, off_i
             m_eff = 1.0 / inv_mass[j]
         rjx, rjy, rjz = cx - jx, cy - jy, cz - jz
         wjx, wjy, wjz = spins[j, 0], spins[j, 1], spins[j, 2]
-        ux = velocities[j, 0] + wjy * rjz - wjz * rjy \
-            + cell_rate[0, 0] * mx + cell_rate[0, 1] * my + cell_rate[0, 2] * mz
-        uy = velocities[j, 1] + wjz * rjx - wjx * rjz \
-            + cell_rate[1, 0] * mx + cell_rate[1, 1] * my + cell_rate[1, 2] * mz
-        uz = velocities[j, 2] + wjx * rjy - wjy * rjx \
-            + cell_rate[2, 0] * mx + cell_rate[2, 1] * my + cell_rate[2, 2] * mz
-        rix = riy = riz = 0.0
-        if i >= 0:
-            rix, riy, riz = cx - positions[i, 0], cy - positions[i, 1], cz - positions[i, 2]
-            wix, wiy, wiz = spins[i, 0], spins[i, 1], spins[i, 2]
-            ux -= velocities[i, 0] + wiy * riz - wiz * riy
-            uy -= velocities[i, 1] + wiz * rix - wix * riz
-            uz -= velocities[i, 2] + wix * riy - wiy * rix
-        else:
-            sw = wall_speed[w]
-            ux, uy, uz = ux - sw * nx, uy - sw * ny, uz - sw * nz
+        ux, uy, uz = point_velocity(velocities[j, 0], velocities[j, 1], velocities[j, 2],
+                                    wjx, wjy, wjz, rjx, rjy, rjz)
+        ux = ux + cell_rate[0, 0] * mx + cell_rate[0, 1] * my + cell_rate[0, 2] * mz
+        uy = uy + cell_rate[1, 0] * mx + cell_rate[1, 1] * my + cell_rate[1, 2] * mz
+        uz = uz + cell_rate[2, 0] * mx + cell_rate[2, 1] * my + cell_rate[2, 2] * mz
+        ux, uy, uz, rix, riy, riz, _, _, _ = less_body_i(
+            i, ux, uy, uz, cx, cy, cz, positions, velocities, spins, wall_n, wall_speed)
         un = ux * nx + uy * ny + uz * nz
         normal[k, 0], normal[k, 1], normal[k, 2] = nx, ny, nz
         arm_i[k, 0], arm_i[k, 1], arm_i[k, 2] = rix, riy, riz
@@ -512,18 +504,15 @@ def zigzag_sums_kernel(body_i, body_j, images, closed, point, normal, half, posi
         rx = px - positions[j, 0] - (cell_h[0, 0] * mx + cell_h[0, 1] * my + cell_h[0, 2] * mz)
         ry = py - positions[j, 1] - (cell_h[1, 0] * mx + cell_h[1, 1] * my + cell_h[1, 2] * mz)
         rz = pz - positions[j, 2] - (cell_h[2, 0] * mx + cell_h[2, 1] * my + cell_h[2, 2] * mz)
-        wx, wy, wz = spins[j, 0], spins[j, 1], spins[j, 2]
-        ux = velocities[j, 0] + wy * rz - wz * ry \
-            + cell_rate[0, 0] * mx + cell_rate[0, 1] * my + cell_rate[0, 2] * mz
-        uy = velocities[j, 1] + wz * rx - wx * rz \
-            + cell_rate[1, 0] * mx + cell_rate[1, 1] * my + cell_rate[1, 2] * mz
-        uz = velocities[j, 2] + wx * ry - wy * rx \
-            + cell_rate[2, 0] * mx + cell_rate[2, 1] * my + cell_rate[2, 2] * mz
-        rx, ry, rz = px - positions[i, 0], py - positions[i, 1], pz - positions[i, 2]
-        wx, wy, wz = spins[i, 0], spins[i, 1], spins[i, 2]
-        ux -= velocities[i, 0] + wy * rz - wz * ry
-        uy -= velocities[i, 1] + wz * rx - wx * rz
-        uz -= velocities[i, 2] + wx * ry - wy * rx
+        ux, uy, uz = point_velocity(velocities[j, 0], velocities[j, 1], velocities[j, 2],
+                                    spins[j, 0], spins[j, 1], spins[j, 2], rx, ry, rz)
+        ux = ux + cell_rate[0, 0] * mx + cell_rate[0, 1] * my + cell_rate[0, 2] * mz
+        uy = uy + cell_rate[1, 0] * mx + cell_rate[1, 1] * my + cell_rate[1, 2] * mz
+        uz = uz + cell_rate[2, 0] * mx + cell_rate[2, 1] * my + cell_rate[2, 2] * mz
+        qx, qy, qz = point_velocity(velocities[i, 0], velocities[i, 1], velocities[i, 2],
+                                    spins[i, 0], spins[i, 1], spins[i, 2], px - positions[i, 0],
+                                    py - positions[i, 1], pz - positions[i, 2])
+        ux, uy, uz = ux - qx, uy - qy, uz - qz
         nx, ny, nz = normal[k, 0], normal[k, 1], normal[k, 2]
         hx, hy, hz = half[k, 0], half[k, 1], half[k, 2]
         dx, dy, dz = ux - hx, uy - hy, uz - hz

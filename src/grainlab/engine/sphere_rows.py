@@ -20,28 +20,12 @@ import numpy as np
 from numba import njit
 
 from grainlab._vector_loops import DistinctArrays, pick, root
+from grainlab.contact.contact_kinematics import point_velocity
 from grainlab.contact.soft_contact_law import contact_law
+from grainlab.contact.tangential_spring import mindlin_coulomb
 
 ONE, TWO, THREE, SIX = np.uint64(1), np.uint64(2), np.uint64(3), np.uint64(6)
 """Unsigned index steps: no wrap-around of negative indices, so LLVM sees the row strides."""
-
-@njit(inline="always")
-def turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, dt):
-    """A tangential history vector (hx, hy, hz) carried into the current tangent plane of
-    normal n: normal part removed, length kept, then turned by ``spin_n`` dt about n; a zero
-    vector, or one that the turn leaves zero, stays zero. Without a branch (selects), so
-    that it vectorizes."""
-    old = hx * hx + hy * hy + hz * hz  # squared lengths: one square root
-    dot = hx * nx + hy * ny + hz * nz
-    tx, ty, tz = hx - dot * nx, hy - dot * ny, hz - dot * nz
-    angle = spin_n * dt
-    cx, cy, cz = ny * tz - nz * ty, nz * tx - nx * tz, nx * ty - ny * tx
-    tx, ty, tz = tx + angle * cx, ty + angle * cy, tz + angle * cz
-    new = tx * tx + ty * ty + tz * tz
-    keep = (old != 0.0) & (new != 0.0)
-    f = root(old / pick(new != 0.0, new, 1.0))  # (no division by zero under any error model)
-    return pick(keep, f * tx, 0.0), pick(keep, f * ty, 0.0), pick(keep, f * tz, 0.0)
-
 
 @njit(cache=True, _nrt=False, error_model="numpy", pipeline_class=DistinctArrays)
 def sphere_rows_kernel(lo, hi, step, record, code, params, body_i, body_j, rad_i, rad_j,
@@ -93,17 +77,16 @@ def sphere_rows_kernel(lo, hi, step, record, code, params, body_i, body_j, rad_i
         # relative velocity of j (image) with respect to i at the contact point
         rjx, rjy, rjz = cx - jx, cy - jy, cz - jz
         wjx, wjy, wjz = spins[j, 0], spins[j, 1], spins[j, 2]
-        ux = velocities[j, 0] + wjy * rjz - wjz * rjy
-        uy = velocities[j, 1] + wjz * rjx - wjx * rjz
-        uz = velocities[j, 2] + wjx * rjy - wjy * rjx
+        ux, uy, uz = point_velocity(velocities[j, 0], velocities[j, 1], velocities[j, 2],
+                                    wjx, wjy, wjz, rjx, rjy, rjz)
         ux += r00 * mx + r01 * my + r02 * mz
         uy += r10 * mx + r11 * my + r12 * mz
         uz += r20 * mx + r21 * my + r22 * mz
         rix, riy, riz = cx - xa, cy - ya, cz - za
         wix, wiy, wiz = spins[i, 0], spins[i, 1], spins[i, 2]
-        ux -= velocities[i, 0] + wiy * riz - wiz * riy
-        uy -= velocities[i, 1] + wiz * rix - wix * riz
-        uz -= velocities[i, 2] + wix * riy - wiy * rix
+        qx, qy, qz = point_velocity(velocities[i, 0], velocities[i, 1], velocities[i, 2],
+                                    wix, wiy, wiz, rix, riy, riz)
+        ux, uy, uz = ux - qx, uy - qy, uz - qz
         if record:
             normal[k3], normal[k3 + ONE], normal[k3 + TWO] = nx, ny, nz
             point[k3], point[k3 + ONE], point[k3 + TWO] = cx, cy, cz
@@ -119,20 +102,10 @@ def sphere_rows_kernel(lo, hi, step, record, code, params, body_i, body_j, rad_i
         hx = pick(closed, xi[k3], 0.0)  # the tangential spring's force [N]
         hy = pick(closed, xi[k3 + ONE], 0.0)
         hz = pick(closed, xi[k3 + TWO], 0.0)
-        if turn:  # the spring carried with the contact frame, then dF_t = -k_t dU_t
-            spin_n = 0.5 * ((wix + wjx) * nx + (wiy + wjy) * ny + (wiz + wjz) * nz)
-            hx, hy, hz = turn_with_frame(hx, hy, hz, nx, ny, nz, spin_n, step)
-            f = k_t * step
-            hx, hy, hz = hx - f * utx, hy - f * uty, hz - f * utz
-        ftx, fty, ftz = hx - c_t * utx, hy - c_t * uty, hz - c_t * utz
-        ft2 = ftx * ftx + fty * fty + ftz * ftz
-        limit = mu[k] * fn
-        slide = ft2 > limit * limit  # the spring holds the Coulomb force less the dashpot's
-        f = limit / root(ft2)
-        ftx, fty, ftz = pick(slide, f * ftx, ftx), pick(slide, f * fty, fty), \
-            pick(slide, f * ftz, ftz)
-        hx, hy, hz = pick(slide, ftx + c_t * utx, hx), pick(slide, fty + c_t * uty, hy), \
-            pick(slide, ftz + c_t * utz, hz)
+        # the spring carried with the contact frame, loaded, capped by Coulomb's law
+        spin_n = 0.5 * ((wix + wjx) * nx + (wiy + wjy) * ny + (wiz + wjz) * nz)
+        ftx, fty, ftz, hx, hy, hz = mindlin_coulomb(turn, step, hx, hy, hz, nx, ny, nz, spin_n,
+                                                    utx, uty, utz, k_t, c_t, mu[k] * fn)
         fx, fy, fz = fn * nx + ftx, fn * ny + fty, fn * nz + ftz
         xi[k3], xi[k3 + ONE], xi[k3 + TWO] = hx, hy, hz
         stiffness[k] = s_n
