@@ -44,7 +44,8 @@ from grainlab.micromech.micro_element.model import MicroElementModel
 from grainlab.result.test_result import read_test_result
 
 SMALL_RUN = ("triaxial", "--no-progress", "--boundary", "periodic", "-n", "150",
-             "--size-ratio", "1.5", "--eps-q", "0.02", "--sigma0", "1e5", "--mu", "0.4", "--inertia", "0.01",
+             "--size-ratio", "1.5", "--eps-q", "0.02", "--sigma0", "1e5", "--mu", "0.4",
+             "--inertia", "0.01",
              "--record-every", "5", "--snapshot-every", "100000", "--seed", "1")
 """The discrete run made when the folder given holds none (grainlab's command line)."""
 
