@@ -22,7 +22,7 @@ def test_the_defaults_are_the_documented_values():
     assert SHEAR == StageNumerics(friction=0.4, inertia_number=1e-3, time_step_factor=0.003,
                                   tolerance=1.666e-4, max_iterations=2000,
                                   overlap_recovery=0.5, time_step_growth=2.0,
-                                  overlap_bound=5e-3)
+                                  overlap_bound=5e-3, capped_share_limit=0.5)
     settings = DiscreteTestSettings()
     assert settings.compaction is COMPACTION and settings.shear is SHEAR
 

@@ -69,7 +69,10 @@ def test_the_report_holds_the_window_averages_and_links_existing_figures(run_fol
     assert float(mean) == pytest.approx(inside["q_over_trace"].mean(), rel=1e-3)
     assert float(std) == pytest.approx(inside["q_over_trace"].std(ddof=1), rel=1e-3)
     assert float(rows["q/p, peak"][0]) == pytest.approx(shear["q_over_trace"].max(), rel=1e-3)
-    assert rows["particles"][0] == "30 spheres" and rows["outcome"][0] == "as asked"
+    outcome = read_test_result(run_folder / "results.h5").metadata["outcome"]
+    # 30 spheres sheared fast (I = 0.01): the walls' stresses lag their target by a few
+    # tens of percent, which the outcome judges; the report says what the outcome says
+    assert rows["particles"][0] == "30 spheres" and rows["outcome"][0] == outcome["status"]
     assert "capped steps, shear" in rows
     links = re.findall(r"\]\(([^)]+)\)", text)
     assert {"curves.png", "force_pdfs.png", "angular_distributions.png",
