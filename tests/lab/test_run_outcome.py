@@ -261,3 +261,21 @@ def test_a_dem_stage_whose_sub_steps_were_unstable_is_not_as_asked(zigzag, stabl
     cd = stage_outcome(record, rows, SimpleNamespace(
         method="cd", numerics_for=settings.numerics_for, quasi_static=None), {})
     assert cd.scheme_stable is None
+
+
+def test_the_progress_of_a_periodic_compaction_reads_the_cells_stress(tmp_path):
+    # a periodic cell has no walls: its compaction's loading is the cell's stress
+    # (cell_sigma_*) against its target, as the walls' (wall_sigma_*) in a box
+    config = RunConfig.model_validate({
+        "sample": {"n_particles": 150, "seed": 1, "size_ratio": 1.2, "boundary": "periodic"},
+        "test": {"kind": "triaxial", "eps_q_max": 0.01},
+        "output": {"record_every": 1}})
+    run = start_run(tmp_path / "run", config)
+    seen = []
+    run.test.on_record = lambda test, row: seen.append((progress_fields(test, row), row))
+    run.run(max_steps=12)
+    assert len(seen) >= 10
+    for (fraction, info), row in seen:
+        assert 0.0 <= fraction <= 1.0 and "unbalanced force" in info
+        assert "wall_sigma_xx" not in row and "cell_sigma_xx" in row
+    assert len({fraction for (fraction, _), _ in seen}) > 1  # it moves

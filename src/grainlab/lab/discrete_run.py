@@ -596,26 +596,35 @@ class _ProgressBar:
 
 def progress_fields(test: DiscreteTest, row: dict) -> tuple[float, str]:
     """(fraction done in [0, 1], text) of the progress bar at a record. A stage with a
-    strain-controlled axis: its strain against its target. A compaction: half the mean wall
-    stress against its target, half the unbalanced force ratio against its quasi-static
-    bound on a log scale (1 to the bound), the text showing both and the kinetic energy ratio
-    with their targets, so that a compaction that does not settle is seen stuck at its
-    numbers, not at a percentage."""
+    strain-controlled axis: its stop quantity (eps_q...) against its limit, else its strain
+    (walls) or progress (periodic cell) against its target. A compaction: half the mean
+    boundary stress (walls or cell) against its target, half the unbalanced force ratio
+    against its quasi-static bound on a log scale (1 to the bound), the text showing both and
+    the kinetic energy ratio with their targets, so that a compaction that does not settle is
+    seen stuck at its numbers, not at a percentage."""
     stage = test.stage
+    cell = isinstance(test, CellTest)  # its stage's progress: lambda in [0, n_steps]
     steps = f"step {row['step']} ({row['step'] - test.stage_start_step} of <= " \
             f"{test.settings.max_stage_steps} in the stage)"
     if stage.moving_axes:
-        stop = [c.limit for c in stage.stop if c.quantity == "eps_q"]
-        done = row["eps_q"] / stop[0] if stop else max(
-            abs(math.log(test.stage_start_lengths[a] / test.sample.box.lengths[a]))
-            / abs(stage.targets[a]) for a in stage.moving_axes)
+        stop = [abs(row[c.quantity] / c.limit) for c in stage.stop if c.when == "above"
+                and c.limit and math.isfinite(row.get(c.quantity, math.nan))]
+        if stop:
+            done = max(stop)
+        elif cell:
+            done = test.progress / max(stage.n_steps, 1)
+        else:
+            done = max(abs(math.log(test.stage_start_lengths[a] / test.sample.box.lengths[a]))
+                       / abs(stage.targets[a]) for a in stage.moving_axes)
         return min(max(done, 0.0), 1.0), (
             f"{steps}  q/p {row['q_over_trace']:.3f}  packing fraction "
             f"{row['packing_fraction']:.4f}  z {row['z']:.2f}  I {row['inertia_number']:.1e} (<= "
             f"{test.stage_numerics.inertia_number:g})")
     criteria: QuasiStaticCriteria = test.settings.quasi_static
-    targets = [stage.targets[a] for a in stage.stress_axes if math.isfinite(stage.targets[a])]
-    wall_p = (row["wall_sigma_xx"] + row["wall_sigma_yy"] + row["wall_sigma_zz"]) / 3.0
+    targets = [test.reference_stress] if cell else \
+        [stage.targets[a] for a in stage.stress_axes if math.isfinite(stage.targets[a])]
+    held = "wall_sigma_" if "wall_sigma_xx" in row else "cell_sigma_"  # walls or cell
+    wall_p = (row[held + "xx"] + row[held + "yy"] + row[held + "zz"]) / 3.0
     loaded = min(1.0, max(wall_p / np.mean(targets), 0.0)) if targets else 1.0
     ratio, bound = row["unbalanced_force_ratio"], criteria.unbalanced_force
     settled = min(1.0, max(math.log(ratio) / math.log(bound), 0.0)) \
