@@ -18,7 +18,14 @@ Quick start::
 
 import grainlab._numba_setup  # noqa: F401  (threading layer, before any kernel)
 from grainlab._version import __version__
-from grainlab.errors import ConvergenceError, GeometryError, GrainlabError, InputError
+from grainlab.errors import (
+    ConvergenceError,
+    GeometryError,
+    GrainlabError,
+    GrainlabWarning,
+    InputError,
+    SolverDivergence,
+)
 from grainlab.geometry.disc_packing import DiscPacking2D
 from grainlab.prep.regular_packings import named_packing, packing_names
 from grainlab.result import TestResult, read_test_result
@@ -28,7 +35,9 @@ __all__ = [
     "DiscPacking2D",
     "GeometryError",
     "GrainlabError",
+    "GrainlabWarning",
     "InputError",
+    "SolverDivergence",
     "TestResult",
     "__version__",
     "named_packing",

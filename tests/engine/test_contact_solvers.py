@@ -282,6 +282,15 @@ def sticking_cluster(n=48, rank=20, spread=0.1, mu=0.7, seed=0):
     return FrictionalContactProblem(w, -w @ r.ravel(), np.full(n, mu)), r.ravel()
 
 
+def test_a_divergence_is_caught_through_the_package_as_a_convergence_error():
+    import grainlab as gl
+
+    problem, _ = sticking_cluster()
+    with pytest.raises(gl.ConvergenceError) as caught:  # what a script catches
+        solve(problem, "jacobi", tolerance=1e-10, max_iterations=100_000)
+    assert type(caught.value) is gl.SolverDivergence is SolverDivergence
+
+
 def test_a_diverging_jacobi_stops_early_and_names_the_relaxation_that_helps():
     problem, exact = sticking_cluster()
     bound = jacobi_relaxation_bound(problem)
