@@ -1,9 +1,9 @@
 """Kinematics of a contact point: the velocity of a point carried by a rigid body, from which
-every solver forms the relative velocity U = u_j - u_i of its contacts (the soft passes of
-:mod:`grainlab.engine.soft_contact_kernels`, :mod:`grainlab.engine.sphere_rows`,
+every solver forms the relative velocity U = u_j - u_i of its contacts, and the gap of a
+sphere to a plane wall (the soft passes of :mod:`grainlab.engine.soft_contact_kernels`, :mod:`grainlab.engine.sphere_rows`,
 :mod:`grainlab.engine.soft_polyhedra_kernels`, the dashpots' bound of
-:mod:`grainlab.engine.soft_stability` and contact dynamics' sweeps). A scalar function
-compiled inline, without a branch."""
+:mod:`grainlab.engine.soft_stability` and contact dynamics' sweeps). Scalar functions
+compiled inline, without branches."""
 
 from __future__ import annotations
 
@@ -38,3 +38,16 @@ def less_body_i(i, ux, uy, uz, px, py, pz, positions, velocities, spins, wall_n,
         s = wall_speed[w]
         ux, uy, uz = ux - s * wall_n[w, 0], uy - s * wall_n[w, 1], uz - s * wall_n[w, 2]
     return ux, uy, uz, rix, riy, riz, wix, wiy, wiz
+
+
+@njit(inline="always")
+def sphere_wall_gap(bx, by, bz, rb, w, wall_n, wall_p0, wall_disp):
+    """The gap g [m] of the sphere of centre b [m] and radius rb [m] to the plane wall w, of
+    unit normal ``wall_n[w]`` (towards the sample) through ``wall_p0[w]`` [m] moved by
+    ``wall_disp[w]`` [m] along it: g = (b - p0 - d n) . n - rb (negative: overlap). Returns
+    (g, n_x, n_y, n_z)."""
+    nx, ny, nz = wall_n[w, 0], wall_n[w, 1], wall_n[w, 2]
+    d = wall_disp[w]
+    g = ((bx - wall_p0[w, 0] - d * nx) * nx + (by - wall_p0[w, 1] - d * ny) * ny
+         + (bz - wall_p0[w, 2] - d * nz) * nz - rb)
+    return g, nx, ny, nz

@@ -36,7 +36,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from grainlab.contact.contact_kinematics import less_body_i, point_velocity
+from grainlab.contact.contact_kinematics import less_body_i, point_velocity, sphere_wall_gap
 from grainlab.contact.rolling_resistance import rolling_spring
 from grainlab.contact.soft_contact_law import contact_law
 from grainlab.contact.tangential_spring import mindlin_coulomb
@@ -210,10 +210,7 @@ def _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_
                 g, nx, ny, nz, cx, cy, cz = sphere_sphere(ax, ay, az, ra, bx, by, bz, rb)
         else:
             w = -1 - i
-            nx, ny, nz = wall_n[w, 0], wall_n[w, 1], wall_n[w, 2]
-            d = wall_disp[w]
-            g = ((bx - wall_p0[w, 0] - d * nx) * nx + (by - wall_p0[w, 1] - d * ny) * ny
-                 + (bz - wall_p0[w, 2] - d * nz) * nz - rb)
+            g, nx, ny, nz = sphere_wall_gap(bx, by, bz, rb, w, wall_n, wall_p0, wall_disp)
         gap[k] = g
         if g >= 0.0:  # open: the springs are released (once: an open row stays zero)
             if step == 0.0 or stiffness[k] != 0.0:

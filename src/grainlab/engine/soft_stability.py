@@ -110,7 +110,7 @@ import math
 import numpy as np
 from numba import njit
 
-from grainlab.contact.contact_kinematics import less_body_i, point_velocity
+from grainlab.contact.contact_kinematics import less_body_i, point_velocity, sphere_wall_gap
 from grainlab.contact.soft_contact_law import contact_law
 from grainlab.engine.narrow_phase import sphere_sphere
 from grainlab.engine.quaternion import rotate
@@ -363,10 +363,7 @@ def sphere_elements_kernel(horizon, code, params, rolling, body_i, body_j, off_i
             w = 0
         else:
             w = -1 - i
-            nx, ny, nz = wall_n[w, 0], wall_n[w, 1], wall_n[w, 2]
-            d = wall_disp[w]
-            g = ((bx - wall_p0[w, 0] - d * nx) * nx + (by - wall_p0[w, 1] - d * ny) * ny
-                 + (bz - wall_p0[w, 2] - d * nz) * nz - rb)
+            g, nx, ny, nz = sphere_wall_gap(bx, by, bz, rb, w, wall_n, wall_p0, wall_disp)
             s = rb + 0.5 * g
             cx, cy, cz = bx - s * nx, by - s * ny, bz - s * nz
             r_eff = rb
