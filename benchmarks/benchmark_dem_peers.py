@@ -35,7 +35,7 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from grainlab.engine.soft_contact import threads_pay
+from grainlab.engine.dem.soft_contact import threads_pay
 from grainlab.lab.discrete_run import start_run
 from grainlab.lab.run_config import RunConfig
 

@@ -18,7 +18,7 @@ import time
 import numba
 import numpy as np
 
-from grainlab.engine.broad_phase import CellListBroadPhase
+from grainlab.engine.detect.broad_phase import CellListBroadPhase
 
 PACKING_FRACTION = 0.6
 R_MIN = 1e-3  # m

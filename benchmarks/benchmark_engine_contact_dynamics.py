@@ -41,11 +41,11 @@ import numba
 import numpy as np
 from numba import njit
 
-import grainlab.engine.contact_dynamics as cd
-import grainlab.engine.nlgs_parallel as nlgs_parallel
-from grainlab.engine.broad_phase import CellListBroadPhase
+import grainlab.engine.nscd.contact_dynamics as cd
+import grainlab.engine.nscd.nlgs_parallel as nlgs_parallel
+from grainlab.engine.boundaries.wall_box import WallBox
+from grainlab.engine.detect.broad_phase import CellListBroadPhase
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.engine.wall_box import WallBox
 
 D = 1e-3  # m, smallest diameter
 DENSITY = 2500.0  # kg/m^3

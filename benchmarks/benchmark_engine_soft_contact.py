@@ -1,4 +1,4 @@
-"""Speed of the soft-contact DEM step (grainlab.engine.soft_contact): particle-steps per second
+"""Speed of the soft-contact DEM step (grainlab.engine.dem.soft_contact): particle-steps per second
 against N, on a dense packing of the peers' test's spheres in a periodic cell.
 
 The packing: N spheres of diameter 1.5 mm (the mean of the peers' test's [1, 2] mm) on a
@@ -25,9 +25,9 @@ import numpy as np
 
 from grainlab._numba_setup import threading_layer
 from grainlab.contact.soft_contact_law import SoftContactLaw
-from grainlab.engine import soft_contact
-from grainlab.engine.periodic_boundary import PeriodicCell
-from grainlab.engine.soft_contact import SoftContactStep
+from grainlab.engine.boundaries.periodic_boundary import PeriodicCell
+from grainlab.engine.dem import soft_contact
+from grainlab.engine.dem.soft_contact import SoftContactStep
 from grainlab.engine.state import BodyState, ShapeLibrary
 
 DIAMETER = 1.5e-3

@@ -1,4 +1,4 @@
-"""Speed of the soft-contact DEM step on convex polyhedra (grainlab.engine.soft_polyhedra):
+"""Speed of the soft-contact DEM step on convex polyhedra (grainlab.engine.dem.soft_polyhedra):
 sub-steps per second of N polyhedra resting in a wall box under gravity.
 
 The packing: N random polyhedra of seed 002 (n_f faces, each its own shape, circumscribed
@@ -19,7 +19,7 @@ import argparse
 import time
 
 from grainlab.contact.soft_contact_law import SoftContactLaw
-from grainlab.engine.soft_contact import SoftContactStep
+from grainlab.engine.dem.soft_contact import SoftContactStep
 from grainlab.prep.loose_sample import loose_sample
 
 SETTLE = 0.2  # s of deposition before the timing

@@ -23,7 +23,7 @@ import time
 import numba
 import numpy as np
 
-from grainlab.engine.narrow_phase import POLYHEDRON_CONTACT_TYPE_NAMES, NarrowPhase
+from grainlab.engine.detect.narrow_phase import POLYHEDRON_CONTACT_TYPE_NAMES, NarrowPhase
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.geometry.polyhedron import random_polyhedron
 

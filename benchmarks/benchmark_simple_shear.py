@@ -18,7 +18,7 @@ computed on the averaged rows. Angles are inclinations from the horizontal plane
 positive as gamma_xz, in [-90, 90).
 
 Strains are the cell's natural strains (its step strains summed, compression positive:
-``grainlab.engine.periodic_boundary``): in a simple shear eps_xx = eps_yy = gamma_yz =
+``grainlab.engine.boundaries.periodic_boundary``): in a simple shear eps_xx = eps_yy = gamma_yz =
 gamma_xy = 0 exactly, gamma_xz = int gammadot dt and eps_zz the (dilatant) height change; the
 kinematics check prints the largest |eps_xx|, |eps_yy|, |gamma_yz|, |gamma_xy| in the shear,
 and the increments of the recorded columns are the true strain increments the angle xi

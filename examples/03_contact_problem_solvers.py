@@ -1,5 +1,5 @@
 """The frictional contact problem on its own: u = W r + q with Coulomb's law at each contact,
-solved by every method of :func:`grainlab.engine.contact_solvers.solve`
+solved by every method of :func:`grainlab.engine.nscd.plain_problem_methods.solve`
 (docs/discrete_engine.md, "The contact problem on its own").
 
 1. A sphere resting on a plane tilted by 20 deg (mu = 0.5 > tan 20 deg, so it sticks): the
@@ -26,16 +26,16 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from grainlab.engine.contact_dynamics import ContactDynamicsStep
-from grainlab.engine.contact_problem import (
+from grainlab.engine.boundaries.wall_box import WallBox
+from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
+from grainlab.engine.nscd.contact_problem import (
     FrictionalContactProblem,
     natural_map_error,
     read_fclib,
     write_fclib,
 )
-from grainlab.engine.contact_solvers import METHODS, solve
+from grainlab.engine.nscd.plain_problem_methods import METHODS, solve
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.engine.wall_box import WallBox
 
 G = 9.81  # m/s^2
 STEP = 1e-4  # s

@@ -114,3 +114,99 @@ def test_the_scan_finds_upward_imports_wherever_they_sit(tmp_path, code, target)
     engine.mkdir(parents=True)
     (engine / "module.py").write_text(code, encoding="utf-8")
     assert upward_imports(tmp_path / "grainlab") == {("grainlab.engine.module", target)}
+
+
+ENGINE = SOURCE / "engine"
+
+ENGINE_BODIES = ("state", "shape_kinds", "quaternion", "gyroscopic", "body_order")
+"""The engine's top-level body modules: they import no engine sub-package."""
+
+ENGINE_RANKS = {"bodies": 0, "detect": 1, "boundaries": 2, "run": 3, "nscd": 4, "dem": 4}
+"""The engine's own layers (grainlab/engine/__init__.py), lowest first: a module may import
+its own rank and lower ones, and the two solvers (rank 4) never each other."""
+
+
+def engine_part(module: str) -> str | None:
+    """The engine layer of a grainlab module (None outside the engine)."""
+    parts = module.split(".")
+    if len(parts) < 3 or parts[1] != "engine":
+        return None
+    if parts[2] in ENGINE_RANKS:
+        return parts[2]
+    return "bodies" if parts[2] in ENGINE_BODIES else "run"
+
+
+def engine_imports(source: Path = SOURCE, *, typing_only: bool = True) -> dict[str, set[str]]:
+    """Each engine module -> the engine modules it imports (wherever the import sits; with
+    ``typing_only`` False, not those under ``if TYPE_CHECKING:``, which never run)."""
+    graph = {}
+    for path in sorted((source / "engine").rglob("*.py")):
+        module = module_name(path, source)
+        found = imported_modules(path, source)
+        if not typing_only:
+            found -= typing_imports(path, source)
+        graph[module] = {target for target in found if engine_part(target) is not None}
+    return graph
+
+
+def typing_imports(path: Path, source: Path = SOURCE) -> set[str]:
+    """The grainlab modules imported only under ``if TYPE_CHECKING:`` in the file."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    inside, outside = set(), set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and getattr(node.test, "id", None) == "TYPE_CHECKING":
+            for statement in node.body:
+                if isinstance(statement, ast.ImportFrom) and statement.module:
+                    inside.add(statement.module)
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module in inside and \
+                node.col_offset == 0:
+            outside.add(node.module)
+    return inside - outside
+
+
+def test_the_engine_layers_hold():
+    wrong = []
+    for module, targets in engine_imports().items():
+        own = engine_part(module)
+        for target in targets:
+            part = engine_part(target)
+            if module.endswith("__init__") or target in ("grainlab.engine",):
+                continue
+            if ENGINE_RANKS[part] > ENGINE_RANKS[own] or \
+                    (ENGINE_RANKS[part] == ENGINE_RANKS[own] == 4 and part != own):
+                wrong.append(f"  {module} ({own}) -> {target} ({part})")
+    assert not wrong, "engine imports against its layers:\n" + "\n".join(sorted(wrong))
+
+
+def test_the_engine_has_no_import_cycle():
+    """No engine module imports, when it runs, one that imports it back. An import for type
+    annotations alone may close a loop (the shape-kind registry's functions take the
+    library the registry's kinds build), since it never runs; the layers above count it."""
+    graph = engine_imports(typing_only=False)
+    state = {}
+
+    def visit(module, trail):
+        if state.get(module) == "done":
+            return
+        if state.get(module) == "open":
+            raise AssertionError("import cycle: " + " -> ".join([*trail, module]))
+        state[module] = "open"
+        for target in sorted(graph.get(module, ())):
+            visit(target, [*trail, module])
+        state[module] = "done"
+
+    for module in sorted(graph):
+        visit(module, [])
+
+
+def test_the_engine_scan_sees_a_solver_importing_the_other(tmp_path):
+    for folder in ("engine/nscd", "engine/dem"):
+        (tmp_path / "grainlab" / folder).mkdir(parents=True)
+    (tmp_path / "grainlab" / "engine" / "dem" / "soft.py").write_text(
+        "def f():\n    from grainlab.engine.nscd.sweep import g\n", encoding="utf-8")
+    assert engine_imports(tmp_path / "grainlab")["grainlab.engine.dem.soft"] == \
+        {"grainlab.engine.nscd.sweep"}
+    assert engine_part("grainlab.engine.nscd.sweep") == "nscd"
+    assert engine_part("grainlab.engine.state") == "bodies"
+    assert engine_part("grainlab.engine.simulation") == "run"

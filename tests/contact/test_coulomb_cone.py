@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from grainlab.contact.coulomb_cone import local_solve, natural_map, project_cone
-from grainlab.engine.contact_problem import project_on_cones
+from grainlab.engine.nscd.contact_problem import project_on_cones
 
 
 def test_the_projection_is_moreau_s_and_agrees_with_its_numpy_twin():

@@ -6,7 +6,7 @@ import numba
 import numpy as np
 import pytest
 
-from grainlab.engine.broad_phase import CellListBroadPhase, all_pairs
+from grainlab.engine.detect.broad_phase import CellListBroadPhase, all_pairs
 from grainlab.errors import GrainlabError, InputError
 
 LO = np.array([-1.0, 0.0, 2.0])

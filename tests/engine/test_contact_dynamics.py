@@ -13,10 +13,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grainlab.engine.contact_dynamics import ContactDynamicsStep, StepReport, nlgs_kernel
-from grainlab.engine.nlgs_parallel import nlgs_coloured_kernel
+from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
+from grainlab.engine.nscd.nlgs_parallel import nlgs_coloured_kernel
+from grainlab.engine.nscd.serial_sweep import nlgs_kernel
 from grainlab.engine.simulation import Simulation, SimulationBlowUp
 from grainlab.engine.state import BodyState, ShapeLibrary
+from grainlab.engine.step_report import StepReport
 from grainlab.errors import ConvergenceError, InputError, SolverDivergence
 from grainlab.geometry.sphere_aggregate import tetrahedral_aggregate
 from grainlab.prep.loose_sample import loose_sample

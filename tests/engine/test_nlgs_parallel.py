@@ -23,11 +23,15 @@ import numba
 import numpy as np
 import pytest
 
-import grainlab.engine.nlgs_parallel as nlgs_parallel
-from grainlab.engine.contact_colouring import colour_contacts, colour_contacts_slow, slab_contacts
-from grainlab.engine.contact_dynamics import ContactDynamicsStep
+import grainlab.engine.nscd.nlgs_parallel as nlgs_parallel
+from grainlab.engine.boundaries.wall_box import WallBox
+from grainlab.engine.nscd.contact_colouring import (
+    colour_contacts,
+    colour_contacts_slow,
+    slab_contacts,
+)
+from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.engine.wall_box import WallBox
 from grainlab.errors import InputError
 
 R = 1e-3  # m

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from grainlab.analysis.contact_stress import stress_from_network
-from grainlab.engine.contact_dynamics import ContactDynamicsStep
-from grainlab.engine.periodic_boundary import PeriodicCell
+from grainlab.engine.boundaries.periodic_boundary import PeriodicCell
+from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
 from grainlab.engine.sample_measures import cell_stress, contact_network
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError

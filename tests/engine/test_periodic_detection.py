@@ -9,8 +9,8 @@ import numba
 import numpy as np
 import pytest
 
-from grainlab.engine.narrow_phase import NarrowPhase
-from grainlab.engine.periodic_detection import (
+from grainlab.engine.detect.narrow_phase import NarrowPhase
+from grainlab.engine.detect.periodic_detection import (
     PeriodicContacts,
     PeriodicDetection,
     periodic_contacts_slow,
@@ -381,7 +381,7 @@ def test_the_cell_lists_chunks_on_the_threads_give_the_serial_rows(monkeypatch, 
     # 600 polydisperse spheres in a sheared cell by chunks of bodies (the threads' road) and
     # one after the other: the same rows in the same order, bit for bit; with an alert of
     # 2.7 diameters the chunks overflow their share of the scratch and are run again
-    from grainlab.engine import periodic_spheres
+    from grainlab.engine.detect import periodic_spheres
 
     library, state, cell = polydisperse_spheres(seed=5)
     runs = []

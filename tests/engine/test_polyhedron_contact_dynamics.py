@@ -12,10 +12,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grainlab.engine.contact_dynamics import ContactDynamicsStep, StepReport
-from grainlab.engine.narrow_phase import POLYHEDRON_CONTACT_TYPE_NAMES
+from grainlab.engine.detect.narrow_phase import POLYHEDRON_CONTACT_TYPE_NAMES
+from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
 from grainlab.engine.quaternion import quat_to_matrices
 from grainlab.engine.state import BodyState, ShapeLibrary
+from grainlab.engine.step_report import StepReport
 from grainlab.geometry.polyhedron import from_vertices
 
 G = 9.81

@@ -10,8 +10,8 @@ import pytest
 from grainlab.analysis.connectivity import Connectivity
 from grainlab.analysis.snapshot_analysis import SnapshotAnalysis
 from grainlab.analysis.snapshot_files import append_snapshot, read_snapshot
-from grainlab.engine.contact_dynamics import StepReport, contact_frames
-from grainlab.engine.narrow_phase import POLYHEDRON_CONTACT_TYPE_NAMES, Contacts
+from grainlab.engine.boundaries.wall_box import WallBox
+from grainlab.engine.detect.narrow_phase import POLYHEDRON_CONTACT_TYPE_NAMES, Contacts
 from grainlab.engine.sample_measures import (
     PAIR_TYPE_NAMES,
     contact_network,
@@ -19,7 +19,7 @@ from grainlab.engine.sample_measures import (
     sample_measures,
 )
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.engine.wall_box import WallBox
+from grainlab.engine.step_report import StepReport, contact_frames
 from grainlab.geometry.polyhedron import from_vertices
 
 DT = 1e-3

@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 
 from grainlab.contact.soft_contact_law import SoftContactLaw, hertz_impact
-from grainlab.engine.boundary import FixedPlanes
-from grainlab.engine.soft_contact import SoftContactStep
-from grainlab.engine.soft_contact_kernels import contact_forces_kernel
+from grainlab.engine.boundaries.boundary import FixedPlanes
+from grainlab.engine.boundaries.wall_box import WallBox
+from grainlab.engine.dem.soft_contact import SoftContactStep
+from grainlab.engine.dem.soft_contact_kernels import contact_forces_kernel
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.engine.wall_box import WallBox
 from grainlab.geometry.sphere_aggregate import from_spheres
 
 G = 9.81
@@ -244,7 +244,7 @@ def turned_spring_force(n_steps, vector=False):
     """Two overlapping spheres with a loaded tangential spring, turned rigidly by 90 degrees in
     ``n_steps`` steps about an axis with components along and across the normal: (force at
     the start (3,), at the end (3,), the start force turned by the rotation (3,)); through
-    the vector force pass if ``vector`` (:mod:`grainlab.engine.sphere_rows`)."""
+    the vector force pass if ``vector`` (:mod:`grainlab.engine.dem.sphere_rows`)."""
     radius, overlap = 0.01, 1e-4
     x0 = np.array([[0.0, 0.0, 0.0], [2 * radius - overlap, 0.0, 0.0]])
     axis = np.array([0.3, 0.5, 0.8]) / np.linalg.norm([0.3, 0.5, 0.8])
@@ -397,7 +397,7 @@ def jostling_setup(side: int, spin: float = 0.0, seed: int = 0):
     """side^3 jostling frictional Hertz spheres (random velocities, spins of scale ``spin``
     [rad/s]) on a lattice filling a periodic cell, and a solver of 30 sub-steps a step:
     (state, library, cell, solver)."""
-    from grainlab.engine.periodic_boundary import PeriodicCell
+    from grainlab.engine.boundaries.periodic_boundary import PeriodicCell
 
     diameter = 1.5e-3
     grid = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
@@ -429,8 +429,8 @@ def test_threads_change_nothing(monkeypatch):
     results bit for bit: 1728 jostling spheres, two blocks of rows, in a periodic cell."""
     import numba
 
-    from grainlab.engine import soft_contact
-    from grainlab.engine.soft_contact_kernels import ROW_BLOCK
+    from grainlab.engine.dem import soft_contact
+    from grainlab.engine.dem.soft_contact_kernels import ROW_BLOCK
 
     runs = []
     for threshold in (10**9, 0):  # serial, then parallel
@@ -447,9 +447,9 @@ def test_threads_change_nothing(monkeypatch):
 def test_a_run_through_the_vector_rows_gives_the_general_rows_run(monkeypatch):
     """Three steps of 512 jostling, spinning frictional Hertz spheres in a periodic cell: the
     same positions, velocities, spins and springs, bit for bit, with the vector blocks
-    (:mod:`grainlab.engine.sphere_rows`) or with every block through the general rows."""
-    from grainlab.engine import soft_contact
-    from grainlab.engine.soft_contact_kernels import ROW_BLOCK
+    (:mod:`grainlab.engine.dem.sphere_rows`) or with every block through the general rows."""
+    from grainlab.engine.dem import soft_contact
+    from grainlab.engine.dem.soft_contact_kernels import ROW_BLOCK
 
     runs = []
     for vector in (True, False):
@@ -542,8 +542,8 @@ def test_a_sphere_turns_no_contact_point_an_aggregate_turns_its_members():
     moves none of its contact points), the farthest member centre of an aggregate, the
     bounding radius of a polyhedron. A fast-spinning sphere alone in a periodic cell then
     never rebuilds its list; an aggregate spinning as fast does."""
-    from grainlab.engine.periodic_boundary import PeriodicCell
-    from grainlab.engine.soft_contact import rotation_arms
+    from grainlab.engine.boundaries.periodic_boundary import PeriodicCell
+    from grainlab.engine.dem.soft_contact import rotation_arms
     from grainlab.geometry.polyhedron import ConvexPolyhedron
 
     pair = from_spheres([[-0.002, 0.0, 0.0], [0.002, 0.0, 0.0]], [0.001, 0.001])
@@ -574,7 +574,7 @@ def test_a_sphere_turns_no_contact_point_an_aggregate_turns_its_members():
 def test_the_springs_are_carried_by_key_whatever_the_order_of_the_new_rows():
     """The springs of the last list (keys in order, one repeated) go to the rows of the new
     list with the same key, new keys in order or not: as a search of each key gives them."""
-    from grainlab.engine.neighbour_rows import carry_springs_kernel
+    from grainlab.engine.dem.neighbour_rows import carry_springs_kernel
 
     rng = np.random.default_rng(3)
     old_keys = np.sort(rng.choice(400, size=150, replace=False)).astype(np.int64)
@@ -652,7 +652,7 @@ def lattice_at_rest(kind, model, restitution, squeeze, member=0.5e-3):
     every contact at the overlap ``squeeze`` x the member diameter, at rest in a periodic
     cell with spins of 1e-6 rad/s; very rough (mu = 10). Returns (library, state, cell,
     solver)."""
-    from grainlab.engine.periodic_boundary import PeriodicCell
+    from grainlab.engine.boundaries.periodic_boundary import PeriodicCell
 
     d = 2.0 * member * (1.0 - squeeze)
     if kind == "clumps":

@@ -1,5 +1,5 @@
 """Convex polyhedra in the soft-contact DEM step against closed forms and invariants
-(:mod:`grainlab.engine.soft_polyhedra`; STYLE.md 11): a cube at rest on a face (the law's
+(:mod:`grainlab.engine.dem.soft_polyhedra`; STYLE.md 11): a cube at rest on a face (the law's
 static overlap, the wall's reaction = the weight), a flat landing (the restitution set), two
 cubes pressed face to face (equal and opposite forces, no moment), an incline (sticks below
 mu, slides with a = g (sin theta - mu cos theta) above), frame invariance, a contact through
@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 
 from grainlab.contact.soft_contact_law import SoftContactLaw
-from grainlab.engine.boundary import FixedPlanes
-from grainlab.engine.narrow_phase import NarrowPhase
-from grainlab.engine.periodic_boundary import PeriodicCell
+from grainlab.engine.boundaries.boundary import FixedPlanes
+from grainlab.engine.boundaries.periodic_boundary import PeriodicCell
+from grainlab.engine.dem.soft_contact import SoftContactStep
+from grainlab.engine.dem.soft_polyhedra import equivalent_radii
+from grainlab.engine.detect.narrow_phase import NarrowPhase
 from grainlab.engine.quaternion import quat_multiply, quat_to_matrix
-from grainlab.engine.soft_contact import SoftContactStep
-from grainlab.engine.soft_polyhedra import equivalent_radii
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron import from_vertices, random_polyhedron

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from grainlab.engine.soft_stability import (
+from grainlab.engine.dem.soft_stability import (
     BLOCK,
     DAMPED_FRACTION,
     damped_limit,

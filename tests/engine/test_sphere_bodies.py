@@ -1,5 +1,5 @@
-"""The bodies' pass of a sub-step as vector code (:mod:`grainlab.engine.sphere_bodies`)
-against the scalar pass of :func:`~grainlab.engine.soft_contact_kernels.bodies_kernel`: the
+"""The bodies' pass of a sub-step as vector code (:mod:`grainlab.engine.dem.sphere_bodies`)
+against the scalar pass of :func:`~grainlab.engine.dem.soft_contact_kernels.bodies_kernel`: the
 same velocities, spins, positions, orientations and travels, bit for bit, for spheres that
 do not turn, turn a little or turn by large angles in a sub-step, with and without the take-up
 of a change of the cell's velocity gradient."""
@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from grainlab.engine.dem.soft_contact_kernels import BODY_BLOCK, bodies_kernel, isotropic_blocks
 from grainlab.engine.quaternion import SMALL_TURN
-from grainlab.engine.soft_contact_kernels import BODY_BLOCK, bodies_kernel, isotropic_blocks
 
 
 def random_bodies(seed: int, n: int = 2 * BODY_BLOCK + 77):

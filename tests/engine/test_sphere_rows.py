@@ -1,5 +1,5 @@
-"""The vector force pass on plain sphere rows (:mod:`grainlab.engine.sphere_rows`) against the
-general row of :func:`~grainlab.engine.soft_contact_kernels.contact_forces_kernel`: the same
+"""The vector force pass on plain sphere rows (:mod:`grainlab.engine.dem.sphere_rows`) against the
+general row of :func:`~grainlab.engine.dem.soft_contact_kernels.contact_forces_kernel`: the same
 outputs, bit for bit, on random rows that cover every case of the law."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from grainlab.contact.soft_contact_law import SoftContactLaw
-from grainlab.engine.soft_contact_kernels import ROW_BLOCK, contact_forces_kernel, plain_blocks
+from grainlab.engine.dem.soft_contact_kernels import ROW_BLOCK, contact_forces_kernel, plain_blocks
 
 RADIUS = 1e-3
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grainlab.engine.narrow_phase import (
+from grainlab.engine.detect.narrow_phase import (
     CONTACT_CLASS_NAMES,
     NarrowPhase,
     classify_aggregate_pairs,

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grainlab.engine.contact_dynamics import ContactDynamicsStep
+from grainlab.engine.boundaries.wall_box import WallBox
 from grainlab.engine.discrete_sample import DiscreteSample
+from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
 from grainlab.engine.sample_measures import contact_stress
 from grainlab.engine.simulation import Periodic, Simulation, SimulationBlowUp
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.engine.wall_box import WallBox
 from grainlab.errors import InputError
 from grainlab.prep.loose_sample import loose_sample
 
@@ -167,8 +167,8 @@ def test_servo_wall_rests_at_its_stress_and_keeps_no_momentum():
     at its limit; on a sphere it comes to rest pushing with sigma A; a sphere thrown at it
     pushes it out at G v_max (R / F - 1), at most OUTWARD_SPEED_FACTOR v_max, and as soon
     as the sphere is gone it moves in again, with no outward speed left."""
-    from grainlab.engine.contact_dynamics import OUTWARD_SPEED_FACTOR
-    from grainlab.engine.wall_box import SERVO_GAIN
+    from grainlab.engine.boundaries.wall_box import SERVO_GAIN
+    from grainlab.engine.nscd.speed_limits import OUTWARD_SPEED_FACTOR
 
     sigma, limit, dt = 1e3, 1e-3, 1e-5
     step = ContactDynamicsStep(dt=dt, friction=0.0, tolerance=1e-10, max_iterations=100)

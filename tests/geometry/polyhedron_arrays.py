@@ -1,7 +1,7 @@
 """World-frame arrays of polyhedron bodies as the contact kernels take them (shared by the
 polyhedron contact tests)."""
 
-from grainlab.engine.polyhedron_narrow_phase import world_polyhedra
+from grainlab.engine.detect.polyhedron_narrow_phase import world_polyhedra
 
 
 def body_arrays(lib, state):

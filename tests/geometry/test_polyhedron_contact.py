@@ -8,7 +8,7 @@ import pytest
 from polyhedron_arrays import body_arrays
 from scipy.optimize import nnls
 
-from grainlab.engine.narrow_phase import POLYHEDRON_CONTACT_TYPE_NAMES, NarrowPhase
+from grainlab.engine.detect.narrow_phase import POLYHEDRON_CONTACT_TYPE_NAMES, NarrowPhase
 from grainlab.engine.quaternion import quat_multiply, quat_to_matrices
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.geometry.polyhedron import from_vertices, random_polyhedron

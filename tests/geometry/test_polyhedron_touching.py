@@ -19,7 +19,7 @@ from polyhedron_arrays import body_arrays
 from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
-from grainlab.engine.narrow_phase import NarrowPhase
+from grainlab.engine.detect.narrow_phase import NarrowPhase
 from grainlab.engine.quaternion import quat_to_matrices
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.geometry.polyhedron import from_vertices, random_polyhedron

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grainlab.engine.soft_contact import SoftContactStep
+from grainlab.engine.dem.soft_contact import SoftContactStep
 from grainlab.errors import InputError
 from grainlab.lab.discrete_run import resume_run, start_run
 from grainlab.lab.run_config import RunConfig

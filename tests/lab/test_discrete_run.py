@@ -14,8 +14,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from grainlab.engine.contact_problem import read_fclib
-from grainlab.engine.contact_solvers import solve
+from grainlab.engine.nscd.contact_problem import read_fclib
+from grainlab.engine.nscd.plain_problem_methods import solve
 from grainlab.errors import InputError
 from grainlab.lab.discrete_run import (
     CHECKPOINT,

@@ -10,11 +10,11 @@ import meshio
 import numpy as np
 import pytest
 
-from grainlab.engine.contact_dynamics import StepReport, contact_frames
-from grainlab.engine.narrow_phase import Contacts
+from grainlab.engine.boundaries.wall_box import WallBox
+from grainlab.engine.detect.narrow_phase import Contacts
 from grainlab.engine.shape_kinds import AGGREGATE
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.engine.wall_box import WallBox
+from grainlab.engine.step_report import StepReport, contact_frames
 from grainlab.errors import InputError
 from grainlab.report.shape_drawing import (
     SHAPE_KIND_DRAWERS,

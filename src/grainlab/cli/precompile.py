@@ -96,9 +96,9 @@ def _discrete_runs(folder: Path) -> None:
     first = folder / f"{kinds[0].name}_serial"
     TrajectoryAnalysis().run(read_snapshots(first / "snapshots.h5"))
     export_checkpoint_vtk(first, folder / "vtk")
-    # the solvers of the plain contact problem (engine/contact_solvers.py)
-    from grainlab.engine.contact_problem import FrictionalContactProblem
-    from grainlab.engine.contact_solvers import METHODS, solve
+    # the solvers of the plain contact problem (engine/nscd/plain_problem_methods.py)
+    from grainlab.engine.nscd.contact_problem import FrictionalContactProblem
+    from grainlab.engine.nscd.plain_problem_methods import METHODS, solve
 
     problem = FrictionalContactProblem(np.eye(3), [-1.0, 0.5, 0.0], [0.4])
     for method in METHODS:

@@ -1,8 +1,8 @@
 """Kinematics of a contact point: the velocity of a point carried by a rigid body, from which
 every solver forms the relative velocity U = u_j - u_i of its contacts, and the gap of a
-sphere to a plane wall (the soft passes of :mod:`grainlab.engine.soft_contact_kernels`,
-:mod:`grainlab.engine.sphere_rows`, :mod:`grainlab.engine.soft_polyhedra_kernels`, the
-dashpots' bound of :mod:`grainlab.engine.soft_stability` and contact dynamics' sweeps).
+sphere to a plane wall (the soft passes of :mod:`grainlab.engine.dem.soft_contact_kernels`,
+:mod:`grainlab.engine.dem.sphere_rows`, :mod:`grainlab.engine.dem.soft_polyhedra_kernels`, the
+dashpots' bound of :mod:`grainlab.engine.dem.soft_stability` and contact dynamics' sweeps).
 Scalar functions compiled inline, without branches."""
 
 from __future__ import annotations

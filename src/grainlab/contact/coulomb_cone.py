@@ -1,8 +1,8 @@
 """The Coulomb cone of non-smooth contact dynamics (NSCD) at one contact: the projection on
 the cone and the local solve of one contact's impulse, scalar laws compiled inline into the
-sweeps of contact dynamics (:mod:`grainlab.engine.contact_dynamics`,
-:mod:`grainlab.engine.nlgs_parallel`) and the plain-problem methods
-(:mod:`grainlab.engine.contact_solvers`).
+sweeps of contact dynamics (:mod:`grainlab.engine.nscd.contact_dynamics`,
+:mod:`grainlab.engine.nscd.nlgs_parallel`) and the plain-problem methods
+(:mod:`grainlab.engine.nscd.plain_problem_methods`).
 
 In the local frame (n, t, s) of a contact, with impulse P = (P_n, P_T) [N s] and Coulomb
 coefficient mu, the cone is K = {|P_T| <= mu P_n}. The projection of a point z on K is z itself

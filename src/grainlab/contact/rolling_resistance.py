@@ -1,6 +1,6 @@
 """Rolling resistance at one contact of the soft (DEM) solver: the elastic-plastic rolling
 spring of Iwashita & Oda (1998) and Ai et al. (2011) (LIGGGHTS' ``epsd2``), a scalar law
-compiled inline into the sphere force pass (:mod:`grainlab.engine.soft_contact_kernels`; the
+compiled inline into the sphere force pass (:mod:`grainlab.engine.dem.soft_contact_kernels`; the
 physics in :mod:`grainlab.contact.soft_contact_law`).
 
 A moment M_r (3,) [N m] on j (minus on i) with rolling stiffness k_r = 2.25 S_n mu_r^2 R*^2

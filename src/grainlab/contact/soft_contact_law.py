@@ -89,7 +89,7 @@ def contact_law(code, params, overlap, r_eff, m_eff):
     delta > 0 [m], effective radius ``r_eff`` [m] and mass ``m_eff`` [kg] (module docstring;
     ``params``: a row of :attr:`SoftContactLaw.params`). Square roots as LLVM's intrinsic
     (the same results as ``math.sqrt``), so that the law vectorizes
-    (:mod:`grainlab.engine.sphere_rows`)."""
+    (:mod:`grainlab.engine.dem.sphere_rows`)."""
     if code == LINEAR:
         k_n = params[0]
         c_n = 2.0 * params[2] * root(m_eff * k_n)
@@ -383,7 +383,7 @@ class SoftContactLaw:
         collision time pi sqrt(m / (2 max(k_n, k_t))) of two grains of the lightest mass [kg]
         (0.2 of it is 0.44 sqrt(m / k)). It does not see the dashpots, which the explicit
         scheme takes with the half-step velocity: the solver also keeps the sub-step within
-        their bound (:mod:`grainlab.engine.soft_stability`; a lattice of twelve-fold
+        their bound (:mod:`grainlab.engine.dem.soft_stability`; a lattice of twelve-fold
         contacts at e = 0.5 is unstable at this step alone)."""
         if self.model == "hertz_mindlin":
             return self.time_step_fraction * self.rayleigh_time(smallest_radius, density)

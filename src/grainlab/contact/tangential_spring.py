@@ -1,7 +1,7 @@
 """The incremental Mindlin tangential spring with its Coulomb cap, at one contact of the soft
 (DEM) solver: a scalar law compiled inline into the force passes of spheres, aggregates and
-polyhedra (:mod:`grainlab.engine.sphere_rows`, :mod:`grainlab.engine.soft_contact_kernels`,
-:mod:`grainlab.engine.soft_polyhedra_kernels`; the physics in
+polyhedra (:mod:`grainlab.engine.dem.sphere_rows`, :mod:`grainlab.engine.dem.soft_contact_kernels`,
+:mod:`grainlab.engine.dem.soft_polyhedra_kernels`; the physics in
 :mod:`grainlab.contact.soft_contact_law`).
 
 The spring holds an elastic force F_e (3,) [N] from the sub-step the contact formed. Over a

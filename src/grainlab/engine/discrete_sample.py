@@ -1,6 +1,7 @@
 """The discrete sample a simulation advances: the static shape library, the changing body
 state and its boundary -- the wall box or the periodic cell (STYLE.md 1;
-:mod:`grainlab.engine.boundary`). :mod:`grainlab.prep` makes samples; the engine and the lab
+:mod:`grainlab.engine.boundaries.boundary`). :mod:`grainlab.prep` makes samples; the engine and the
+lab
 run them.
 """
 
@@ -10,16 +11,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grainlab.engine.boundary import Boundary
+from grainlab.engine.boundaries.boundary import Boundary
+from grainlab.engine.boundaries.wall_box import WallBox
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.engine.wall_box import WallBox
 
 
 @dataclass
 class DiscreteSample:
     """Particles and their boundary: the static ``library``, the changing ``state`` and the
-    ``boundary`` (:class:`~grainlab.engine.wall_box.WallBox` or
-    :class:`~grainlab.engine.periodic_boundary.PeriodicCell`); ``description`` is plain data
+    ``boundary`` (:class:`~grainlab.engine.boundaries.wall_box.WallBox` or
+    :class:`~grainlab.engine.boundaries.periodic_boundary.PeriodicCell`); ``description`` is plain
+    data
     (shape, sizes, seed) for the results' metadata."""
 
     library: ShapeLibrary

@@ -174,3 +174,18 @@ def turn_quaternions_kernel(q, rotation, out):
         nz = dw * z + w * dz + (dx * y - dy * x)
         norm = math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
         out[i, 0], out[i, 1], out[i, 2], out[i, 3] = nw / norm, nx / norm, ny / norm, nz / norm
+
+
+def rotate_quaternions(q: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """exp(rotation / 2) q, normalised, for unit quaternions q (N, 4) and world rotation
+    vectors (N, 3) [rad] (:func:`~grainlab.engine.quaternion.turn_quaternions_kernel`: the
+    same bits on every processor)."""
+    q = np.ascontiguousarray(q, dtype=np.float64).reshape(-1, 4)
+    out = np.empty_like(q)
+    turn_quaternions_kernel(q, np.ascontiguousarray(rotation, dtype=np.float64).reshape(-1, 3),
+                            out)
+    return out
+
+
+
+

@@ -67,11 +67,15 @@ import numpy as np
 
 from grainlab.analysis.connectivity import Connectivity
 from grainlab.analysis.contact_network import ContactNetwork
-from grainlab.engine.contact_dynamics import StepReport
-from grainlab.engine.narrow_phase import CONTACT_CLASS_NAMES, Contacts, classify_aggregate_pairs
+from grainlab.engine.boundaries.wall_box import WallBox
+from grainlab.engine.detect.narrow_phase import (
+    CONTACT_CLASS_NAMES,
+    Contacts,
+    classify_aggregate_pairs,
+)
 from grainlab.engine.shape_kinds import FEATURE_TYPES, MEMBER_CLASSES, kinds_present
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.engine.wall_box import WallBox
+from grainlab.engine.step_report import StepReport
 from grainlab.result.invariants import strain_invariants, stress_invariants
 
 _SLIDING = 1e-6
@@ -79,7 +83,7 @@ _SLIDING = 1e-6
 PAIR_TYPE_NAMES = ("point", "fv", "ee", "fe", "ff")
 """Names of the pair types of a network with polyhedra, indexed by ``Contacts.contact_type``:
 "point" (0, a pair of sphere-based bodies), "fv", "ee", "fe", "ff" (seed 002; the codes of
-``grainlab.engine.narrow_phase.POLYHEDRON_CONTACT_TYPE_NAMES``)."""
+``grainlab.engine.detect.narrow_phase.POLYHEDRON_CONTACT_TYPE_NAMES``)."""
 NOMINAL_POINTS = np.array([1, 1, 1, 2, 3], dtype=np.int64)
 """Points each pair type stands for in seed 002 eqs. 13-14 (point, fv, ee, fe, ff)."""
 POLYHEDRON_TYPES = PAIR_TYPE_NAMES[1:]
@@ -334,7 +338,8 @@ def sample_measures(report: StepReport, state: BodyState, library: ShapeLibrary,
 
 def cell_strains(strain: np.ndarray) -> dict[str, float]:
     """The strain columns of a periodic cell from its natural strain (3, 3) [-]
-    (:attr:`~grainlab.engine.periodic_boundary.PeriodicCell.strain`, compression positive):
+    (:attr:`~grainlab.engine.boundaries.periodic_boundary.PeriodicCell.strain`, compression
+    positive):
     normal components, engineering shears gamma = 2 eps_ab, eps_vol and eps_q [-] (for a
     box-shaped cell the same as :func:`box_strains`)."""
     e = 0.5 * (np.asarray(strain, dtype=np.float64) + np.asarray(strain, dtype=np.float64).T)
@@ -374,7 +379,7 @@ def cell_stress(report: StepReport, state: BodyState, matrix: np.ndarray, rate: 
 def cell_measures(report: StepReport, state: BodyState, library: ShapeLibrary, cell,
                   dt: float, friction: float) -> tuple[dict[str, float], ContactNetwork]:
     """One results row of a sample in a periodic cell
-    (:class:`~grainlab.engine.periodic_boundary.PeriodicCell`): the columns of
+    (:class:`~grainlab.engine.boundaries.periodic_boundary.PeriodicCell`): the columns of
     :func:`sample_measures` with the stress of :func:`cell_stress`, the strains of
     :func:`cell_strains` and the inertia number from the cell's largest strain rate (the
     largest eigenvalue magnitude of the symmetric velocity gradient); every particle is core

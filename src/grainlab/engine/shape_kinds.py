@@ -8,9 +8,9 @@ Every shape of a :class:`~grainlab.engine.state.ShapeLibrary` carries an integer
   renumbered), ``plural`` (``"spheres"``, for messages) and a one-line ``description``;
 - ``narrow_phase``: the family of contact geometry its pairs and walls go through,
   :data:`MEMBER_SPHERES` (a list of member spheres; sphere-sphere geometry,
-  :func:`~grainlab.engine.narrow_phase.pair_contacts_kernel`) or :data:`POLYHEDRON_FEATURES`
+  :func:`~grainlab.engine.detect.narrow_phase.pair_contacts_kernel`) or :data:`POLYHEDRON_FEATURES`
   (vertices, edges and planar faces; the kernels of
-  :mod:`~grainlab.engine.polyhedron_narrow_phase`). The family also says which rows of the
+  :mod:`~grainlab.engine.detect.polyhedron_narrow_phase`). The family also says which rows of the
   library a shape fills: member spheres (``sphere_count`` >= 1) or a polyhedron boundary
   (``sphere_count`` 0). A pair of two families goes through the kernels of the family that
   is not :data:`MEMBER_SPHERES` (a polyhedron against the member spheres of an aggregate);
@@ -43,8 +43,8 @@ A new convex shape (superquadrics, cylinders) touches seven files, two of them n
    frame) and support function;
 3. :mod:`grainlab.engine.state`: the library arrays of its parameters, a ``from_<shapes>``
    constructor, their validation and :meth:`~grainlab.engine.state.ShapeLibrary.concatenate`;
-4. ``engine/<shape>_narrow_phase.py`` (new): its pair, cross-family and wall kernels;
-5. :mod:`grainlab.engine.narrow_phase`: the launcher calling those kernels for the new
+4. ``engine/detect/<shape>_narrow_phase.py`` (new): its pair, cross-family and wall kernels;
+5. :mod:`grainlab.engine.detect.narrow_phase`: the launcher calling those kernels for the new
    family's pairs (the families' kernels take different arrays: no generic loop);
 6. :mod:`grainlab.prep.sample_shapes`: its maker (radii -> library);
 7. :mod:`grainlab.report.shape_drawing`: its drawer.

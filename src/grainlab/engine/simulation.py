@@ -1,7 +1,8 @@
 """A simulation owns its sample and an ordered, visible list of operations (STYLE.md 4).
 
 Each time step: the solver (:class:`~grainlab.engine.solver.Solver`; contact dynamics today)
-advances the sample through its boundary (:mod:`grainlab.engine.boundary`: the wall box or
+advances the sample through its boundary (:mod:`grainlab.engine.boundaries.boundary`: the wall box
+or
 the periodic cell; detection, contact problem, integration, the boundary's motion), the step
 counter and clock move on, the health check runs, then every operation
 whose trigger fires on this step acts, in the order they were added. Operations are objects
@@ -26,7 +27,7 @@ Health check (a run that blows up stops with a diagnosis, :class:`SimulationBlow
 * opposite walls crossing.
 
 >>> from grainlab.prep.loose_sample import loose_sample
->>> from grainlab.engine.contact_dynamics import ContactDynamicsStep
+>>> from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
 >>> sim = Simulation(loose_sample(n_particles=5, seed=1), ContactDynamicsStep(dt=1e-5))
 >>> class Count:
 ...     name, trigger, calls = "count", Periodic(2), 0
@@ -47,9 +48,9 @@ from typing import Protocol
 
 import numpy as np
 
-from grainlab.engine.contact_dynamics import StepReport
 from grainlab.engine.discrete_sample import DiscreteSample
 from grainlab.engine.solver import Solver
+from grainlab.engine.step_report import StepReport
 from grainlab.errors import GrainlabError, InputError, SolverDivergence
 
 
@@ -92,7 +93,7 @@ class Simulation:
         The :class:`~grainlab.engine.discrete_sample.DiscreteSample` (library, state, box).
     solver:
         The :class:`~grainlab.engine.solver.Solver` (e.g.
-        :class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`).
+        :class:`~grainlab.engine.nscd.contact_dynamics.ContactDynamicsStep`).
     step_index, time:
         Steps done and simulated time [s].
     last_report:

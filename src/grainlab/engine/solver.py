@@ -2,17 +2,18 @@
 :class:`~grainlab.engine.simulation.Simulation` and the way contacts are solved.
 
 A solver advances a sample by one time step through its boundary
-(:mod:`grainlab.engine.boundary`): it asks the boundary for the step's constraints, predicts
+(:mod:`grainlab.engine.boundaries.boundary`): it asks the boundary for the step's constraints,
+predicts
 the configuration, has the boundary detect the contacts, solves them with its own law, moves
-the bodies and hands the boundary its motion (:meth:`~grainlab.engine.boundary.Boundary.
-finish_step`). It returns a :class:`~grainlab.engine.contact_dynamics.StepReport` (contacts,
+the bodies and hands the boundary its motion (:meth:`~grainlab.engine.boundaries.boundary.Boundary.
+finish_step`). It returns a :class:`~grainlab.engine.step_report.StepReport` (contacts,
 local frames, impulses over the step, relative velocities, images, the solve's convergence
 figures): everything the recorders, the analysis and the health check read. A solver whose
 steps have no iterations reports each step as converged in one.
 
 The implementations are contact dynamics
-(:class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`) and soft-contact DEM
-(:class:`~grainlab.engine.soft_contact.SoftContactStep`, explicit: each step is cut into
+(:class:`~grainlab.engine.nscd.contact_dynamics.ContactDynamicsStep`) and soft-contact DEM
+(:class:`~grainlab.engine.dem.soft_contact.SoftContactStep`, explicit: each step is cut into
 sub-steps, and reports each step converged in one iteration). A new solver implements
 :class:`Solver` and every boundary, recorder, checkpoint and lab test runs with it; what it
 keeps from step to step (contact memory, random state) goes into checkpoints through
@@ -25,9 +26,9 @@ from typing import Protocol
 
 import numpy as np
 
-from grainlab.engine.boundary import Boundary
-from grainlab.engine.contact_dynamics import StepReport
+from grainlab.engine.boundaries.boundary import Boundary
 from grainlab.engine.state import BodyState, ShapeLibrary
+from grainlab.engine.step_report import StepReport
 
 
 class Solver(Protocol):

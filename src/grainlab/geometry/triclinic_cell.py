@@ -14,7 +14,7 @@ coordinates,
 
 A fractional coordinate of a displacement d is (h^-1 d)_a, and row a of h^-1 has length
 1 / w_a, so |d| <= r moves a fractional coordinate by at most r / w_a (used to size the
-ghost layer of :mod:`grainlab.engine.periodic_detection`).
+ghost layer of :mod:`grainlab.engine.detect.periodic_detection`).
 
 Re-map of a sheared cell (:meth:`TriclinicCell.reduced`): the lattice {h n} does not change
 when h is replaced by h M with an integer M of determinant 1, so a cell sheared far (the

@@ -1,5 +1,5 @@
 """The stages of a lab load path as controls of a periodic cell (mixed control of all six
-components in the stage's frame; :mod:`grainlab.engine.periodic_boundary`).
+components in the stage's frame; :mod:`grainlab.engine.boundaries.periodic_boundary`).
 
 A :class:`~grainlab.lab.load_path.LoadStage` controls generalised components c = B sigma
 (stress) and e = B^-T eps (strain), B = Q T_sigma(R(k)) (:func:`~grainlab.lab.element_test.

@@ -1,5 +1,5 @@
 """A load path run on a discrete sample in a periodic deformable cell
-(:mod:`grainlab.engine.periodic_boundary`, :mod:`grainlab.lab.cell_stages`).
+(:mod:`grainlab.engine.boundaries.periodic_boundary`, :mod:`grainlab.lab.cell_stages`).
 
 :class:`CellTest` is a :class:`~grainlab.lab.discrete_test.DiscreteTest` whose boundary is
 the cell: the same settings, records, snapshots, stage ends, outcome and checkpoints, with

@@ -2,7 +2,7 @@
 thin for the contact detection, judged before a run starts.
 
 The detection of a periodic cell refuses a cell narrower than three interaction ranges
-across any pair of faces, 3 (2 r_max + alert) (:func:`~grainlab.engine.periodic_detection.
+across any pair of faces, 3 (2 r_max + alert) (:func:`~grainlab.engine.detect.periodic_detection.
 checked_cutoff`), so that no pair touches through two images. A loose sample is compacted
 isotropically: the cell shrinks with it, and a sample of few particles reaches that width
 before it settles (30 spheres of 1-2 mm: the cell was 5.36 mm across, against 6.13 mm asked,

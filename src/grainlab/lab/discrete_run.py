@@ -15,7 +15,7 @@ Layout of a run folder::
                        from the command line finishes (grainlab.report.run_report)
     vtk/               ParaView files when output.vtk_every > 0 (particles, contacts, walls)
     problems/          the contact problems of steps (FCLib HDF5) when output.problems_every
-                       > 0 (contact dynamics; grainlab.engine.contact_problem)
+                       > 0 (contact dynamics; grainlab.engine.nscd.contact_problem)
 
 Checkpoints (:mod:`grainlab.lab.run_checkpoint`: two kept, written atomically) are written
 every ``output.checkpoint_every`` steps, at the end of every stage, when the run ends or stops
@@ -527,7 +527,7 @@ class _Every:
 
 class _ProblemWriter:
     """Stores the contact problem of every ``period``-th step in FCLib's layout
-    (:func:`~grainlab.engine.contact_problem.write_fclib`): it asks the solver to assemble
+    (:func:`~grainlab.engine.nscd.contact_problem.write_fclib`): it asks the solver to assemble
     the problem only on those steps."""
 
     name = "problems"
@@ -541,7 +541,7 @@ class _ProblemWriter:
         return True
 
     def act(self, simulation) -> None:
-        from grainlab.engine.contact_problem import write_fclib
+        from grainlab.engine.nscd.contact_problem import write_fclib
 
         report = simulation.last_report
         if report is not None and report.problem is not None and report.n_contacts:
@@ -637,7 +637,7 @@ def progress_fields(test: DiscreteTest, row: dict) -> tuple[float, str]:
 
 def _walls(boundary):
     """The walls to draw (None for a periodic cell)."""
-    from grainlab.engine.wall_box import WallBox
+    from grainlab.engine.boundaries.wall_box import WallBox
     from grainlab.report.vtk_export import BoxWalls
 
     return BoxWalls.from_wall_box(boundary) if isinstance(boundary, WallBox) else None

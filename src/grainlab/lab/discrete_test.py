@@ -102,7 +102,7 @@ resumed run takes the same steps.
 
 Columns besides :mod:`grainlab.engine.sample_measures`: ``stage``, ``step``, ``time`` [s],
 ``dt`` [s], ``unbalanced_force_ratio``, ``kinetic_energy_ratio``, ``velocity_zigzag`` (the
-soft-contact solver's :attr:`~grainlab.engine.soft_contact.SoftContactStep.velocity_zigzag`,
+soft-contact solver's :attr:`~grainlab.engine.dem.soft_contact.SoftContactStep.velocity_zigzag`,
 NaN for contact dynamics: the run's outcome reads it, :mod:`grainlab.lab.run_outcome`),
 ``friction``, and in tests
 with a one-dimensional stage (:attr:`~grainlab.lab.wall_stages.WallStage.oedometric`)
@@ -118,13 +118,13 @@ from typing import Any
 import numpy as np
 
 from grainlab._validate import at_least
-from grainlab.engine.contact_dynamics import WARM_START_EXTRAPOLATION, ContactDynamicsStep
+from grainlab.engine.boundaries.wall_box import WALL_NAMES
+from grainlab.engine.dem.soft_contact import SoftContactStep
+from grainlab.engine.nscd.contact_dynamics import WARM_START_EXTRAPOLATION, ContactDynamicsStep
 from grainlab.engine.sample_measures import box_strains, log_strains, sample_measures
 from grainlab.engine.shape_kinds import kinds_present, library_time_step_length
 from grainlab.engine.simulation import Periodic, Simulation
-from grainlab.engine.soft_contact import SoftContactStep
 from grainlab.engine.state import ShapeLibrary
-from grainlab.engine.wall_box import WALL_NAMES
 from grainlab.errors import InputError
 from grainlab.lab.box_thickness import (
     Flattening,
@@ -222,9 +222,9 @@ class DiscreteTestSettings:
     dt:
         Time step [s]; None: from the stage's ``time_step_factor``.
     theta, sweep, warm_start_extrapolation:
-        Solver settings (:class:`~grainlab.engine.contact_dynamics.ContactDynamicsStep`;
+        Solver settings (:class:`~grainlab.engine.nscd.contact_dynamics.ContactDynamicsStep`;
         ``warm_start_extrapolation`` lambda in [0, 1], default
-        :data:`~grainlab.engine.contact_dynamics.WARM_START_EXTRAPOLATION`).
+        :data:`~grainlab.engine.nscd.contact_dynamics.WARM_START_EXTRAPOLATION`).
     record_every, snapshot_every:
         Steps between results rows and between contact-network snapshots (0: none; with
         snapshots on, the state each stage ends in is one too).
@@ -240,14 +240,14 @@ class DiscreteTestSettings:
         Stress-controlled walls as overdamped servos (default): no speed carried over from
         one step to the next, damping c = sigma A / v_max (speed v_max when nothing holds
         them, at rest when the particles push back sigma A;
-        :class:`~grainlab.engine.wall_box.WallBox`). False: walls with the mass above.
+        :class:`~grainlab.engine.boundaries.wall_box.WallBox`). False: walls with the mass above.
     quasi_static:
         End criteria of stages without a strain-controlled axis.
     seed:
         Seed of the solver's visiting order.
     method:
         The solver: ``"cd"`` (contact dynamics, rigid grains; default) or ``"dem"``
-        (soft-contact DEM, :class:`~grainlab.engine.soft_contact.SoftContactStep`); the
+        (soft-contact DEM, :class:`~grainlab.engine.dem.soft_contact.SoftContactStep`); the
         NLGS settings (``tolerance``, ``max_iterations``, ``overlap_recovery``, ``theta``,
         ``sweep``) serve contact dynamics only.
     dem:
@@ -500,7 +500,7 @@ class DiscreteTest:
     def _whole_substeps(self, dt: float) -> float:
         """The stage's step [s] from the time step factor's ``dt``: for the soft-contact
         solver, rounded down to whole stable sub-steps
-        (:meth:`~grainlab.engine.soft_contact.SoftContactStep.whole_substeps`)."""
+        (:meth:`~grainlab.engine.dem.soft_contact.SoftContactStep.whole_substeps`)."""
         whole = getattr(self.solver, "whole_substeps", None)
         return dt if whole is None else whole(dt, self.sample.state, self.sample.library)
 

@@ -30,9 +30,9 @@ from typing import Any
 
 import h5py
 
-from grainlab.engine.periodic_boundary import PeriodicCell
+from grainlab.engine.boundaries.periodic_boundary import PeriodicCell
+from grainlab.engine.boundaries.wall_box import WallBox
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.engine.wall_box import WallBox
 from grainlab.errors import GrainlabError
 
 CHECKPOINT = "checkpoint.h5"

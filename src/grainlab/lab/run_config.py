@@ -349,8 +349,8 @@ class OutputConfig(_Section):
     500 steps: some 30 over a 1000-sphere triaxial test to eps_q = 0.5), so that ``grainlab
     analyse RUN`` has something to read. ``problems_every``: the frictional contact problem
     of every such contact-dynamics step goes to ``problems/step-NNNNNNNN.hdf5`` in FCLib's
-    layout (:mod:`grainlab.engine.contact_problem`), to compare solvers on it
-    (``benchmarks/benchmark_contact_solvers.py``)."""
+    layout (:mod:`grainlab.engine.nscd.contact_problem`), to compare solvers on it
+    (``benchmarks/benchmark_plain_problem_methods.py``)."""
 
     record_every: StrictInt = Field(_RUN_WIDE.record_every, ge=1)
     snapshot_every: StrictInt = Field(500, ge=0)

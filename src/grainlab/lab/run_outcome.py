@@ -23,7 +23,7 @@ A run is *as asked* when it finished every stage of its load path and each stage
 
 * (soft-contact DEM) moved as its load drives it, with no kinetic energy made by the scheme:
   the median over the stage's records past its first tenth of the contacts' *velocity
-  zigzag* (:attr:`~grainlab.engine.soft_contact.SoftContactStep.velocity_zigzag`: how much
+  zigzag* (:attr:`~grainlab.engine.dem.soft_contact.SoftContactStep.velocity_zigzag`: how much
   the relative velocities at the contacts changed in the last half sub-step of a step, over
   themselves, the larger of the normal and tangential parts) at most :data:`ZIGZAG_LIMIT`.
   A motion the sub-steps resolve changes little in half a sub-step (measured below); a
@@ -33,7 +33,7 @@ A run is *as asked* when it finished every stage of its load path and each stage
   the springs alone lost its friction (peak q/p 0.12-0.14 against 0.40 at e = 0.5) with 30
   times the kinetic energy. The energy itself is no sure sign (an unstable run at e = 0.3
   with k_t = k_n lost its friction at an ordinary kinetic energy); the zigzag is. The
-  sub-step now counts the dashpots (:mod:`grainlab.engine.soft_stability`); this is the
+  sub-step now counts the dashpots (:mod:`grainlab.engine.dem.soft_stability`); this is the
   check that it did.
 
 Steps whose solver ended at its iteration cap (``max_iterations``, not converged) are counted

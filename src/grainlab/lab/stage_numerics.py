@@ -78,7 +78,7 @@ class StageNumerics:
         :class:`~grainlab.engine.simulation.Simulation`).
     tolerance:
         NLGS tolerance [-], in (0, 1): relative change of the contact impulses between two
-        sweeps and relative residual (:class:`~grainlab.engine.contact_dynamics.
+        sweeps and relative residual (:class:`~grainlab.engine.nscd.contact_dynamics.
         ContactDynamicsStep`).
     max_iterations:
         Most NLGS sweeps per step, an integer >= 1.

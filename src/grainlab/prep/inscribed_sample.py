@@ -34,10 +34,10 @@ import numpy as np
 
 from grainlab._validate import at_least
 from grainlab._validate import seed as check_seed
+from grainlab.engine.boundaries.wall_box import WallBox
 from grainlab.engine.discrete_sample import DiscreteSample
 from grainlab.engine.shape_kinds import SPHERE
 from grainlab.engine.state import BodyState
-from grainlab.engine.wall_box import WallBox
 from grainlab.prep.deposition import deposited_packing
 from grainlab.prep.loose_sample import random_orientations
 from grainlab.prep.sample_shapes import sample_shape

@@ -33,11 +33,11 @@ import numpy as np
 
 from grainlab._validate import at_least
 from grainlab._validate import seed as check_seed
+from grainlab.engine.boundaries.periodic_boundary import PeriodicCell
+from grainlab.engine.boundaries.wall_box import WallBox
 from grainlab.engine.discrete_sample import DiscreteSample
-from grainlab.engine.periodic_boundary import PeriodicCell
 from grainlab.engine.shape_kinds import SPHERE
 from grainlab.engine.state import BodyState
-from grainlab.engine.wall_box import WallBox
 from grainlab.errors import InputError
 from grainlab.prep.sample_shapes import sample_shape
 
@@ -153,9 +153,10 @@ def loose_sample(
     aspect:
         Box side ratios (x, y, z).
     boundary:
-        ``"walls"`` (a box of six fixed walls, :class:`~grainlab.engine.wall_box.WallBox`)
+        ``"walls"`` (a box of six fixed walls,
+        :class:`~grainlab.engine.boundaries.wall_box.WallBox`)
         or ``"periodic"`` (a periodic cell of the same box,
-        :class:`~grainlab.engine.periodic_boundary.PeriodicCell`).
+        :class:`~grainlab.engine.boundaries.periodic_boundary.PeriodicCell`).
     wall_friction:
         Coulomb coefficient of the walls (seed 002: 0).
     seed:

@@ -48,11 +48,11 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from grainlab._validate import at_least
+from grainlab.engine.boundaries.wall_box import WallBox
 from grainlab.engine.discrete_sample import DiscreteSample
 from grainlab.engine.quaternion import quat_to_matrices
 from grainlab.engine.shape_kinds import AGGREGATE, POLYHEDRON, SPHERE
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.engine.wall_box import WallBox
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron import ConvexPolyhedron
 from grainlab.geometry.sphere_aggregate import SphereAggregate

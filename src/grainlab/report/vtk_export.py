@@ -21,7 +21,8 @@ Three kinds of file per frame k, in one folder:
   Lines have their own two points, so ParaView's "Cell Data to Point Data" is exact and a Tube
   filter can then vary its radius by ``normal_force``.
 * ``walls_<k>.vtu`` -- the six planes of a box [lower, upper] as six quads over its eight
-  corners, ordered as :data:`~grainlab.engine.wall_box.WALL_NAMES` (x-, x+, y-, y+, z-, z+),
+  corners, ordered as :data:`~grainlab.engine.boundaries.wall_box.WALL_NAMES` (x-, x+, y-, y+, z-,
+  z+),
   each wound so that its right-hand normal points into the box. Cell data: ``wall`` (index
   0..5), ``normal`` (3) (into the box), and ``reaction`` [N] (compression positive) if given.
 
@@ -77,9 +78,9 @@ from typing import TYPE_CHECKING
 import meshio
 import numpy as np
 
+from grainlab.engine.boundaries.wall_box import WALL_NAMES
 from grainlab.engine.quaternion import quat_to_matrices
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.engine.wall_box import WALL_NAMES
 from grainlab.errors import InputError
 from grainlab.report.shape_drawing import (
     check_subdivisions,
@@ -89,8 +90,8 @@ from grainlab.report.shape_drawing import (
 )
 
 if TYPE_CHECKING:
-    from grainlab.engine.contact_dynamics import StepReport
-    from grainlab.engine.wall_box import WallBox
+    from grainlab.engine.boundaries.wall_box import WallBox
+    from grainlab.engine.step_report import StepReport
 
 FILE_KINDS = ("particles", "contacts", "walls")
 """Kinds of file of a frame: ``<kind>_<frame:06d>.vtu`` and the index ``<kind>.pvd``."""
@@ -314,7 +315,7 @@ class ContactLines:
     contact_type:
         Optional (C,) polyhedron contact types written as ``contact_type`` (0 for
         sphere-based contacts, 1 fv, 2 ee, 3 fe, 4 ff:
-        ``grainlab.engine.narrow_phase.POLYHEDRON_CONTACT_TYPE_NAMES``).
+        ``grainlab.engine.detect.narrow_phase.POLYHEDRON_CONTACT_TYPE_NAMES``).
     normal_force, tangential_force:
         Derived (C,) f_n = f . n and |f - f_n n| [N].
     """
@@ -361,7 +362,7 @@ class ContactLines:
     def from_step_report(cls, report: StepReport, positions, dt: float,
                          friction: float | np.ndarray | None = None,
                          cell_matrix=None) -> ContactLines:
-        """Contacts of a :class:`~grainlab.engine.contact_dynamics.StepReport`.
+        """Contacts of a :class:`~grainlab.engine.step_report.StepReport`.
 
         Forces are the step's impulses over ``dt`` [s] (the mean force of the step) in the
         world frame; lines join the body centres ``positions`` (N, 3) [m] (give the state
@@ -484,7 +485,7 @@ class BoxWalls:
         (3,) corners [m], upper > lower.
     reactions:
         Optional (6,) normal forces of the particles on the walls [N] (compression positive),
-        in the order of :data:`~grainlab.engine.wall_box.WALL_NAMES`.
+        in the order of :data:`~grainlab.engine.boundaries.wall_box.WALL_NAMES`.
     """
 
     lower: np.ndarray
@@ -505,7 +506,8 @@ class BoxWalls:
 
     @classmethod
     def from_wall_box(cls, box: WallBox) -> BoxWalls:
-        """The walls of a :class:`~grainlab.engine.wall_box.WallBox` now, with the reactions
+        """The walls of a :class:`~grainlab.engine.boundaries.wall_box.WallBox` now, with the
+        reactions
         of its last step."""
         return cls(lower=box.lower, upper=box.upper, reactions=np.array(box.reactions))
 

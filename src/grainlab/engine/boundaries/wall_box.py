@@ -40,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grainlab.engine.boundary import BoundaryConstraints, BoundaryMotion, detect_in_space
+from grainlab.engine.boundaries.boundary import BoundaryConstraints, BoundaryMotion, detect_in_space
 from grainlab.errors import InputError
 
 WALL_NAMES = ("x-", "x+", "y-", "y+", "z-", "z+")
@@ -253,7 +253,7 @@ class WallBox:
         per_wall = self.reactions / self.face_areas
         return 0.5 * (per_wall[0::2] + per_wall[1::2])
 
-    # -- the boundary protocol (grainlab.engine.boundary) ---------------------------------------
+    # -- the boundary protocol (grainlab.engine.boundaries.boundary) -------------------------------
     def constraints(self, dt: float, theta: float) -> BoundaryConstraints:
         """The walls over a step of ``dt`` [s]: planes where they are at the detection
         configuration (moved by (1 - theta) dt at their speeds), inverse masses, free speeds,

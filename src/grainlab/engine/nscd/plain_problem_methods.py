@@ -1,14 +1,14 @@
 """Solvers of the plain frictional contact problem u = W r + q with Coulomb's law
-(:mod:`~grainlab.engine.contact_problem`; research/cd_engines.md 6.3; Numba).
+(:mod:`~grainlab.engine.nscd.contact_problem`; research/cd_engines.md 6.3; Numba).
 
-:func:`solve` takes a :class:`~grainlab.engine.contact_problem.FrictionalContactProblem`
+:func:`solve` takes a :class:`~grainlab.engine.nscd.contact_problem.FrictionalContactProblem`
 and runs one of :data:`METHODS` until the natural-map error ||F(r)|| / ||q|| (Acary, Brémond &
 Huber 2018) is at most ``tolerance`` or ``max_iterations`` iterations are done. Every method
 measures that same error on its iterate after each iteration (the cost of one product W r),
 so that methods are compared at equal accuracy, in time and in iterations; the history is
 returned. The error that stopped the iterations is the one returned, and the convergence flag
 is that same number against ``tolerance`` (one evaluation: the compiled twin of
-:func:`~grainlab.engine.contact_problem.natural_map_error`, which may differ from it in the
+:func:`~grainlab.engine.nscd.contact_problem.natural_map_error`, which may differ from it in the
 last bits).
 
 Divergence. A method whose error becomes non-finite, or exceeds :data:`DIVERGENCE_FACTOR` x
@@ -46,7 +46,7 @@ Methods
     oscillates on packings; stable below :func:`jacobi_relaxation_bound`).
 
 >>> import numpy as np, scipy.sparse as sp
->>> from grainlab.engine.contact_problem import FrictionalContactProblem
+>>> from grainlab.engine.nscd.contact_problem import FrictionalContactProblem
 >>> w = np.array([[2.0, 0, 0], [0, 2.0, 0], [0, 0, 2.0]])  # a sphere on the floor, m = 0.5
 >>> problem = FrictionalContactProblem(w, [-1.0, 0.3, 0.0], [0.5])
 >>> solution = solve(problem, "nlgs", tolerance=1e-12)
@@ -66,7 +66,7 @@ from numba import njit
 
 from grainlab._validate import at_least
 from grainlab.contact.coulomb_cone import local_solve, project_cone
-from grainlab.engine.contact_problem import (
+from grainlab.engine.nscd.contact_problem import (
     FrictionalContactProblem,
     problem_scale,
 )

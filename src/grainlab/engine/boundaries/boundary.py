@@ -4,8 +4,9 @@ A boundary is one of
 
 * fixed planes (points and inward normals; :class:`FixedPlanes`, e.g. a floor);
 * the box of six walls, fixed, velocity- or stress-controlled
-  (:class:`~grainlab.engine.wall_box.WallBox`);
-* the periodic deformable cell (:class:`~grainlab.engine.periodic_boundary.PeriodicCell`).
+  (:class:`~grainlab.engine.boundaries.wall_box.WallBox`);
+* the periodic deformable cell
+(:class:`~grainlab.engine.boundaries.periodic_boundary.PeriodicCell`).
 
 Each implements the :class:`Boundary` protocol, three calls per time step of a solver:
 
@@ -33,8 +34,8 @@ from typing import Protocol
 
 import numpy as np
 
-from grainlab.engine.broad_phase import CellListBroadPhase
-from grainlab.engine.narrow_phase import Contacts, NarrowPhase
+from grainlab.engine.detect.broad_phase import CellListBroadPhase
+from grainlab.engine.detect.narrow_phase import Contacts, NarrowPhase
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 
@@ -151,7 +152,7 @@ class BoundaryMotion:
 class DetectionPhases:
     """The broad and narrow phases a solver keeps for its alert distance [m]; with
     ``sphere_rows``, a periodic cell finds the contacts of plain spheres by its compiled cell
-    list (:mod:`grainlab.engine.periodic_spheres`: the same contacts, rows by body_i then
+    list (:mod:`grainlab.engine.detect.periodic_spheres`: the same contacts, rows by body_i then
     body_j; the soft-contact solver's lists), else by the general detection, whose row order
     contact dynamics' sweeps follow."""
 

@@ -1,12 +1,12 @@
 """Compiled kernels of the soft-contact DEM step for convex polyhedra (Numba; STYLE.md 2, 8):
 the contact force of every listed pair from its manifold recomputed at each sub-step, and the
-velocity-Verlet sub-steps around it (:mod:`grainlab.engine.soft_polyhedra`, the physics).
+velocity-Verlet sub-steps around it (:mod:`grainlab.engine.dem.soft_polyhedra`, the physics).
 
 List. Row p is a body pair found within the skin at the last detection: ``pair_i`` (body i,
 or -1 - w for wall w), ``pair_j`` (a polyhedron), the image vector ``images`` (P, 3) of body
 j (x_j + h m_p), Coulomb coefficient ``mu`` (P,) and equivalent radius ``r_eff`` (P,) [m].
 Each evaluation moves every polyhedron to the world frame (serial:
-:func:`~grainlab.engine.polyhedron_narrow_phase.world_polyhedron` per body, no thread
+:func:`~grainlab.engine.detect.polyhedron_narrow_phase.world_polyhedron` per body, no thread
 launch per sub-step), then recomputes the pair's gap and normal
 (:func:`~grainlab.geometry.polyhedron_contact.signed_distance`) and its manifold
 (:func:`~grainlab.geometry.polyhedron_manifold.pair_manifold`,
@@ -19,12 +19,12 @@ point; per closed manifold point (slot r < ``n_points[p]`` of (P, K) arrays, K t
 points kept): gap [m], normal, position [m], world force on j [N] (its normal force plus
 its share of the pair's tangential force), relative velocity [m/s], feature ids and the
 pair's type code. The sums on the bodies and the boundary's loads are those of the sphere
-path (:func:`~grainlab.engine.soft_contact_kernels.gather_kernel`,
-:func:`~grainlab.engine.soft_contact_kernels.wall_loads_kernel`) on the pair rows, the
-kicks and drifts its :func:`~grainlab.engine.soft_contact_kernels.kick_kernel` and
-:func:`~grainlab.engine.soft_contact_kernels.drift_kernel`, the periodic cell's servo its
-:func:`~grainlab.engine.soft_contact_kernels.cell_servo_kernel` on the stress of the pairs'
-forces (:func:`~grainlab.engine.soft_contact_kernels.virial_kernel`).
+path (:func:`~grainlab.engine.dem.soft_contact_kernels.gather_kernel`,
+:func:`~grainlab.engine.dem.soft_contact_kernels.wall_loads_kernel`) on the pair rows, the
+kicks and drifts its :func:`~grainlab.engine.dem.soft_contact_kernels.kick_kernel` and
+:func:`~grainlab.engine.dem.soft_contact_kernels.drift_kernel`, the periodic cell's servo its
+:func:`~grainlab.engine.dem.soft_contact_kernels.cell_servo_kernel` on the stress of the pairs'
+forces (:func:`~grainlab.engine.dem.soft_contact_kernels.virial_kernel`).
 """
 
 from __future__ import annotations
@@ -37,8 +37,7 @@ from numba import njit
 from grainlab.contact.contact_kinematics import less_body_i, point_velocity
 from grainlab.contact.soft_contact_law import contact_law
 from grainlab.contact.tangential_spring import mindlin_coulomb
-from grainlab.engine.polyhedron_narrow_phase import _body_features, world_polyhedron
-from grainlab.engine.soft_contact_kernels import (
+from grainlab.engine.dem.soft_contact_kernels import (
     _det3,
     carry_gradient_kernel,
     cell_servo_kernel,
@@ -50,6 +49,7 @@ from grainlab.engine.soft_contact_kernels import (
     virial_kernel,
     wall_loads_kernel,
 )
+from grainlab.engine.detect.polyhedron_narrow_phase import _body_features, world_polyhedron
 from grainlab.geometry.polyhedron_contact import MAX_POINTS, signed_distance
 from grainlab.geometry.polyhedron_manifold import pair_manifold, wall_manifold
 
@@ -99,7 +99,7 @@ def polyhedron_forces_kernel(step, code, params, library, world, pair_i, pair_j,
                              point_position, point_force, point_velocity, feature_i,
                              feature_j, pair_type, stats):
     """Manifold and force of every pair p of the list (module docstring; the law of
-    :mod:`grainlab.engine.soft_polyhedra`); ``step`` [s] is the time since the last
+    :mod:`grainlab.engine.dem.soft_polyhedra`); ``step`` [s] is the time since the last
     evaluation (0: the force of the current springs). ``library``: (shape_ids, face_start,
     face_count, face_vertex_start, face_vertices, edge_start, edge_count, edges, edge_faces,
     vertex_start, vertex_count, vertex_neighbour_start, vertex_neighbours); ``world`` as
@@ -295,9 +295,9 @@ def polyhedra_substeps_kernel(n_steps, dt, skin, code, params, local_damping, gr
     periodic cell's servo (L_0, G_d, scale_d, free_d, bounds_d, K_d, the filtered stress,
     e_d, L, the carried L, hdot, the virial, the stress summed over time); ``walls_servo``: the
     walls' servo at every sub-step (wall_inv_mass, wall_free, wall_max, wall_memory, macro,
-    integral, servo_gain, wall_floor, as :func:`~grainlab.engine.soft_contact_kernels.
+    integral, servo_gain, wall_floor, as :func:`~grainlab.engine.dem.soft_contact_kernels.
     servo_walls` takes them), as
-    :func:`~grainlab.engine.soft_contact_kernels.substeps_kernel` does on the sphere rows
+    :func:`~grainlab.engine.dem.soft_contact_kernels.substeps_kernel` does on the sphere rows
     (same kicks, drifts, boundary motion and servos, load sums and early stop when two points
     may have approached by more than ``skin`` [m]); ``n_steps`` = 0: only the loads now.
     Returns the sub-steps done; ``stats[0]`` becomes the deepest penetration [m] met. The

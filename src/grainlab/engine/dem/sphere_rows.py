@@ -1,6 +1,6 @@
 """The soft-contact force pass on the rows between two plain spheres, as vector code
 (:mod:`grainlab._vector_loops`): the same law and the same bits as the general row of
-:func:`grainlab.engine.soft_contact_kernels._forces_block`, four to eight rows at a time.
+:func:`grainlab.engine.dem.soft_contact_kernels._forces_block`, four to eight rows at a time.
 
 A row is *plain* when both members are the centres of their bodies (no member offsets: not an
 aggregate's member) and neither side is a wall; the rolling resistance is off. Those rows are
@@ -33,7 +33,7 @@ def sphere_rows_kernel(lo, hi, step, record, code, params, body_i, body_j, rad_i
                        xi, force, torque_i, torque_j, gap, stiffness, normal, point, rel_vel,
                        springs):
     """Rows ``lo`` .. ``hi`` - 1 of the list, all plain (module docstring), as
-    :func:`~grainlab.engine.soft_contact_kernels.contact_forces_kernel` evaluates them, with
+    :func:`~grainlab.engine.dem.soft_contact_kernels.contact_forces_kernel` evaluates them, with
     the law ``code`` and its ``params`` row (:func:`~grainlab.contact.soft_contact_law.
     contact_law`). The per-row arrays
     of three components are flat (3 C,): ``images``, ``xi``, ``force``, ``torque_i``,

@@ -1,6 +1,6 @@
 """The rows of a soft-contact neighbour list made from the detection's contacts, compiled
 (Numba; STYLE.md 2, 8): each row's member spheres, and the springs the rows of the list it
-replaces carried (:mod:`grainlab.engine.soft_contact`).
+replaces carried (:mod:`grainlab.engine.dem.soft_contact`).
 
 A list is built every few tens of sub-steps, so its making is measured against them: with
 NumPy's fancy indexing, gathers and a sort, the rows of 4000 spheres took ~2 ms beside the

@@ -21,15 +21,16 @@ Algorithm
    m in {-1, 0, 1}^3 \\ {0} with s~_j + m in [-delta_a, 1 + delta_a] on every axis a (a
    1e-9 relative margin against round-off). A ghost carries its body's shape and orientation.
    Every image of a body within R_cut of some wrapped body is a primary or a ghost.
-3. **Broad phase** (:class:`~grainlab.engine.broad_phase.CellListBroadPhase`, non-periodic)
+3. **Broad phase** (:class:`~grainlab.engine.detect.broad_phase.CellListBroadPhase`, non-periodic)
    over primaries (rows 0 .. N-1) and ghosts (rows N ..) in the bounding box of all of them,
-   padded by r_max + alert, as :meth:`~grainlab.engine.contact_dynamics.ContactDynamicsStep.
+   padded by r_max + alert, as :meth:`~grainlab.engine.nscd.contact_dynamics.ContactDynamicsStep.
    step` does. Kept: pairs (a, b) with a primary and b a primary (a < b) or a ghost whose
    body is > a. This keeps each physical pair once: (ghost of i with image m, primary j) is
    the pair (primary i, ghost of j with image -m), which exists too (the ghost slab is
    symmetric: if x~_j + h m is within R_cut of x~_i, x~_i - h m is within R_cut of x~_j);
    ghost-ghost pairs are copies of primary pairs; a body never meets its own ghost.
-4. **Narrow phase** (:class:`~grainlab.engine.narrow_phase.NarrowPhase`, no walls) on the kept
+4. **Narrow phase** (:class:`~grainlab.engine.detect.narrow_phase.NarrowPhase`, no walls) on the
+kept
    pairs of the extended state; rows then map back: body_j of a ghost row is its body, the
    image vector is n = m + w_i - w_j (m = 0 for two primaries), and the point moves by
    + h w_i to lie near the unwrapped x_i (gap and normal do not change under a translation).
@@ -41,7 +42,7 @@ on the number of threads.
 
 Asked for ``sphere_rows``, plain spheres (every shape one sphere at its centre of mass) take
 a faster road to the same contacts, one compiled cell list without ghosts
-(:mod:`grainlab.engine.periodic_spheres`); their rows then come by body_i, then body_j.
+(:mod:`grainlab.engine.detect.periodic_spheres`); their rows then come by body_i, then body_j.
 
 **Restriction:** every width of the cell must be at least 3 R_cut (else
 :class:`~grainlab.errors.InputError` naming "periodic cell width"). Then two images of a body
@@ -69,9 +70,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from grainlab.engine.broad_phase import CellListBroadPhase
-from grainlab.engine.narrow_phase import Contacts, NarrowPhase
-from grainlab.engine.periodic_spheres import (
+from grainlab.engine.detect.broad_phase import CellListBroadPhase
+from grainlab.engine.detect.narrow_phase import Contacts, NarrowPhase
+from grainlab.engine.detect.periodic_spheres import (
     bins_per_axis,
     periodic_sphere_contacts,
     plain_spheres,
@@ -95,7 +96,7 @@ class PeriodicContacts:
     Attributes
     ----------
     contacts:
-        The contact points, :class:`~grainlab.engine.narrow_phase.Contacts`: body_i < body_j
+        The contact points, :class:`~grainlab.engine.detect.narrow_phase.Contacts`: body_i < body_j
         on every row, normal from i to the image of j, point near the unwrapped x_i [m].
     images:
         (C, 3) int64: row k is the contact between body_i at x_i and the image of body_j at
@@ -170,12 +171,12 @@ class PeriodicDetection:
     ----------
     alert:
         Alert distance [m] >= 0: pairs with gap <= alert are contacts (as
-        :class:`~grainlab.engine.narrow_phase.NarrowPhase`).
+        :class:`~grainlab.engine.detect.narrow_phase.NarrowPhase`).
     capacity:
         Initial rows of the broad- and narrow-phase buffers (>= 1); they grow when needed.
     angle_tolerance, max_points:
         Polyhedron contact classification angle [rad] and most points per manifold, as
-        :class:`~grainlab.engine.narrow_phase.NarrowPhase`.
+        :class:`~grainlab.engine.detect.narrow_phase.NarrowPhase`.
 
     The same object is meant to be called every step: its broad and narrow phases
     (:attr:`broad_phase`, :attr:`narrow_phase`) keep their buffers.
@@ -190,7 +191,7 @@ class PeriodicDetection:
         self.alert = self.narrow_phase.alert
         self.broad_phase = CellListBroadPhase(alert=self.alert, capacity=capacity)
         self.sphere_scratch: dict = {}
-        """The plain spheres' cell list's buffers (:func:`~grainlab.engine.periodic_spheres.
+        """The plain spheres' cell list's buffers (:func:`~grainlab.engine.detect.periodic_spheres.
         periodic_sphere_contacts`), kept from call to call."""
 
     def detect(self, state: BodyState, library: ShapeLibrary, cell: TriclinicCell,

@@ -1,5 +1,5 @@
 """Narrow phase: contact points of candidate pairs and of walls, for sphere-based bodies here
-and for convex polyhedra through :mod:`grainlab.engine.polyhedron_narrow_phase` (Numba;
+and for convex polyhedra through :mod:`grainlab.engine.detect.polyhedron_narrow_phase` (Numba;
 STYLE.md 2, 3, 8; research/cd_engines.md 6.4). The kernels a body goes through are those of
 its shape kind's narrow-phase family (:attr:`~grainlab.engine.shape_kinds.ShapeKind.narrow_phase`:
 member spheres here, polyhedron features there; a pair with a polyhedron goes through the
@@ -59,7 +59,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from grainlab.engine.polyhedron_narrow_phase import (
+from grainlab.engine.detect.polyhedron_narrow_phase import (
     angle_tolerances,
     polyhedron_pairs_kernel,
     polyhedron_walls_kernel,

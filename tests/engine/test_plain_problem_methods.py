@@ -10,18 +10,19 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from grainlab.engine import contact_solvers
-from grainlab.engine.contact_dynamics import ContactDynamicsStep, contact_frames
-from grainlab.engine.contact_problem import (
+from grainlab.engine.boundaries.wall_box import WallBox
+from grainlab.engine.nscd import plain_problem_methods
+from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
+from grainlab.engine.nscd.contact_problem import (
     FrictionalContactProblem,
     assemble_problem,
     natural_map_error,
     read_fclib,
     write_fclib,
 )
-from grainlab.engine.contact_solvers import METHODS, jacobi_relaxation_bound, solve
+from grainlab.engine.nscd.plain_problem_methods import METHODS, jacobi_relaxation_bound, solve
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.engine.wall_box import WallBox
+from grainlab.engine.step_report import contact_frames
 from grainlab.errors import InputError, SolverDivergence
 
 G, H, MASS = 9.81, 1e-3, 0.5
@@ -314,7 +315,7 @@ def test_a_diverging_jacobi_stops_early_and_names_the_relaxation_that_helps():
 
 
 def test_a_non_finite_error_stops_the_solve_even_without_the_growth_bound(monkeypatch):
-    monkeypatch.setattr(contact_solvers, "DIVERGENCE_FACTOR", np.inf)
+    monkeypatch.setattr(plain_problem_methods, "DIVERGENCE_FACTOR", np.inf)
     problem, _ = sticking_cluster(seed=1)
     with pytest.raises(SolverDivergence, match=r"error became (inf|nan) at iteration"):
         solve(problem, "jacobi", tolerance=1e-10, max_iterations=100_000)

@@ -1,5 +1,5 @@
 """The report of one soft-contact step: the contacts closed at its end, copied out of the
-neighbour list when first asked for (:mod:`grainlab.engine.soft_contact`; STYLE.md 2).
+neighbour list when first asked for (:mod:`grainlab.engine.dem.soft_contact`; STYLE.md 2).
 
 A step of the explicit solver is a few tens of sub-steps, and most steps' contacts are read
 by no one: the lab reads them only on the steps it records, and the boundaries read the
@@ -7,7 +7,7 @@ wall loads and the stress the sub-steps summed. Copying the closed rows out at e
 (their frames, impulses and relative velocities) took ~0.25 ms on 4000 spheres, as long as
 the rest of the step's Python. So the report holds the list's outputs of that step and makes
 the arrays on first use; the solver gives the list new outputs at the next step
-(:meth:`~grainlab.engine.soft_contact.SoftContactStep.step`), so a report stays that of its
+(:meth:`~grainlab.engine.dem.soft_contact.SoftContactStep.step`), so a report stays that of its
 own step however long it is kept.
 """
 
@@ -17,19 +17,19 @@ from functools import cached_property
 
 import numpy as np
 
-from grainlab.engine.narrow_phase import Contacts
-from grainlab.engine.soft_contact_kernels import closed_rows_kernel
+from grainlab.engine.dem.soft_contact_kernels import closed_rows_kernel
+from grainlab.engine.detect.narrow_phase import Contacts
 
 
 class SoftStepReport:
     """Outcome of one soft-contact step, with the attributes of
-    :class:`~grainlab.engine.contact_dynamics.StepReport`: ``n_contacts`` closed at the end
+    :class:`~grainlab.engine.step_report.StepReport`: ``n_contacts`` closed at the end
     of the step (gap < 0), ``iterations`` 1, ``converged`` True, ``change`` and ``residual``
     0 (an explicit step has no iterations), ``max_overlap`` [m] the largest overlap met in
     its sub-steps, and, made on first use, the closed ``contacts``, their ``frames`` (C, 3, 3)
     (rows n, t, s), ``impulses`` (C, 3) local force x dt [N s], ``relative_velocity``
     (C, 3) local [m/s], ``images`` (C, 3); also their world ``forces`` (C, 3) [N] on body j
-    (what a boundary reads, :class:`~grainlab.engine.boundary.BoundaryMotion`).
+    (what a boundary reads, :class:`~grainlab.engine.boundaries.boundary.BoundaryMotion`).
 
     ``rows`` is the neighbour list at the end of the step (:class:`~grainlab.engine.
     soft_contact._Rows`); the report keeps its arrays, which the list must not write again.

@@ -209,7 +209,7 @@ class ContactSlabs:
     chain c at rows ``chains[c] .. chains[c + 1] - 1``; group g the chains ``offsets[g] ..
     offsets[g + 1] - 1``: 0 the slabs' insides, 1 and 2 the interfaces, 3 the serial group
     (one chain); ``body_order`` (N,) the bodies sorted along the slabs' axis (the kernel's
-    memory order: :func:`~grainlab.engine.nlgs_parallel.nlgs_coloured_kernel`);
+    memory order: :func:`~grainlab.engine.nscd.nlgs_parallel.nlgs_coloured_kernel`);
     ``n_colours`` = 3, the groups whose chains may run in parallel."""
 
     order: np.ndarray
@@ -303,21 +303,3 @@ def slab_contacts(body_i, body_j, positions, wall_inv_mass, serial=None,
     offsets = np.array([0, n_slabs, n_slabs + even, n_slabs + even + odd, 2 * n_slabs],
                        dtype=np.int64)
     return ContactSlabs(order=order, offsets=offsets, chains=chains, body_order=body_order)
-
-
-def spatial_order(positions, bits: int = 10) -> np.ndarray:
-    """The bodies at ``positions`` (N, 3) [m] sorted along a Morton (Z-order) curve on a
-    grid of 2^``bits`` cells per axis over their bounding box (stable in the body index):
-    bodies near in space end up near in memory (:func:`~grainlab.engine.nlgs_parallel.
-    nlgs_coloured_kernel`'s ``body_order``)."""
-    x = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
-    if x.shape[0] == 0:
-        return np.zeros(0, dtype=np.int64)
-    low = x.min(axis=0)
-    width = np.maximum(x.max(axis=0) - low, 1e-300)
-    cells = np.clip(((x - low) / width * (1 << bits)).astype(np.int64), 0, (1 << bits) - 1)
-    code = np.zeros(x.shape[0], dtype=np.int64)
-    for bit in range(bits):
-        for axis in range(3):
-            code |= ((cells[:, axis] >> bit) & 1) << (3 * bit + axis)
-    return np.argsort(code, kind="stable").astype(np.int64)

@@ -19,13 +19,13 @@ chosen from the loading speed as for contact dynamics); it is cut into ``n`` equ
 h = dt / n no longer than the stable step: the shorter of the springs' rule (:meth:`~grainlab.
 contact.soft_contact_law.SoftContactLaw.time_step`: a fraction of the Rayleigh time for Hertz,
 of the collision time pi sqrt(m / (2 k)) for springs) and the dashpots' bound of the step's
-contacts (:mod:`grainlab.engine.soft_stability`: the dashpots act with the half-step velocity,
+contacts (:mod:`grainlab.engine.dem.soft_stability`: the dashpots act with the half-step velocity,
 explicitly, and a damping rate beta needs h^2 w^2 + 2 h beta < 4), taken at the step's start
 and again when a list is rebuilt within it (the rest of the step is then cut again if the new
 contacts need it); ``substep`` reports it, ``spring_substep`` and ``damped_substep`` its two
 limits, and ``velocity_zigzag`` how much the contacts' velocities changed in the step's last
 half sub-step (about 1 where a sub-step was unstable). The sub-steps run in
-compiled code (:mod:`grainlab.engine.soft_contact_kernels`) on a neighbour list: the member
+compiled code (:mod:`grainlab.engine.dem.soft_contact_kernels`) on a neighbour list: the member
 pairs within a ``skin`` [m] (default 0.1 x the smallest member diameter) found by the
 boundary's own detection (every shape kind's broad and narrow phase, walls, the periodic
 cell's images), rebuilt when two points may have closed the skin. The list lives from step to
@@ -36,14 +36,15 @@ Convex polyhedra go through their own list and sub-steps (:mod:`grainlab.engine.
 soft_polyhedra`: a soft law on the penetration at each point of the contact-dynamics
 manifold, recomputed every sub-step; their list is rebuilt at every step).
 
-The boundary (:mod:`grainlab.engine.boundary`) is asked for its constraints once per step, as
+The boundary (:mod:`grainlab.engine.boundaries.boundary`) is asked for its constraints once per
+step, as
 by contact dynamics. A driven wall moves at its speed through the step. A servo wall starts
 the step at the speed its servo gives from the step before (:func:`~grainlab.engine.
 soft_contact_kernels.servo_kernel`: the wall's mean reaction over the last step, in the
 overdamped servo of contact dynamics, same gains and bounds, taken backward in time with the
 stiffness K of the wall's contacts), then its servo runs again after the forces of every
-sub-step (:func:`~grainlab.engine.soft_contact_kernels.servo_walls`: the same servo on the
-wall's load at that sub-step, correcting :data:`~grainlab.engine.soft_contact_kernels.
+sub-step (:func:`~grainlab.engine.dem.soft_contact_kernels.servo_walls`: the same servo on the
+wall's load at that sub-step, correcting :data:`~grainlab.engine.dem.soft_contact_kernels.
 SUBSTEP_SERVO_FRACTION` of a stiff load's error per sub-step, as YADE's triaxial stress
 controller does with its ``wallDamping``; K the largest the wall's contacts had in the step,
 so that a wall that loses its last contact for a sub-step does not rush in at the loose
@@ -55,7 +56,7 @@ the step (its mean speed). Once per step was not enough on stiff grains: a servo
 the mean load of the last step lagged the sample, and the lateral stresses of a 300-sphere
 triaxial test at kappa = 1e4 swung from 0.4 to 2.2 sigma0 (39 % median error; 2.2 % at
 every sub-step, 0.8 % at kappa = 1e3, 4.5 % at kappa = 1e5). The
-periodic cell is servoed at every sub-step (:func:`~grainlab.engine.soft_contact_kernels.
+periodic cell is servoed at every sub-step (:func:`~grainlab.engine.dem.soft_contact_kernels.
 cell_servo_kernel`: the stress of the contacts' springs over all the contacts, low-passed
 over :data:`FILTER_SUBSTEPS` stable sub-steps, the stiffness of the affine deformation of
 the contacts in the denominator), the bodies taking up each change of its rate at once
@@ -94,17 +95,14 @@ import numpy as np
 from grainlab._numba_setup import threading_layer
 from grainlab._validate import at_least
 from grainlab.contact.soft_contact_law import SoftContactLaw
-from grainlab.engine.boundary import (
+from grainlab.engine.boundaries.boundary import (
     BoundaryMotion,
     ClosedContacts,
     DetectionPhases,
     as_boundary,
 )
-from grainlab.engine.contact_dynamics import StepReport, contact_keys
-from grainlab.engine.narrow_phase import Contacts
-from grainlab.engine.neighbour_rows import carry_springs_kernel, member_rows_kernel
-from grainlab.engine.simulation import SimulationBlowUp
-from grainlab.engine.soft_contact_kernels import (
+from grainlab.engine.dem.neighbour_rows import carry_springs_kernel, member_rows_kernel
+from grainlab.engine.dem.soft_contact_kernels import (
     ROW_BLOCK,
     SERVO_INTEGRAL,
     SUBSTEP_SERVO_FRACTION,
@@ -114,16 +112,19 @@ from grainlab.engine.soft_contact_kernels import (
     servo_kernel,
     substeps_kernel,
 )
-from grainlab.engine.soft_polyhedra import PolyhedronRows, has_polyhedra, smallest_radius
-from grainlab.engine.soft_stability import (
+from grainlab.engine.dem.soft_polyhedra import PolyhedronRows, has_polyhedra, smallest_radius
+from grainlab.engine.dem.soft_stability import (
     HORIZON_STEPS,
     damped_limit,
     sphere_rows_rates,
     zigzag_index,
     zigzag_sums_kernel,
 )
-from grainlab.engine.soft_step_report import SoftStepReport
+from grainlab.engine.dem.soft_step_report import SoftStepReport
+from grainlab.engine.detect.narrow_phase import Contacts
+from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.state import BodyState, ShapeLibrary
+from grainlab.engine.step_report import StepReport, contact_keys
 from grainlab.errors import InputError
 
 SKIN_FRACTION = 0.1
@@ -133,7 +134,7 @@ FILTER_SUBSTEPS = 20.0
 sub-steps (four collisions: the law's stable step is 0.2 of a contact's half period)."""
 PARALLEL_BODIES = {"tbb": 1000, "workqueue": 8000, "omp": 8000}
 """From this many bodies, per threading layer, the sub-steps share the rows and the bodies out
-over Numba's threads (:func:`~grainlab.engine.soft_contact_kernels.bodies_parallel`; the same
+over Numba's threads (:func:`~grainlab.engine.dem.soft_contact_kernels.bodies_parallel`; the same
 results on any number of threads). Each sub-step then starts two parallel loops (three before
 the bodies' end of a sub-step and start of the next became one pass), ~0.02 ms each with TBB
 and ~0.17 ms with workqueue on the 2-core machine (measured), so that below this the threads
@@ -389,7 +390,7 @@ class SoftContactStep:
     def _longest_substep(self, run: _Run, rows, span: float) -> float:
         """The longest sub-step [s] for the next ``span`` [s] on ``rows``: the fixed one, or
         the springs' rule and the dashpots' bound of these contacts, whichever is shorter
-        (:mod:`grainlab.engine.soft_stability`; :attr:`damped_substep`)."""
+        (:mod:`grainlab.engine.dem.soft_stability`; :attr:`damped_substep`)."""
         if self.fixed_substep is not None:
             return self.fixed_substep
         self.damped_substep = run.damped_substep(self, rows, HORIZON_STEPS * span)
@@ -413,7 +414,7 @@ class SoftContactStep:
     def _kept_list(self, state, library, bounds, run) -> _Rows | None:
         """The list of the last step if it is still valid for this one (the same bodies where
         that step left them, the same walls, and no two points nearer to closing the skin
-        than :func:`~grainlab.engine.soft_contact_kernels.substeps_kernel` allows); None if
+        than :func:`~grainlab.engine.dem.soft_contact_kernels.substeps_kernel` allows); None if
         it must be rebuilt."""
         rows = self._rows
         if (not isinstance(rows, _Rows) or rows.travel.shape[0] != state.n_bodies
@@ -459,7 +460,7 @@ class SoftContactStep:
 
     def _remember(self, rows) -> None:
         """The springs of ``rows`` (a list about to be replaced, or saved) by key, in key
-        order, for the next list (:func:`~grainlab.engine.neighbour_rows.
+        order, for the next list (:func:`~grainlab.engine.dem.neighbour_rows.
         carry_springs_kernel`)."""
         keys = rows.keys
         if np.all(keys[1:] >= keys[:-1]):  # the usual order of a list (a stable sort keeps it)
@@ -491,7 +492,7 @@ def isochoric_wall_speeds(bounds) -> np.ndarray:
 
 
 class _Rows:
-    """A neighbour list as the kernels take it (:mod:`grainlab.engine.soft_contact_kernels`),
+    """A neighbour list as the kernels take it (:mod:`grainlab.engine.dem.soft_contact_kernels`),
     with what decides how long it lives: the bodies' ``travel`` (N,) [m] since it was built,
     the walls (``built_walls`` (W, 3) [m], ``wall_normals``) and the cell matrix
     ``built_cell`` (3, 3) [m] it was built at, and the kernel's bound ``approach`` (1,) [m]."""
@@ -548,7 +549,7 @@ class _Rows:
     def renew_report_outputs(self) -> None:
         """New arrays for the outputs a step report reads (gaps, normals, points, forces,
         relative velocities), so that the report of the step before keeps its own
-        (:class:`~grainlab.engine.soft_step_report.SoftStepReport`). Every call of the
+        (:class:`~grainlab.engine.dem.soft_step_report.SoftStepReport`). Every call of the
         sub-steps starts with an evaluation that writes them all."""
         c = self.body_j.shape[0]
         self.gap = np.empty(c)
@@ -600,7 +601,7 @@ def rotation_arms(library: ShapeLibrary, shape_ids: np.ndarray) -> np.ndarray:
     of the body moves by |omega| h x that arm: the farthest member-sphere centre for shapes
     of member spheres (0 for a sphere at its centre of mass, whose turns move no contact),
     the bounding radius for polyhedra (their vertices). The neighbour list's travel counts
-    it (:func:`~grainlab.engine.soft_contact_kernels.substeps_kernel`)."""
+    it (:func:`~grainlab.engine.dem.soft_contact_kernels.substeps_kernel`)."""
     arms = np.array(library.bounding_radius, dtype=np.float64)
     count = library.vertex_count
     for s in range(arms.shape[0]):
@@ -700,7 +701,7 @@ class _Run:
         """The walls' speeds at the start of the step (:func:`~grainlab.engine.
         soft_contact_kernels.servo_kernel`) from the last step's mean loads and the servos'
         memories; returns the memories, which the sub-steps then update (their servo,
-        :func:`~grainlab.engine.soft_contact_kernels.servo_walls`, starts from these
+        :func:`~grainlab.engine.dem.soft_contact_kernels.servo_walls`, starts from these
         memories, the stiffnesses of the last step's end and the integral gain set here).
         When a driven deformation starts, the memories start from
         :func:`isochoric_wall_speeds`. (The cell's servo runs at every sub-step, in the
@@ -721,7 +722,7 @@ class _Run:
 
     def damped_substep(self, solver: SoftContactStep, rows: _Rows, horizon: float) -> float:
         """The dashpots' bound [s] on the sub-step for the contacts of ``rows``, each at its
-        overlap after ``horizon`` [s] of approach (:mod:`grainlab.engine.soft_stability`)."""
+        overlap after ``horizon`` [s] of approach (:mod:`grainlab.engine.dem.soft_stability`)."""
         if isinstance(rows, PolyhedronRows):
             return rows.damped_substep(self, solver, horizon, OVERLAP_LIMIT)
         bounds, f64 = self.bounds, np.float64
@@ -775,7 +776,7 @@ class _Run:
         return int(done)
 
     def zigzag(self, rows) -> float:
-        """:func:`~grainlab.engine.soft_stability.zigzag_index` of the contacts between bodies
+        """:func:`~grainlab.engine.dem.soft_stability.zigzag_index` of the contacts between bodies
         closed at the end of the step."""
         state, sums = self.state, np.zeros(4)
         if isinstance(rows, PolyhedronRows):
@@ -790,7 +791,7 @@ class _Run:
     def report(self, rows: _Rows, macro: float) -> tuple[StepReport | SoftStepReport,
                                                           ClosedContacts | SoftStepReport]:
         """The contacts closed at the end of the step, as a step report (copied out of a
-        sphere list only when read: :class:`~grainlab.engine.soft_step_report.
+        sphere list only when read: :class:`~grainlab.engine.dem.soft_step_report.
         SoftStepReport`), and as the boundary reads them."""
         if isinstance(rows, PolyhedronRows):
             report, forces = rows.report(self, macro)

@@ -1,6 +1,6 @@
-"""Convex polyhedra in the soft-contact DEM solver (:class:`~grainlab.engine.soft_contact.
+"""Convex polyhedra in the soft-contact DEM solver (:class:`~grainlab.engine.dem.soft_contact.
 SoftContactStep`): a soft law on the penetration depth at each point of the contact manifold
-of contact dynamics (STYLE.md 3, 10; kernels in :mod:`grainlab.engine.soft_polyhedra_kernels`).
+of contact dynamics (STYLE.md 3, 10; kernels in :mod:`grainlab.engine.dem.soft_polyhedra_kernels`).
 
 Geometry. Each sub-step recomputes, for every pair of the neighbour list, the pair's manifold
 from the current configuration with the narrow phase of contact dynamics
@@ -45,7 +45,7 @@ x = sum_r w_r x_r about the mean normal n = sum_r w_r n_r / |.|: turned with n a
 mean spin about it, loaded by dF_e = -k_t U_T dt with U_T the tangential relative velocity at
 x, k_t and c_t those of the law at the mean depth sum delta_r^2 / sum delta_r (delta for a flat
 contact), capped by Coulomb at mu sum_r F_r. It is keyed per body pair
-(:func:`~grainlab.engine.contact_dynamics.contact_keys` with members 0, a wall's -1), so it is
+(:func:`~grainlab.engine.step_report.contact_keys` with members 0, a wall's -1), so it is
 kept across rebuilds of the list and in checkpoints, and released when no point penetrates.
 
 Equivalent radius and mass. Hertz needs R*: each polyhedron counts as the sphere of its volume,
@@ -84,7 +84,7 @@ docs/discrete_engine.md).
 A cube of side 1 cm at rest on a face sinks by m g / k_n, each corner carrying a quarter:
 
 >>> from grainlab.contact.soft_contact_law import SoftContactLaw
->>> from grainlab.engine.soft_contact import SoftContactStep
+>>> from grainlab.engine.dem.soft_contact import SoftContactStep
 >>> from grainlab.geometry.polyhedron import from_vertices
 >>> cube = from_vertices([[x, y, z] for x in (0, 0.01) for y in (0, 0.01) for z in (0, 0.01)])
 >>> library = ShapeLibrary.from_polyhedra([cube])
@@ -105,9 +105,17 @@ from functools import lru_cache
 import numpy as np
 
 from grainlab.contact.soft_contact_law import SoftContactLaw
-from grainlab.engine.contact_dynamics import StepReport, contact_frames, contact_keys
-from grainlab.engine.narrow_phase import Contacts
-from grainlab.engine.polyhedron_narrow_phase import angle_tolerances
+from grainlab.engine.dem.soft_contact_kernels import SUBSTEP_SERVO_FRACTION, body_rows
+from grainlab.engine.dem.soft_polyhedra_kernels import polyhedra_substeps_kernel
+from grainlab.engine.dem.soft_stability import (
+    BLOCK,
+    LAW_COLUMNS,
+    damped_limit,
+    polyhedron_elements_kernel,
+    stable_rates_kernel,
+)
+from grainlab.engine.detect.narrow_phase import Contacts
+from grainlab.engine.detect.polyhedron_narrow_phase import angle_tolerances
 from grainlab.engine.shape_kinds import (
     MEMBER_SPHERES,
     POLYHEDRON_FEATURES,
@@ -115,16 +123,8 @@ from grainlab.engine.shape_kinds import (
     library_time_step_length,
 )
 from grainlab.engine.simulation import SimulationBlowUp
-from grainlab.engine.soft_contact_kernels import SUBSTEP_SERVO_FRACTION, body_rows
-from grainlab.engine.soft_polyhedra_kernels import polyhedra_substeps_kernel
-from grainlab.engine.soft_stability import (
-    BLOCK,
-    LAW_COLUMNS,
-    damped_limit,
-    polyhedron_elements_kernel,
-    stable_rates_kernel,
-)
 from grainlab.engine.state import BodyState, ReadOnlyArrays, ShapeLibrary
+from grainlab.engine.step_report import StepReport, contact_frames, contact_keys
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron_contact import ANGLE_TOLERANCE, DEFAULT_MAX_POINTS
 
@@ -228,7 +228,7 @@ class PolyhedronRows:
 
     def advance(self, run, solver, n_steps: int, h: float, overlap_limit: float) -> int:
         """Up to ``n_steps`` sub-steps of ``h`` [s] (0: only the loads now) for the solver's
-        step ``run`` (:class:`~grainlab.engine.soft_contact.SoftContactStep`'s); returns those
+        step ``run`` (:class:`~grainlab.engine.dem.soft_contact.SoftContactStep`'s); returns those
         done. A penetration beyond ``overlap_limit`` x the smallest inscribed radius stops the
         run."""
         state, bounds, law = run.state, run.bounds, solver.law
@@ -264,7 +264,7 @@ class PolyhedronRows:
         """The dashpots' bound [s] on the sub-step for these pairs, their manifolds evaluated
         now (a step of no sub-step: the loads, as the step's own start then computes them
         again), each penetrating point at its overlap after ``horizon`` [s] of approach
-        (:func:`~grainlab.engine.soft_stability.polyhedron_elements_kernel`)."""
+        (:func:`~grainlab.engine.dem.soft_stability.polyhedron_elements_kernel`)."""
         self.advance(run, solver, 0, solver.spring_substep, overlap_limit)
         law, state = solver.law, run.state
         p, k = self.point_gap.shape
@@ -287,7 +287,7 @@ class PolyhedronRows:
 
     def closed_points(self) -> tuple:
         """The penetrating points of the last evaluation as contacts of
-        :func:`~grainlab.engine.soft_stability.zigzag_sums_kernel`: (body_i, body_j, images,
+        :func:`~grainlab.engine.dem.soft_stability.zigzag_sums_kernel`: (body_i, body_j, images,
         closed (all true), points, normals, relative velocities)."""
         k = self.point_gap.shape[1]
         kept = np.arange(k)[None, :] < self.n_points[:, None]
@@ -322,7 +322,7 @@ class PolyhedronRows:
 def _world_layout(state: BodyState, library: ShapeLibrary) -> tuple:
     """Rows of each body in the world-frame arrays of its polyhedron (body_vertex_start
     (N + 1,), world_vertices (V_w, 3), body_face_start (N + 1,), world_normals (F_w, 3),
-    world_offsets (F_w,)), as :func:`~grainlab.engine.polyhedron_narrow_phase.
+    world_offsets (F_w,)), as :func:`~grainlab.engine.detect.polyhedron_narrow_phase.
     world_polyhedra` lays them out; the sub-steps fill them."""
     ids = state.shape_ids
     body_vertex_start = np.zeros(state.n_bodies + 1, dtype=np.int64)

@@ -1,5 +1,5 @@
 """Contacts of plain spheres in a periodic triclinic cell by one compiled cell list: the fast
-path of :class:`~grainlab.engine.periodic_detection.PeriodicDetection` when every shape is a
+path of :class:`~grainlab.engine.detect.periodic_detection.PeriodicDetection` when every shape is a
 single sphere at its centre of mass (STYLE.md 2, 8, 12).
 
 The same contacts as the general detection (ghost layer, broad and narrow phases), found
@@ -29,7 +29,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from grainlab.engine.narrow_phase import Contacts
+from grainlab.engine.detect.narrow_phase import Contacts
 from grainlab.engine.state import ShapeLibrary
 
 
@@ -61,7 +61,7 @@ def periodic_sphere_contacts(positions: np.ndarray, radii: np.ndarray, matrix: n
     """Contacts (g <= ``alert`` [m]) of spheres of ``radii`` (N,) [m] at unwrapped
     ``positions`` (N, 3) [m] in the cell ``matrix`` h (3, 3) [m] (``inverse`` h^-1, ``bins``
     (3,) from :func:`bins_per_axis`): (contacts, images (C, 3) int64) as
-    :class:`~grainlab.engine.periodic_detection.PeriodicContacts` holds them (module
+    :class:`~grainlab.engine.detect.periodic_detection.PeriodicContacts` holds them (module
     docstring). From :data:`PARALLEL_SPHERES` spheres the bodies are shared out over the
     threads in chunks, each writing its rows to its own part of the outputs, then packed in
     chunk order: the same rows in the same order as one thread. ``scratch``: a dict the caller

@@ -4,13 +4,14 @@ in time and iterations to a given natural-map error (Acary, Brémond & Huber 201
 The problems are FCLib files given on the command line, or stored from a grainlab triaxial
 test made here (``--n`` spheres, compaction then shear to ``--eps-q``, every ``--every``-th
 step's problem kept with ``output.problems_every``). Each problem is solved from zero impulses
-by every method of :mod:`grainlab.engine.contact_solvers` with the same cap; the script prints,
+by every method of :mod:`grainlab.engine.nscd.plain_problem_methods` with the same cap; the script
+prints,
 per stage and method, how many problems reached each error level, the median iterations and
 seconds to get there, the error at the cap, and how many problems the method diverged on
 (:class:`~grainlab.errors.SolverDivergence`); then the error the engine's own step had reached
 (the stored solution).
 
-    .venv/bin/python benchmarks/benchmark_contact_solvers.py [--n 300] [--eps-q 0.01]
+    .venv/bin/python benchmarks/benchmark_plain_problem_methods.py [--n 300] [--eps-q 0.01]
         [--every 50] [--cap 2000] [FCLIB_FILE ...]
 """
 
@@ -22,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from grainlab.engine.contact_problem import natural_map_error, read_fclib
-from grainlab.engine.contact_solvers import METHODS, solve
+from grainlab.engine.nscd.contact_problem import natural_map_error, read_fclib
+from grainlab.engine.nscd.plain_problem_methods import METHODS, solve
 from grainlab.errors import SolverDivergence
 from grainlab.lab.discrete_run import PROBLEMS, start_run
 from grainlab.lab.run_config import RunConfig

@@ -1,8 +1,8 @@
 """The longest stable sub-step of the explicit soft-contact scheme with its dashpots (Numba;
 STYLE.md 2, 10): a bound from the contacts of each body, taken at the start of every step
-(:class:`~grainlab.engine.soft_contact.SoftContactStep`).
+(:class:`~grainlab.engine.dem.soft_contact.SoftContactStep`).
 
-Why. Velocity Verlet (:mod:`grainlab.engine.soft_contact`) evaluates the dashpots with the
+Why. Velocity Verlet (:mod:`grainlab.engine.dem.soft_contact`) evaluates the dashpots with the
 half-step velocity, explicitly. For one mode of circular frequency w and damping rate beta
 the sub-step h then obeys the leapfrog recurrence
 
@@ -112,7 +112,7 @@ from numba import njit
 
 from grainlab.contact.contact_kinematics import less_body_i, point_velocity, sphere_wall_gap
 from grainlab.contact.soft_contact_law import contact_law
-from grainlab.engine.narrow_phase import sphere_sphere
+from grainlab.engine.detect.narrow_phase import sphere_sphere
 from grainlab.engine.quaternion import rotate
 
 DAMPED_FRACTION = 0.9
@@ -390,7 +390,7 @@ def sphere_rows_rates(rows, horizon: float, law, inv_mass, inv_inertia, position
                       wall_speed, cell_h, cell_rate) -> tuple[float, float]:
     """(a [1/s^2], b [1/s], c_n / m*_n [1/s]) of :func:`stable_rates_kernel` for a list of
     member spheres
-    (:class:`~grainlab.engine.soft_contact._Rows`), each row at its overlap after
+    (:class:`~grainlab.engine.dem.soft_contact._Rows`), each row at its overlap after
     ``horizon`` [s] (:func:`sphere_elements_kernel`); ``law`` a
     :class:`~grainlab.contact.soft_contact_law.SoftContactLaw`."""
     c, n = rows.body_j.shape[0], inv_mass.shape[0]

@@ -4,7 +4,7 @@
 The sample fills a triclinic cell h (3, 3) [m] whose COLUMNS are the cell vectors, repeated
 without end: body j has images at x_j + h m for every integer vector m, and a body near a face
 touches the images of the bodies near the opposite face
-(:mod:`grainlab.engine.periodic_detection`: every face, edge and corner, every shape).
+(:mod:`grainlab.engine.detect.periodic_detection`: every face, edge and corner, every shape).
 
 Kinematics (total velocities, as YADE's ``homoDeform``). Positions are never wrapped: each body
 follows a continuous trajectory, and a contact k is with the image of body j translated by
@@ -28,7 +28,7 @@ Control. Each stage sets (:meth:`PeriodicCell.set_control`):
   that c . e is the stress power per unit volume).
 
 A stress-controlled degree of freedom is an overdamped servo solved with the contacts, as
-the walls of :class:`~grainlab.engine.wall_box.WallBox` are:
+the walls of :class:`~grainlab.engine.boundaries.wall_box.WallBox` are:
 
     e_d = G e_max (c*_d + J_d - c_d) / sigma_ref,          -4 e_max <= e_d <= e_max
 
@@ -46,7 +46,7 @@ images transmit across the cell, c_d = -(1/V) sum_k G_d : (f_k (x) h m_k), which
 stress from all contacts in static equilibrium; so e_d has the free value
 G e_max c*_d / sigma_ref and the inverse mass kappa_d = G e_max / (sigma_ref V dt) against
 the generalised impulse (G_d h m_k) . P_k of each contact with an image
-(:func:`~grainlab.engine.contact_dynamics._apply_to_cell`).
+(:func:`~grainlab.engine.nscd.contact_update._apply_to_cell`).
 
 Large shear. When the cell becomes too skewed (a cell vector's projection on another beyond
 ``max_skew`` (0.5) of its length), it is re-mapped to the least skewed cell of the same
@@ -68,9 +68,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from grainlab.engine.boundary import BoundaryConstraints, BoundaryMotion, DetectionPhases
-from grainlab.engine.narrow_phase import Contacts
-from grainlab.engine.periodic_detection import PeriodicDetection
+from grainlab.engine.boundaries.boundary import BoundaryConstraints, BoundaryMotion, DetectionPhases
+from grainlab.engine.detect.narrow_phase import Contacts
+from grainlab.engine.detect.periodic_detection import PeriodicDetection
 from grainlab.errors import InputError
 from grainlab.geometry.triclinic_cell import TriclinicCell
 
@@ -207,7 +207,7 @@ class PeriodicCell:
         """(D,) c_d = -G_d : sigma [Pa] of a stress (3, 3) [Pa] (compression positive)."""
         return -np.einsum("dab,ab->d", self.gradients, np.asarray(stress))
 
-    # -- the boundary protocol (grainlab.engine.boundary) ----------------------------------------
+    # -- the boundary protocol (grainlab.engine.boundaries.boundary) -------------------------------
     def constraints(self, dt: float, theta: float) -> BoundaryConstraints:
         """The cell over a step (module docstring): h_m, the prescribed hdot, the free degrees
         of freedom and the change of the mean field the particles take up."""
@@ -234,7 +234,7 @@ class PeriodicCell:
     def detect(self, predicted, library, phases: DetectionPhases,
                constraints: BoundaryConstraints) -> tuple[Contacts, np.ndarray]:
         """Contacts through every face, edge and corner of the cell at the detection
-        configuration (:class:`~grainlab.engine.periodic_detection.PeriodicDetection`)."""
+        configuration (:class:`~grainlab.engine.detect.periodic_detection.PeriodicDetection`)."""
         if self._detection is None or self._detection.alert != phases.alert:
             self._detection = PeriodicDetection(alert=phases.alert)
         found = self._detection.detect(predicted, library,

@@ -1,6 +1,6 @@
 """Compiled kernels of the explicit soft-contact DEM step (Numba; STYLE.md 2, 8):
 contact forces on a neighbour list, their gather on the bodies, velocity-Verlet sub-steps with
-quaternion rotations, servo walls and a servo cell (:mod:`grainlab.engine.soft_contact`).
+quaternion rotations, servo walls and a servo cell (:mod:`grainlab.engine.dem.soft_contact`).
 
 Contact list. Row k is a member pair (a of body i, b of body j) found within the skin at the
 last detection: ``body_i`` (-1 - w for wall w), ``body_j``, member offsets in the body frames
@@ -18,14 +18,14 @@ Threads. The rows are evaluated in blocks of :data:`ROW_BLOCK`, whose sums (the 
 virial, the largest overlap) are added in block order; the bodies' side of a sub-step (gather,
 kicks, drift, the cell's velocity gradient taken up) is body by body, in blocks of
 :data:`BODY_BLOCK` bodies (as vector code for bodies of isotropic inertia:
-:mod:`grainlab.engine.sphere_bodies`). So the same sub-steps run on one thread
+:mod:`grainlab.engine.dem.sphere_bodies`). So the same sub-steps run on one thread
 (:func:`contact_forces_kernel`, :func:`bodies_kernel`) or on several
 (:func:`contact_forces_parallel`, :func:`bodies_parallel`: ``parallel`` in
 :func:`substeps_kernel`) with the same results, bit for bit, whatever the number of threads.
 Each parallel loop costs ~0.02 ms to start with Numba's TBB layer on a
 2-core machine, ~0.17 ms with workqueue (two per sub-step: the rows, then the bodies'
 end of the sub-step and start of the next in one pass), so the threads pay from about
-1000 bodies with TBB, 8000 with workqueue (:data:`~grainlab.engine.soft_contact.
+1000 bodies with TBB, 8000 with workqueue (:data:`~grainlab.engine.dem.soft_contact.
 PARALLEL_BODIES`).
 """
 
@@ -40,10 +40,10 @@ from grainlab.contact.contact_kinematics import less_body_i, point_velocity, sph
 from grainlab.contact.rolling_resistance import rolling_spring
 from grainlab.contact.soft_contact_law import contact_law
 from grainlab.contact.tangential_spring import mindlin_coulomb
-from grainlab.engine.narrow_phase import sphere_sphere
+from grainlab.engine.dem.sphere_bodies import large_turns, sphere_bodies_kernel
+from grainlab.engine.dem.sphere_rows import sphere_rows_kernel
+from grainlab.engine.detect.narrow_phase import sphere_sphere
 from grainlab.engine.quaternion import half_turn, rotate, turned
-from grainlab.engine.sphere_bodies import large_turns, sphere_bodies_kernel
-from grainlab.engine.sphere_rows import sphere_rows_kernel
 
 OUTWARD_FACTOR = 4.0
 """A servo wall or cell component moves out at most this many times its inward limit (as
@@ -119,7 +119,7 @@ out evenly (8493 rows of 2000 spheres on 2 threads: blocks of 4096 gave 1.15x, o
 def plain_blocks(body_i: np.ndarray, off_i: np.ndarray, off_j: np.ndarray) -> np.ndarray:
     """Per block of :data:`ROW_BLOCK` rows, whether all its rows are plain: between two
     bodies (no wall), each member at its body's centre (no aggregate's member). Those blocks
-    go through the vector force pass (:mod:`grainlab.engine.sphere_rows`)."""
+    go through the vector force pass (:mod:`grainlab.engine.dem.sphere_rows`)."""
     plain = np.ones(-(-body_i.shape[0] // ROW_BLOCK), dtype=np.bool_)
     _plain_blocks_kernel(np.ascontiguousarray(body_i, dtype=np.int64),
                          np.ascontiguousarray(off_i, dtype=np.float64),
@@ -142,7 +142,7 @@ def _sphere_block(blk, step, record, code, params, body_i, body_j, rad_i, rad_j,
                   torque_i, torque_j, gap, normal, point, stiffness, rel_vel, springs,
                   partial):
     """The rows of block ``blk``, all plain, by the vector kernel
-    (:func:`~grainlab.engine.sphere_rows.sphere_rows_kernel`), then their springs' virial and
+    (:func:`~grainlab.engine.dem.sphere_rows.sphere_rows_kernel`), then their springs' virial and
     largest overlap summed in row order into ``partial[blk]``: what :func:`_forces_block`
     writes, bit for bit."""
     lo, hi = blk * ROW_BLOCK, min((blk + 1) * ROW_BLOCK, body_j.shape[0])
@@ -336,7 +336,7 @@ def contact_forces_kernel(step, record, code, params, rolling, body_i, body_j, o
     positive (summed by blocks of :data:`ROW_BLOCK` rows: ``partial`` (ceil(C / ROW_BLOCK), 10)
     scratch); ``stats[0]`` becomes the largest overlap [m] if larger. The blocks flagged in
     ``plain`` (ceil(C / ROW_BLOCK),) (:func:`plain_blocks`) go through the vector kernel of
-    :mod:`grainlab.engine.sphere_rows` when there is no rolling resistance (the same bits;
+    :mod:`grainlab.engine.dem.sphere_rows` when there is no rolling resistance (the same bits;
     ``springs`` (C, 6) scratch)."""
     for blk in range(partial.shape[0]):
         _block(blk, step, record, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
@@ -483,7 +483,7 @@ def drift_kernel(dt, principal, isotropic, arm, positions, orientations, velocit
     inertia keeps its angular momentum L = I_w omega through the turn, so omega follows the
     new orientation (torque-free precession). ``travel`` (N,) [m] grows by the largest
     displacement of a point its contacts are computed from (|dx| + |omega| h ``arm``, the
-    rotation arms of :func:`grainlab.engine.soft_contact.rotation_arms`)."""
+    rotation arms of :func:`grainlab.engine.dem.soft_contact.rotation_arms`)."""
     for b in range(positions.shape[0]):
         _drift_body(b, dt, principal, isotropic, arm, positions, orientations,
                     velocities, spins, travel)
@@ -510,7 +510,7 @@ def _body_pass(b, close, carry, open_, half, dt, adj_start, adj_entry, force, to
 
 BODY_BLOCK = 512
 """Bodies per block of the bodies' pass of a sub-step: the threads' units of work, and the
-runs of bodies that go through the vector kernel of :mod:`grainlab.engine.sphere_bodies`
+runs of bodies that go through the vector kernel of :mod:`grainlab.engine.dem.sphere_bodies`
 when they all have isotropic inertia (:func:`isotropic_blocks`)."""
 
 
@@ -529,7 +529,7 @@ def _bodies_block(blk, close, carry, open_, half, dt, adj_start, adj_entry, forc
                   gradient, carried, cx, cy, cz, positions, orientations, velocities, spins,
                   body_force, body_torque, travel, plain):
     """The bodies of block ``blk``: through the vector kernel (after the gather, then
-    :func:`~grainlab.engine.sphere_bodies.large_turns`) if they are all of isotropic inertia
+    :func:`~grainlab.engine.dem.sphere_bodies.large_turns`) if they are all of isotropic inertia
     (``plain[blk]``) and there is no local damping, else body by body; the same bits."""
     lo, hi = blk * BODY_BLOCK, min((blk + 1) * BODY_BLOCK, masses.shape[0])
     if plain[blk] and local_damping == 0.0:
@@ -627,7 +627,7 @@ shape)."""
 @njit(inline="always")
 def _servo_rate(free, gain, load, stiffness, macro, low, high, memory, integral):
     """One servo's speed over a step of ``macro`` [s] and its updated memory (module docstring
-    of :mod:`grainlab.engine.soft_contact`): the proportional part is the overdamped servo
+    of :mod:`grainlab.engine.dem.soft_contact`): the proportional part is the overdamped servo
     of contact dynamics, s = free - gain load, taken backward in time with the load's
     stiffness K over the step, (free - gain load) / (1 + gain K h): stable at any contact
     stiffness, and it would cancel the load's error in one step if the grains behind the
@@ -747,7 +747,7 @@ def cell_servo_kernel(dt, virial, cell_h, cell_gradient, cell_directions, cell_s
                       cell_dofs, gradient):
     """The periodic cell's stress-controlled degrees of freedom, at every sub-step of ``dt``
     [s], from the stress of the contacts' springs (the servo of
-    :mod:`grainlab.engine.periodic_boundary` made fit for vibrating contacts):
+    :mod:`grainlab.engine.boundaries.periodic_boundary` made fit for vibrating contacts):
 
         e_d = clip((free_d - scale_d c_d) / (1 + scale_d K_d 4 tau), bounds_d),
 

@@ -19,12 +19,12 @@ which holds exactly when the natural map vanishes:
 :func:`natural_map_error` is the error measure of Acary, Brémond & Huber (2018) and FCLib:
 ||F(r)|| / ||q|| (||F(r)|| alone when ||q|| is below machine epsilon). The contact-dynamics
 step measures the same map with each block scaled by W_nn,a so that it has units of velocity
-(:mod:`~grainlab.engine.contact_dynamics`); both vanish together.
+(:mod:`~grainlab.engine.nscd.contact_dynamics`); both vanish together.
 
 :func:`assemble_problem` builds (W, q, mu) from the arrays of a step: bodies (translation and
 rotation, world inverse inertia), mobile walls (one degree of freedom along their normal) and
 the free degrees of freedom of a periodic cell, so that any step can be stored and any solver
-compared on it (:mod:`~grainlab.engine.contact_solvers`). The wall and cell speed limits
+compared on it (:mod:`~grainlab.engine.nscd.plain_problem_methods`). The wall and cell speed limits
 (brakes) of the step are not part of this problem: a step whose brakes held is not the
 stored problem's solution.
 
@@ -160,7 +160,7 @@ def assemble_problem(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                      cell_basis=None, cell_inv_mass=None, cell_free=None
                      ) -> FrictionalContactProblem:
     """The plain problem (W, q, mu) of a contact-dynamics step, from the arrays its kernels
-    take (:func:`~grainlab.engine.contact_dynamics.nlgs_kernel`: same names, units and
+    take (:func:`~grainlab.engine.nscd.serial_sweep.nlgs_kernel`: same names, units and
     conventions; ``gap_term`` (C,) [m] the g* of the law, ``dt`` [s]).
 
     W = H M^-1 H^T over the degrees of freedom: per body its velocity and angular velocity

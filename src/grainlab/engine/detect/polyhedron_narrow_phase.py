@@ -35,7 +35,7 @@ def world_polyhedron(n, positions, orientations, shape_ids, vertex_start, vertic
                      face_normals, face_offsets, body_vertex_start, body_face_start,
                      world_vertices, world_normals, world_offsets):
     """Body n's rows of :func:`world_polyhedra_kernel` (the scalar law, also inlined in the
-    serial sub-steps of :mod:`grainlab.engine.soft_polyhedra_kernels`)."""
+    serial sub-steps of :mod:`grainlab.engine.dem.soft_polyhedra_kernels`)."""
     w, x, y, z = orientations[n, 0], orientations[n, 1], orientations[n, 2], orientations[n, 3]
     s = shape_ids[n]
     px, py, pz = positions[n, 0], positions[n, 1], positions[n, 2]

@@ -2,10 +2,10 @@
 6.3; STYLE.md 2, 12).
 
 Same problem, local solver, body accumulators, warm start and convergence measures as
-:func:`~grainlab.engine.contact_dynamics.nlgs_kernel` (see the module docstring of
-:mod:`~grainlab.engine.contact_dynamics`, whose scalar laws are reused); only the visiting
+:func:`~grainlab.engine.nscd.serial_sweep.nlgs_kernel` (see the module docstring of
+:mod:`~grainlab.engine.nscd.contact_dynamics`, whose scalar laws are reused); only the visiting
 order differs. The contacts are grouped by
-:func:`~grainlab.engine.contact_colouring.colour_contacts`: no two contacts of one colour share
+:func:`~grainlab.engine.nscd.contact_colouring.colour_contacts`: no two contacts of one colour share
 a body, so a colour is swept with ``numba.prange`` (each iteration reads and writes only its own
 two bodies: no race, and the result does not depend on which thread ran it), the colours one
 after the other, then the serial group (contacts of mobile walls, which all share their wall)
@@ -65,28 +65,26 @@ import numpy as np
 from numba import njit, prange
 
 from grainlab.contact.coulomb_cone import natural_map
-from grainlab.engine.contact_colouring import power_of_two_below
-from grainlab.engine.contact_dynamics import (
+from grainlab.engine.nscd.contact_colouring import power_of_two_below
+from grainlab.engine.nscd.contact_update import (
     SKIP_OPEN,
     SKIP_REVISIT,
     _apply,
     _relative_velocity,
-    brake_cell,
-    brake_walls,
     check_due,
     check_spaced,
-    delassus_kernel,
     running_residual,
     skipped_update,
-    start_cell,
 )
+from grainlab.engine.nscd.delassus import delassus_kernel
+from grainlab.engine.nscd.speed_limits import brake_cell, brake_walls, start_cell
 
 _TINY = 1e-300  # as in contact_dynamics
 _BLOCK = 1024  # contacts per block of the parallel reductions (fixed: thread-independent)
 _PARALLEL_BLOCKS = 8  # fewer blocks: the reductions in a plain loop (the same sums)
 MIN_SLABS = 1024
 """From this many contacts, a step whose colours are all below :data:`MIN_COLOURS` is swept
-in slabs (:func:`~grainlab.engine.contact_colouring.slab_contacts`) rather than colour by
+in slabs (:func:`~grainlab.engine.nscd.contact_colouring.slab_contacts`) rather than colour by
 colour, so that the threads share it; below it, colours (too little work to wake threads)."""
 MIN_COLOURS = 8192
 """From this many contacts in its largest colour, a step is swept colour by colour (the
@@ -382,8 +380,8 @@ def nlgs_coloured_kernel(
     """Frictional unilateral contact problem on impulses by coloured (parallel) nonlinear
     Gauss-Seidel.
 
-    Arguments as :func:`~grainlab.engine.contact_dynamics.nlgs_kernel`, with its visiting
-    ``order`` replaced by a colouring or slabs (:mod:`~grainlab.engine.contact_colouring`):
+    Arguments as :func:`~grainlab.engine.nscd.serial_sweep.nlgs_kernel`, with its visiting
+    ``order`` replaced by a colouring or slabs (:mod:`~grainlab.engine.nscd.contact_colouring`):
     ``colour_order`` (C,) int64, the contacts grouped; ``chains`` (K + 1,) int64, chain c at
     rows ``chains[c] .. chains[c + 1] - 1`` of ``colour_order`` (a colouring: one contact
     per chain); ``colour_offsets`` (G + 1,) int64, group g the chains ``colour_offsets[g] ..
@@ -506,7 +504,7 @@ def nlgs_coloured_kernel(
 def parallel_colours(colour_offsets, n_colours: int, n_threads: int,
                      min_size: int = MIN_PARALLEL) -> int:
     """How many leading colours of a colouring (``colour_offsets``, ``n_colours``; module
-    :mod:`~grainlab.engine.contact_colouring`) :func:`nlgs_coloured_kernel` should sweep in
+    :mod:`~grainlab.engine.nscd.contact_colouring`) :func:`nlgs_coloured_kernel` should sweep in
     parallel with ``n_threads`` threads: those before the first colour of fewer than
     ``min_size`` contacts (greedy colours shrink), none with one thread."""
     if n_threads <= 1:
