@@ -135,7 +135,7 @@ def test_every_readme_command_runs_as_typed(shard, tmp_path, monkeypatch):
             if arguments[0] == "test":
                 arguments += ["--gamma", "0.02"]
         if arguments[0] == "study" and arguments[1] in ("angularity", "nonconvexity"):
-            arguments += ["-n", "40", "--no-progress"]  # a few samples of a few particles
+            arguments += ["--length", "smoke", "--no-progress"]  # a few samples, a short path
             if "--only" not in arguments:
                 arguments += ["--only", "eta-0.4"]
         if arguments[0] == "compare":  # both solvers: a quicker compaction

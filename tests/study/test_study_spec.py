@@ -6,7 +6,7 @@ import pytest
 
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron import TABLE_I
-from grainlab.study.series_presets import ETAS, series_spec
+from grainlab.study.series_presets import ETAS, LENGTHS, series_spec
 from grainlab.study.study_spec import StudySpec
 
 BASE = {"sample": {"n_particles": 40}, "test": {"eps_q_max": 0.2}}
@@ -89,3 +89,28 @@ def test_unknown_series_and_length():
     with pytest.raises(InputError) as caught:
         series_spec("angularity", length="long")
     assert caught.value.field == "length"
+
+
+@pytest.mark.parametrize("name", ["angularity", "nonconvexity"])
+def test_every_length_keeps_the_papers_protocol_and_its_window_inside_the_path(name):
+    """A length changes how far and how large, never the protocol: the same friction,
+    inertia number, walls and preparation; its window ends at the strain the samples reach,
+    and snapshots fall in it."""
+    for length, spec in LENGTHS.items():
+        s = series_spec(name, length=length)
+        config = s.sample_config(s.names[-1])
+        lo, hi = s.study.window
+        assert 0.0 < lo < hi == config.test.eps_q_max == spec.eps_q_max, length
+        assert config.sample.n_particles == spec.particles
+        assert config.sample.height_ratio == spec.height_ratio
+        assert (config.solver.compaction.friction, config.solver.shear.friction) == (0.0, 0.4)
+        assert config.solver.shear.inertia_number == 1e-3
+        assert config.sample.preparation == "deposition"
+        steps_in_window = 1100.0 * (spec.particles / 60.0) ** (1 / 3) * (hi - lo)
+        assert steps_in_window / config.output.snapshot_every >= spec.snapshots_per_window
+
+
+def test_the_study_lengths_are_ordered():
+    order = sorted(LENGTHS.values(), key=lambda length: length.eps_q_max)
+    assert [length.particles for length in order] == sorted(length.particles
+                                                            for length in order)

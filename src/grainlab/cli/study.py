@@ -31,10 +31,10 @@ _WORKERS = typer.Option(None, "--workers", min=1, help=(
 _THREADS = typer.Option(1, "--threads", min=1, help="Numba threads per sample.")
 _PROGRESS = typer.Option(True, "--progress/--no-progress", help="Show the study's display.")
 _N = typer.Option(None, "--n-particles", "-n", min=2, help=(
-    "Particles per sample (default: 60 for --length short, 1000 for full)."))
-_LENGTH = typer.Option("short", "--length", help=(
-    "short: to eps_q = 0.3, window [0.2, 0.3] (minutes); full: the papers' strain, eps_q = "
-    "0.9, window [0.6, 0.9] (002) or [0.5, 0.9] (003) (hours at 1000 particles)."))
+    "Particles per sample (default: " + ", ".join(
+        f"{length.particles} for --length {name}" for name, length in LENGTHS.items()) + ")."))
+_LENGTH = typer.Option("short", "--length", help="; ".join(
+    f"{name}: {length.text}" for name, length in LENGTHS.items()) + ".")
 _ONLY = typer.Option(None, "--only", help=(
     "Run only these samples (comma-separated names, e.g. S1,S8); the others are left as they "
     "are, and the report covers every sample that has ended."))

@@ -17,7 +17,8 @@ walls and an inertia number I <= 1e-3, with contact-network snapshots through th
 window. ``length = "full"`` runs to the papers' strain (eps_q = 0.9, residual window [0.6, 0.9]
 for 002 and [0.5, 0.9] for 003); ``"short"`` (the default: a study in minutes on a laptop) to
 eps_q = 0.3 with the window [0.2, 0.3], which shows the trends of the peak and of the start of
-the softening, not the papers' residual state.
+the softening, not the papers' residual state; ``"smoke"`` to eps_q = 0.05, a check of the
+whole chain in about a minute (:data:`LENGTHS`).
 
 >>> spec = series_spec("angularity", n_particles=50)
 >>> spec.names[:3], spec.sample_config("S8").sample.n_faces
@@ -27,32 +28,56 @@ the softening, not the papers' residual state.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron import TABLE_I
 from grainlab.study.study_spec import StudySpec
 
+
+@dataclass(frozen=True)
+class StudyLength:
+    """How far a preset study goes: the samples are sheared to ``eps_q_max`` and read in the
+    residual ``window`` (eps_q) of each series; ``particles`` per sample by default, the
+    ``height_ratio`` (height / width) of the deposited packing, about ``snapshots_per_window``
+    contact-network snapshots in the window, and the polyhedron ``templates`` drawn once and
+    reused in random orientations (0: every particle its own, as the paper)."""
+
+    eps_q_max: float
+    window: dict[str, tuple[float, float]]
+    particles: int
+    height_ratio: float
+    snapshots_per_window: int
+    templates: int
+    text: str
+
+
 LENGTHS = {
-    "short": {"eps_q_max": 0.3, "window": {"angularity": (0.2, 0.3),
-                                           "nonconvexity": (0.2, 0.3)}},
-    "full": {"eps_q_max": 0.9, "window": {"angularity": (0.6, 0.9),
-                                          "nonconvexity": (0.5, 0.9)}},
+    "smoke": StudyLength(0.05, {"angularity": (0.03, 0.05), "nonconvexity": (0.03, 0.05)},
+                         40, 1.5, 5, 3,
+                         "to eps_q = 0.05, window [0.03, 0.05]: the whole chain (deposition, "
+                         "compaction, shear, snapshots, summary, figures) in about a minute; "
+                         "the window sits before the peak, so its values are no residual "
+                         "state"),
+    "short": StudyLength(0.3, {"angularity": (0.2, 0.3), "nonconvexity": (0.2, 0.3)},
+                         100, 1.5, 30, 12,
+                         "to eps_q = 0.3, window [0.2, 0.3] (minutes): the trends of the peak "
+                         "and of the start of the softening"),
+    "full": StudyLength(0.9, {"angularity": (0.6, 0.9), "nonconvexity": (0.5, 0.9)},
+                        1000, 2.0, 20, 0,
+                        "the papers' strain, eps_q = 0.9, window [0.6, 0.9] (002) or "
+                        "[0.5, 0.9] (003) (hours at 1000 particles)"),
 }
-"""How far the samples are sheared (eps_q) and the residual window of each series."""
-
-SHORT_PARTICLES = 100
-FULL_PARTICLES = 1000
-"""Default particles per sample: a study in minutes, and the papers' protocol at the size a
-2-core machine runs in hours (the papers used 40 000 polyhedra and 12 000 aggregates)."""
-
-HEIGHT_RATIO = {"short": 1.5, "full": 2.0}
-"""Height / width of the deposited packing (a lab specimen's 2 for the papers' strain). The
-triaxial compression shortens the box by about exp(-eps_q): to eps_q = 0.9, a cube of 500 or
-1000 aggregates with seed 003's radii (up to 3 R_min) would end three of its largest
-particles high, where they lock in one or two layers (such a run is refused before it starts:
-at 500 particles eps_q <= 0.41 for eta = 0.7); the papers' 12 000 to 40 000 particles had the
-room. A short study's few particles need 1.5 to reach eps_q = 0.3."""
+"""The lengths of a preset study. Particles: a study in minutes, and the papers' protocol at
+the size a 2-core machine runs in hours (the papers used 40 000 polyhedra and 12 000
+aggregates). Height ratio: a lab specimen's 2 for the papers' strain. The triaxial compression
+shortens the box by about exp(-eps_q): to eps_q = 0.9, a cube of 500 or 1000 aggregates with
+seed 003's radii (up to 3 R_min) would end three of its largest particles high, where they
+lock in one or two layers (such a run is refused before it starts: at 500 particles
+eps_q <= 0.41 for eta = 0.7); the papers' 12 000 to 40 000 particles had the room. A short
+study's few particles need 1.5 to reach eps_q = 0.3. Templates: drawing a hull of few faces
+takes ~0.25 s."""
 
 ETAS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7)
 """Seed 003's eight packings."""
@@ -61,11 +86,11 @@ ETAS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7)
 def _protocol(n_particles: int, length: str, seed: int, size_ratio: float,
               snapshots: int) -> dict[str, Any]:
     """The papers' protocol as a base run config (module docstring)."""
-    eps_q_max = LENGTHS[length]["eps_q_max"]
+    eps_q_max = LENGTHS[length].eps_q_max
     return {
         "sample": {"n_particles": n_particles, "size_ratio": size_ratio, "seed": seed,
                    "preparation": "deposition", "wall_friction": 0.0,
-                   "height_ratio": HEIGHT_RATIO[length]},
+                   "height_ratio": LENGTHS[length].height_ratio},
         "test": {"kind": "triaxial", "eps_q_max": eps_q_max},
         "solver": {"compaction": {"friction": 0.0}, "shear": {"friction": 0.4,
                                                               "inertia_number": 1e-3}},
@@ -74,23 +99,22 @@ def _protocol(n_particles: int, length: str, seed: int, size_ratio: float,
 
 
 def _snapshot_every(n_particles: int, length: str) -> int:
-    """Steps between snapshots: about 30 in a short run's window, 20 in a full one's (the
-    steps per unit of eps_q grow roughly as the box's height in diameters, N^(1/3))."""
+    """Steps between snapshots: about :attr:`StudyLength.snapshots_per_window` in the window
+    (the steps per unit of eps_q grow roughly as the box's height in diameters, N^(1/3))."""
     steps_per_strain = 1100.0 * (n_particles / 60.0) ** (1.0 / 3.0)
-    lo, hi = LENGTHS[length]["window"]["angularity"]
-    per_window = 30 if length == "short" else 20
-    return max(1, int(steps_per_strain * (hi - lo) / per_window))
+    lo, hi = LENGTHS[length].window["angularity"]
+    return max(1, int(steps_per_strain * (hi - lo) / LENGTHS[length].snapshots_per_window))
 
 
 def angularity_series(*, n_particles: int | None = None, length: str = "short",
                       seed: int = 0, templates: int | None = None) -> StudySpec:
     """Seed 002's eight samples S1 ... S8 (module docstring). ``templates``: polyhedra drawn
-    once and reused in random orientations (0: every particle its own, as the paper; a short
-    study takes 12 by default, since drawing a hull of few faces takes ~0.25 s)."""
+    once and reused in random orientations (0: every particle its own, as the paper; default:
+    the length's, :data:`LENGTHS`)."""
     length = _length(length)
-    n = n_particles or (SHORT_PARTICLES if length == "short" else FULL_PARTICLES)
+    n = n_particles or LENGTHS[length].particles
     if templates is None:
-        templates = 12 if length == "short" else 0
+        templates = LENGTHS[length].templates
     base = _protocol(n, length, seed, 2.0, _snapshot_every(n, length))
     samples = [{"name": "S1", "value": 0.0, "set": {"sample": {"shape": "sphere"}}}]
     for k, faces in enumerate(sorted(TABLE_I, reverse=True)):
@@ -106,7 +130,7 @@ def nonconvexity_series(*, n_particles: int | None = None, length: str = "short"
                         seed: int = 0) -> StudySpec:
     """Seed 003's eight samples eta = 0 ... 0.7 (module docstring)."""
     length = _length(length)
-    n = n_particles or (SHORT_PARTICLES if length == "short" else FULL_PARTICLES)
+    n = n_particles or LENGTHS[length].particles
     base = _protocol(n, length, seed, 3.0, _snapshot_every(n, length))
     samples = []
     for eta in ETAS:
@@ -122,7 +146,7 @@ def _series(name: str, parameter: str, symbol: str, text: str, length: str, n: i
     """The study of a preset series: its window at ``length``, described by ``text``."""
     return StudySpec.model_validate({
         "study": {"name": name, "parameter": parameter, "symbol": symbol,
-                  "window": LENGTHS[length]["window"][name],
+                  "window": LENGTHS[length].window[name],
                   "description": f"{text} ({length} length, {n} particles per sample)"},
         "base": base, "samples": samples})
 
