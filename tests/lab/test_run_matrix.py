@@ -69,11 +69,11 @@ leaves it narrower than three ranges plus alert distances: 80 spheres of size ra
 at 3.9 diameters). 60 polyhedra are too few for a cell (below)."""
 SIZE_RATIO = {"walls": 2.0, "periodic": 1.2}
 COARSE_STEP = 0.05
-"""The compaction's time step factor [-] in a box (the walls move this many d_min a step):
-coarse, with overlap recovery; 0.1 for the loose polyhedra (a packing fraction of 0.13 at the
-start: the loose sample places their circumscribed spheres). A periodic cell takes 0.02: the
-alert distance of the detection grows with a step's travel, and three interaction ranges
-plus alert distances must fit across the cell."""
+"""The rigid grains' compaction time step factor [-] in a box (the walls move this many d_min
+a step): coarse, with overlap recovery; 0.1 for the loose polyhedra (a packing fraction of
+0.13 at the start: the loose sample places their circumscribed spheres). A periodic cell
+takes 0.02: the alert distance of the detection grows with a step's travel, and three
+interaction ranges plus alert distances must fit across the cell. Soft grains take 0.1."""
 COMPACTION_STEPS = 80
 """The compaction's step budget [-]: it ends settled (looser criteria than a real run's) or
 there, and the shear starts; soft polyhedra take 250 (their own spin shortens the step), and
@@ -84,7 +84,9 @@ def compaction_numerics(solver: str, boundary: str, shape: str) -> tuple[dict, i
     """``[solver.compaction]`` of a case and its step budget (:data:`COARSE_STEP`,
     :data:`COMPACTION_STEPS`); soft polyhedra compact at an inertia number of 0.3 (the
     sub-steps follow physical time: a faster compaction is fewer of them)."""
-    step = 0.02 if boundary == "periodic" else 0.1 if shape == "polyhedron" else COARSE_STEP
+    step = 0.1  # the soft grains' sub-steps do not depend on it
+    if solver == "cd":
+        step = 0.02 if boundary == "periodic" else 0.1 if shape == "polyhedron" else COARSE_STEP
     inertia, budget = 0.1, COMPACTION_STEPS
     if shape == "polyhedron":
         inertia, budget = (0.3, 250) if solver == "dem" else (0.1, 100)
