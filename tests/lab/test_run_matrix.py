@@ -13,16 +13,20 @@ through the run-folder API a user calls (:class:`~grainlab.lab.run_config.RunCon
    every particle once, each drawn around its own centre with its own velocity, and (a
    snapshot taken at that step) one line per recorded contact;
 3. the physics holds: a finite state, overlaps small against the grains (rigid grains: the
-   contact-dynamics step keeps them near its 0.5 % bound; soft grains: of order 1 / kappa),
-   the mean stress of the contacts positive and near sigma0 once the compaction has settled,
-   the deviator grown by the shear with eps_q rising at every record, and every recorded
-   contact force compressive and inside its Coulomb cone, |f_t| <= mu f_n.
+   contact-dynamics step's bound; soft grains: a few p / (kappa sigma0) <d>), the mean stress
+   of the contacts positive and near sigma0 where the compaction ends, the deviator (q and
+   q / tr sigma) grown by the shear with eps_q rising at every record, and the contact
+   forces compressive and inside their Coulomb cone, |f_t| <= mu f_n, at every point of the
+   last step and in every snapshot.
 
-Kept small (tens of steps per stage): 30 particles in a box, 80 of size ratio 1.2 in a cell
-(the fewest the cell takes without getting thinner than three diameters in its compaction,
-:mod:`grainlab.lab.cell_thickness`), two 8-faced polyhedron templates, a quick compaction that
-ends when the sample has settled to looser criteria than a real run's, and a short, faster
-shear.
+Kept small (a few tens of steps per stage, a few seconds a case): 30 particles in a box (12
+polyhedra), 110 spheres of size ratio 1.2 in a cell, two 30-faced polyhedron templates,
+aggregates of eta = 0.2; a coarse compaction with overlap recovery that ends when the sample
+has settled to looser criteria than a real run's or at its step budget, and a short, faster
+shear. Three cases take tens of seconds (``long``): soft polyhedra in a box and aggregates in
+a cell. Polyhedra in a periodic cell need about 250 particles (minutes): the matrix checks
+that the lab refuses a cell of too few, naming ``sample.n_particles``, and that soft
+polyhedra refuse rolling resistance.
 """
 
 from __future__ import annotations
@@ -76,8 +80,8 @@ takes 0.02: the alert distance of the detection grows with a step's travel, and 
 interaction ranges plus alert distances must fit across the cell. Soft grains take 0.1."""
 COMPACTION_STEPS = 80
 """The compaction's step budget [-]: it ends settled (looser criteria than a real run's) or
-there, and the shear starts; soft polyhedra take 250 (their own spin shortens the step), and
-rigid ones 100."""
+there, and the shear starts; soft polyhedra take 250 (their own spin shortens the step),
+rigid ones 100, aggregates in a cell 200 (the loosest start: a packing fraction of 0.18)."""
 
 
 def compaction_numerics(solver: str, boundary: str, shape: str) -> tuple[dict, int]:
@@ -90,6 +94,8 @@ def compaction_numerics(solver: str, boundary: str, shape: str) -> tuple[dict, i
     inertia, budget = 0.1, COMPACTION_STEPS
     if shape == "polyhedron":
         inertia, budget = (0.3, 250) if solver == "dem" else (0.1, 100)
+    if (boundary, shape) == ("periodic", "aggregate"):
+        budget = 200
     return {"inertia_number": inertia, "time_step_factor": step, "overlap_recovery": 0.5}, \
         budget
 
@@ -244,23 +250,27 @@ def assert_physics(run: DiscreteRun, result: TestResult, solver: str) -> None:
     assert shear["eps_q"].iloc[-1] >= EPS_Q
     end = shear.iloc[-1]
     assert end["q"] > settled["q"] and end["q_over_trace"] > settled["q_over_trace"]
-    assert_coulomb(run)
+    assert_coulomb(run, soft=solver == "dem")
 
 
-def assert_coulomb(run: DiscreteRun) -> None:
+def assert_coulomb(run: DiscreteRun, soft: bool) -> None:
     """Every contact force compressive and inside its Coulomb cone, |f_t| <= mu f_n, to
     round-off: at every contact point of the last step (the shear's mu, :data:`FRICTION`),
     and in every snapshot (its own mu: 0 in the compaction, :data:`FRICTION` in the shear)
     that stores contact points; one that stores each pair's resultant (polyhedra: points of
-    several normals summed) has only its resultants compressive."""
+    several normals summed) has only its resultants compressive. Soft polyhedra (``soft``
+    and a library of polyhedra) hold Coulomb per pair, on the pair's one tangential spring
+    (|F_t| <= mu sum f_n), and their points report shares of F_t by depth beside normal
+    forces damped point by point: their points are checked compressive only."""
     report = run.test.simulation.last_report
     impulses = report.impulses  # local (P_n, P_t, P_s) of each point
     assert report.n_contacts > 0
     tangential = np.hypot(impulses[:, 1], impulses[:, 2])
     scale = 1e-9 * float(np.abs(impulses).max())
     assert np.all(impulses[:, 0] >= -scale), "the last step: a tensile impulse"
-    assert np.all(tangential <= FRICTION * impulses[:, 0] + scale), \
-        "the last step: an impulse outside its Coulomb cone"
+    if not (soft and run.test.sample.library.vertices.shape[0]):
+        assert np.all(tangential <= FRICTION * impulses[:, 0] + scale), \
+            "the last step: an impulse outside its Coulomb cone"
     snapshots = list(read_snapshots(run.folder / SNAPSHOTS))
     assert {net.friction_coefficient for net in snapshots} == {0.0, FRICTION}
     for net in snapshots:
