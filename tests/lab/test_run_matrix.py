@@ -51,6 +51,7 @@ from grainlab.lab.discrete_run import (
 )
 from grainlab.lab.run_checkpoint import STATE_FIELDS
 from grainlab.lab.run_config import RunConfig
+from grainlab.lab.run_outcome import BOX_TOO_THIN
 from grainlab.result.test_result import TestResult
 
 SOLVERS = ("cd", "dem")
@@ -336,3 +337,20 @@ def test_rolling_resistance_is_refused_where_the_solver_has_none(solver, boundar
         assert not (tmp_path / "run").exists()
     else:
         config.check_solver()
+
+
+@pytest.mark.xfail(strict=True, raises=InputError, reason=(
+    "the cell's thickness guard (CellTest._thin_cell) reads the alert distance of the last "
+    "detection, but contact dynamics grows it within a step (1.5 x the step's travel): a "
+    "coarse compaction step in a cell raises the detection's InputError on 'periodic cell "
+    "width' out of run() instead of stopping the stage as 'box too thin'"))
+def test_a_coarse_compaction_in_a_cell_stops_its_stage_when_the_cell_gets_thin(tmp_path):
+    """Rigid spheres compacted in a cell with steps of 0.1 d_min: the detection's alert
+    distance grows with the steps' travel, and the cell, shrinking, gets narrower than three
+    interaction ranges plus alert distances. The stage should stop there with the diagnosis
+    (as it does when the particles alone make the cell too thin), its checkpoint kept."""
+    config = matrix_config("cd", "periodic", "sphere").with_updates(
+        {"solver": {"compaction": {"time_step_factor": 0.1}}})
+    run = start_run(tmp_path / "run", config)
+    result = run.run()
+    assert result.metadata["outcome"]["stages"][0]["ended"] == BOX_TOO_THIN
