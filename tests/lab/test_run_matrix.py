@@ -125,8 +125,9 @@ largest mean stress of the run (at least sigma0): a contact force f ~ 2 p <d>^2 
 stiffness kappa sigma0 <d> overlaps 2 p / (kappa sigma0) <d> on average; the strongest
 contacts carry a few times the mean."""
 STRESS_WINDOW = (0.5, 2.0)
-"""The settled compaction's mean contact stress p over sigma0 [-]: the boundary holds sigma0
-(within 1 %); p, from the contacts alone, is near it."""
+"""The mean contact stress p over sigma0 [-] where the compaction ends (settled, or at its step
+budget with the boundary's servo at sigma0): p, from the contacts alone, is near sigma0; a
+sample not yet loaded, or overloaded, falls outside."""
 
 
 def matrix_config(solver: str, boundary: str, shape: str) -> RunConfig:
