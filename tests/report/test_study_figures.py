@@ -90,3 +90,41 @@ def test_report_table_gives_mean_and_standard_deviation():
     assert "0.300 ± 0.020" in rows[0]  # (q/p)* of B
     assert "0.590 ± 0.005" in rows[0]  # nu* of B
     assert "10%" in rows[0]
+
+
+def test_wall_profile_figure_draws_the_profile_and_the_margin():
+    from grainlab.analysis.synthetic import cubic_lattice
+    from grainlab.analysis.wall_layer import mean_diameter, packing_profile
+    from grainlab.report.study_figures import wall_profile_figure
+
+    net = cubic_lattice(6, 1.0)
+    d = mean_diameter(net)
+    assert d == pytest.approx(2.0)
+    edges, fraction = packing_profile(net, 0.25 * d)
+    figure = wall_profile_figure({"lattice": (edges / d, fraction)}, 1.0)
+    ax = figure.axes[0]
+    line = ax.get_lines()[0]
+    # shells of a quarter diameter: the centres at 1, 3, 5 from the walls sit at 0.5, 1.5, 2.5 d
+    drawn = np.asarray(line.get_ydata(), float)
+    assert np.count_nonzero(np.nan_to_num(drawn) > 0) >= 3
+    assert [x for x, y in zip(line.get_xdata(), drawn, strict=True) if y > 0][:3] == \
+        pytest.approx([0.5, 1.5, 2.5])
+    margin = ax.get_lines()[1]
+    assert list(margin.get_xdata()) == [1.0, 1.0]
+    assert wall_profile_figure({}, 1.0) is None
+
+
+def test_microstructure_figures_draw_the_core_where_the_summary_has_it():
+    from grainlab.report.study_figures import anisotropies_figure, connectivity_figure
+
+    table = summary_by_hand(with_micro=True)
+    table["a_c_core_residual"] = [0.1, 0.2, 0.3, 0.4]
+    table["a_c_core_residual_std"] = 0.01
+    table["coordination_number_core_residual"] = 6.0
+    figure = anisotropies_figure(table, "eta")
+    labels = figure.axes[0].get_legend_handles_labels()[1]
+    assert "$a_c$ (core)" in labels and "$a'_c$" in labels  # no core a'_c: the whole box
+    lines = [c for c in figure.axes[0].containers if c.get_label() == "$a_c$ (core)"]
+    assert list(lines[0].lines[0].get_ydata()) == [0.1, 0.2, 0.3, 0.4]
+    labels = connectivity_figure(table, "eta").axes[0].get_legend_handles_labels()[1]
+    assert "z, whole box residual" in labels and "z, core residual" in labels

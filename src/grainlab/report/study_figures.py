@@ -6,6 +6,11 @@ per sample, columns ``X_initial``, ``X_residual``, ``X_residual_std``, ``q_over_
 ...) and the shape parameter's symbol, and returns a figure, or None when the table holds none
 of its columns (a study without snapshots has no microstructure figures).
 
+The walls of a small box order the particles next to them; the microstructure figures draw the
+**core's** values (``X_core``, the particles at least a stated margin from every wall:
+:mod:`grainlab.analysis.wall_layer`) wherever the summary has them, and say so in their
+labels; the packing fraction and the connectivity draw the whole box beside the core.
+
 =================================  =========================  =========================
 figure                             seed 002 (angularity)      seed 003 (non-convexity)
 =================================  =========================  =========================
@@ -48,6 +53,15 @@ CONTACT_TYPE_ORDER = ("point", "fv", "ee", "fe", "ff", "s", "ds", "d", "t", "q",
 five or more)."""
 
 
+def core_stem(table: pd.DataFrame, stem: str) -> tuple[str, str]:
+    """``stem + "_core"`` and the label suffix " (core)" where the table holds the core's
+    values of ``stem``, else ``stem`` and ""."""
+    core = f"{stem}_core"
+    if any(_has(table, f"{core}_{state}") for state in ("residual", "initial")):
+        return core, " (core)"
+    return stem, ""
+
+
 def _x(table: pd.DataFrame) -> np.ndarray:
     return table["measured"].to_numpy(float)
 
@@ -57,9 +71,13 @@ def _has(table: pd.DataFrame, column: str) -> bool:
 
 
 def _errorbar(ax, table: pd.DataFrame, stem: str, label: str, marker: str = "o",
-              state: str = "residual") -> bool:
+              state: str = "residual", core: bool = True) -> bool:
     """Plot ``stem_state`` (with ``stem_state_std`` as error bars where it exists) against
-    the shape parameter; False when the column is missing."""
+    the shape parameter, the core's values where the table has them (``core``); False when
+    the column is missing."""
+    if core:
+        stem, suffix = core_stem(table, stem)
+        label += suffix
     column = f"{stem}_{state}"
     if not _has(table, column):
         return False
@@ -132,7 +150,7 @@ def strength_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
     figure, (left, right) = new_figure_axes(1, 2, figsize=(10.0, 3.8))
     if _has(table, "q_over_trace_peak"):
         left.plot(_x(table), table["q_over_trace_peak"], "s-", label="peak $(q/p)^+$")
-    _errorbar(left, table, "q_over_trace", "residual $(q/p)^*$")
+    _errorbar(left, table, "q_over_trace", "residual $(q/p)^*$", core=False)
     left.set_ylabel("q/p")
     if _has(table, "phi_residual"):
         phi = table["phi_residual"].to_numpy(float)
@@ -155,6 +173,8 @@ def strength_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
 
 def _initial_residual(table: pd.DataFrame, symbol: str, stems: Sequence[tuple[str, str]],
                       ylabel: str) -> Figure | None:
+    """Initial and residual values of each (column stem, label), as the summary gives them
+    (whole box or core: the stems say which)."""
     if not any(_has(table, f"{s}_initial") or _has(table, f"{s}_residual") for s, _ in stems):
         return None
     figure, ax = new_figure_axes()
@@ -163,7 +183,7 @@ def _initial_residual(table: pd.DataFrame, symbol: str, stems: Sequence[tuple[st
         if _has(table, f"{stem}_initial"):
             ax.plot(_x(table), table[f"{stem}_initial"], markers[k % 7] + "--", mfc="none",
                     label=f"{label} initial")
-        _errorbar(ax, table, stem, f"{label} residual", marker=markers[k % 7])
+        _errorbar(ax, table, stem, f"{label} residual", marker=markers[k % 7], core=False)
     ax.set_ylabel(ylabel)
     return _finish(figure, (ax,), symbol)
 
@@ -171,14 +191,20 @@ def _initial_residual(table: pd.DataFrame, symbol: str, stems: Sequence[tuple[st
 def packing_fraction_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
     """Packing fraction after the isotropic compaction and in the residual state (seed 002
     Fig. 8: nu0, nu*; seed 003 Fig. 7: rho0, rho*)."""
-    return _initial_residual(table, symbol, (("packing_fraction", "packing fraction"),),
+    return _initial_residual(table, symbol, (("packing_fraction", "whole box"),
+                                             ("packing_fraction_core", "core")),
                              "packing fraction")
 
 
 def connectivity_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
     """Coordination z and connectivity z_c, initial and residual (seed 002 Fig. 10; seed 003
-    Fig. 9); the results table's z counts neighbours, z_c contact points (eq. 14)."""
-    return _initial_residual(table, symbol, (("z", "z"), ("z_c", "$z_c$")), "z, $z_c$")
+    Fig. 9); z counts neighbours, z_c contact points (eq. 14); the whole box (the results
+    table's z, z_c) beside the core (the snapshots' ``coordination_number_core``,
+    ``connectivity_number_core``)."""
+    return _initial_residual(table, symbol, (
+        ("z", "z, whole box"), ("z_c", "$z_c$, whole box"),
+        ("coordination_number_core", "z, core"), ("connectivity_number_core", "$z_c$, core")),
+        "z, $z_c$")
 
 
 def contact_type_columns(table: pd.DataFrame) -> list[str]:
@@ -186,6 +212,7 @@ def contact_type_columns(table: pd.DataFrame) -> list[str]:
     papers' order."""
     found = {c[2:].rsplit("_", 1)[0] for c in table.columns
              if c.startswith("k_") and c.endswith(("_residual", "_initial"))}
+    found = {t.removesuffix("_core") for t in found}
     ordered = [t for t in CONTACT_TYPE_ORDER if t in found]
     return ordered + sorted(found - set(ordered))
 
@@ -239,7 +266,7 @@ def stress_dilatancy_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
     if not any(_has(table, f"{s}_residual") for s, _ in STRESS_DILATANCY):
         return None
     figure, ax = new_figure_axes()
-    _errorbar(ax, table, "q_over_trace", "measured")
+    _errorbar(ax, table, "q_over_trace", "measured")  # the core's, as the anisotropies
     for stem, label in STRESS_DILATANCY:
         _errorbar(ax, table, stem, label, marker="s")
     ax.set_ylabel("$(q/p)^*$")
@@ -250,7 +277,8 @@ def partial_strength_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
     """Residual q/p carried by each contact type (partial stresses; seed 002 Figs. 22-24,
     seed 003 Figs. 22-23)."""
     types = [t for t in contact_type_columns(table)
-             if _has(table, f"q_over_trace_{t}_residual")]
+             if _has(table, f"q_over_trace_{t}_residual")
+             or _has(table, f"q_over_trace_{t}_core_residual")]
     if not types:
         return None
     figure, ax = new_figure_axes()
@@ -258,6 +286,27 @@ def partial_strength_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
         _errorbar(ax, table, f"q_over_trace_{t}", t)
     ax.set_ylabel("partial $(q/p)^*$")
     return _finish(figure, (ax,), symbol)
+
+
+def wall_profile_figure(profiles: dict[str, tuple[np.ndarray, np.ndarray]],
+                        margin: float) -> Figure | None:
+    """Packing fraction against the distance h of the centres to the nearest wall, in mean
+    diameters, one line per sample (``profiles``: label -> (shell edges h / <d_v>, packing
+    fraction of each shell), :func:`~grainlab.analysis.wall_layer.packing_profile`), with the
+    core's ``margin`` [<d_v>] marked: the core is meant to begin where the profiles reach
+    their plateau. None without profiles."""
+    if not profiles:
+        return None
+    figure, ax = new_figure_axes()
+    for label, (edges, fraction) in profiles.items():
+        ax.step(edges[:-1], fraction, where="post", lw=1, label=label)
+    ax.axvline(margin, color="k", ls="--", lw=1, label=f"core margin {margin:g} $<d>$")
+    ax.set_xlabel("distance of the centre to the nearest wall / $<d>$")
+    ax.set_ylabel("packing fraction of the shell")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    figure.tight_layout()
+    return figure
 
 
 STUDY_FIGURES = (

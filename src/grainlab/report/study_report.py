@@ -45,9 +45,17 @@ COLUMNS = (
     ("q_over_trace_peak", "(q/p)+", "{:.3f}"), ("q_over_trace_residual", "(q/p)*", "pm"),
     ("phi_residual", "phi* [rad]", "{:.3f}"),
     ("packing_fraction_initial", "nu0", "{:.3f}"), ("packing_fraction_residual", "nu*", "pm"),
+    ("packing_fraction_core_initial", "nu0 core", "{:.3f}"),
+    ("packing_fraction_core_residual", "nu* core", "pm"),
     ("z_initial", "z0", "{:.2f}"), ("z_residual", "z*", "pm"),
+    ("coordination_number_core_initial", "z0 core", "{:.2f}"),
+    ("coordination_number_core_residual", "z* core", "pm"),
     ("z_c_initial", "z_c0", "{:.2f}"), ("z_c_residual", "z_c*", "pm"),
-    ("a_c_residual", "a_c*", "pm"), ("sliding_proportion_residual", "sliding*", "pm"),
+    ("connectivity_number_core_initial", "z_c0 core", "{:.2f}"),
+    ("connectivity_number_core_residual", "z_c* core", "pm"),
+    ("a_c_residual", "a_c*", "pm"), ("a_c_core_residual", "a_c* core", "pm"),
+    ("sliding_proportion_residual", "sliding*", "pm"),
+    ("sliding_proportion_core_residual", "sliding* core", "pm"),
 )
 """The report's table: summary column, heading, format ("pm": mean ± std)."""
 
@@ -107,6 +115,9 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
         if figure is not None:
             save_figure(figure, out / f"{stem}.png")
             figures.append((title, f"{stem}.png"))
+    profile = _wall_profiles(study, table, out, labels, spec.study.core_margin)
+    if profile is not None:
+        figures.append(profile)
     networks = _force_networks(study, table, out)
     lo, hi = spec.study.window
     total = float(pd.to_numeric(table["wall_time"], errors="coerce").sum())
@@ -118,6 +129,9 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
         f"- residual window: eps_q in [{lo:g}, {hi:g}]; residual values are the mean ± the "
         "sample standard deviation of the recorded rows, or of the snapshots for the "
         "microstructure, in the window",
+        f"- core: the particles at least {spec.study.core_margin:g} mean diameters from every "
+        "wall (columns and labels marked core; the others are over the whole box, the wall "
+        "layer and, for z and z_c, the rattlers included); see the wall profile below",
         f"- wall time of the runs: {total:.0f} s in all",
         f"- written {datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}", "",
         "## Samples", "", summary_markdown(table), "",
@@ -132,10 +146,10 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
         text += ["## The papers' values", "", PAPERS[spec.study.parameter], "",
                  f"The samples here hold {n} particles at most, in a box of walls about "
                  f"{n ** (1 / 3):.0f} particles wide, where the papers' held 12 000 to "
-                 "40 000: the walls order the particles next to them (the packing fraction "
-                 "and z include that layer, and z counts the rattlers), and the residual "
-                 "values fluctuate more (the error bars), so trends are to be compared, not "
-                 "values to the second decimal.", ""]
+                 "40 000: the walls order the particles next to them (the whole-box packing "
+                 "fraction and z include that layer; the core's values leave it out, over "
+                 "fewer particles), and the residual values fluctuate more (the error bars), "
+                 "so trends are to be compared, not values to the second decimal.", ""]
     text += ["## Figures", ""]
     for title, name in figures + networks:
         text += [f"### {title}", "", f"![{title}]({name})", ""]
@@ -171,3 +185,38 @@ def _force_networks(study, table: pd.DataFrame, out: Path) -> list[tuple[str, st
         eps = last.state.get("eps_q", math.nan)
         figures.append((f"Radial forces, {name}, eps_q = {eps:.2f}", file))
     return figures
+
+
+def _wall_profiles(study, table: pd.DataFrame, out: Path, labels: dict[str, str],
+                   margin: float) -> tuple[str, str] | None:
+    """The packing fraction against the distance to the nearest wall of every sample at the
+    end of its compaction (its last compaction snapshot), with the core's margin."""
+    from grainlab.analysis.snapshot_files import read_snapshots
+    from grainlab.analysis.wall_layer import mean_diameter, packing_profile
+    from grainlab.lab.discrete_run import SNAPSHOTS
+    from grainlab.report.study_figures import wall_profile_figure
+
+    profiles = {}
+    for name in table["name"]:
+        path = study.sample_folder(name) / SNAPSHOTS
+        if not path.exists():
+            continue
+        initial = None
+        for network in read_snapshots(path):
+            if network.state.get("stage") == "compaction":
+                initial = network
+        if initial is None or not initial.has_box:
+            continue
+        d = mean_diameter(initial)
+        edges, fraction = packing_profile(initial, PROFILE_BIN * d)
+        profiles[labels.get(name, name)] = (edges / d, fraction)
+    figure = wall_profile_figure(profiles, margin)
+    if figure is None:
+        return None
+    save_figure(figure, out / "wall_profile.png")
+    return ("Packing fraction against the distance to the walls, end of the compaction",
+            "wall_profile.png")
+
+
+PROFILE_BIN = 0.25
+"""Shell width of the report's packing-fraction profiles, in mean diameters <d_v>."""

@@ -11,7 +11,9 @@ Columns (SI, dimensionless unless stated):
   the solver's cap / steps), ``eps_q_end`` (the largest eps_q reached);
 * the macroscopic state: for X in q_over_trace (the papers' q/p, q = (sigma_1 - sigma_3)/3
   and p the mean stress: :mod:`grainlab.result.columns`), sin_phi, packing_fraction, z, z_c,
-  eps_vol:
+  z_core, z_c_core, eps_vol (packing_fraction, z and z_c over the whole box, rattlers and
+  the particles along the walls included; z_core, z_c_core over the particles at least a
+  mean bounding diameter from every wall, as the results table records them):
   ``X_initial`` (end of the isotropic compaction), ``X_residual`` and ``X_residual_std``
   (mean and sample standard deviation, ddof = 1, of the recorded rows with eps_q in the
   window, as :mod:`grainlab.analysis.window_average` for the snapshots),
@@ -20,7 +22,10 @@ Columns (SI, dimensionless unless stated):
   3 (q/p)* / (2 + (q/p)*), from the residual mean of q/p;
 * the microstructure (:mod:`grainlab.analysis.window_average`): ``M_initial`` from the
   snapshot taken at the end of the compaction and ``M_residual``, ``M_residual_std`` over the
-  shear's snapshots in the window, for every scalar descriptor M of the snapshot analysis.
+  shear's snapshots in the window, for every scalar descriptor M of the snapshot analysis:
+  over the whole box (M: ``packing_fraction``, ``coordination_number``, ``a_c``, ``p`` with
+  the wall contacts, ...) and over the core (``M_core``: the particles at least
+  ``core_margin`` [m] from every wall, :mod:`grainlab.analysis.wall_layer`).
 
 A row is written for an ended sample only; a sample whose run did not reach the window has
 NaN residual values and says so in ``note``.
@@ -40,7 +45,8 @@ from grainlab.report.run_curves import shear_from_its_start
 from grainlab.result.test_result import read_test_result
 from grainlab.study.sample_task import sample_state
 
-MACRO = ("q_over_trace", "sin_phi", "packing_fraction", "z", "z_c", "eps_vol")
+MACRO = ("q_over_trace", "sin_phi", "packing_fraction", "z", "z_c", "z_core", "z_c_core",
+         "eps_vol")
 """The results-table columns of the summary's macroscopic state."""
 
 SUMMARY = "summary.csv"
@@ -54,8 +60,9 @@ def friction_angle(q_over_p: float) -> float:
 
 
 def sample_row(folder: str | Path, window: tuple[float, float], value: float,
-               microstructure: bool = True) -> dict[str, Any]:
-    """The summary row of the ended run in ``folder`` (module docstring)."""
+               microstructure: bool = True, core_margin: float = 1.0) -> dict[str, Any]:
+    """The summary row of the ended run in ``folder`` (module docstring); ``core_margin``:
+    the core's distance from every wall in mean diameters (``core_margin_diameters``)."""
     folder = Path(folder)
     result = read_test_result(folder / RESULTS_H5)
     specimen, outcome = result.specimen, result.outcome
@@ -69,7 +76,8 @@ def sample_row(folder: str | Path, window: tuple[float, float], value: float,
         "status": outcome.get("status", ""), "as_asked": bool(outcome.get("as_asked")),
         "wall_time": cost.get("wall_time", math.nan), "steps": outcome.get("steps"),
         "capped_share": _capped_share(outcome),
-        "eps_q_end": float(table["eps_q"].max()) if len(table) else math.nan, "note": ""}
+        "eps_q_end": float(table["eps_q"].max()) if len(table) else math.nan, "note": "",
+        "core_margin_diameters": core_margin}
     in_window = table[(table["eps_q"] >= lo) & (table["eps_q"] <= hi)] if len(table) else table
     for column in MACRO:
         values = table[column].to_numpy(float) if column in table else np.array([])
@@ -90,7 +98,7 @@ def sample_row(folder: str | Path, window: tuple[float, float], value: float,
         row["note"] = (f"the run reached eps_q = {row['eps_q_end']:.3g}, not the window "
                        f"[{lo:g}, {hi:g}]")
     if microstructure and (folder / SNAPSHOTS).exists():
-        row.update(_microstructure(folder / SNAPSHOTS, window))
+        row.update(_microstructure(folder / SNAPSHOTS, window, core_margin))
     return row
 
 
@@ -100,7 +108,8 @@ def _capped_share(outcome: dict[str, Any]) -> float:
     return capped / steps if steps else math.nan
 
 
-def _microstructure(snapshots: Path, window: tuple[float, float]) -> dict[str, float]:
+def _microstructure(snapshots: Path, window: tuple[float, float],
+                    core_margin: float) -> dict[str, float]:
     """``M_initial``, ``M_residual`` and ``M_residual_std`` of every scalar descriptor (module
     docstring); the residual part is left out when no snapshot lies in the window."""
     from grainlab.analysis.snapshot_analysis import SnapshotAnalysis
@@ -114,11 +123,12 @@ def _microstructure(snapshots: Path, window: tuple[float, float]) -> dict[str, f
         if network.state.get("stage") == "compaction":
             initial = network
     if initial is not None:
-        for name, value in SnapshotAnalysis().compute(initial).descriptors.items():
+        analysis = SnapshotAnalysis(core_margin=core_margin).compute(initial)
+        for name, value in analysis.descriptors.items():
             if isinstance(value, int | float) and not isinstance(value, bool):
                 out[f"{name}_initial"] = float(value)
     try:
-        averages = WindowAverage(window).run(snapshots)
+        averages = WindowAverage(window, core_margin=core_margin).run(snapshots)
     except InputError:
         return out
     for _, row in averages.scalars.iterrows():
@@ -135,7 +145,8 @@ def study_summary(study, microstructure: bool = True) -> pd.DataFrame:
         folder = study.sample_folder(sample.name)
         if sample_state(folder) != "ended":
             continue
-        rows.append(sample_row(folder, study.spec.study.window, sample.value, microstructure))
+        rows.append(sample_row(folder, study.spec.study.window, sample.value, microstructure,
+                               core_margin=study.spec.study.core_margin))
     table = pd.DataFrame(rows)
     table.to_csv(study.folder / SUMMARY, index=False)
     return table
