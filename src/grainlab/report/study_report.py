@@ -129,6 +129,9 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
         f"- residual window: eps_q in [{lo:g}, {hi:g}]; residual values are the mean ± the "
         "sample standard deviation of the recorded rows, or of the snapshots for the "
         "microstructure, in the window",
+        f"- peak (q/p)+: the largest running mean of q/p over eps_q windows of width "
+        f"{spec.study.peak_window:g} (the largest single row, biased up by the rows' "
+        "fluctuations, is `q_over_trace_peak_raw` in summary.csv)",
         f"- core: the particles at least {spec.study.core_margin:g} mean diameters from every "
         "wall (columns and labels marked core; the others are over the whole box, the wall "
         "layer and, for z and z_c, the rattlers included); see the wall profile below",

@@ -17,7 +17,10 @@ Columns (SI, dimensionless unless stated):
   ``X_initial`` (end of the isotropic compaction), ``X_residual`` and ``X_residual_std``
   (mean and sample standard deviation, ddof = 1, of the recorded rows with eps_q in the
   window, as :mod:`grainlab.analysis.window_average` for the snapshots),
-  and ``q_over_trace_peak``, ``eps_q_peak``;
+  and the peak: ``q_over_trace_peak`` the largest running mean of q/p over the rows within
+  ``peak_window`` (a width of eps_q, centred: :func:`smoothed_peak`) and ``eps_q_peak`` its
+  centre, with ``peak_window`` itself; ``q_over_trace_peak_raw``, the largest recorded
+  row, is biased upward by the rows' fluctuations and kept for comparison only;
 * ``phi_residual`` [rad]: the internal angle of friction of seed 002 eq. 11, sin phi* =
   3 (q/p)* / (2 + (q/p)*), from the residual mean of q/p;
 * the microstructure (:mod:`grainlab.analysis.window_average`): ``M_initial`` from the
@@ -42,6 +45,7 @@ import pandas as pd
 
 from grainlab.lab.discrete_run import RESULTS_H5, SNAPSHOTS
 from grainlab.report.run_curves import shear_from_its_start
+from grainlab.errors import InputError
 from grainlab.result.test_result import read_test_result
 from grainlab.study.sample_task import sample_state
 
@@ -59,10 +63,39 @@ def friction_angle(q_over_p: float) -> float:
     return math.asin(s) if -1.0 <= s <= 1.0 else math.nan
 
 
+def smoothed_peak(eps_q: np.ndarray, values: np.ndarray, width: float) -> tuple[float, float]:
+    """The peak of a noisy curve: the largest running mean of ``values`` over the rows whose
+    ``eps_q`` lies within width / 2 of a row's, and that row's eps_q [-]. ``width`` = 0 gives
+    the largest row. (NaN, NaN) without finite rows.
+
+    >>> eps = np.arange(0.0, 0.1, 0.001)
+    >>> q = 0.5 - 50.0 * (eps - 0.04) ** 2 + 0.01 * np.cos(2 * np.pi * np.arange(100) / 11)
+    >>> [round(v, 6) for v in smoothed_peak(eps, q, 0.0105)]  # 11 rows: the noise averages out
+    [0.4995, 0.04]
+    """
+    if not (np.isfinite(width) and width >= 0.0):
+        raise InputError("peak_window", width, "a width of eps_q >= 0")
+    eps_q, values = np.asarray(eps_q, float), np.asarray(values, float)
+    ok = np.isfinite(eps_q) & np.isfinite(values)
+    eps_q, values = eps_q[ok], values[ok]
+    if not eps_q.size:
+        return math.nan, math.nan
+    order = np.argsort(eps_q, kind="stable")
+    eps_q, values = eps_q[order], values[order]
+    sums = np.concatenate([[0.0], np.cumsum(values)])
+    lo = np.searchsorted(eps_q, eps_q - 0.5 * width, side="left")
+    hi = np.searchsorted(eps_q, eps_q + 0.5 * width, side="right")
+    means = (sums[hi] - sums[lo]) / (hi - lo)
+    k = int(np.argmax(means))
+    return float(means[k]), float(eps_q[k])
+
+
 def sample_row(folder: str | Path, window: tuple[float, float], value: float,
-               microstructure: bool = True, core_margin: float = 1.0) -> dict[str, Any]:
+               microstructure: bool = True, core_margin: float = 1.0,
+               peak_window: float = 0.01) -> dict[str, Any]:
     """The summary row of the ended run in ``folder`` (module docstring); ``core_margin``:
-    the core's distance from every wall in mean diameters (``core_margin_diameters``)."""
+    the core's distance from every wall in mean diameters (``core_margin_diameters``);
+    ``peak_window``: the eps_q width of the running mean of the peak."""
     folder = Path(folder)
     result = read_test_result(folder / RESULTS_H5)
     specimen, outcome = result.specimen, result.outcome
@@ -87,12 +120,14 @@ def sample_row(folder: str | Path, window: tuple[float, float], value: float,
             else math.nan
         row[f"{column}_residual_std"] = float(np.std(window_values, ddof=1)) \
             if window_values.size > 1 else math.nan
+    row["peak_window"] = peak_window
     if len(table):
-        k = int(np.argmax(table["q_over_trace"].to_numpy(float)))
-        row["q_over_trace_peak"] = float(table["q_over_trace"].iloc[k])
-        row["eps_q_peak"] = float(table["eps_q"].iloc[k])
+        q = table["q_over_trace"].to_numpy(float)
+        row["q_over_trace_peak"], row["eps_q_peak"] = smoothed_peak(
+            table["eps_q"].to_numpy(float), q, peak_window)
+        row["q_over_trace_peak_raw"] = float(np.nanmax(q))
     else:
-        row["q_over_trace_peak"] = row["eps_q_peak"] = math.nan
+        row["q_over_trace_peak"] = row["eps_q_peak"] = row["q_over_trace_peak_raw"] = math.nan
     row["phi_residual"] = friction_angle(row["q_over_trace_residual"])
     if not len(in_window):
         row["note"] = (f"the run reached eps_q = {row['eps_q_end']:.3g}, not the window "
@@ -115,7 +150,6 @@ def _microstructure(snapshots: Path, window: tuple[float, float],
     from grainlab.analysis.snapshot_analysis import SnapshotAnalysis
     from grainlab.analysis.snapshot_files import read_snapshots
     from grainlab.analysis.window_average import WindowAverage
-    from grainlab.errors import InputError
 
     out: dict[str, float] = {}
     initial = None
@@ -146,7 +180,8 @@ def study_summary(study, microstructure: bool = True) -> pd.DataFrame:
         if sample_state(folder) != "ended":
             continue
         rows.append(sample_row(folder, study.spec.study.window, sample.value, microstructure,
-                               core_margin=study.spec.study.core_margin))
+                               core_margin=study.spec.study.core_margin,
+                               peak_window=study.spec.study.peak_window))
     table = pd.DataFrame(rows)
     table.to_csv(study.folder / SUMMARY, index=False)
     return table
