@@ -43,9 +43,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from grainlab.errors import InputError
 from grainlab.lab.discrete_run import RESULTS_H5, SNAPSHOTS
 from grainlab.report.run_curves import shear_from_its_start
-from grainlab.errors import InputError
 from grainlab.result.test_result import read_test_result
 from grainlab.study.sample_task import sample_state
 
