@@ -55,6 +55,7 @@ def summary_by_hand(with_micro: bool) -> pd.DataFrame:
         "z_c_initial": [6.0, 12.0, 12.0, 12.0], "z_c_residual": 4.5, "z_c_residual_std": 0.2,
     })
     table["phi_residual"] = [friction_angle(q) for q in table["q_over_trace_residual"]]
+    table["sin_phi_star"] = np.sin(table["phi_residual"])
     if with_micro:
         for t in ("s", "ds", "d"):
             table[f"k_{t}_initial"] = 1 / 3
@@ -89,6 +90,7 @@ def test_report_table_gives_mean_and_standard_deviation():
     assert len(rows) == 1
     assert "0.300 ± 0.020" in rows[0]  # (q/p)* of B
     assert "0.590 ± 0.005" in rows[0]  # nu* of B
+    assert f"| {3 * 0.3 / 2.3:.3f} |" in rows[0]  # sin phi* = 3 (q/p)* / (2 + (q/p)*), eq. 11
     assert "10%" in rows[0]
 
 
@@ -128,3 +130,15 @@ def test_microstructure_figures_draw_the_core_where_the_summary_has_it():
     assert list(lines[0].lines[0].get_ydata()) == [0.1, 0.2, 0.3, 0.4]
     labels = connectivity_figure(table, "eta").axes[0].get_legend_handles_labels()[1]
     assert "z, whole box residual" in labels and "z, core residual" in labels
+
+
+def test_volume_change_panel_states_its_sign_against_seed_002():
+    from grainlab.report.study_figures import EPS_VOL_SIGN, curves_figure
+
+    eps = np.linspace(0.0, 0.3, 7)
+    curve = pd.DataFrame({"eps_q": eps, "q_over_trace": 0.3, "eps_vol": -0.1 * eps,
+                          "packing_fraction": 0.6})
+    figure = curves_figure({"A": curve}, {"A": "A"})
+    panel = figure.axes[1]
+    assert panel.get_title() == EPS_VOL_SIGN and "opposite sign" in EPS_VOL_SIGN
+    np.testing.assert_allclose(panel.get_lines()[0].get_ydata(), -0.1 * eps)  # as recorded

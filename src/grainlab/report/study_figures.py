@@ -19,12 +19,17 @@ figure                             seed 002 (angularity)      seed 003 (non-conv
 :func:`packing_fraction_figure`    Fig. 8                     Fig. 7
 :func:`connectivity_figure`        Fig. 10                    Fig. 9
 :func:`contact_types_figure`       Fig. 11                    Fig. 10
-:func:`anisotropies_figure`        Figs. 15-17                Figs. 12-14, 16
-:func:`sliding_figure`             Fig. 19                    Figs. 17-18
-:func:`stress_dilatancy_figure`    Fig. 20 (eqs. 27a, 27b,    Figs. 19-20 (eqs. 30-31)
+:func:`anisotropies_figure`        Figs. 15-17                Figs. 12, 13, 17, 22
+:func:`sliding_figure`             Fig. 19                    Fig. 19
+:func:`stress_dilatancy_figure`    Fig. 20 (eqs. 27a, 27b,    Fig. 23 (eqs. 35a, 35b)
                                    B1)
-:func:`partial_strength_figure`    Figs. 22-24                Figs. 22-23
+:func:`partial_strength_figure`    Fig. 22                    Fig. 18
+:func:`wall_profile_figure`        -                          -
 =================================  =========================  =========================
+
+(Seed 002's Figs. 23-24 are the partial anisotropies by contact type and seed 003's Fig. 20
+the sliding proportion by contact type: not drawn. The friction mobilisation index of seed
+003 eq. 34 has no figure of its own in the paper.)
 """
 
 from __future__ import annotations
@@ -98,9 +103,15 @@ def _finish(figure: Figure, axes: Sequence, symbol: str) -> Figure:
     return figure
 
 
+EPS_VOL_SIGN = ("compression > 0: the opposite sign to seed 002 Fig. 7,\n"
+                "whose $\\varepsilon_p$ = ln(V/V$_0$) grows as the sample dilates")
+"""The note the volume-change panel carries."""
+
+
 def curves_figure(curves: dict[str, pd.DataFrame], labels: dict[str, str]) -> Figure | None:
-    """q/p, the volumetric strain eps_p and the packing fraction against eps_q, one line per
-    sample (seed 002 Figs. 5, 7; seed 003 Figs. 3, 5). ``curves``: each sample's shear rows
+    """q/p, the volumetric strain eps_vol (compression > 0, the opposite sign to seed 002's
+    eps_p: the panel says so, :data:`EPS_VOL_SIGN`) and the packing fraction against eps_q,
+    one line per sample (seed 002 Figs. 5, 7; seed 003 Figs. 3, 5). ``curves``: each sample's shear rows
     (from the end of the compaction, :func:`~grainlab.report.run_curves.shear_from_its_start`)."""
     if not curves:
         return None
@@ -110,11 +121,12 @@ def curves_figure(curves: dict[str, pd.DataFrame], labels: dict[str, str]) -> Fi
                               strict=True):
             if column in table:
                 ax.plot(table["eps_q"], table[column], label=labels.get(name, name), lw=1)
-    for ax, text in zip(axes, ("q/p", "$\\varepsilon_p$ (compression > 0)", "packing fraction"),
-                        strict=True):
+    for ax, text in zip(axes, ("q/p", "$\\varepsilon_{vol}$ (compression > 0)",
+                               "packing fraction"), strict=True):
         ax.set_xlabel("$\\varepsilon_q$")
         ax.set_ylabel(text)
         ax.grid(alpha=0.3)
+    axes[1].set_title(EPS_VOL_SIGN, fontsize=8)
     axes[0].legend(fontsize=7, ncol=2)
     figure.tight_layout()
     return figure
@@ -234,7 +246,8 @@ def contact_types_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
 
 def anisotropies_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
     """Fabric, branch-length and force anisotropies in the residual state (seed 002 Figs.
-    15-17; seed 003 Figs. 12-14, 16)."""
+    15-17; seed 003 Figs. 12 (a_c, a'_c), 13 (a_ln, a_lt, a_ln'), 17 (a_n, a'_n), 22 (a_t,
+    a'_t))."""
     groups = (ANISOTROPIES[:2], ANISOTROPIES[2:5], ANISOTROPIES[5:])
     if not any(_has(table, f"{s}_residual") for s, _ in ANISOTROPIES):
         return None
@@ -249,7 +262,7 @@ def anisotropies_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
 
 def sliding_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
     """Proportion of sliding contacts and the friction mobilisation index in the residual
-    state (seed 002 Fig. 19; seed 003 Figs. 17-18)."""
+    state (seed 002 Fig. 19; seed 003 Fig. 19 and eq. 34)."""
     stems = (("sliding_proportion", "sliding proportion"),
              ("mobilisation_index", "mobilisation index"))
     if not any(_has(table, f"{s}_residual") for s, _ in stems):
@@ -261,8 +274,8 @@ def sliding_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
 
 
 def stress_dilatancy_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
-    """Residual q/p measured and predicted from the anisotropies (seed 002 eqs. 27a, 27b, B1;
-    Fig. 20)."""
+    """Residual q/p measured and predicted from the anisotropies (seed 002 eqs. 27a, 27b, B1,
+    Fig. 20; seed 003 eqs. 35a, 35b, Fig. 23: the same sums)."""
     if not any(_has(table, f"{s}_residual") for s, _ in STRESS_DILATANCY):
         return None
     figure, ax = new_figure_axes()
@@ -274,8 +287,8 @@ def stress_dilatancy_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
 
 
 def partial_strength_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
-    """Residual q/p carried by each contact type (partial stresses; seed 002 Figs. 22-24,
-    seed 003 Figs. 22-23)."""
+    """Residual q/p carried by each contact type (partial stresses; seed 002 Fig. 22, seed
+    003 Fig. 18)."""
     types = [t for t in contact_type_columns(table)
              if _has(table, f"q_over_trace_{t}_residual")
              or _has(table, f"q_over_trace_{t}_core_residual")]

@@ -24,8 +24,8 @@ REPORT = "report"
 PAPERS = {
     "mean_angularity": (
         "Azéma, Radjaï & Dubois 2013 (seed 002), 40 000 particles: (q/p)* rises from about "
-        "0.2 (spheres) and saturates near 0.4; (q/p) at the peak rises to a maximum near "
-        "<alpha> = 0.5 then falls; phi* follows eq. 12 with alpha_c ~ 0.4; nu0 peaks near "
+        "0.2 (spheres) and saturates near 0.4; (q/p)+ at the peak rises with <alpha> to a "
+        "maximum, then falls for the most angular shapes; phi* follows eq. 12 with alpha_c ~ 0.4; nu0 peaks near "
         "<alpha> = 0.5, nu* falls from 0.58 to 0.54; z0 about 6 for spheres and z_c0 about 12 "
         "for polyhedra; residual z from 4 to 5.5 and z_c from 4 to 7; sliding proportion up "
         "to 0.6."),
@@ -43,7 +43,7 @@ COLUMNS = (
     ("status", "outcome", "{}"), ("wall_time", "wall time [s]", "{:.0f}"),
     ("capped_share", "capped steps", "{:.0%}"),
     ("q_over_trace_peak", "(q/p)+", "{:.3f}"), ("q_over_trace_residual", "(q/p)*", "pm"),
-    ("phi_residual", "phi* [rad]", "{:.3f}"),
+    ("phi_residual", "phi* [rad]", "{:.3f}"), ("sin_phi_star", "sin phi* (eq. 11)", "{:.3f}"),
     ("packing_fraction_initial", "nu0", "{:.3f}"), ("packing_fraction_residual", "nu*", "pm"),
     ("packing_fraction_core_initial", "nu0 core", "{:.3f}"),
     ("packing_fraction_core_residual", "nu* core", "pm"),

@@ -21,8 +21,10 @@ Columns (SI, dimensionless unless stated):
   ``peak_window`` (a width of eps_q, centred: :func:`smoothed_peak`) and ``eps_q_peak`` its
   centre, with ``peak_window`` itself; ``q_over_trace_peak_raw``, the largest recorded
   row, is biased upward by the rows' fluctuations and kept for comparison only;
-* ``phi_residual`` [rad]: the internal angle of friction of seed 002 eq. 11, sin phi* =
-  3 (q/p)* / (2 + (q/p)*), from the residual mean of q/p;
+* ``phi_residual`` [rad] and ``sin_phi_star``: the internal angle of friction of seed 002
+  eq. 11 (seed 003 eq. 12), sin phi* = 3 (q/p)* / (2 + (q/p)*), applied to the residual mean
+  (q/p)* = ``q_over_trace_residual`` -- the papers' sin phi*. (``sin_phi_residual`` is another
+  quantity: the window mean of the rows' (sigma_1 - sigma_3)/(sigma_1 + sigma_3).)
 * the microstructure (:mod:`grainlab.analysis.window_average`): ``M_initial`` from the
   snapshot taken at the end of the compaction and ``M_residual``, ``M_residual_std`` over the
   shear's snapshots in the window, for every scalar descriptor M of the snapshot analysis:
@@ -129,6 +131,7 @@ def sample_row(folder: str | Path, window: tuple[float, float], value: float,
     else:
         row["q_over_trace_peak"] = row["eps_q_peak"] = row["q_over_trace_peak_raw"] = math.nan
     row["phi_residual"] = friction_angle(row["q_over_trace_residual"])
+    row["sin_phi_star"] = math.sin(row["phi_residual"])
     if not len(in_window):
         row["note"] = (f"the run reached eps_q = {row['eps_q_end']:.3g}, not the window "
                        f"[{lo:g}, {hi:g}]")
