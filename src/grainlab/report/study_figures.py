@@ -111,8 +111,9 @@ EPS_VOL_SIGN = ("compression > 0: the opposite sign to seed 002 Fig. 7,\n"
 def curves_figure(curves: dict[str, pd.DataFrame], labels: dict[str, str]) -> Figure | None:
     """q/p, the volumetric strain eps_vol (compression > 0, the opposite sign to seed 002's
     eps_p: the panel says so, :data:`EPS_VOL_SIGN`) and the packing fraction against eps_q,
-    one line per sample (seed 002 Figs. 5, 7; seed 003 Figs. 3, 5). ``curves``: each sample's shear rows
-    (from the end of the compaction, :func:`~grainlab.report.run_curves.shear_from_its_start`)."""
+    one line per sample (seed 002 Figs. 5, 7; seed 003 Figs. 3, 5). ``curves``: each
+    sample's shear rows (from the end of the compaction,
+    :func:`~grainlab.report.run_curves.shear_from_its_start`)."""
     if not curves:
         return None
     figure, axes = new_figure_axes(1, 3, figsize=(13.0, 3.8))

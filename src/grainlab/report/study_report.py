@@ -25,7 +25,8 @@ PAPERS = {
     "mean_angularity": (
         "Azéma, Radjaï & Dubois 2013 (seed 002), 40 000 particles: (q/p)* rises from about "
         "0.2 (spheres) and saturates near 0.4; (q/p)+ at the peak rises with <alpha> to a "
-        "maximum, then falls for the most angular shapes; phi* follows eq. 12 with alpha_c ~ 0.4; nu0 peaks near "
+        "maximum, then falls for the most angular shapes; phi* follows eq. 12 with "
+        "alpha_c ~ 0.4; nu0 peaks near "
         "<alpha> = 0.5, nu* falls from 0.58 to 0.54; z0 about 6 for spheres and z_c0 about 12 "
         "for polyhedra; residual z from 4 to 5.5 and z_c from 4 to 7; sliding proportion up "
         "to 0.6."),
