@@ -24,12 +24,14 @@ figure                             seed 002 (angularity)      seed 003 (non-conv
 :func:`stress_dilatancy_figure`    Fig. 20 (eqs. 27a, 27b,    Fig. 23 (eqs. 35a, 35b)
                                    B1)
 :func:`partial_strength_figure`    Fig. 22                    Fig. 18
+:func:`partial_anisotropies_figure` Figs. 23-24               -
+:func:`sliding_by_type_figure`     -                          Fig. 20
 :func:`wall_profile_figure`        -                          -
 =================================  =========================  =========================
 
-(Seed 002's Figs. 23-24 are the partial anisotropies by contact type and seed 003's Fig. 20
-the sliding proportion by contact type: not drawn. The friction mobilisation index of seed
-003 eq. 34 has no figure of its own in the paper.)
+:func:`stress_dilatancy_figure` draws the peak state (the summary's ``M_at_peak``, from the
+snapshot nearest the peak) beside the residual one where the summary has it. The friction
+mobilisation index of seed 003 eq. 34 has no figure of its own in the paper.
 """
 
 from __future__ import annotations
@@ -275,15 +277,64 @@ def sliding_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
 
 
 def stress_dilatancy_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
-    """Residual q/p measured and predicted from the anisotropies (seed 002 eqs. 27a, 27b, B1,
-    Fig. 20; seed 003 eqs. 35a, 35b, Fig. 23: the same sums)."""
+    """q/p measured and predicted from the anisotropies (seed 002 eqs. 27a, 27b, B1, Fig. 20;
+    seed 003 eqs. 35a, 35b, Fig. 23: the same sums): the residual state with its error bars
+    and, where the summary has it, the peak state (open markers, one snapshot: ``M_at_peak``).
+    """
     if not any(_has(table, f"{s}_residual") for s, _ in STRESS_DILATANCY):
         return None
     figure, ax = new_figure_axes()
-    _errorbar(ax, table, "q_over_trace", "measured")  # the core's, as the anisotropies
-    for stem, label in STRESS_DILATANCY:
-        _errorbar(ax, table, stem, label, marker="s")
-    ax.set_ylabel("$(q/p)^*$")
+    markers = "s^v"
+    _errorbar(ax, table, "q_over_trace", "measured $(q/p)^*$")  # the core's, as below
+    for k, (stem, label) in enumerate(STRESS_DILATANCY):
+        _errorbar(ax, table, stem, f"{label} residual", marker=markers[k])
+    for k, (stem, label) in enumerate((("q_over_trace", "measured"), *STRESS_DILATANCY)):
+        stem, suffix = core_stem(table, stem)
+        column = f"{stem}_at_peak"
+        if _has(table, column):
+            ax.plot(_x(table), table[column].to_numpy(float), ("o" + markers)[k] + ":",
+                    mfc="none", label=f"{label} peak{suffix}")
+    ax.set_ylabel("q/p: residual $(q/p)^*$, peak $(q/p)^+$")
+    return _finish(figure, (ax,), symbol)
+
+
+PARTIAL_ANISOTROPIES = (("a_c_branch", "$a'_c$"), ("a_fn_branch", "$a'_n$"),
+                        ("a_ft_branch", "$a'_t$"))
+"""The partial anisotropies by contact type in the branch frame (seed 002 eq. 30, Figs.
+23-24): summary stem (``<stem>_<type>``) and label."""
+
+
+def partial_anisotropies_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
+    """Residual fabric, radial and orthoradial force anisotropies of each contact type in the
+    branch frame (n', t'), normalised by the totals so that they sum over the types to the
+    sample's (seed 002 eq. 30; Fig. 23: a'_c, Fig. 24: a'_n, a'_t)."""
+    types = contact_type_columns(table)
+    present = [(stem, label) for stem, label in PARTIAL_ANISOTROPIES
+               if any(_has(table, f"{stem}_{t}_residual")
+                      or _has(table, f"{stem}_{t}_core_residual") for t in types)]
+    if not present:
+        return None
+    figure, axes = new_figure_axes(1, len(present), figsize=(4.4 * len(present), 3.8))
+    axes = np.atleast_1d(axes)
+    for ax, (stem, label) in zip(axes, present, strict=True):
+        for t in types:
+            _errorbar(ax, table, f"{stem}_{t}", t)
+        ax.set_ylabel(f"partial {label}")
+    return _finish(figure, axes, symbol)
+
+
+def sliding_by_type_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
+    """Residual proportion of sliding contacts of each contact type among all active contacts
+    (they sum to the sliding proportion S; seed 003 Fig. 20)."""
+    types = [t for t in contact_type_columns(table)
+             if _has(table, f"sliding_proportion_{t}_residual")
+             or _has(table, f"sliding_proportion_{t}_core_residual")]
+    if not types:
+        return None
+    figure, ax = new_figure_axes()
+    for t in types:
+        _errorbar(ax, table, f"sliding_proportion_{t}", t)
+    ax.set_ylabel("sliding contacts of the type / active contacts")
     return _finish(figure, (ax,), symbol)
 
 
@@ -332,6 +383,8 @@ STUDY_FIGURES = (
     ("sliding", sliding_figure, "Friction mobilisation"),
     ("stress_dilatancy", stress_dilatancy_figure, "Strength from the anisotropies"),
     ("partial_strength", partial_strength_figure, "Strength by contact type"),
+    ("partial_anisotropies", partial_anisotropies_figure, "Anisotropies by contact type"),
+    ("sliding_by_type", sliding_by_type_figure, "Sliding by contact type"),
 )
 """The figures against the shape parameter, in the report's order: (file stem, function,
 title)."""

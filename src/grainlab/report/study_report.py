@@ -4,8 +4,12 @@ files beside it, readable without grainlab (any Markdown viewer, or as plain tex
 It holds: what the study is (series, protocol, window), a table of every sample (its outcome
 and cost, the peak and residual values with their standard deviations over the window), the
 papers' values for the same series where the study is one of the presets, the figures of
-:mod:`grainlab.report.study_figures`, and radial-force networks of the first, middle and last
-sample at the end of their runs (seed 002 Figs. 12, 18, 21).
+:mod:`grainlab.report.study_figures`, the packing fraction against the distance to the walls,
+and for the first, middle and last sample: the polar diagrams of the angular distributions
+with their harmonic fits (seed 002 Fig. 14) and the PDFs of normal and radial forces (seed 003
+Figs. 14, 16), both averaged over the residual window's snapshots for the core's contacts,
+and the radial-force networks at the end of their runs (seed 002 Figs. 12, 18, 21; seed 003
+Fig. 15).
 """
 
 from __future__ import annotations
@@ -119,7 +123,7 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
     profile = _wall_profiles(study, table, out, labels, spec.study.core_margin)
     if profile is not None:
         figures.append(profile)
-    networks = _force_networks(study, table, out)
+    networks = _window_distributions(study, table, out) + _force_networks(study, table, out)
     lo, hi = spec.study.window
     total = float(pd.to_numeric(table["wall_time"], errors="coerce").sum())
     text = [
@@ -165,16 +169,52 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
     return path
 
 
+def _picked(table: pd.DataFrame) -> list[str]:
+    """The first, middle and last sample."""
+    names = list(table["name"])
+    return list(dict.fromkeys([names[0], names[len(names) // 2], names[-1]]))
+
+
+def _window_distributions(study, table: pd.DataFrame, out: Path) -> list[tuple[str, str]]:
+    """Polar diagrams and force PDFs of the first, middle and last sample, averaged over the
+    snapshots in the residual window (the core's contacts where the sample has a box)."""
+    from grainlab.analysis.window_average import WindowAverage
+    from grainlab.errors import InputError
+    from grainlab.lab.discrete_run import SNAPSHOTS
+    from grainlab.report.microstructure_figures import (
+        averaged_force_pdf_figure,
+        averaged_polar_figure,
+    )
+
+    lo, hi = study.spec.study.window
+    figures = []
+    for name in _picked(table):
+        path = study.sample_folder(name) / SNAPSHOTS
+        if not path.exists():
+            continue
+        try:
+            average = WindowAverage((lo, hi), distributions="core",
+                                    core_margin=study.spec.study.core_margin).run(path)
+        except InputError:  # no snapshot in the window
+            continue
+        where = "core" if average.last is not None and average.last.core_parts else "whole box"
+        span = f"{average.n_snapshots} snapshots, eps_q in [{lo:g}, {hi:g}], {where}"
+        for stem, make, title in (("polar", averaged_polar_figure, "Angular distributions"),
+                                  ("force_pdfs", averaged_force_pdf_figure, "Force PDFs")):
+            file = f"{stem}_{name}.png"
+            save_figure(make(average.distributions), out / file)
+            figures.append((f"{title}, {name} ({span})", file))
+    return figures
+
+
 def _force_networks(study, table: pd.DataFrame, out: Path) -> list[tuple[str, str]]:
     """Radial-force networks of the last snapshot of the first, middle and last sample."""
     from grainlab.analysis.snapshot_files import count_snapshots, read_snapshots
     from grainlab.lab.discrete_run import SNAPSHOTS
     from grainlab.report.microstructure_figures import force_network_figure
 
-    names = list(table["name"])
-    picked = list(dict.fromkeys([names[0], names[len(names) // 2], names[-1]]))
     figures = []
-    for name in picked:
+    for name in _picked(table):
         path = study.sample_folder(name) / SNAPSHOTS
         if not path.exists() or count_snapshots(path) == 0:
             continue

@@ -30,7 +30,9 @@ Columns (SI, dimensionless unless stated):
   shear's snapshots in the window, for every scalar descriptor M of the snapshot analysis:
   over the whole box (M: ``packing_fraction``, ``coordination_number``, ``a_c``, ``p`` with
   the wall contacts, ...) and over the core (``M_core``: the particles at least
-  ``core_margin`` [m] from every wall, :mod:`grainlab.analysis.wall_layer`).
+  ``core_margin`` [m] from every wall, :mod:`grainlab.analysis.wall_layer`); and ``M_at_peak``
+  from the shear's snapshot nearest ``eps_q_peak`` (one snapshot: the peak state of seed 002
+  Fig. 20 and seed 003 Fig. 23), with its strain as ``eps_q_peak_snapshot``.
 
 A row is written for an ended sample only; a sample whose run did not reach the window has
 NaN residual values and says so in ``note``.
@@ -136,7 +138,8 @@ def sample_row(folder: str | Path, window: tuple[float, float], value: float,
         row["note"] = (f"the run reached eps_q = {row['eps_q_end']:.3g}, not the window "
                        f"[{lo:g}, {hi:g}]")
     if microstructure and (folder / SNAPSHOTS).exists():
-        row.update(_microstructure(folder / SNAPSHOTS, window, core_margin))
+        row.update(_microstructure(folder / SNAPSHOTS, window, core_margin,
+                                   row["eps_q_peak"]))
     return row
 
 
@@ -146,8 +149,8 @@ def _capped_share(outcome: dict[str, Any]) -> float:
     return capped / steps if steps else math.nan
 
 
-def _microstructure(snapshots: Path, window: tuple[float, float],
-                    core_margin: float) -> dict[str, float]:
+def _microstructure(snapshots: Path, window: tuple[float, float], core_margin: float,
+                    eps_q_peak: float = math.nan) -> dict[str, float]:
     """``M_initial``, ``M_residual`` and ``M_residual_std`` of every scalar descriptor (module
     docstring); the residual part is left out when no snapshot lies in the window."""
     from grainlab.analysis.snapshot_analysis import SnapshotAnalysis
@@ -155,15 +158,25 @@ def _microstructure(snapshots: Path, window: tuple[float, float],
     from grainlab.analysis.window_average import WindowAverage
 
     out: dict[str, float] = {}
-    initial = None
+    initial = peak = None
+    distance = math.inf
     for network in read_snapshots(snapshots):  # the compaction's last: its end
-        if network.state.get("stage") == "compaction":
+        stage = network.state.get("stage")
+        if stage == "compaction":
             initial = network
-    if initial is not None:
-        analysis = SnapshotAnalysis(core_margin=core_margin).compute(initial)
+        elif stage is not None and math.isfinite(eps_q_peak):
+            gap = abs(float(network.state.get("eps_q", math.nan)) - eps_q_peak)
+            if gap < distance:
+                peak, distance = network, gap
+    for state, network in (("initial", initial), ("at_peak", peak)):
+        if network is None:
+            continue
+        analysis = SnapshotAnalysis(core_margin=core_margin).compute(network)
         for name, value in analysis.descriptors.items():
             if isinstance(value, int | float) and not isinstance(value, bool):
-                out[f"{name}_initial"] = float(value)
+                out[f"{name}_{state}"] = float(value)
+    if peak is not None:
+        out["eps_q_peak_snapshot"] = float(peak.state["eps_q"])
     try:
         averages = WindowAverage(window, core_margin=core_margin).run(snapshots)
     except InputError:
