@@ -261,7 +261,7 @@ def test_window_averaged_polar_diagrams_and_force_pdfs_of_the_report(tmp_path):
     # P(theta) with its harmonic fit: the fit drawn (red) has 1 + a_c (3 cos^2 - 1) of the
     # imposed a_c = 0.2 between the first and the last bin
     ax = averaged_polar_figure(distributions).axes[0]
-    fit = [line for line in ax.get_lines() if line.get_color() == "tab:red"][0]
+    fit = next(line for line in ax.get_lines() if line.get_color() == "tab:red")
     theta = np.radians(distributions["contact_frame"]["theta_deg"].to_numpy())
     y = np.asarray(fit.get_ydata(), float)
     shape = 3 * np.cos(theta) ** 2 - 1
