@@ -50,6 +50,7 @@ COLUMNS = (
     ("q_over_trace_peak", "(q/p)+", "{:.3f}"), ("q_over_trace_residual", "(q/p)*", "pm"),
     ("phi_residual", "phi* [rad]", "{:.3f}"), ("sin_phi_star", "sin phi* (eq. 11)", "{:.3f}"),
     ("packing_fraction_initial", "nu0", "{:.3f}"), ("packing_fraction_residual", "nu*", "pm"),
+    ("n_core_initial", "N core", "{:.0f}"),
     ("packing_fraction_core_initial", "nu0 core", "{:.3f}"),
     ("packing_fraction_core_residual", "nu* core", "pm"),
     ("z_initial", "z0", "{:.2f}"), ("z_residual", "z*", "pm"),
