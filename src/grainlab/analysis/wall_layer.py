@@ -17,8 +17,9 @@ with the core's volume V_core = prod_a (L_a - 2 margin).
   V(h >= s) = prod_a max(L_a - 2 s, 0). A bulk packing is flat; the wall layer shows as the
   first shells' departure from the plateau. Each particle's volume counts in its centre's
   shell, so a shell thinner than a particle can read above 1 where the centres pile up (the
-  first layer, at h ~ the radius): only the plateau is a packing fraction. The margin is chosen where the profile has
-  reached its plateau (:data:`CORE_MARGIN`; the study report draws the profile).
+  first layer, at h ~ the radius): only the plateau is a packing fraction. The margin is
+  chosen where the profile has reached its plateau (:data:`CORE_MARGIN`; the study report
+  draws the profile).
 * :func:`core_network`: the contacts of the core particles as they see them, for the
   statistics of contacts (fabric, forces, sliding, contact types, partial stresses). Each
   core particle claims half of each of its contacts: a pair between two core particles is
