@@ -141,3 +141,17 @@ def test_wall_arrays_are_checked_and_survive_files_and_relabelling(tmp_path):
     with pytest.raises(InputError, match="box_upper"):
         ContactNetwork(**{**{k: getattr(net, k) for k in net.__dataclass_fields__},
                           "box_upper": np.zeros(3)})
+
+
+def test_core_connectivity_counts_the_nominal_points_of_polyhedron_pairs():
+    # one resultant per pair standing for m points (seed 002 eq. 14): pairs along x face-face
+    # (3 points), the others face-vertex (1): z_c = 2 x 3 + 4 x 1 = 10 in the core, z = 6
+    net = cubic_lattice(5, 1.0)
+    along_x = np.abs(net.pair_branches[:, 0]) > 0
+    values = {k: getattr(net, k) for k in net.__dataclass_fields__}
+    values.update(pair_types=np.where(along_x, 1, 0), type_names=("fv", "ff"),
+                  type_points=(1, 3))
+    out = CoreConnectivity(margin=1.0).compute(ContactNetwork(**values)).descriptors()
+    assert out["coordination_number_core"] == pytest.approx(6.0)
+    assert out["connectivity_number_core"] == pytest.approx(10.0)
+    assert out["n_core"] == 27.0
