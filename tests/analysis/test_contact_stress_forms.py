@@ -246,7 +246,8 @@ def test_two_dimensional_invariants():
     out = state.descriptors()
     assert set(out) == {"sigma_xx", "sigma_yy", "sigma_xy", "sigma_1", "sigma_3", "p", "q",
                         "q_over_3", "q_over_trace", "sin_phi", "stress_ratio",
-                        "stress_asymmetry"}  # in 2D the minor principal stress is sigma_3
+                        "stress_asymmetry", "wall_share_of_p"}  # 2D: the minor one is sigma_3
+    assert out["wall_share_of_p"] == 0.0  # no walls
     assert (out["sigma_1"], out["sigma_3"], out["stress_ratio"]) == (3.0, 1.0, 3.0)
 
 

@@ -167,6 +167,40 @@ def test_snapshots_feed_the_analysis_layer(finished_run):
     assert descriptors["coordination_number"] > 0
 
 
+def test_snapshot_stress_holds_the_wall_contacts(finished_run):
+    """The snapshots carry the wall contacts: the stress of particle and wall contacts is the
+    results row's contact stress (walls included) of the same step, and within the sample's
+    imbalance the wall reactions over the box's faces; the pairs alone fall short of it."""
+    from grainlab.analysis.contact_stress import (
+        StressState,
+        stress_from_network,
+        wall_reaction_stress,
+    )
+    from grainlab.analysis.snapshot_files import read_snapshots
+
+    folder, result = finished_run
+    rows = result.table.set_index("step")
+    checked = 0
+    for network in read_snapshots(folder / SNAPSHOTS):
+        step = network.state.get("step")
+        if step not in rows.index or network.state.get("stage") != "shear":
+            continue
+        row = rows.loc[step]
+        assert network.has_box and network.n_wall_points > 0
+        full = stress_from_network(network)
+        sym = 0.5 * (full + full.T)
+        recorded = np.array([row["sigma_xx"], row["sigma_yy"], row["sigma_zz"]])
+        np.testing.assert_allclose(np.diag(sym), recorded, rtol=1e-9)
+        reaction = np.diag(wall_reaction_stress(network))
+        np.testing.assert_allclose(np.diag(sym), reaction, rtol=0.05)
+        walls = np.array([row["wall_sigma_xx"], row["wall_sigma_yy"], row["wall_sigma_zz"]])
+        np.testing.assert_allclose(reaction, walls, rtol=0.05)
+        share = StressState().compute(network).descriptors()["wall_share_of_p"]
+        assert 0.0 < share < 0.5  # the walls' share of p: what the pairs alone miss
+        checked += 1
+    assert checked
+
+
 def test_vtk_export_of_a_checkpoint(finished_run, tmp_path):
     import meshio
 

@@ -21,7 +21,11 @@ stable equilibrium and carries no load. Removing it lowers the counts of its nei
 may then fall below ``min_contacts`` themselves: the rattlers are found *recursively* until no
 count changes — the set removed is the complement of the (``min_contacts``)-core of the graph
 of active interactions. An interaction of a particle with its own periodic image (a pair
-(i, i)) counts twice, once for each image that touches i. The rattler-free numbers count only
+(i, i)) counts twice, once for each image that touches i. A wall holds a particle as a
+neighbour would: each wall a particle touches with a loaded point counts as one interaction of
+that particle, and walls are never removed, so that a particle held by two walls and one
+neighbour is not a rattler. (z and z_c count particle contacts only, as the papers'.)
+The rattler-free numbers count only
 active interactions (and their active points) between two non-rattlers and divide by the number
 of non-rattlers.
 """
@@ -48,7 +52,19 @@ def packing_fraction(network) -> float:
     return float(network.volumes.sum() / network.volume)
 
 
-def find_rattlers(n_particles: int, pairs: np.ndarray, min_contacts: int = 2) -> np.ndarray:
+def wall_interactions(network) -> np.ndarray:
+    """(N,) number of walls each particle touches with a loaded point (0 without walls)."""
+    counts = np.zeros(network.n_particles, dtype=np.int64)
+    if not network.n_wall_points:
+        return counts
+    loaded = np.einsum("wi,wi->w", network.wall_forces, network.wall_normals) > 0.0
+    keys = np.unique(network.wall_particles[loaded] * 64 + network.wall_ids[loaded])
+    np.add.at(counts, keys // 64, 1)
+    return counts
+
+
+def find_rattlers(n_particles: int, pairs: np.ndarray, min_contacts: int = 2,
+                  fixed_counts: np.ndarray | None = None) -> np.ndarray:
     """(N,) bool mask of rattlers: particles left with fewer than ``min_contacts`` interactions
     after recursively removing rattlers (the complement of the ``min_contacts``-core).
 
@@ -61,6 +77,8 @@ def find_rattlers(n_particles: int, pairs: np.ndarray, min_contacts: int = 2) ->
         (i, i) counts twice for i.
     min_contacts:
         A particle with fewer interactions than this is a rattler.
+    fixed_counts:
+        (N,) interactions with supports that are never removed (walls), or None.
 
     Linear in N + P: counts are decremented only along the interactions of the particles
     removed in the previous sweep (a peeling of the graph, sweep by sweep).
@@ -79,6 +97,8 @@ def find_rattlers(n_particles: int, pairs: np.ndarray, min_contacts: int = 2) ->
     others, edge_of = others[order], edge_of[order]
     counts = np.bincount(ends, minlength=n_particles)
     offsets = np.concatenate([[0], np.cumsum(counts)])
+    if fixed_counts is not None:  # supports that are never removed: counted, not peeled
+        counts = counts + np.asarray(fixed_counts, dtype=np.int64)
     edge_alive = np.ones(n_pairs, dtype=bool)
     rattler = counts < min_contacts
     frontier = np.flatnonzero(rattler)
@@ -114,6 +134,10 @@ class Connectivity(Compute):
     min_contacts:
         A particle with fewer active interactions than this (after recursive removal) is a
         rattler; default 2. An integer >= 1.
+    wall_supports:
+        Count the walls a particle touches as its interactions in the rattler rule (module
+        docstring); default True. False: particle contacts only (the rule of the results
+        table's ``z_no_rattlers`` and ``rattler_fraction`` columns, kept as they were recorded).
 
     Properties after :meth:`compute`: ``packing_fraction``, ``coordination_number`` (z),
     ``connectivity_number`` (z_c), ``rattlers`` ((N,) bool), ``rattler_fraction``,
@@ -136,8 +160,9 @@ class Connectivity(Compute):
     [True, True, True]
     """
 
-    def __init__(self, min_contacts: int = 2) -> None:
+    def __init__(self, min_contacts: int = 2, wall_supports: bool = True) -> None:
         super().__init__()
+        self.wall_supports = bool(wall_supports)
         if isinstance(min_contacts, bool) or not isinstance(min_contacts, int | np.integer) \
                 or min_contacts < 1:
             raise InputError("min_contacts", min_contacts, "an integer >= 1")
@@ -157,7 +182,8 @@ class Connectivity(Compute):
         pairs = network.pair_particles[active_pairs]
         n_active_pairs = int(active_pairs.sum())
         n_active_points = int(points_per_pair[active_pairs].sum())
-        rattlers = find_rattlers(n, pairs, self.min_contacts)
+        rattlers = find_rattlers(n, pairs, self.min_contacts,
+                                 wall_interactions(network) if self.wall_supports else None)
         kept = ~rattlers[network.pair_particles[:, 0]] & ~rattlers[network.pair_particles[:, 1]]
         kept &= active_pairs
         n_kept = n - int(rattlers.sum())

@@ -9,6 +9,12 @@ A snapshot of a granular sample at two levels (seeds 002/003):
   particle of the pair towards the second) and the force the first particle exerts on the
   second — so that f . n > 0 in compression.
 
+A sample held by walls also carries its **wall contacts** (the particle, the point, the
+normal pointing from the wall into the particle and the force the wall exerts on it) and the
+box (its lower and upper corners): the stress counts them (the walls hold the sample: without
+them the contact stress falls short of the wall reactions) and so does the rattler rule; the
+analysis of the core (:mod:`grainlab.analysis.wall_layer`) reads the box.
+
 z counts interactions per particle, z_c contact points per particle (seed 002 eqs. 13–14). The
 engine fills a network, files restore it (:meth:`ContactNetwork.to_hdf5`), tests build it by
 hand. Arrays only: no particle or contact objects.
@@ -84,6 +90,14 @@ class ContactNetwork:
         Interparticle friction coefficient mu [-], needed for friction descriptors.
     point_sliding:
         (C,) solver-reported sliding flags, or None (then |f_t| >= mu f_n decides).
+    wall_particles:
+        (W,) particle of each loaded wall contact point, or None (a network without walls,
+        or one whose walls were not recorded).
+    wall_points, wall_normals, wall_forces:
+        (W, d) the points [m], unit normals (from the wall into the particle) and the forces
+        the walls exert on the particles [N]; given with ``wall_particles``.
+    box_lower, box_upper:
+        (d,) corners of the axis-aligned wall box [m], or None (no walls, a periodic cell).
     state:
         Plain data about the snapshot (step, time, strains such as ``eps_q``, ...).
 
@@ -109,6 +123,12 @@ class ContactNetwork:
     type_points: tuple[int, ...] = ()
     friction_coefficient: float | None = None
     point_sliding: np.ndarray | None = None
+    wall_particles: np.ndarray | None = None
+    wall_points: np.ndarray | None = None
+    wall_normals: np.ndarray | None = None
+    wall_forces: np.ndarray | None = None
+    box_lower: np.ndarray | None = None
+    box_upper: np.ndarray | None = None
     state: dict[str, Any] = field(default_factory=dict)
 
     @classmethod
@@ -183,6 +203,63 @@ class ContactNetwork:
         if self.point_sliding is not None:
             set_(self, "point_sliding",
                  _array("point_sliding", self.point_sliding, (c,), dtype=bool))
+        self._check_walls(n, d)
+
+    def _check_walls(self, n: int, d: int) -> None:
+        """Validate the wall contacts and the box (attributes above)."""
+        set_ = object.__setattr__
+        names = ("wall_points", "wall_normals", "wall_forces")
+        if self.wall_particles is None:
+            given = [name for name in names if getattr(self, name) is not None]
+            if given:
+                raise InputError(given[0], "an array", "None without wall_particles")
+        else:
+            particles = _array("wall_particles", self.wall_particles, (None,), dtype=np.int64)
+            if particles.size and (particles.min() < 0 or particles.max() >= n):
+                bad = int(particles.max() if particles.max() >= n else particles.min())
+                raise InputError("wall_particles", bad, f"particle indices in [0, {n - 1}]")
+            set_(self, "wall_particles", particles)
+            w = particles.shape[0]
+            for name in names:
+                if getattr(self, name) is None:
+                    raise InputError(name, None, f"a ({w}, {d}) array with wall_particles")
+                set_(self, name, _array(name, getattr(self, name), (w, d)))
+            lengths = np.linalg.norm(self.wall_normals, axis=1)
+            if w and np.any(np.abs(lengths - 1.0) > 1e-6):
+                k = int(np.argmax(np.abs(lengths - 1.0)))
+                raise InputError(f"wall_normals[{k}]", self.wall_normals[k].tolist(),
+                                 "a unit vector (length 1 within 1e-6)")
+        if (self.box_lower is None) != (self.box_upper is None):
+            raise InputError("box_lower" if self.box_lower is None else "box_upper", None,
+                             "both corners of the box, or neither")
+        if self.box_lower is not None:
+            lower = _array("box_lower", self.box_lower, (d,))
+            upper = _array("box_upper", self.box_upper, (d,))
+            if np.any(upper <= lower):
+                raise InputError("box_upper", upper.tolist(),
+                                 f"a corner above box_lower {lower.tolist()} on every axis")
+            set_(self, "box_lower", lower)
+            set_(self, "box_upper", upper)
+
+    @property
+    def has_box(self) -> bool:
+        """Whether the sample is held by the walls of a box (``box_lower``, ``box_upper``)."""
+        return self.box_lower is not None
+
+    @property
+    def n_wall_points(self) -> int:
+        """Number of loaded wall contact points W (0 without wall contacts)."""
+        return 0 if self.wall_particles is None else int(self.wall_particles.shape[0])
+
+    @property
+    def wall_ids(self) -> np.ndarray:
+        """(W,) the wall of each wall contact point, known by its normal in an axis-aligned
+        box: 2 a for the wall below on axis a (normal +e_a), 2 a + 1 for the one above."""
+        if self.wall_particles is None:
+            return np.zeros(0, dtype=np.int64)
+        axis = np.argmax(np.abs(self.wall_normals), axis=1)
+        below = self.wall_normals[np.arange(axis.size), axis] > 0
+        return (2 * axis + np.where(below, 0, 1)).astype(np.int64)
 
     # -- sizes --------------------------------------------------------------------------------
     @property
@@ -254,6 +331,16 @@ class ContactNetwork:
                                                        atol=1e-10):
             raise InputError("rotation", rotation.tolist(), f"an orthogonal {d}x{d} matrix")
         shift = np.zeros(self.dimension) if shift is None else np.asarray(shift, dtype=float)
+        walls = {}
+        if self.wall_particles is not None:
+            walls = {"wall_points": self.wall_points @ rotation.T + shift,
+                     "wall_normals": self.wall_normals @ rotation.T,
+                     "wall_forces": self.wall_forces @ rotation.T}
+        box = {}
+        if self.has_box:  # an axis-aligned box stays one only without rotation
+            same = np.allclose(rotation, np.eye(d), atol=1e-12)
+            box = {"box_lower": self.box_lower + shift if same else None,
+                   "box_upper": self.box_upper + shift if same else None}
         return _replace(
             self,
             positions=self.positions @ rotation.T + shift,
@@ -261,6 +348,7 @@ class ContactNetwork:
             point_positions=self.point_positions @ rotation.T + shift,
             point_normals=self.point_normals @ rotation.T,
             point_forces=self.point_forces @ rotation.T,
+            **walls, **box,
         )
 
     def relabelled(self, particle_order: np.ndarray, pair_order: np.ndarray | None = None,
@@ -286,11 +374,17 @@ class ContactNetwork:
             point_normals=self.point_normals[point_order],
             point_forces=self.point_forces[point_order],
             point_sliding=None if self.point_sliding is None else self.point_sliding[point_order],
+            wall_particles=None if self.wall_particles is None
+            else new_index[self.wall_particles],
         )
 
     # -- files --------------------------------------------------------------------------------
     ARRAYS = ("positions", "volumes", "pair_particles", "pair_branches", "point_pairs",
-              "point_positions", "point_normals", "point_forces", "pair_types", "point_sliding")
+              "point_positions", "point_normals", "point_forces", "pair_types", "point_sliding",
+              "wall_particles", "wall_points", "wall_normals", "wall_forces", "box_lower",
+              "box_upper")
+    """Arrays of a network group; the wall arrays and the box are absent from files written
+    before networks carried them (they read as None)."""
 
     def to_hdf5(self, group: h5py.Group) -> None:
         """Write the network into an (empty) HDF5 group."""

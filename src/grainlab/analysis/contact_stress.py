@@ -12,6 +12,17 @@ Two forms of seed 002 eq. 3 are offered for a :class:`~grainlab.analysis.Contact
   sign turns the papers' tension-positive moment into compression-positive stress);
 * the contact form, :func:`stress_from_network`: sigma = (1/V) sum_c f^c (x) l^c.
 
+A network held by walls (``wall_particles``, :class:`~grainlab.analysis.ContactNetwork`) adds
+its wall contacts to both forms, the wall standing as the first side of the contact: the force
+f^w the wall exerts on particle j at the point x^w with the arm x^j - x^w,
+
+    sigma = (1/V) [ sum_c f^c (x) l^c + sum_w f^w (x) (x^j - x^w) ].
+
+The walls hold the sample: in static equilibrium the sum over particle and wall contacts is
+exactly -(1/V) sum_w f^w (x) x^w, the wall reactions over the box's faces (sigma_aa = the
+force on the wall above on axis a over its area), whereas the particle contacts alone fall
+short of it by the share the walls carry.
+
 They agree identically (the contact positions x^c cancel pair by pair), whether or not the
 particles are in equilibrium; :class:`StressState` computes both and the invariants of every
 test result (:mod:`grainlab.result.invariants`): p, q, q_over_3, the seeds' q/p as
@@ -97,6 +108,13 @@ def internal_moments(network) -> np.ndarray:
                 np.bincount(second, forces[:, a] * r_second[:, b], minlength=n)
                 - np.bincount(first, forces[:, a] * r_first[:, b], minlength=n)
             )
+    if network.n_wall_points:  # the wall's force on its particle at the wall point
+        held = network.wall_particles
+        arm = network.wall_points - network.positions[held]
+        for a in range(d):
+            for b in range(d):
+                moments[:, a, b] += np.bincount(held, network.wall_forces[:, a] * arm[:, b],
+                                                minlength=n)
     return moments
 
 
@@ -143,8 +161,27 @@ def stress_from_network(network) -> np.ndarray:
     array([[1., 0.],
            [0., 0.]])
     """
-    return stress_from_contact_dyads(network.point_forces, network.point_branches,
-                                     network.volume)
+    stress = stress_from_contact_dyads(network.point_forces, network.point_branches,
+                                       network.volume)
+    return stress + wall_stress(network)
+
+
+def wall_stress(network) -> np.ndarray:
+    """(d, d) the wall contacts' share of the contact stress [Pa], not symmetrised:
+    (1/V) sum_w f^w (x) (x^j - x^w) (module docstring); zeros without wall contacts."""
+    if not network.n_wall_points:
+        return np.zeros((network.dimension, network.dimension))
+    arm = network.positions[network.wall_particles] - network.wall_points
+    return stress_from_contact_dyads(network.wall_forces, arm, network.volume)
+
+
+def wall_reaction_stress(network) -> np.ndarray:
+    """(d, d) -(1/V) sum_w f^w (x) x^w [Pa]: the stress the walls' reactions impose on the
+    box (module docstring), equal to :func:`stress_from_network` for a sample in static
+    equilibrium; zeros without wall contacts."""
+    if not network.n_wall_points:
+        return np.zeros((network.dimension, network.dimension))
+    return -stress_from_contact_dyads(network.wall_forces, network.wall_points, network.volume)
 
 
 # -- invariants --------------------------------------------------------------------------------
@@ -236,6 +273,8 @@ class StressState(Compute):
             b=invariants.get("b", float("nan")),
             invariants=invariants,
             dimension=d,
+            wall_share=float(np.trace(wall_stress(network)) / np.trace(full))
+            if np.trace(full) != 0 else float("nan"),
         )
 
     @property
@@ -310,7 +349,8 @@ class StressState(Compute):
         """Flat dict of scalars, named as in :mod:`grainlab.result.columns`: sigma_xx,
         sigma_yy, (sigma_zz,) sigma_xy, (sigma_xz, sigma_yz,) the invariants of
         :func:`grainlab.result.invariants.stress_invariants` (sigma_1, (sigma_2,) sigma_3, p,
-        q, q_over_3, q_over_trace, sin_phi, stress_ratio, (b)) and stress_asymmetry. Keys in
+        q, q_over_3, q_over_trace, sin_phi, stress_ratio, (b)), stress_asymmetry and
+        wall_share_of_p (the wall contacts' share of tr(sigma), 0 without walls). Keys in
         parentheses exist in 3D only."""
         d = self._get("dimension")
         tensor = self.tensor
@@ -322,4 +362,5 @@ class StressState(Compute):
                 out[f"sigma_{_AXES[a]}{_AXES[b]}"] = float(tensor[a, b])
         out.update(self._get("invariants"))
         out["stress_asymmetry"] = self.asymmetry
+        out["wall_share_of_p"] = self._get("wall_share")
         return out

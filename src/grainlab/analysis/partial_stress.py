@@ -14,6 +14,10 @@ of the shear stress is measured along the principal directions e_1 (major) and e
 
 (3D: (...)/3/p, 2D: (...)/2/p), so that sum_gamma q_gamma / tr(sigma) = ``q_over_trace`` of
 :class:`~grainlab.analysis.contact_stress.StressState` (seed 002 Fig. 22, seed 003 Fig. 18).
+In a network held by walls the wall contacts are one more share, ``wall``
+(:func:`~grainlab.analysis.contact_stress.wall_stress`), and the total, p and the principal
+directions are those of particle and wall contacts together, so that the shares still sum to
+the sample's q/p.
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from grainlab.analysis.compute import Compute
-from grainlab.analysis.contact_stress import principal_stresses, stress_from_network
+from grainlab.analysis.contact_stress import principal_stresses, stress_from_network, wall_stress
 from grainlab.errors import InputError
 
 
@@ -66,6 +70,8 @@ class PartialStresses(Compute):
 
     def _compute(self, network) -> None:
         tensors = partial_stress_tensors(network)
+        if network.n_wall_points:
+            tensors["wall"] = wall_stress(network)
         total = stress_from_network(network)
         d = network.dimension
         sym = 0.5 * (total + total.T)
@@ -80,7 +86,8 @@ class PartialStresses(Compute):
 
     @property
     def tensors(self) -> dict[str, np.ndarray]:
-        """{type name: (d, d) partial stress sigma_gamma [Pa]} (full, not symmetrised)."""
+        """{type name: (d, d) partial stress sigma_gamma [Pa]} (full, not symmetrised), and
+        ``wall`` for the wall contacts' share where the network has them."""
         return self._get("tensors")
 
     @property

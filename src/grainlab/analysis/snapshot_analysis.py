@@ -3,6 +3,12 @@
 Runs the stress, connectivity, fabric (both frames), angular distributions, force statistics,
 friction (when the network knows mu) and partial-stress (when it knows contact types) analyses
 and gathers their scalar descriptors into one flat dictionary, the row of a results table.
+
+A network held by walls (``box_lower``, ``box_upper``) is analysed twice: over the whole
+box (wall contacts in the stress and the rattler rule) and over its core, the particles at
+least ``core_margin`` mean diameters from every wall (:mod:`grainlab.analysis.wall_layer`),
+whose descriptors carry the suffix ``_core`` (``coordination_number`` and
+``coordination_number_core``, ``a_c`` and ``a_c_core``, ...).
 """
 
 from __future__ import annotations
@@ -20,6 +26,7 @@ from grainlab.analysis.fabric import Fabric
 from grainlab.analysis.force_statistics import ForceStatistics
 from grainlab.analysis.friction import Friction
 from grainlab.analysis.partial_stress import PartialStresses
+from grainlab.analysis.wall_layer import CORE_MARGIN, CoreConnectivity, core_network
 
 
 def harmonic_mobilisation(
@@ -37,6 +44,13 @@ def harmonic_mobilisation(
     if mu_branch and np.isfinite(mu_branch) and mu_branch > 0:
         out["mobilisation_index_branch_harmonic"] = c * anisotropies["a_ft_branch"] / mu_branch
     return out
+
+
+_CONNECTIVITY_NAMES = ("packing_fraction", "coordination_number", "connectivity_number",
+                       "connectivity_ratio", "rattler_fraction")
+"""Descriptors of the whole-box connectivity: the core's come from CoreConnectivity, not from
+the claimed network (whose particle count is the box's)."""
+_CORE_FROM_CLAIMS = ("connectivity_ratio",)
 
 
 class SnapshotAnalysis(Compute):
@@ -57,6 +71,9 @@ class SnapshotAnalysis(Compute):
         Fixed (n_force_bins + 1,) edges of the force PDFs' linear and log bins of f / <f>
         [-] (:class:`~grainlab.analysis.force_statistics.ForceStatistics`); None: each
         snapshot's own range.
+    core_margin:
+        Margin of the core in mean volume-equivalent diameters (module docstring); None: no
+        core analysis. A network without a box has none either.
 
     >>> from grainlab.analysis.synthetic import synthetic_network
     >>> analysis = SnapshotAnalysis().compute(synthetic_network(2000, a_c=0.2, seed=1))
@@ -73,6 +90,7 @@ class SnapshotAnalysis(Compute):
         n_angle_bins: int = 18,
         force_linear_edges: np.ndarray | None = None,
         force_log_edges: np.ndarray | None = None,
+        core_margin: float | None = CORE_MARGIN,
     ) -> None:
         super().__init__()
         self.min_contacts = min_contacts
@@ -82,8 +100,30 @@ class SnapshotAnalysis(Compute):
         self.n_angle_bins = n_angle_bins
         self.force_linear_edges = force_linear_edges
         self.force_log_edges = force_log_edges
+        self.core_margin = core_margin
 
     def _compute(self, network: ContactNetwork) -> None:
+        parts, descriptors = self._analyse(network)
+        core: dict[str, Any] = {"core_connectivity": None, "core_parts": None}
+        if self.core_margin is not None and network.has_box:
+            connectivity = CoreConnectivity(self.core_margin, self.min_contacts)
+            connectivity.compute(network)
+            core["core_connectivity"] = connectivity
+            descriptors.update(connectivity.descriptors())
+            claimed = None
+            if connectivity.core_volume > 0:
+                claimed = core_network(network, connectivity.core, connectivity.core_volume)
+            if claimed is not None:
+                core_parts, core_descriptors = self._analyse(claimed)
+                core["core_parts"] = core_parts
+                for name, value in core_descriptors.items():
+                    if name in _CORE_FROM_CLAIMS or name.startswith("k_") \
+                            or not name.startswith(_CONNECTIVITY_NAMES):
+                        descriptors[f"{name}_core"] = value
+        self._store(network=network, descriptors=descriptors, **parts, **core)
+
+    def _analyse(self, network: ContactNetwork) -> tuple[dict[str, Any], dict[str, Any]]:
+        """The analyses of one network and their descriptors."""
         parts: dict[str, Any] = {
             "stress": StressState().compute(network),
             "connectivity": Connectivity(min_contacts=self.min_contacts).compute(network),
@@ -109,7 +149,7 @@ class SnapshotAnalysis(Compute):
                 parts["fabric"].anisotropies, network.friction_coefficient,
                 parts["friction"].mean_branch_friction, network.dimension,
             ))
-        self._store(network=network, descriptors=descriptors, **parts)
+        return parts, descriptors
 
     @property
     def network(self) -> ContactNetwork:
@@ -150,6 +190,17 @@ class SnapshotAnalysis(Compute):
     def friction(self) -> Friction | None:
         """Sliding proportion and friction mobilisation (None without mu)."""
         return self._get("friction")
+
+    @property
+    def core_connectivity(self) -> CoreConnectivity | None:
+        """Packing fraction, z, z_c and rattlers of the core (None without a box)."""
+        return self._get("core_connectivity")
+
+    @property
+    def core_parts(self) -> dict[str, Any] | None:
+        """The analyses of the core's claimed contacts ("stress", "angular", "fabric",
+        "forces", "friction", "partial"), or None without a core."""
+        return self._get("core_parts")
 
     @property
     def partial(self) -> PartialStresses | None:

@@ -149,9 +149,14 @@ class WindowAverage:
     linear_edges, log_edges:
         Fixed (n_force_bins + 1,) bin edges of f / <f> [-]; default: ``n_force_bins`` equal
         bins over :data:`LINEAR_RATIO_RANGE`, equal in log over :data:`LOG_RATIO_RANGE`.
+    distributions:
+        ``"box"`` (default): the force PDFs and angular tables of the whole network;
+        ``"core"``: those of the core's claimed contacts
+        (:func:`~grainlab.analysis.wall_layer.core_network`) where the snapshot has a box and a
+        core, else the whole network's.
     snapshot_options:
         Those of :class:`SnapshotAnalysis` (min_contacts, frame_level, friction_tolerance,
-        n_force_bins, n_angle_bins).
+        n_force_bins, n_angle_bins, core_margin).
 
     Results after :meth:`run` (properties; :class:`NotComputedError` before):
 
@@ -182,8 +187,12 @@ class WindowAverage:
         *,
         linear_edges: np.ndarray | None = None,
         log_edges: np.ndarray | None = None,
+        distributions: str = "box",
         **snapshot_options: Any,
     ) -> None:
+        if distributions not in ("box", "core"):
+            raise InputError("distributions", distributions, '"box" or "core"')
+        self.distributions_region = distributions
         if window is None:
             window = StrainWindow()
         elif not isinstance(window, StrainWindow):
@@ -224,14 +233,17 @@ class WindowAverage:
                              self.window.variable: float(state[self.window.variable])})
         values = {k: float(v) for k, v in analysis.descriptors.items()
                   if isinstance(v, Number) and not isinstance(v, bool)}
+        forces, angular = analysis.forces, analysis.angular
+        if self.distributions_region == "core" and analysis.core_parts is not None:
+            forces, angular = analysis.core_parts["forces"], analysis.core_parts["angular"]
         for name in PDF_NAMES:
-            pdf = getattr(analysis.forces, name)
+            pdf = getattr(forces, name)
             widths = np.diff(pdf.attrs["bin_edges"])
             values[f"pdf_binned_fraction_{name}"] = float(np.sum(pdf["density"] * widths)) \
                 if np.all(np.isfinite(pdf["density"])) else float("nan")
             self._add_table(name, pdf, ["density"])
         for name in ANGULAR_NAMES:
-            table = getattr(analysis.angular, name)
+            table = getattr(angular, name)
             self._add_table(name, table, [c for c in table.columns if c not in _BIN_COLUMNS])
         for key, value in values.items():
             self._scalars.setdefault(key, _Moments(())).add(np.asarray(value))

@@ -35,6 +35,9 @@ by particle pair, forces from the impulses (f = P / h) and sliding flags
 (|f_t| >= mu f_n (1 - 1e-6)). Its pairs are typed by the pair typing of the shape kinds
 present (:attr:`~grainlab.engine.shape_kinds.ShapeKind.pair_typing`): the polyhedron pair
 types below, else the aggregate pair classes of seed 003 Fig. 8, else not at all (spheres).
+In a wall box the network also carries the loaded wall contact points (particle, point,
+normal from the wall into the particle, force of the wall on it) and the box's corners, which
+the analysis of the stress, the rattlers and the core reads.
 
 Polyhedra (seed 002 §II.B): the several points of a polyhedron pair are solved as
 independent contacts, but "the net resultant of the calculated forces is attributed to the
@@ -203,18 +206,34 @@ def _network_points(contacts: Contacts, rows: np.ndarray, forces: np.ndarray, n:
 def contact_network(report: StepReport, state: BodyState, library: ShapeLibrary,
                     volume: float, dt: float, friction: float,
                     extra_state: dict[str, Any] | None = None,
-                    cell_matrix: np.ndarray | None = None) -> ContactNetwork:
+                    cell_matrix: np.ndarray | None = None,
+                    box: tuple[np.ndarray, np.ndarray] | None = None) -> ContactNetwork:
     """The particle-particle contact network of the step (module docstring); in a periodic
-    cell h = ``cell_matrix`` [m] the branch vectors reach through the images."""
+    cell h = ``cell_matrix`` [m] the branch vectors reach through the images; in a wall box
+    of corners ``box`` = (lower, upper) (3,) [m] it carries the loaded wall contacts."""
     network, _ = _contact_network(report, state, library, volume, dt, friction, extra_state,
-                                  cell_matrix)
+                                  cell_matrix, box)
     return network
+
+
+def wall_contacts(report: StepReport, dt: float) -> dict[str, np.ndarray]:
+    """The loaded wall contact points of the step as the network's ``wall_*`` arrays:
+    particle, point [m], normal (from the wall into the particle), force of the wall [N]."""
+    contacts = report.contacts
+    if not contacts.n_contacts:
+        return {"wall_particles": np.zeros(0, np.int64), "wall_points": np.zeros((0, 3)),
+                "wall_normals": np.zeros((0, 3)), "wall_forces": np.zeros((0, 3))}
+    rows = np.flatnonzero((contacts.body_i < 0) & (report.impulses[:, 0] > 0.0))
+    return {"wall_particles": contacts.body_j[rows].astype(np.int64),
+            "wall_points": contacts.point[rows], "wall_normals": contacts.normal[rows],
+            "wall_forces": world_forces(report, dt)[rows]}
 
 
 def _contact_network(report: StepReport, state: BodyState, library: ShapeLibrary,
                      volume: float, dt: float, friction: float,
                      extra_state: dict[str, Any] | None = None,
                      cell_matrix: np.ndarray | None = None,
+                     box: tuple[np.ndarray, np.ndarray] | None = None,
                      ) -> tuple[ContactNetwork, int]:
     """The network and the number of loaded solver points between particles."""
     contacts = report.contacts
@@ -249,6 +268,8 @@ def _contact_network(report: StepReport, state: BodyState, library: ShapeLibrary
         ckey = classified[:, 0] * n + classified[:, 1]
         pair_types = codes[np.searchsorted(ckey, pair_keys)]
         type_names = CONTACT_CLASS_NAMES
+    walls = {} if box is None else {**wall_contacts(report, dt), "box_lower": box[0],
+                                    "box_upper": box[1]}
     network = ContactNetwork(
         positions=state.positions.copy(), volumes=library.volume[state.shape_ids],
         volume=volume, pair_particles=pairs, pair_branches=branches,
@@ -256,7 +277,7 @@ def _contact_network(report: StepReport, state: BodyState, library: ShapeLibrary
         point_normals=normals, point_forces=forces, pair_types=pair_types,
         type_names=type_names, type_points=type_points, friction_coefficient=friction,
         point_sliding=sliding,
-        state=dict(extra_state or {}),
+        state=dict(extra_state or {}), **walls,
     )
     return network, int(inner.shape[0])
 
@@ -410,8 +431,8 @@ def _measures(report, state, library, volume, stress, extra, strains, rate, dt, 
     row["inertia_number"] = float(rate * mean_d * np.sqrt(state.density / p)) \
         if p > 0.0 else float("nan")
     network, solver_points = _contact_network(report, state, library, volume, dt, friction,
-                                              cell_matrix=cell_matrix)
-    connectivity = Connectivity().compute(network)
+                                              cell_matrix=cell_matrix, box=core)
+    connectivity = Connectivity(wall_supports=False).compute(network)  # the recorded rule
     row["packing_fraction"] = float(np.sum(library.volume[state.shape_ids]) / volume)
     row["z"] = float(connectivity.coordination_number)
     row["z_c"] = float(connectivity.connectivity_number)

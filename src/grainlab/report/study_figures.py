@@ -6,6 +6,11 @@ per sample, columns ``X_initial``, ``X_residual``, ``X_residual_std``, ``q_over_
 ...) and the shape parameter's symbol, and returns a figure, or None when the table holds none
 of its columns (a study without snapshots has no microstructure figures).
 
+The walls of a small box order the particles next to them; the microstructure figures draw the
+**core's** values (``X_core``, the particles at least a stated margin from every wall:
+:mod:`grainlab.analysis.wall_layer`) wherever the summary has them, and say so in their
+labels; the packing fraction and the connectivity draw the whole box beside the core.
+
 =================================  =========================  =========================
 figure                             seed 002 (angularity)      seed 003 (non-convexity)
 =================================  =========================  =========================
@@ -14,12 +19,19 @@ figure                             seed 002 (angularity)      seed 003 (non-conv
 :func:`packing_fraction_figure`    Fig. 8                     Fig. 7
 :func:`connectivity_figure`        Fig. 10                    Fig. 9
 :func:`contact_types_figure`       Fig. 11                    Fig. 10
-:func:`anisotropies_figure`        Figs. 15-17                Figs. 12-14, 16
-:func:`sliding_figure`             Fig. 19                    Figs. 17-18
-:func:`stress_dilatancy_figure`    Fig. 20 (eqs. 27a, 27b,    Figs. 19-20 (eqs. 30-31)
+:func:`anisotropies_figure`        Figs. 15-17                Figs. 12, 13, 17, 22
+:func:`sliding_figure`             Fig. 19                    Fig. 19
+:func:`stress_dilatancy_figure`    Fig. 20 (eqs. 27a, 27b,    Fig. 23 (eqs. 35a, 35b)
                                    B1)
-:func:`partial_strength_figure`    Figs. 22-24                Figs. 22-23
+:func:`partial_strength_figure`    Fig. 22                    Fig. 18
+:func:`partial_anisotropies_figure` Figs. 23-24               -
+:func:`sliding_by_type_figure`     -                          Fig. 20
+:func:`wall_profile_figure`        -                          -
 =================================  =========================  =========================
+
+:func:`stress_dilatancy_figure` draws the peak state (the summary's ``M_at_peak``, from the
+snapshot nearest the peak) beside the residual one where the summary has it. The friction
+mobilisation index of seed 003 eq. 34 has no figure of its own in the paper.
 """
 
 from __future__ import annotations
@@ -48,6 +60,15 @@ CONTACT_TYPE_ORDER = ("point", "fv", "ee", "fe", "ff", "s", "ds", "d", "t", "q",
 five or more)."""
 
 
+def core_stem(table: pd.DataFrame, stem: str) -> tuple[str, str]:
+    """``stem + "_core"`` and the label suffix " (core)" where the table holds the core's
+    values of ``stem``, else ``stem`` and ""."""
+    core = f"{stem}_core"
+    if any(_has(table, f"{core}_{state}") for state in ("residual", "initial")):
+        return core, " (core)"
+    return stem, ""
+
+
 def _x(table: pd.DataFrame) -> np.ndarray:
     return table["measured"].to_numpy(float)
 
@@ -57,9 +78,13 @@ def _has(table: pd.DataFrame, column: str) -> bool:
 
 
 def _errorbar(ax, table: pd.DataFrame, stem: str, label: str, marker: str = "o",
-              state: str = "residual") -> bool:
+              state: str = "residual", core: bool = True) -> bool:
     """Plot ``stem_state`` (with ``stem_state_std`` as error bars where it exists) against
-    the shape parameter; False when the column is missing."""
+    the shape parameter, the core's values where the table has them (``core``); False when
+    the column is missing."""
+    if core:
+        stem, suffix = core_stem(table, stem)
+        label += suffix
     column = f"{stem}_{state}"
     if not _has(table, column):
         return False
@@ -80,10 +105,17 @@ def _finish(figure: Figure, axes: Sequence, symbol: str) -> Figure:
     return figure
 
 
+EPS_VOL_SIGN = ("compression > 0: the opposite sign to seed 002 Fig. 7,\n"
+                "whose $\\varepsilon_p$ = ln(V/V$_0$) grows as the sample dilates")
+"""The note the volume-change panel carries."""
+
+
 def curves_figure(curves: dict[str, pd.DataFrame], labels: dict[str, str]) -> Figure | None:
-    """q/p, the volumetric strain eps_p and the packing fraction against eps_q, one line per
-    sample (seed 002 Figs. 5, 7; seed 003 Figs. 3, 5). ``curves``: each sample's shear rows
-    (from the end of the compaction, :func:`~grainlab.report.run_curves.shear_from_its_start`)."""
+    """q/p, the volumetric strain eps_vol (compression > 0, the opposite sign to seed 002's
+    eps_p: the panel says so, :data:`EPS_VOL_SIGN`) and the packing fraction against eps_q,
+    one line per sample (seed 002 Figs. 5, 7; seed 003 Figs. 3, 5). ``curves``: each
+    sample's shear rows (from the end of the compaction,
+    :func:`~grainlab.report.run_curves.shear_from_its_start`)."""
     if not curves:
         return None
     figure, axes = new_figure_axes(1, 3, figsize=(13.0, 3.8))
@@ -92,11 +124,12 @@ def curves_figure(curves: dict[str, pd.DataFrame], labels: dict[str, str]) -> Fi
                               strict=True):
             if column in table:
                 ax.plot(table["eps_q"], table[column], label=labels.get(name, name), lw=1)
-    for ax, text in zip(axes, ("q/p", "$\\varepsilon_p$ (compression > 0)", "packing fraction"),
-                        strict=True):
+    for ax, text in zip(axes, ("q/p", "$\\varepsilon_{vol}$ (compression > 0)",
+                               "packing fraction"), strict=True):
         ax.set_xlabel("$\\varepsilon_q$")
         ax.set_ylabel(text)
         ax.grid(alpha=0.3)
+    axes[1].set_title(EPS_VOL_SIGN, fontsize=8)
     axes[0].legend(fontsize=7, ncol=2)
     figure.tight_layout()
     return figure
@@ -132,7 +165,7 @@ def strength_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
     figure, (left, right) = new_figure_axes(1, 2, figsize=(10.0, 3.8))
     if _has(table, "q_over_trace_peak"):
         left.plot(_x(table), table["q_over_trace_peak"], "s-", label="peak $(q/p)^+$")
-    _errorbar(left, table, "q_over_trace", "residual $(q/p)^*$")
+    _errorbar(left, table, "q_over_trace", "residual $(q/p)^*$", core=False)
     left.set_ylabel("q/p")
     if _has(table, "phi_residual"):
         phi = table["phi_residual"].to_numpy(float)
@@ -155,6 +188,8 @@ def strength_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
 
 def _initial_residual(table: pd.DataFrame, symbol: str, stems: Sequence[tuple[str, str]],
                       ylabel: str) -> Figure | None:
+    """Initial and residual values of each (column stem, label), as the summary gives them
+    (whole box or core: the stems say which)."""
     if not any(_has(table, f"{s}_initial") or _has(table, f"{s}_residual") for s, _ in stems):
         return None
     figure, ax = new_figure_axes()
@@ -163,7 +198,7 @@ def _initial_residual(table: pd.DataFrame, symbol: str, stems: Sequence[tuple[st
         if _has(table, f"{stem}_initial"):
             ax.plot(_x(table), table[f"{stem}_initial"], markers[k % 7] + "--", mfc="none",
                     label=f"{label} initial")
-        _errorbar(ax, table, stem, f"{label} residual", marker=markers[k % 7])
+        _errorbar(ax, table, stem, f"{label} residual", marker=markers[k % 7], core=False)
     ax.set_ylabel(ylabel)
     return _finish(figure, (ax,), symbol)
 
@@ -171,14 +206,20 @@ def _initial_residual(table: pd.DataFrame, symbol: str, stems: Sequence[tuple[st
 def packing_fraction_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
     """Packing fraction after the isotropic compaction and in the residual state (seed 002
     Fig. 8: nu0, nu*; seed 003 Fig. 7: rho0, rho*)."""
-    return _initial_residual(table, symbol, (("packing_fraction", "packing fraction"),),
+    return _initial_residual(table, symbol, (("packing_fraction", "whole box"),
+                                             ("packing_fraction_core", "core")),
                              "packing fraction")
 
 
 def connectivity_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
     """Coordination z and connectivity z_c, initial and residual (seed 002 Fig. 10; seed 003
-    Fig. 9); the results table's z counts neighbours, z_c contact points (eq. 14)."""
-    return _initial_residual(table, symbol, (("z", "z"), ("z_c", "$z_c$")), "z, $z_c$")
+    Fig. 9); z counts neighbours, z_c contact points (eq. 14); the whole box (the results
+    table's z, z_c) beside the core (the snapshots' ``coordination_number_core``,
+    ``connectivity_number_core``)."""
+    return _initial_residual(table, symbol, (
+        ("z", "z, whole box"), ("z_c", "$z_c$, whole box"),
+        ("coordination_number_core", "z, core"), ("connectivity_number_core", "$z_c$, core")),
+        "z, $z_c$")
 
 
 def contact_type_columns(table: pd.DataFrame) -> list[str]:
@@ -186,6 +227,7 @@ def contact_type_columns(table: pd.DataFrame) -> list[str]:
     papers' order."""
     found = {c[2:].rsplit("_", 1)[0] for c in table.columns
              if c.startswith("k_") and c.endswith(("_residual", "_initial"))}
+    found = {t.removesuffix("_core") for t in found}
     ordered = [t for t in CONTACT_TYPE_ORDER if t in found]
     return ordered + sorted(found - set(ordered))
 
@@ -207,7 +249,8 @@ def contact_types_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
 
 def anisotropies_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
     """Fabric, branch-length and force anisotropies in the residual state (seed 002 Figs.
-    15-17; seed 003 Figs. 12-14, 16)."""
+    15-17; seed 003 Figs. 12 (a_c, a'_c), 13 (a_ln, a_lt, a_ln'), 17 (a_n, a'_n), 22 (a_t,
+    a'_t))."""
     groups = (ANISOTROPIES[:2], ANISOTROPIES[2:5], ANISOTROPIES[5:])
     if not any(_has(table, f"{s}_residual") for s, _ in ANISOTROPIES):
         return None
@@ -222,7 +265,7 @@ def anisotropies_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
 
 def sliding_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
     """Proportion of sliding contacts and the friction mobilisation index in the residual
-    state (seed 002 Fig. 19; seed 003 Figs. 17-18)."""
+    state (seed 002 Fig. 19; seed 003 Fig. 19 and eq. 34)."""
     stems = (("sliding_proportion", "sliding proportion"),
              ("mobilisation_index", "mobilisation index"))
     if not any(_has(table, f"{s}_residual") for s, _ in stems):
@@ -234,23 +277,73 @@ def sliding_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
 
 
 def stress_dilatancy_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
-    """Residual q/p measured and predicted from the anisotropies (seed 002 eqs. 27a, 27b, B1;
-    Fig. 20)."""
+    """q/p measured and predicted from the anisotropies (seed 002 eqs. 27a, 27b, B1, Fig. 20;
+    seed 003 eqs. 35a, 35b, Fig. 23: the same sums): the residual state with its error bars
+    and, where the summary has it, the peak state (open markers, one snapshot: ``M_at_peak``).
+    """
     if not any(_has(table, f"{s}_residual") for s, _ in STRESS_DILATANCY):
         return None
     figure, ax = new_figure_axes()
-    _errorbar(ax, table, "q_over_trace", "measured")
-    for stem, label in STRESS_DILATANCY:
-        _errorbar(ax, table, stem, label, marker="s")
-    ax.set_ylabel("$(q/p)^*$")
+    markers = "s^v"
+    _errorbar(ax, table, "q_over_trace", "measured $(q/p)^*$")  # the core's, as below
+    for k, (stem, label) in enumerate(STRESS_DILATANCY):
+        _errorbar(ax, table, stem, f"{label} residual", marker=markers[k])
+    for k, (stem, label) in enumerate((("q_over_trace", "measured"), *STRESS_DILATANCY)):
+        stem, suffix = core_stem(table, stem)
+        column = f"{stem}_at_peak"
+        if _has(table, column):
+            ax.plot(_x(table), table[column].to_numpy(float), ("o" + markers)[k] + ":",
+                    mfc="none", label=f"{label} peak{suffix}")
+    ax.set_ylabel("q/p: residual $(q/p)^*$, peak $(q/p)^+$")
+    return _finish(figure, (ax,), symbol)
+
+
+PARTIAL_ANISOTROPIES = (("a_c_branch", "$a'_c$"), ("a_fn_branch", "$a'_n$"),
+                        ("a_ft_branch", "$a'_t$"))
+"""The partial anisotropies by contact type in the branch frame (seed 002 eq. 30, Figs.
+23-24): summary stem (``<stem>_<type>``) and label."""
+
+
+def partial_anisotropies_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
+    """Residual fabric, radial and orthoradial force anisotropies of each contact type in the
+    branch frame (n', t'), normalised by the totals so that they sum over the types to the
+    sample's (seed 002 eq. 30; Fig. 23: a'_c, Fig. 24: a'_n, a'_t)."""
+    types = contact_type_columns(table)
+    present = [(stem, label) for stem, label in PARTIAL_ANISOTROPIES
+               if any(_has(table, f"{stem}_{t}_residual")
+                      or _has(table, f"{stem}_{t}_core_residual") for t in types)]
+    if not present:
+        return None
+    figure, axes = new_figure_axes(1, len(present), figsize=(4.4 * len(present), 3.8))
+    axes = np.atleast_1d(axes)
+    for ax, (stem, label) in zip(axes, present, strict=True):
+        for t in types:
+            _errorbar(ax, table, f"{stem}_{t}", t)
+        ax.set_ylabel(f"partial {label}")
+    return _finish(figure, axes, symbol)
+
+
+def sliding_by_type_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
+    """Residual proportion of sliding contacts of each contact type among all active contacts
+    (they sum to the sliding proportion S; seed 003 Fig. 20)."""
+    types = [t for t in contact_type_columns(table)
+             if _has(table, f"sliding_proportion_{t}_residual")
+             or _has(table, f"sliding_proportion_{t}_core_residual")]
+    if not types:
+        return None
+    figure, ax = new_figure_axes()
+    for t in types:
+        _errorbar(ax, table, f"sliding_proportion_{t}", t)
+    ax.set_ylabel("sliding contacts of the type / active contacts")
     return _finish(figure, (ax,), symbol)
 
 
 def partial_strength_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
-    """Residual q/p carried by each contact type (partial stresses; seed 002 Figs. 22-24,
-    seed 003 Figs. 22-23)."""
+    """Residual q/p carried by each contact type (partial stresses; seed 002 Fig. 22, seed
+    003 Fig. 18)."""
     types = [t for t in contact_type_columns(table)
-             if _has(table, f"q_over_trace_{t}_residual")]
+             if _has(table, f"q_over_trace_{t}_residual")
+             or _has(table, f"q_over_trace_{t}_core_residual")]
     if not types:
         return None
     figure, ax = new_figure_axes()
@@ -258,6 +351,27 @@ def partial_strength_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
         _errorbar(ax, table, f"q_over_trace_{t}", t)
     ax.set_ylabel("partial $(q/p)^*$")
     return _finish(figure, (ax,), symbol)
+
+
+def wall_profile_figure(profiles: dict[str, tuple[np.ndarray, np.ndarray]],
+                        margin: float) -> Figure | None:
+    """Packing fraction against the distance h of the centres to the nearest wall, in mean
+    diameters, one line per sample (``profiles``: label -> (shell edges h / <d_v>, packing
+    fraction of each shell), :func:`~grainlab.analysis.wall_layer.packing_profile`), with the
+    core's ``margin`` [<d_v>] marked: the core is meant to begin where the profiles reach
+    their plateau. None without profiles."""
+    if not profiles:
+        return None
+    figure, ax = new_figure_axes()
+    for label, (edges, fraction) in profiles.items():
+        ax.step(edges[:-1], fraction, where="post", lw=1, label=label)
+    ax.axvline(margin, color="k", ls="--", lw=1, label=f"core margin {margin:g} $<d>$")
+    ax.set_xlabel("distance of the centre to the nearest wall / $<d>$")
+    ax.set_ylabel("packing fraction of the shell")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    figure.tight_layout()
+    return figure
 
 
 STUDY_FIGURES = (
@@ -269,6 +383,8 @@ STUDY_FIGURES = (
     ("sliding", sliding_figure, "Friction mobilisation"),
     ("stress_dilatancy", stress_dilatancy_figure, "Strength from the anisotropies"),
     ("partial_strength", partial_strength_figure, "Strength by contact type"),
+    ("partial_anisotropies", partial_anisotropies_figure, "Anisotropies by contact type"),
+    ("sliding_by_type", sliding_by_type_figure, "Sliding by contact type"),
 )
 """The figures against the shape parameter, in the report's order: (file stem, function,
 title)."""

@@ -4,8 +4,12 @@ files beside it, readable without grainlab (any Markdown viewer, or as plain tex
 It holds: what the study is (series, protocol, window), a table of every sample (its outcome
 and cost, the peak and residual values with their standard deviations over the window), the
 papers' values for the same series where the study is one of the presets, the figures of
-:mod:`grainlab.report.study_figures`, and radial-force networks of the first, middle and last
-sample at the end of their runs (seed 002 Figs. 12, 18, 21).
+:mod:`grainlab.report.study_figures`, the packing fraction against the distance to the walls,
+and for the first, middle and last sample: the polar diagrams of the angular distributions
+with their harmonic fits (seed 002 Fig. 14) and the PDFs of normal and radial forces (seed 003
+Figs. 14, 16), both averaged over the residual window's snapshots for the core's contacts,
+and the radial-force networks at the end of their runs (seed 002 Figs. 12, 18, 21; seed 003
+Fig. 15).
 """
 
 from __future__ import annotations
@@ -24,8 +28,9 @@ REPORT = "report"
 PAPERS = {
     "mean_angularity": (
         "Azéma, Radjaï & Dubois 2013 (seed 002), 40 000 particles: (q/p)* rises from about "
-        "0.2 (spheres) and saturates near 0.4; (q/p) at the peak rises to a maximum near "
-        "<alpha> = 0.5 then falls; phi* follows eq. 12 with alpha_c ~ 0.4; nu0 peaks near "
+        "0.2 (spheres) and saturates near 0.4; (q/p)+ at the peak rises with <alpha> to a "
+        "maximum, then falls for the most angular shapes; phi* follows eq. 12 with "
+        "alpha_c ~ 0.4; nu0 peaks near "
         "<alpha> = 0.5, nu* falls from 0.58 to 0.54; z0 about 6 for spheres and z_c0 about 12 "
         "for polyhedra; residual z from 4 to 5.5 and z_c from 4 to 7; sliding proportion up "
         "to 0.6."),
@@ -43,11 +48,20 @@ COLUMNS = (
     ("status", "outcome", "{}"), ("wall_time", "wall time [s]", "{:.0f}"),
     ("capped_share", "capped steps", "{:.0%}"),
     ("q_over_trace_peak", "(q/p)+", "{:.3f}"), ("q_over_trace_residual", "(q/p)*", "pm"),
-    ("phi_residual", "phi* [rad]", "{:.3f}"),
+    ("phi_residual", "phi* [rad]", "{:.3f}"), ("sin_phi_star", "sin phi* (eq. 11)", "{:.3f}"),
     ("packing_fraction_initial", "nu0", "{:.3f}"), ("packing_fraction_residual", "nu*", "pm"),
+    ("n_core_initial", "N core", "{:.0f}"),
+    ("packing_fraction_core_initial", "nu0 core", "{:.3f}"),
+    ("packing_fraction_core_residual", "nu* core", "pm"),
     ("z_initial", "z0", "{:.2f}"), ("z_residual", "z*", "pm"),
+    ("coordination_number_core_initial", "z0 core", "{:.2f}"),
+    ("coordination_number_core_residual", "z* core", "pm"),
     ("z_c_initial", "z_c0", "{:.2f}"), ("z_c_residual", "z_c*", "pm"),
-    ("a_c_residual", "a_c*", "pm"), ("sliding_proportion_residual", "sliding*", "pm"),
+    ("connectivity_number_core_initial", "z_c0 core", "{:.2f}"),
+    ("connectivity_number_core_residual", "z_c* core", "pm"),
+    ("a_c_residual", "a_c*", "pm"), ("a_c_core_residual", "a_c* core", "pm"),
+    ("sliding_proportion_residual", "sliding*", "pm"),
+    ("sliding_proportion_core_residual", "sliding* core", "pm"),
 )
 """The report's table: summary column, heading, format ("pm": mean ± std)."""
 
@@ -107,7 +121,10 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
         if figure is not None:
             save_figure(figure, out / f"{stem}.png")
             figures.append((title, f"{stem}.png"))
-    networks = _force_networks(study, table, out)
+    profile = _wall_profiles(study, table, out, labels, spec.study.core_margin)
+    if profile is not None:
+        figures.append(profile)
+    networks = _window_distributions(study, table, out) + _force_networks(study, table, out)
     lo, hi = spec.study.window
     total = float(pd.to_numeric(table["wall_time"], errors="coerce").sum())
     text = [
@@ -118,6 +135,12 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
         f"- residual window: eps_q in [{lo:g}, {hi:g}]; residual values are the mean ± the "
         "sample standard deviation of the recorded rows, or of the snapshots for the "
         "microstructure, in the window",
+        f"- peak (q/p)+: the largest running mean of q/p over eps_q windows of width "
+        f"{spec.study.peak_window:g} (the largest single row, biased up by the rows' "
+        "fluctuations, is `q_over_trace_peak_raw` in summary.csv)",
+        f"- core: the particles at least {spec.study.core_margin:g} mean diameters from every "
+        "wall (columns and labels marked core; the others are over the whole box, the wall "
+        "layer and, for z and z_c, the rattlers included); see the wall profile below",
         f"- wall time of the runs: {total:.0f} s in all",
         f"- written {datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}", "",
         "## Samples", "", summary_markdown(table), "",
@@ -132,10 +155,10 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
         text += ["## The papers' values", "", PAPERS[spec.study.parameter], "",
                  f"The samples here hold {n} particles at most, in a box of walls about "
                  f"{n ** (1 / 3):.0f} particles wide, where the papers' held 12 000 to "
-                 "40 000: the walls order the particles next to them (the packing fraction "
-                 "and z include that layer, and z counts the rattlers), and the residual "
-                 "values fluctuate more (the error bars), so trends are to be compared, not "
-                 "values to the second decimal.", ""]
+                 "40 000: the walls order the particles next to them (the whole-box packing "
+                 "fraction and z include that layer; the core's values leave it out, over "
+                 "fewer particles), and the residual values fluctuate more (the error bars), "
+                 "so trends are to be compared, not values to the second decimal.", ""]
     text += ["## Figures", ""]
     for title, name in figures + networks:
         text += [f"### {title}", "", f"![{title}]({name})", ""]
@@ -147,16 +170,52 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
     return path
 
 
+def _picked(table: pd.DataFrame) -> list[str]:
+    """The first, middle and last sample."""
+    names = list(table["name"])
+    return list(dict.fromkeys([names[0], names[len(names) // 2], names[-1]]))
+
+
+def _window_distributions(study, table: pd.DataFrame, out: Path) -> list[tuple[str, str]]:
+    """Polar diagrams and force PDFs of the first, middle and last sample, averaged over the
+    snapshots in the residual window (the core's contacts where the sample has a box)."""
+    from grainlab.analysis.window_average import WindowAverage
+    from grainlab.errors import InputError
+    from grainlab.lab.discrete_run import SNAPSHOTS
+    from grainlab.report.microstructure_figures import (
+        averaged_force_pdf_figure,
+        averaged_polar_figure,
+    )
+
+    lo, hi = study.spec.study.window
+    figures = []
+    for name in _picked(table):
+        path = study.sample_folder(name) / SNAPSHOTS
+        if not path.exists():
+            continue
+        try:
+            average = WindowAverage((lo, hi), distributions="core",
+                                    core_margin=study.spec.study.core_margin).run(path)
+        except InputError:  # no snapshot in the window
+            continue
+        where = "core" if average.last is not None and average.last.core_parts else "whole box"
+        span = f"{average.n_snapshots} snapshots, eps_q in [{lo:g}, {hi:g}], {where}"
+        for stem, make, title in (("polar", averaged_polar_figure, "Angular distributions"),
+                                  ("force_pdfs", averaged_force_pdf_figure, "Force PDFs")):
+            file = f"{stem}_{name}.png"
+            save_figure(make(average.distributions), out / file)
+            figures.append((f"{title}, {name} ({span})", file))
+    return figures
+
+
 def _force_networks(study, table: pd.DataFrame, out: Path) -> list[tuple[str, str]]:
     """Radial-force networks of the last snapshot of the first, middle and last sample."""
     from grainlab.analysis.snapshot_files import count_snapshots, read_snapshots
     from grainlab.lab.discrete_run import SNAPSHOTS
     from grainlab.report.microstructure_figures import force_network_figure
 
-    names = list(table["name"])
-    picked = list(dict.fromkeys([names[0], names[len(names) // 2], names[-1]]))
     figures = []
-    for name in picked:
+    for name in _picked(table):
         path = study.sample_folder(name) / SNAPSHOTS
         if not path.exists() or count_snapshots(path) == 0:
             continue
@@ -171,3 +230,38 @@ def _force_networks(study, table: pd.DataFrame, out: Path) -> list[tuple[str, st
         eps = last.state.get("eps_q", math.nan)
         figures.append((f"Radial forces, {name}, eps_q = {eps:.2f}", file))
     return figures
+
+
+def _wall_profiles(study, table: pd.DataFrame, out: Path, labels: dict[str, str],
+                   margin: float) -> tuple[str, str] | None:
+    """The packing fraction against the distance to the nearest wall of every sample at the
+    end of its compaction (its last compaction snapshot), with the core's margin."""
+    from grainlab.analysis.snapshot_files import read_snapshots
+    from grainlab.analysis.wall_layer import mean_diameter, packing_profile
+    from grainlab.lab.discrete_run import SNAPSHOTS
+    from grainlab.report.study_figures import wall_profile_figure
+
+    profiles = {}
+    for name in table["name"]:
+        path = study.sample_folder(name) / SNAPSHOTS
+        if not path.exists():
+            continue
+        initial = None
+        for network in read_snapshots(path):
+            if network.state.get("stage") == "compaction":
+                initial = network
+        if initial is None or not initial.has_box:
+            continue
+        d = mean_diameter(initial)
+        edges, fraction = packing_profile(initial, PROFILE_BIN * d)
+        profiles[labels.get(name, name)] = (edges / d, fraction)
+    figure = wall_profile_figure(profiles, margin)
+    if figure is None:
+        return None
+    save_figure(figure, out / "wall_profile.png")
+    return ("Packing fraction against the distance to the walls, end of the compaction",
+            "wall_profile.png")
+
+
+PROFILE_BIN = 0.25
+"""Shell width of the report's packing-fraction profiles, in mean diameters <d_v>."""

@@ -5,7 +5,10 @@ A study file has three parts::
 
     [study]      name, parameter (the shape parameter's name, the x axis of the figures),
                  symbol (how the figures write it), window = [lo, hi] (the residual state:
-                 the range of eps_q over which every descriptor is averaged), description
+                 the range of eps_q over which every descriptor is averaged), core_margin
+                 (the core's distance from every wall, in mean diameters:
+                 grainlab.analysis.wall_layer), peak_window (the eps_q width of the running
+                 mean whose maximum is the peak (q/p)+), description
     [base]       a run config (the tables of :class:`~grainlab.lab.run_config.RunConfig`)
                  shared by every sample
     [[samples]]  name (the sample's folder), value (the shape parameter, as the paper gives
@@ -73,6 +76,8 @@ class StudyHeader(_Model):
     parameter: str = Field("value", min_length=1)
     symbol: str = ""
     window: tuple[float, float] = (0.5, 0.9)
+    core_margin: float = Field(1.0, ge=0.0)
+    peak_window: float = Field(0.01, ge=0.0)
     description: str = ""
 
     @field_validator("window")

@@ -11,16 +11,28 @@ Columns (SI, dimensionless unless stated):
   the solver's cap / steps), ``eps_q_end`` (the largest eps_q reached);
 * the macroscopic state: for X in q_over_trace (the papers' q/p, q = (sigma_1 - sigma_3)/3
   and p the mean stress: :mod:`grainlab.result.columns`), sin_phi, packing_fraction, z, z_c,
-  eps_vol:
+  z_core, z_c_core, eps_vol (packing_fraction, z and z_c over the whole box, rattlers and
+  the particles along the walls included; z_core, z_c_core over the particles at least a
+  mean bounding diameter from every wall, as the results table records them):
   ``X_initial`` (end of the isotropic compaction), ``X_residual`` and ``X_residual_std``
   (mean and sample standard deviation, ddof = 1, of the recorded rows with eps_q in the
   window, as :mod:`grainlab.analysis.window_average` for the snapshots),
-  and ``q_over_trace_peak``, ``eps_q_peak``;
-* ``phi_residual`` [rad]: the internal angle of friction of seed 002 eq. 11, sin phi* =
-  3 (q/p)* / (2 + (q/p)*), from the residual mean of q/p;
+  and the peak: ``q_over_trace_peak`` the largest running mean of q/p over the rows within
+  ``peak_window`` (a width of eps_q, centred: :func:`smoothed_peak`) and ``eps_q_peak`` its
+  centre, with ``peak_window`` itself; ``q_over_trace_peak_raw``, the largest recorded
+  row, is biased upward by the rows' fluctuations and kept for comparison only;
+* ``phi_residual`` [rad] and ``sin_phi_star``: the internal angle of friction of seed 002
+  eq. 11 (seed 003 eq. 12), sin phi* = 3 (q/p)* / (2 + (q/p)*), applied to the residual mean
+  (q/p)* = ``q_over_trace_residual`` -- the papers' sin phi*. (``sin_phi_residual`` is another
+  quantity: the window mean of the rows' (sigma_1 - sigma_3)/(sigma_1 + sigma_3).)
 * the microstructure (:mod:`grainlab.analysis.window_average`): ``M_initial`` from the
   snapshot taken at the end of the compaction and ``M_residual``, ``M_residual_std`` over the
-  shear's snapshots in the window, for every scalar descriptor M of the snapshot analysis.
+  shear's snapshots in the window, for every scalar descriptor M of the snapshot analysis:
+  over the whole box (M: ``packing_fraction``, ``coordination_number``, ``a_c``, ``p`` with
+  the wall contacts, ...) and over the core (``M_core``: the particles at least
+  ``core_margin`` [m] from every wall, :mod:`grainlab.analysis.wall_layer`); and ``M_at_peak``
+  from the shear's snapshot nearest ``eps_q_peak`` (one snapshot: the peak state of seed 002
+  Fig. 20 and seed 003 Fig. 23), with its strain as ``eps_q_peak_snapshot``.
 
 A row is written for an ended sample only; a sample whose run did not reach the window has
 NaN residual values and says so in ``note``.
@@ -35,12 +47,14 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from grainlab.errors import InputError
 from grainlab.lab.discrete_run import RESULTS_H5, SNAPSHOTS
 from grainlab.report.run_curves import shear_from_its_start
 from grainlab.result.test_result import read_test_result
 from grainlab.study.sample_task import sample_state
 
-MACRO = ("q_over_trace", "sin_phi", "packing_fraction", "z", "z_c", "eps_vol")
+MACRO = ("q_over_trace", "sin_phi", "packing_fraction", "z", "z_c", "z_core", "z_c_core",
+         "eps_vol")
 """The results-table columns of the summary's macroscopic state."""
 
 SUMMARY = "summary.csv"
@@ -53,9 +67,39 @@ def friction_angle(q_over_p: float) -> float:
     return math.asin(s) if -1.0 <= s <= 1.0 else math.nan
 
 
+def smoothed_peak(eps_q: np.ndarray, values: np.ndarray, width: float) -> tuple[float, float]:
+    """The peak of a noisy curve: the largest running mean of ``values`` over the rows whose
+    ``eps_q`` lies within width / 2 of a row's, and that row's eps_q [-]. ``width`` = 0 gives
+    the largest row. (NaN, NaN) without finite rows.
+
+    >>> eps = np.arange(0.0, 0.1, 0.001)
+    >>> q = 0.5 - 50.0 * (eps - 0.04) ** 2 + 0.01 * np.cos(2 * np.pi * np.arange(100) / 11)
+    >>> [round(v, 6) for v in smoothed_peak(eps, q, 0.0105)]  # 11 rows: the noise averages out
+    [0.4995, 0.04]
+    """
+    if not (np.isfinite(width) and width >= 0.0):
+        raise InputError("peak_window", width, "a width of eps_q >= 0")
+    eps_q, values = np.asarray(eps_q, float), np.asarray(values, float)
+    ok = np.isfinite(eps_q) & np.isfinite(values)
+    eps_q, values = eps_q[ok], values[ok]
+    if not eps_q.size:
+        return math.nan, math.nan
+    order = np.argsort(eps_q, kind="stable")
+    eps_q, values = eps_q[order], values[order]
+    sums = np.concatenate([[0.0], np.cumsum(values)])
+    lo = np.searchsorted(eps_q, eps_q - 0.5 * width, side="left")
+    hi = np.searchsorted(eps_q, eps_q + 0.5 * width, side="right")
+    means = (sums[hi] - sums[lo]) / (hi - lo)
+    k = int(np.argmax(means))
+    return float(means[k]), float(eps_q[k])
+
+
 def sample_row(folder: str | Path, window: tuple[float, float], value: float,
-               microstructure: bool = True) -> dict[str, Any]:
-    """The summary row of the ended run in ``folder`` (module docstring)."""
+               microstructure: bool = True, core_margin: float = 1.0,
+               peak_window: float = 0.01) -> dict[str, Any]:
+    """The summary row of the ended run in ``folder`` (module docstring); ``core_margin``:
+    the core's distance from every wall in mean diameters (``core_margin_diameters``);
+    ``peak_window``: the eps_q width of the running mean of the peak."""
     folder = Path(folder)
     result = read_test_result(folder / RESULTS_H5)
     specimen, outcome = result.specimen, result.outcome
@@ -69,7 +113,8 @@ def sample_row(folder: str | Path, window: tuple[float, float], value: float,
         "status": outcome.get("status", ""), "as_asked": bool(outcome.get("as_asked")),
         "wall_time": cost.get("wall_time", math.nan), "steps": outcome.get("steps"),
         "capped_share": _capped_share(outcome),
-        "eps_q_end": float(table["eps_q"].max()) if len(table) else math.nan, "note": ""}
+        "eps_q_end": float(table["eps_q"].max()) if len(table) else math.nan, "note": "",
+        "core_margin_diameters": core_margin}
     in_window = table[(table["eps_q"] >= lo) & (table["eps_q"] <= hi)] if len(table) else table
     for column in MACRO:
         values = table[column].to_numpy(float) if column in table else np.array([])
@@ -79,18 +124,22 @@ def sample_row(folder: str | Path, window: tuple[float, float], value: float,
             else math.nan
         row[f"{column}_residual_std"] = float(np.std(window_values, ddof=1)) \
             if window_values.size > 1 else math.nan
+    row["peak_window"] = peak_window
     if len(table):
-        k = int(np.argmax(table["q_over_trace"].to_numpy(float)))
-        row["q_over_trace_peak"] = float(table["q_over_trace"].iloc[k])
-        row["eps_q_peak"] = float(table["eps_q"].iloc[k])
+        q = table["q_over_trace"].to_numpy(float)
+        row["q_over_trace_peak"], row["eps_q_peak"] = smoothed_peak(
+            table["eps_q"].to_numpy(float), q, peak_window)
+        row["q_over_trace_peak_raw"] = float(np.nanmax(q))
     else:
-        row["q_over_trace_peak"] = row["eps_q_peak"] = math.nan
+        row["q_over_trace_peak"] = row["eps_q_peak"] = row["q_over_trace_peak_raw"] = math.nan
     row["phi_residual"] = friction_angle(row["q_over_trace_residual"])
+    row["sin_phi_star"] = math.sin(row["phi_residual"])
     if not len(in_window):
         row["note"] = (f"the run reached eps_q = {row['eps_q_end']:.3g}, not the window "
                        f"[{lo:g}, {hi:g}]")
     if microstructure and (folder / SNAPSHOTS).exists():
-        row.update(_microstructure(folder / SNAPSHOTS, window))
+        row.update(_microstructure(folder / SNAPSHOTS, window, core_margin,
+                                   row["eps_q_peak"]))
     return row
 
 
@@ -100,25 +149,36 @@ def _capped_share(outcome: dict[str, Any]) -> float:
     return capped / steps if steps else math.nan
 
 
-def _microstructure(snapshots: Path, window: tuple[float, float]) -> dict[str, float]:
+def _microstructure(snapshots: Path, window: tuple[float, float], core_margin: float,
+                    eps_q_peak: float = math.nan) -> dict[str, float]:
     """``M_initial``, ``M_residual`` and ``M_residual_std`` of every scalar descriptor (module
     docstring); the residual part is left out when no snapshot lies in the window."""
     from grainlab.analysis.snapshot_analysis import SnapshotAnalysis
     from grainlab.analysis.snapshot_files import read_snapshots
     from grainlab.analysis.window_average import WindowAverage
-    from grainlab.errors import InputError
 
     out: dict[str, float] = {}
-    initial = None
+    initial = peak = None
+    distance = math.inf
     for network in read_snapshots(snapshots):  # the compaction's last: its end
-        if network.state.get("stage") == "compaction":
+        stage = network.state.get("stage")
+        if stage == "compaction":
             initial = network
-    if initial is not None:
-        for name, value in SnapshotAnalysis().compute(initial).descriptors.items():
+        elif stage is not None and math.isfinite(eps_q_peak):
+            gap = abs(float(network.state.get("eps_q", math.nan)) - eps_q_peak)
+            if gap < distance:
+                peak, distance = network, gap
+    for state, network in (("initial", initial), ("at_peak", peak)):
+        if network is None:
+            continue
+        analysis = SnapshotAnalysis(core_margin=core_margin).compute(network)
+        for name, value in analysis.descriptors.items():
             if isinstance(value, int | float) and not isinstance(value, bool):
-                out[f"{name}_initial"] = float(value)
+                out[f"{name}_{state}"] = float(value)
+    if peak is not None:
+        out["eps_q_peak_snapshot"] = float(peak.state["eps_q"])
     try:
-        averages = WindowAverage(window).run(snapshots)
+        averages = WindowAverage(window, core_margin=core_margin).run(snapshots)
     except InputError:
         return out
     for _, row in averages.scalars.iterrows():
@@ -135,7 +195,9 @@ def study_summary(study, microstructure: bool = True) -> pd.DataFrame:
         folder = study.sample_folder(sample.name)
         if sample_state(folder) != "ended":
             continue
-        rows.append(sample_row(folder, study.spec.study.window, sample.value, microstructure))
+        rows.append(sample_row(folder, study.spec.study.window, sample.value, microstructure,
+                               core_margin=study.spec.study.core_margin,
+                               peak_window=study.spec.study.peak_window))
     table = pd.DataFrame(rows)
     table.to_csv(study.folder / SUMMARY, index=False)
     return table

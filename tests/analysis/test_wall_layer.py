@@ -1,0 +1,157 @@
+"""The wall layer and the core (grainlab.analysis.wall_layer), wall contacts in the stress and
+the rattler rule: closed forms on a simple cubic lattice of spheres held by the walls of a box
+that fits it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from grainlab.analysis import SnapshotAnalysis
+from grainlab.analysis.connectivity import Connectivity
+from grainlab.analysis.contact_network import ContactNetwork
+from grainlab.analysis.contact_stress import (
+    StressState,
+    stress_from_internal_moments,
+    stress_from_network,
+    wall_reaction_stress,
+)
+from grainlab.analysis.partial_stress import PartialStresses
+from grainlab.analysis.synthetic import cubic_lattice
+from grainlab.analysis.wall_layer import (
+    CoreConnectivity,
+    core_network,
+    packing_profile,
+    region_volume,
+)
+from grainlab.errors import InputError
+
+
+def test_stress_needs_the_wall_contacts_to_equal_the_wall_reactions():
+    # sigma_aa = force on the wall above (n^2 F_a) / its area (2 R n)^2 = F_a / (4 R^2)
+    forces = (1.0, 2.0, 3.0)
+    net = cubic_lattice(5, 1.0, forces)
+    expected = np.diag(forces) / 4.0
+    np.testing.assert_allclose(stress_from_network(net), expected, atol=1e-12)
+    np.testing.assert_allclose(wall_reaction_stress(net), expected, atol=1e-12)
+    np.testing.assert_allclose(stress_from_internal_moments(net), expected, atol=1e-12)
+    # the particle pairs alone carry (n - 1)/n of it: each row of n spheres has n - 1 pair
+    # contacts of arm 2R and two wall contacts of arm R
+    pairs_only = stress_from_network(_without_walls(net))
+    np.testing.assert_allclose(pairs_only, 0.8 * expected, atol=1e-12)
+    assert StressState().compute(net).descriptors()["wall_share_of_p"] == pytest.approx(0.2)
+
+
+def _without_walls(net: ContactNetwork) -> ContactNetwork:
+    values = {name: getattr(net, name) for name in net.__dataclass_fields__}
+    values.update(wall_particles=None, wall_points=None, wall_normals=None, wall_forces=None)
+    return ContactNetwork(**values)
+
+
+def test_partial_shares_with_the_walls_sum_to_the_sample_q_over_p():
+    net = cubic_lattice(4, 1.0, (1.0, 1.0, 3.0))
+    partial = PartialStresses().compute(net)
+    total = StressState().compute(net).q_over_trace
+    assert set(partial.q_over_trace) == {"s", "wall"}
+    assert sum(partial.q_over_trace.values()) == pytest.approx(total)
+    # (sigma_1 - sigma_3) / (3 p) = (3 - 1) / 5; the pairs carry (n - 1)/n = 3/4 of it
+    assert total == pytest.approx(0.4)
+    assert partial.q_over_trace["s"] == pytest.approx(0.3)
+
+
+def test_the_core_of_a_cubic_lattice_is_its_bulk():
+    net = cubic_lattice(5, 1.0)
+    core = CoreConnectivity(margin=1.0).compute(net)  # one diameter: the 3 x 3 x 3 inside
+    assert core.margin == pytest.approx(2.0)
+    assert int(core.core.sum()) == 27 and core.core_volume == pytest.approx(6.0**3)
+    out = core.descriptors()
+    assert out["packing_fraction_core"] == pytest.approx(np.pi / 6.0)
+    assert out["coordination_number_core"] == pytest.approx(6.0)
+    assert out["connectivity_number_core"] == pytest.approx(6.0)
+    assert out["rattler_fraction_core"] == 0.0
+    whole = Connectivity().compute(net)
+    assert whole.coordination_number == pytest.approx(2 * 300 / 125)  # 4.8: the walls' share
+    claimed = core_network(net, core.core, core.core_volume)
+    # 27 core spheres x 6 contacts, each a claim: 54 pairs inside listed twice, 54 once
+    assert claimed.n_pairs == 27 * 6
+    np.testing.assert_allclose(stress_from_network(claimed), np.eye(3) / 4.0, atol=1e-12)
+
+
+def test_snapshot_analysis_gives_both_the_box_and_the_core():
+    net = cubic_lattice(5, 1.0, (1.0, 1.0, 2.0))
+    d = SnapshotAnalysis().compute(net).descriptors
+    assert d["packing_fraction"] == pytest.approx(np.pi / 6.0)  # the lattice fits the box
+    assert d["coordination_number"] == pytest.approx(4.8)
+    assert d["coordination_number_core"] == pytest.approx(6.0)
+    assert d["p_core"] == pytest.approx(1.0 / 3.0)  # diag(1, 1, 2) / 4
+    assert d["p"] == pytest.approx(1.0 / 3.0)  # walls included: the same in equilibrium
+    assert d["q_over_trace_core"] == pytest.approx((2 - 1) / 4 / 3 / (1 / 3))
+    assert d["a_c_core"] == pytest.approx(0.0, abs=1e-12)  # normals along the three axes
+    assert d["k_s_core"] == 1.0
+    assert "coordination_number_core" not in SnapshotAnalysis(core_margin=None).compute(
+        net).descriptors
+
+
+def test_packing_profile_accounts_for_every_particle():
+    net = cubic_lattice(6, 1.0)
+    edges, fraction = packing_profile(net, 0.5)
+    shells = -np.diff([region_volume(net, s) for s in edges])
+    assert edges[0] == 0.0 and edges[-1] == pytest.approx(6.0)
+    assert np.nansum(fraction * shells) == pytest.approx(net.volumes.sum())
+    # the centres lie at 1, 3 and 5 from the nearest wall: three occupied shells
+    assert np.count_nonzero(fraction > 0) == 3
+    with pytest.raises(InputError, match="bin_width"):
+        packing_profile(net, 0.0)
+
+
+def test_a_particle_held_by_two_walls_and_a_neighbour_is_not_a_rattler():
+    # 0 in the corner (walls x- and y-below) touching 1; 1 on the floor (z-below);
+    # 2 touches 1 only; 3 presses the wall x-above with three points, nothing else
+    net = ContactNetwork.from_arrays(
+        positions=[[1, 1, 3], [3, 1, 1], [5, 1, 1], [9, 5, 5]], volumes=[4.19] * 4,
+        volume=1000.0, pair_particles=[[0, 1], [1, 2]], pair_branches=[[2, 0, -2], [2, 0, 0]],
+        point_pairs=[0, 1], point_positions=[[2, 1, 2], [4, 1, 1]],
+        point_normals=[[0.70710678, 0, -0.70710678], [1, 0, 0]],
+        point_forces=[[1, 0, -1], [1, 0, 0]],
+        wall_particles=[0, 0, 1, 3, 3, 3],
+        wall_points=[[0, 1, 3], [1, 0, 3], [3, 1, 0], [10, 5, 5], [10, 5.5, 5], [10, 5, 5.5]],
+        wall_normals=[[1, 0, 0], [0, 1, 0], [0, 0, 1], [-1, 0, 0], [-1, 0, 0], [-1, 0, 0]],
+        wall_forces=[[1, 0, 0], [0, 1, 0], [0, 0, 1], [-1, 0, 0], [-1, 0, 0], [-1, 0, 0]],
+        box_lower=[0, 0, 0], box_upper=[10, 10, 10])
+    assert Connectivity().compute(net).rattlers.tolist() == [False, False, True, True]
+    assert Connectivity(wall_supports=False).compute(net).rattlers.tolist() == [True] * 4
+
+
+def test_wall_arrays_are_checked_and_survive_files_and_relabelling(tmp_path):
+    import h5py
+
+    net = cubic_lattice(3, 1.0)
+    with h5py.File(tmp_path / "n.h5", "w") as f:
+        net.to_hdf5(f.create_group("net"))
+    with h5py.File(tmp_path / "n.h5") as f:
+        back = ContactNetwork.from_hdf5(f["net"])
+    np.testing.assert_array_equal(back.wall_forces, net.wall_forces)
+    np.testing.assert_array_equal(back.box_upper, net.box_upper)
+    order = np.arange(net.n_particles)[::-1]
+    np.testing.assert_allclose(stress_from_network(net.relabelled(order)),
+                               stress_from_network(net), atol=1e-12)
+    with pytest.raises(InputError, match="wall_forces"):
+        ContactNetwork(**{**{k: getattr(net, k) for k in net.__dataclass_fields__},
+                          "wall_forces": None})
+    with pytest.raises(InputError, match="box_upper"):
+        ContactNetwork(**{**{k: getattr(net, k) for k in net.__dataclass_fields__},
+                          "box_upper": np.zeros(3)})
+
+
+def test_core_connectivity_counts_the_nominal_points_of_polyhedron_pairs():
+    # one resultant per pair standing for m points (seed 002 eq. 14): pairs along x face-face
+    # (3 points), the others face-vertex (1): z_c = 2 x 3 + 4 x 1 = 10 in the core, z = 6
+    net = cubic_lattice(5, 1.0)
+    along_x = np.abs(net.pair_branches[:, 0]) > 0
+    values = {k: getattr(net, k) for k in net.__dataclass_fields__}
+    values.update(pair_types=np.where(along_x, 1, 0), type_names=("fv", "ff"),
+                  type_points=(1, 3))
+    out = CoreConnectivity(margin=1.0).compute(ContactNetwork(**values)).descriptors()
+    assert out["coordination_number_core"] == pytest.approx(6.0)
+    assert out["connectivity_number_core"] == pytest.approx(10.0)
+    assert out["n_core"] == 27.0
