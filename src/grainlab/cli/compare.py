@@ -60,8 +60,8 @@ def compare_command(**options: Any) -> None:
     OUT/compare.png (the test's main curves, both solvers on the same axes) and
     OUT/compare.csv (per solver the peak and residual q/p, or the state at the end of each
     stage, packing fraction, z, K0, wall time, steps, DEM sub-steps; DEM - CD and DEM / CD).
-    KIND and the options are those of `grainlab test` (--tolerance sets the compaction's
-    when KIND is compaction); the DEM options (--law, --kappa, --young-modulus,
+    KIND and the options are those of `grainlab test` (--tolerance and --max-iterations set
+    the compaction's when KIND is compaction); the DEM options (--law, --kappa, --young-modulus,
     --restitution, [solver.dem]) act on the DEM run, --sweep, --tolerance and
     --max-iterations on the CD run. Run again with the same options, it reuses a run that
     ended and resumes one that was stopped (Ctrl-C checkpoints); --overwrite starts both
