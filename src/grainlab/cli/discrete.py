@@ -27,7 +27,6 @@ from grainlab.cli.run_options import PROGRESS_HELP, SET_HELP, takes_options
 from grainlab.errors import InputError
 from grainlab.lab.run_config import TEST_KINDS
 from grainlab.prep.sample_shapes import particles_text
-from grainlab.report.run_summary import run_summary, write_run_figures
 
 console = Console()
 
@@ -54,6 +53,7 @@ def complete_run(folder: Path, run, progress: bool) -> tuple[Any, list[Path], An
     printed and returns (None, [], None)."""
     from grainlab.engine.simulation import SimulationBlowUp
     from grainlab.lab.run_outcome import RunOutcome
+    from grainlab.report.run_summary import run_summary, write_run_figures
 
     for note in run.notes:
         console.print(f"[bold yellow]note:[/] {note}")

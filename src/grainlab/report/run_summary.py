@@ -15,7 +15,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from grainlab.lab.solver_comparison import RESIDUAL_SHARE, residual_rows
 from grainlab.result.test_result import TestResult
 
 RIGID_OEDOMETER = (
@@ -90,6 +89,8 @@ def oedometer_summary(result: TestResult) -> list[str]:
 def run_summary(result: TestResult) -> list[str]:
     """The run's summary, one line each (module docstring): first ``TITLE: N rows, S steps``,
     then the end of the compaction, then the shear or the oedometer's stages."""
+    from grainlab.lab.solver_comparison import RESIDUAL_SHARE, residual_rows
+
     table = result.table
     last = table.iloc[-1]
     lines = [f"{result.metadata['title']}: {len(table)} rows, {int(last['step'])} steps"]
