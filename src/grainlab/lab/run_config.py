@@ -306,14 +306,17 @@ def _stage_table(name: str, defaults: StageNumerics, doc: str) -> type[_StageSec
                            for key in names})
 
 
-CompactionConfig = _stage_table("CompactionConfig", COMPACTION, """``[solver.compaction]``:
-    the numerics of stages without a strain-controlled axis
-    (:class:`~grainlab.lab.stage_numerics.StageNumerics`; defaults
-    :data:`~grainlab.lab.stage_numerics.COMPACTION`).""")
-ShearConfig = _stage_table("ShearConfig", SHEAR, """``[solver.shear]``: the numerics of
-    stages with a strain-controlled axis (triaxial shear, oedometer loading and unloading;
-    :class:`~grainlab.lab.stage_numerics.StageNumerics`; defaults
-    :data:`~grainlab.lab.stage_numerics.SHEAR`).""")
+CompactionConfig = _stage_table(
+    "CompactionConfig", COMPACTION,
+    "``[solver.compaction]``: the numerics of stages without a strain-controlled axis "
+    "(:class:`~grainlab.lab.stage_numerics.StageNumerics`; defaults "
+    ":data:`~grainlab.lab.stage_numerics.COMPACTION`).")
+ShearConfig = _stage_table(
+    "ShearConfig", SHEAR,
+    "``[solver.shear]``: the numerics of stages with a strain-controlled axis (triaxial "
+    "shear, oedometer loading and unloading; "
+    ":class:`~grainlab.lab.stage_numerics.StageNumerics`; defaults "
+    ":data:`~grainlab.lab.stage_numerics.SHEAR`).")
 
 
 class DemConfig(_Section):
