@@ -18,7 +18,8 @@ from dataclasses import asdict
 import numpy as np
 import pytest
 
-from grainlab.cli.discrete import _OPTIONS, asked_config
+from grainlab.cli.run_input import asked_config
+from grainlab.cli.run_options import options_of
 from grainlab.errors import InputError
 from grainlab.lab.cell_stages import cell_stages
 from grainlab.lab.discrete_run import build_sample
@@ -37,11 +38,12 @@ VALUES = {
 }
 """A value other than the default of each option walked."""
 
-NOT_WALKED = {"preparation", "skeleton_file", "particle_file", "compaction_tolerance",
-              "compaction_max_iterations"}
-"""How the sample is made (files and deposition, which build_sample checks), and the
-compaction's own --tolerance and --max-iterations (what --tolerance and --max-iterations
-set in a compaction)."""
+NOT_WALKED = {"preparation", "skeleton_file", "particle_file"}
+"""How the sample is made (files and deposition, which build_sample checks)."""
+
+_OPTIONS = {option.name: (option.typed, option.key) for option in options_of("test")
+            if option.key is not None}
+"""Each option of ``grainlab test`` that sets a config key: (as typed, the key)."""
 
 CD_ONLY = ("tolerance", "max_iterations", "overlap_recovery", "capped_share_limit",
            "time_step_growth")

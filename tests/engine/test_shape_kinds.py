@@ -194,7 +194,7 @@ def test_a_hypothetical_kind_registered_for_samples_reaches_the_config(monkeypat
 
 
 def test_the_cli_shape_help_lists_every_registered_shape():
-    from grainlab.cli.discrete import SHAPE_HELP
+    from grainlab.cli.run_options import SHAPE_HELP
     from grainlab.prep.sample_shapes import SAMPLE_SHAPES
 
     for name, maker in SAMPLE_SHAPES.items():

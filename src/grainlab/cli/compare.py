@@ -10,73 +10,23 @@ results); 2 on bad input, with one message.
 from __future__ import annotations
 
 import math
-from pathlib import Path
+from typing import Any
 
 import typer
 from rich.markup import escape
 from rich.table import Table
 
-from grainlab.cli.discrete import (
-    _AMPLITUDE,
-    _AXIAL,
-    _B,
-    _BOUNDARY,
-    _CKPT,
-    _CONFIG,
-    _CYCLES,
-    _DMIN,
-    _DT,
-    _EPS_Q,
-    _ETA,
-    _FACES,
-    _GAMMA,
-    _HEIGHT,
-    _INERTIA,
-    _ITER,
-    _KAPPA,
-    _LAW,
-    _MU,
-    _N,
-    _OVERWRITE,
-    _POINTS,
-    _PROGRESS,
-    _Q_RATIO,
-    _RATIO,
-    _RECORD,
-    _RESTITUTION,
-    _RHO,
-    _SEED,
-    _SHAPE,
-    _SIGMA0,
-    _SNAP,
-    _SWEEP,
-    _TEMPLATES,
-    _TOL,
-    _UNLOAD,
-    _VTK,
-    _YOUNG,
-    as_typed,
-    command_config,
-    complete_run,
-    console,
-    refuse_inert_options,
-)
+from grainlab.cli.discrete import complete_run, console
 from grainlab.cli.errors import friendly_errors
 from grainlab.cli.inputs import output_folder
+from grainlab.cli.run_input import Given, as_typed, command_config, refuse_inert_options
+from grainlab.cli.run_options import takes_options
 from grainlab.errors import InputError
-from grainlab.lab.run_config import PERIODIC_ONLY, TEST_KINDS
+from grainlab.lab.run_config import TEST_KINDS
 from grainlab.prep.sample_shapes import particles_text
 
 COMPARE_KINDS = TEST_KINDS
 """The lab tests ``grainlab compare`` runs: every test of a discrete run."""
-
-_KIND = typer.Argument(..., help="The lab test: " + ", ".join(COMPARE_KINDS) + " ("
-                       + ", ".join(PERIODIC_ONLY) + " need --boundary periodic).")
-_OUT = typer.Option(Path("grainlab-compare"), "--out", "-o",
-                    help="Comparison folder: OUT/cd and OUT/dem (a run folder each), "
-                         "compare.png and compare.csv.")
-_NO_SOLVER = typer.Option(None, "--solver", hidden=True,
-                          help="Refused: compare runs both solvers.")
 
 
 def _shown(value: float, unit: str) -> str:
@@ -103,73 +53,45 @@ def comparison_table(table) -> Table:
 
 
 @friendly_errors
-def compare_command(
-    kind: str = _KIND, out: Path = _OUT, boundary: str = _BOUNDARY,
-    shape: str = _SHAPE, n: int = _N, d_min: float = _DMIN, size_ratio: float = _RATIO,
-    eta: float = _ETA, faces: int = _FACES, templates: int = _TEMPLATES,
-    density: float = _RHO, height_ratio: float = _HEIGHT, mu: float = _MU,
-    sigma0: float = _SIGMA0, inertia: float = _INERTIA, eps_q: float = _EPS_Q,
-    axial_strain: float = _AXIAL, unload_strain: float = _UNLOAD, b: float = _B,
-    gamma: float = _GAMMA, q_ratio: float = _Q_RATIO, circle_points: int = _POINTS,
-    amplitude: float = _AMPLITUDE, cycles: int = _CYCLES,
-    seed: int = _SEED, dt: float = _DT, tolerance: float = _TOL, sweep: str = _SWEEP,
-    max_iterations: int = _ITER, record_every: int = _RECORD, snapshot_every: int = _SNAP,
-    checkpoint_every: int = _CKPT, vtk_every: int = _VTK, law: str = _LAW,
-    kappa: float = _KAPPA, young_modulus: float = _YOUNG, restitution: float = _RESTITUTION,
-    config: Path = _CONFIG, overwrite: bool = _OVERWRITE, progress: bool = _PROGRESS,
-    solver: str = _NO_SOLVER,
-) -> None:
+@takes_options("compare")
+def compare_command(**options: Any) -> None:
     """Run one lab test twice on the same sample (same seed, same preparation): with contact
     dynamics into OUT/cd and with soft-contact DEM into OUT/dem, then overlay them:
     OUT/compare.png (the test's main curves, both solvers on the same axes) and
     OUT/compare.csv (per solver the peak and residual q/p, or the state at the end of each
     stage, packing fraction, z, K0, wall time, steps, DEM sub-steps; DEM - CD and DEM / CD).
-    KIND and the options are those of `grainlab test` (--tolerance sets the compaction's
-    when KIND is compaction); the DEM options (--law, --kappa, --young-modulus,
+    KIND and the options are those of `grainlab test` (--tolerance and --max-iterations set
+    the compaction's when KIND is compaction); the DEM options (--law, --kappa, --young-modulus,
     --restitution, [solver.dem]) act on the DEM run, --sweep, --tolerance and
     --max-iterations on the CD run. Run again with the same options, it reuses a run that
     ended and resumes one that was stopped (Ctrl-C checkpoints); --overwrite starts both
     over."""
-    from grainlab.lab.discrete_run import DiscreteRun
-    from grainlab.lab.run_outcome import EXIT_NOT_AS_ASKED, RunCost, RunOutcome
+    from grainlab.lab.run_outcome import EXIT_NOT_AS_ASKED, RunOutcome
     from grainlab.lab.solver_comparison import (
-        SOLVER_NAMES,
         SOLVERS,
         SolverComparison,
         check_solver_run,
-        open_solver_run,
         solver_configs,
     )
     from grainlab.report.curves import save_figure
     from grainlab.report.solver_comparison import solver_comparison_figure
 
+    kind, out, config = options["kind"], options["out"], options["config"]
     if kind not in COMPARE_KINDS:
         raise InputError("KIND", kind, "one of " + ", ".join(COMPARE_KINDS))
-    if solver is not None:
-        raise InputError("--solver", solver, (
+    if options["solver"] is not None:
+        raise InputError("--solver", options["solver"], (
             "no --solver: compare runs the test with both solvers, cd into OUT/cd and dem "
             "into OUT/dem (the DEM's law and stiffness: --law, --kappa, --young-modulus, "
             "--restitution)"))
     output_folder("--out", out)
-    tolerance_key = "compaction_tolerance" if kind == "compaction" else "tolerance"
-    asked, given = command_config(kind, config, {
-        "boundary": boundary, "shape": shape, "n": n, "d_min": d_min,
-        "size_ratio": size_ratio, "eta": eta, "faces": faces, "templates": templates,
-        "density": density, "height_ratio": height_ratio, "mu": mu, "sigma0": sigma0,
-        "inertia": inertia, "eps_q": eps_q, "axial_strain": axial_strain,
-        "unload_strain": unload_strain, "b": b, "gamma": gamma, "q_ratio": q_ratio,
-        "circle_points": circle_points, "amplitude": amplitude, "cycles": cycles,
-        "seed": seed, "dt": dt, tolerance_key: tolerance, "sweep": sweep,
-        "max_iterations": max_iterations, "record_every": record_every,
-        "snapshot_every": snapshot_every, "checkpoint_every": checkpoint_every,
-        "vtk_every": vtk_every, "law": law, "kappa": kappa, "young_modulus": young_modulus,
-        "restitution": restitution})
+    asked, given = command_config(kind, config, options, "compare")
     configs = solver_configs(asked)
     for note in refuse_inert_options([configs[method] for method in SOLVERS], given, config):
         console.print(f"[bold yellow]note:[/] {escape(note)}", soft_wrap=True)
     try:
         for method in SOLVERS:  # both refused or accepted before either is written
-            check_solver_run(out / method, configs[method], overwrite=overwrite)
+            check_solver_run(out / method, configs[method], overwrite=options["overwrite"])
     except InputError as error:
         raise as_typed(error, given, config) from None
     sample = asked.sample
@@ -177,25 +99,7 @@ def compare_command(
                   f"{particles_text(sample.model_dump())}, {kind}): contact dynamics in "
                   f"{out / 'cd'}, soft-contact DEM in {out / 'dem'}; Ctrl-C checkpoints, the "
                   "same command again goes on")
-    has_result: dict[str, bool] = {}
-    for method in SOLVERS:
-        folder = out / method
-        try:
-            opened = open_solver_run(folder, configs[method], overwrite=overwrite)
-        except InputError as error:
-            raise as_typed(error, given, config) from None
-        name = f"[bold]{method}[/] ({SOLVER_NAMES[method]})"
-        if not isinstance(opened, DiscreteRun):
-            outcome, cost = RunOutcome.of_result(opened), RunCost.of_result(opened)
-            console.print(f"{name}: the run in {folder} has ended ({cost.steps} steps, "
-                          f"outcome {outcome.status}): reused as it is")
-            has_result[method] = True
-            continue
-        step = opened.test.simulation.step_index
-        console.print(f"{name}: {'resuming' if opened.resumed else 'starting'} the run in "
-                      f"{folder}" + (f" at step {step}" if opened.resumed else ""))
-        result, _, _ = complete_run(folder, opened, progress)
-        has_result[method] = result is not None
+    has_result = _run_both(configs, given, options)
     if not all(has_result.values()):
         failed = " and ".join(m for m, done in has_result.items() if not done)
         console.print(f"[bold red]no comparison:[/] the {failed} run blew up (above); "
@@ -216,3 +120,34 @@ def compare_command(
                       f"{out / method / 'run.log'})", highlight=False)
     if missed:
         raise typer.Exit(code=EXIT_NOT_AS_ASKED)
+
+
+def _run_both(configs: dict[str, Any], given: Given, options: dict[str, Any]
+              ) -> dict[str, bool]:
+    """Run (start, resume or reuse) the test with each solver into OUT/cd and OUT/dem (both
+    checked already); whether each has a result (False: it blew up)."""
+    from grainlab.lab.discrete_run import DiscreteRun
+    from grainlab.lab.run_outcome import RunCost, RunOutcome
+    from grainlab.lab.solver_comparison import SOLVER_NAMES, SOLVERS, open_solver_run
+
+    out, config, overwrite = options["out"], options["config"], options["overwrite"]
+    has_result: dict[str, bool] = {}
+    for method in SOLVERS:
+        folder = out / method
+        try:
+            opened = open_solver_run(folder, configs[method], overwrite=overwrite)
+        except InputError as error:
+            raise as_typed(error, given, config) from None
+        name = f"[bold]{method}[/] ({SOLVER_NAMES[method]})"
+        if not isinstance(opened, DiscreteRun):
+            outcome, cost = RunOutcome.of_result(opened), RunCost.of_result(opened)
+            console.print(f"{name}: the run in {folder} has ended ({cost.steps} steps, "
+                          f"outcome {outcome.status}): reused as it is")
+            has_result[method] = True
+            continue
+        step = opened.test.simulation.step_index
+        console.print(f"{name}: {'resuming' if opened.resumed else 'starting'} the run in "
+                      f"{folder}" + (f" at step {step}" if opened.resumed else ""))
+        result, _, _ = complete_run(folder, opened, options["progress"])
+        has_result[method] = result is not None
+    return has_result

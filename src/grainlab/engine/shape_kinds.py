@@ -51,7 +51,7 @@ A new convex shape (superquadrics, cylinders) touches seven files, two of them n
 
 Three more when its maker takes parameters of its own (as ``n_faces`` for polyhedra): the
 keyword of :func:`grainlab.prep.loose_sample.loose_sample`, the key of ``[sample]`` in
-:mod:`grainlab.lab.run_config` and the option in :mod:`grainlab.cli.discrete`. Ten in all;
+:mod:`grainlab.lab.run_config` and the option in :mod:`grainlab.cli.run_options`. Ten in all;
 plus its tests. The CLI's ``--shape`` values and help, the config's allowed shapes, the time
 step, the gyroscopic term, the network's pair types and the compile runs follow the
 registries without change.

@@ -62,8 +62,9 @@ sample.n_particle
 from __future__ import annotations
 
 import tomllib
+from dataclasses import fields
 from pathlib import Path
-from typing import Annotated, Any, Literal, get_args, get_origin
+from typing import Annotated, Any, ClassVar, Literal, get_args, get_origin
 
 import tomli_w
 from pydantic import (
@@ -74,6 +75,7 @@ from pydantic import (
     StrictFloat,
     StrictInt,
     ValidationError,
+    create_model,
     field_validator,
 )
 
@@ -155,6 +157,14 @@ _SETTLED = QuasiStaticCriteria()
 
 class _Section(BaseModel):
     model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
+    frozen_as: ClassVar[type | None] = None
+    """The frozen settings object a table stands for (None: a table read by key)."""
+
+    def frozen(self) -> Any:
+        """This table as its frozen settings object (:attr:`frozen_as`, built from its keys)."""
+        if self.frozen_as is None:
+            raise TypeError(f"{type(self).__name__} stands for no settings object")
+        return self.frozen_as(**self.model_dump())
 
 
 class SampleConfig(_Section):
@@ -221,9 +231,11 @@ class QuasiStaticConfig(_Section):
     kinetic_energy: StrictFloat = Field(_SETTLED.kinetic_energy, gt=0,
                                   description="or inf: not checked")
 
+    frozen_as: ClassVar[type] = QuasiStaticCriteria
+
     def criteria(self) -> QuasiStaticCriteria:
         """The :class:`~grainlab.lab.wall_stages.QuasiStaticCriteria` of this table."""
-        return QuasiStaticCriteria(**self.model_dump())
+        return self.frozen()
 
 
 class TestConfig(_Section):
@@ -263,42 +275,48 @@ StepGrowth = Annotated[StrictFloat, Field(ge=1)]
 OverlapBound = Annotated[StrictFloat, Field(gt=0, lt=0.1)]
 
 
+STAGE_KEY_TYPES: dict[str, Any] = {
+    "friction": Friction, "inertia_number": InertiaBound, "time_step_factor": TimeStepFactor,
+    "tolerance": Tolerance, "max_iterations": SweepCap, "overlap_recovery": OverlapRecovery,
+    "capped_share_limit": ShareLimit, "time_step_growth": StepGrowth,
+    "overlap_bound": OverlapBound,
+}
+"""What each key of a stage table takes: one per field of
+:class:`~grainlab.lab.stage_numerics.StageNumerics` (the tables are made from its fields)."""
+
+
 class _StageSection(_Section):
+    frozen_as: ClassVar[type] = StageNumerics
+
     def numerics(self) -> StageNumerics:
         """The :class:`~grainlab.lab.stage_numerics.StageNumerics` of this table."""
-        return StageNumerics(**self.model_dump())
+        return self.frozen()
 
 
-class CompactionConfig(_StageSection):
-    """``[solver.compaction]``: the numerics of stages without a strain-controlled axis
-    (:class:`~grainlab.lab.stage_numerics.StageNumerics`; defaults
-    :data:`~grainlab.lab.stage_numerics.COMPACTION`)."""
-
-    friction: Friction = COMPACTION.friction
-    inertia_number: InertiaBound = COMPACTION.inertia_number
-    time_step_factor: TimeStepFactor = COMPACTION.time_step_factor
-    tolerance: Tolerance = COMPACTION.tolerance
-    max_iterations: SweepCap = COMPACTION.max_iterations
-    overlap_recovery: OverlapRecovery = COMPACTION.overlap_recovery
-    capped_share_limit: ShareLimit = COMPACTION.capped_share_limit
-    time_step_growth: StepGrowth = COMPACTION.time_step_growth
-    overlap_bound: OverlapBound = COMPACTION.overlap_bound
+def _stage_table(name: str, defaults: StageNumerics, doc: str) -> type[_StageSection]:
+    """The pydantic model of a stage table: a key per field of
+    :class:`~grainlab.lab.stage_numerics.StageNumerics`, in its order, typed by
+    :data:`STAGE_KEY_TYPES`, its default that of ``defaults``."""
+    names = [field.name for field in fields(StageNumerics)]
+    if set(names) != set(STAGE_KEY_TYPES):
+        raise TypeError(f"STAGE_KEY_TYPES {sorted(STAGE_KEY_TYPES)} must name the fields of "
+                        f"StageNumerics {sorted(names)}")
+    return create_model(name, __base__=_StageSection, __doc__=doc, __module__=__name__,
+                        **{key: (STAGE_KEY_TYPES[key], getattr(defaults, key))
+                           for key in names})
 
 
-class ShearConfig(_StageSection):
-    """``[solver.shear]``: the numerics of stages with a strain-controlled axis (triaxial
-    shear, oedometer loading and unloading; :class:`~grainlab.lab.stage_numerics.StageNumerics`;
-    defaults :data:`~grainlab.lab.stage_numerics.SHEAR`)."""
-
-    friction: Friction = SHEAR.friction
-    inertia_number: InertiaBound = SHEAR.inertia_number
-    time_step_factor: TimeStepFactor = SHEAR.time_step_factor
-    tolerance: Tolerance = SHEAR.tolerance
-    max_iterations: SweepCap = SHEAR.max_iterations
-    overlap_recovery: OverlapRecovery = SHEAR.overlap_recovery
-    capped_share_limit: ShareLimit = SHEAR.capped_share_limit
-    time_step_growth: StepGrowth = SHEAR.time_step_growth
-    overlap_bound: OverlapBound = SHEAR.overlap_bound
+CompactionConfig = _stage_table(
+    "CompactionConfig", COMPACTION,
+    "``[solver.compaction]``: the numerics of stages without a strain-controlled axis "
+    "(:class:`~grainlab.lab.stage_numerics.StageNumerics`; defaults "
+    ":data:`~grainlab.lab.stage_numerics.COMPACTION`).")
+ShearConfig = _stage_table(
+    "ShearConfig", SHEAR,
+    "``[solver.shear]``: the numerics of stages with a strain-controlled axis (triaxial "
+    "shear, oedometer loading and unloading; "
+    ":class:`~grainlab.lab.stage_numerics.StageNumerics`; defaults "
+    ":data:`~grainlab.lab.stage_numerics.SHEAR`).")
 
 
 class DemConfig(_Section):
@@ -318,10 +336,12 @@ class DemConfig(_Section):
     time_step_fraction: StrictFloat = Field(_DEM.time_step_fraction, gt=0, le=1)
     rigid_walls: StrictBool = _DEM.rigid_walls
 
+    frozen_as: ClassVar[type] = SoftContactSettings
+
     def settings(self) -> SoftContactSettings:
         """The :class:`~grainlab.lab.soft_contact_settings.SoftContactSettings` of this
         table."""
-        return SoftContactSettings(**self.model_dump())
+        return self.frozen()
 
 
 class SolverConfig(_Section):
@@ -475,16 +495,36 @@ class RunConfig(_Section):
                     "rolling)"))
 
     def settings(self) -> DiscreteTestSettings:
-        """The discrete test's numerical settings."""
-        s, out = self.solver, self.output
-        return DiscreteTestSettings(
-            compaction=s.compaction.numerics(), shear=s.shear.numerics(), dt=s.dt or None,
-            theta=s.theta, sweep=s.sweep, warm_start_extrapolation=s.warm_start_extrapolation,
-            record_every=out.record_every,
-            snapshot_every=out.snapshot_every, max_stage_steps=s.max_stage_steps,
-            at_max_stage_steps=s.at_max_stage_steps, wall_mass_factor=s.wall_mass_factor,
-            wall_servo=s.wall_servo, quasi_static=self.test.quasi_static.criteria(),
-            seed=s.seed, method=s.method, dem=s.dem.settings())
+        """The discrete test's numerical settings: each field of
+        :class:`~grainlab.lab.discrete_test.DiscreteTestSettings` from the key of its name
+        (:data:`SETTINGS_TABLES`), a table as its frozen settings object; ``solver.dt = 0``
+        is None (automatic)."""
+        values = {}
+        for name, table in SETTINGS_TABLES.items():
+            value = getattr(getattr(self, table), name)
+            values[name] = value.frozen() if isinstance(value, _Section) else value
+        values["dt"] = values["dt"] or None
+        return DiscreteTestSettings(**values)
+
+
+def _settings_tables() -> dict[str, str]:
+    """``{field of DiscreteTestSettings: the table of RunConfig holding its key}``, looked for
+    in [solver], then [output], then [test]; a field without a key is left out (it keeps its
+    default)."""
+    tables = {"solver": SolverConfig, "output": OutputConfig, "test": TestConfig}
+    found = {}
+    for field in fields(DiscreteTestSettings):
+        for table, model in tables.items():
+            if field.name in model.model_fields:
+                found[field.name] = table
+                break
+    return found
+
+
+SETTINGS_TABLES = _settings_tables()
+"""Where :meth:`RunConfig.settings` reads each field of
+:class:`~grainlab.lab.discrete_test.DiscreteTestSettings` (the solver's seed, not the
+sample's)."""
 
 
 def current_layout(data: Any) -> tuple[Any, dict[str, str]]:
