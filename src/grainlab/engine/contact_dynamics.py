@@ -135,6 +135,7 @@ from grainlab.engine.contact_problem import (
     assemble_problem,
     project_on_cones,
 )
+from grainlab.engine.convergence import Convergence
 from grainlab.engine.gyroscopic import gyroscopic_spins
 from grainlab.engine.narrow_phase import Contacts
 from grainlab.engine.quaternion import quat_to_matrices, turn_quaternions_kernel
@@ -686,6 +687,16 @@ class StepReport:
     relative_velocity: np.ndarray
     images: np.ndarray | None = None
     problem: FrictionalContactProblem | None = None
+    explicit: bool = False
+
+    @property
+    def convergence(self) -> Convergence | None:
+        """The solve's :class:`~grainlab.engine.solver.Convergence` (``iterations``,
+        ``converged``, ``change``, ``residual``); None for an ``explicit`` step (the soft
+        contacts of polyhedra), which has no iterations."""
+        if self.explicit:
+            return None
+        return Convergence(self.iterations, self.converged, self.change, self.residual)
 
     @property
     def image_vectors(self) -> np.ndarray:

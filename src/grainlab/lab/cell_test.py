@@ -44,6 +44,7 @@ from grainlab.lab.discrete_test import (
     _stop_reason,
 )
 from grainlab.lab.load_path import LoadPath
+from grainlab.lab.solver_registry import solver_record
 from grainlab.lab.specimen import tensor_to_voigt
 from grainlab.lab.wall_stages import AXES
 
@@ -64,7 +65,7 @@ class CellTest(DiscreteTest):
     def load_stages(self, path: LoadPath) -> list[CellStage]:
         """The path's stages as cell controls (refuses what rigid grains cannot follow;
         soft-contact DEM's deformable contacts follow a strain on every component)."""
-        return cell_stages(path, deformable=self.settings.method == "dem")
+        return cell_stages(path, deformable=solver_record(self.settings.method).deformable)
 
     # -- stage logic -----------------------------------------------------------------------------
     def _confining(self, stage: CellStage) -> float:
@@ -124,12 +125,8 @@ class CellTest(DiscreteTest):
 
     def _stage_numerics(self) -> None:
         s, numerics = self.settings, self.stage_numerics
-        self.solver.friction = numerics.friction
-        self.solver.max_iterations = numerics.max_iterations
-        self.solver.overlap_recovery = numerics.overlap_recovery
-        self.solver.tolerance = numerics.tolerance
         v_max = self.stage_wall_speed
-        self.solver.overlap_recovery_speed = RECOVERY_SPEED_FRACTION * v_max
+        self.solver_record.set_stage(self.solver, numerics, RECOVERY_SPEED_FRACTION * v_max)
         if s.dt is None:
             self.stage_dt = self.automatic_step()
         else:

@@ -266,10 +266,9 @@ class DiscreteRun:
     @property
     def cost(self) -> RunCost:
         """Wall time, steps and (soft-contact DEM) sub-steps so far."""
-        solver = self.test.solver
-        substeps = solver.n_substeps if self.config.solver.method == "dem" else None
-        return RunCost(wall_time=self.wall_time, steps=self.test.simulation.step_index,
-                       substeps=substeps)
+        test = self.test
+        return RunCost(wall_time=self.wall_time, steps=test.simulation.step_index,
+                       substeps=test.solver_record.substeps(test.solver))
 
     def result(self) -> TestResult:
         """The results so far in the test-result format; ``metadata["outcome"]`` is
@@ -490,7 +489,7 @@ class DiscreteRun:
         kind, numerics, dt = test.stage_kind, test.stage_numerics, test.settings.dt
         own = test.automatic_step() if test.stage_wall_speed > 0.0 else math.nan
         if dt is not None and dt >= DT_BLAME_FACTOR * own:
-            longest = own * (numerics.time_step_growth if self.config.solver.method == "cd"
+            longest = own * (numerics.time_step_growth if test.solver_record.grows_step
                              else 1.0)
             return (f"the time step solver.dt = {dt:g} s (--dt) is {dt / own:.3g} times this "
                     f"{kind} stage's own step, {own:.3g} s (time_step_factor "

@@ -118,11 +118,10 @@ from typing import Any
 import numpy as np
 
 from grainlab._validate import at_least
-from grainlab.engine.contact_dynamics import WARM_START_EXTRAPOLATION, ContactDynamicsStep
+from grainlab.engine.contact_dynamics import WARM_START_EXTRAPOLATION
 from grainlab.engine.sample_measures import box_strains, log_strains, sample_measures
 from grainlab.engine.shape_kinds import kinds_present, library_time_step_length
 from grainlab.engine.simulation import Periodic, Simulation
-from grainlab.engine.soft_contact import SoftContactStep
 from grainlab.engine.state import ShapeLibrary
 from grainlab.engine.wall_box import WALL_NAMES
 from grainlab.errors import InputError
@@ -141,7 +140,8 @@ from grainlab.lab.run_outcome import (
     RunOutcome,
     stage_outcome,
 )
-from grainlab.lab.soft_contact_settings import SOLVER_METHODS, SoftContactSettings
+from grainlab.lab.soft_contact_settings import SoftContactSettings
+from grainlab.lab.solver_registry import DEFAULT_SOLVER, solver_record
 from grainlab.lab.stage_numerics import (
     COMPACTION,
     SHEAR,
@@ -246,10 +246,12 @@ class DiscreteTestSettings:
     seed:
         Seed of the solver's visiting order.
     method:
-        The solver: ``"cd"`` (contact dynamics, rigid grains; default) or ``"dem"``
-        (soft-contact DEM, :class:`~grainlab.engine.soft_contact.SoftContactStep`); the
-        NLGS settings (``tolerance``, ``max_iterations``, ``overlap_recovery``, ``theta``,
-        ``sweep``) serve contact dynamics only.
+        The solver, a name of :data:`~grainlab.lab.solver_registry.SOLVERS`: contact
+        dynamics (rigid grains; default) or soft-contact DEM
+        (:class:`~grainlab.engine.soft_contact.SoftContactStep`); the NLGS settings
+        (``tolerance``, ``max_iterations``, ``overlap_recovery``, ``theta``, ``sweep``)
+        serve an iterative solver only (:attr:`~grainlab.lab.solver_registry.SolverRecord.
+        iterative`).
     dem:
         The soft-contact law (:class:`~grainlab.lab.soft_contact_settings.
         SoftContactSettings`), its stiffness number taken at the first stage's confining
@@ -270,16 +272,14 @@ class DiscreteTestSettings:
     wall_servo: bool = True
     quasi_static: QuasiStaticCriteria = field(default_factory=QuasiStaticCriteria)
     seed: int = 0
-    method: str = "cd"
+    method: str = DEFAULT_SOLVER
     dem: SoftContactSettings = field(default_factory=SoftContactSettings)
 
     def __post_init__(self) -> None:
         for kind in STAGE_KINDS:
             if not isinstance(getattr(self, kind), StageNumerics):
                 raise InputError(kind, getattr(self, kind), "a StageNumerics")
-        if self.method not in SOLVER_METHODS:
-            raise InputError("method", self.method,
-                             " or ".join(f'"{m}"' for m in SOLVER_METHODS))
+        solver_record(self.method)  # a registered solver
         if not isinstance(self.dem, SoftContactSettings):
             raise InputError("dem", self.dem, "a SoftContactSettings")
         at_least("wall_mass_factor", self.wall_mass_factor)
@@ -328,6 +328,7 @@ class DiscreteTest:
         self.sample = sample
         self.path = path
         self.settings = settings or DiscreteTestSettings()
+        self.solver_record = solver_record(self.settings.method)
         self.stages: list[WallStage] = self.load_stages(path)
         self.reports_k0 = any(stage.oedometric for stage in self.stages)
         self.on_record = on_record
@@ -355,20 +356,8 @@ class DiscreteTest:
         self.adaptive_step = spins_fast(sample.library)
         self.stage_dt = s.dt or 1.0
         self.step_control = OverlapStepControl(1.0, 1.0)
-        first = s.compaction  # each stage sets its own numerics when it starts
-        if s.method == "dem":
-            self.contact_law = s.dem.law_at(self._confining(self.stages[0]),
-                                            sample.mean_diameter)
-            self.solver = SoftContactStep(self.contact_law, dt=s.dt or 1.0,
-                                          friction=first.friction)
-        else:
-            self.contact_law = None
-            self.solver = ContactDynamicsStep(
-                dt=s.dt or 1.0, theta=s.theta, tolerance=first.tolerance,
-                max_iterations=first.max_iterations, friction=first.friction,
-                sweep=s.sweep, seed=s.seed, overlap_recovery=first.overlap_recovery,
-                gyroscopic=self.adaptive_step,
-                warm_start_extrapolation=s.warm_start_extrapolation)
+        self.solver, self.contact_law = self.solver_record.build(
+            s, sample, lambda: self._confining(self.stages[0]), self.adaptive_step)
         self.simulation = Simulation(sample, self.solver)
         self.simulation.add(_StageControl(self))
         self.simulation.add(_Recorder(self, Periodic(s.record_every)))
@@ -451,15 +440,11 @@ class DiscreteTest:
         """The solver settings, wall speed limits, time step and wall masses of the current
         stage, from the settings and the stage's wall speed ``stage_wall_speed``."""
         s, box, numerics = self.settings, self.sample.box, self.stage_numerics
-        self.solver.friction = numerics.friction
-        self.solver.max_iterations = numerics.max_iterations
-        self.solver.overlap_recovery = numerics.overlap_recovery
-        self.solver.tolerance = numerics.tolerance
         v_max = self.stage_wall_speed
-        box.set_max_speeds(v_max)
         # overlap recovery slower than the walls: beta |g| / h alone grows without bound as
         # the step shortens (spinning polyhedra), and then blows the sample apart
-        self.solver.overlap_recovery_speed = RECOVERY_SPEED_FRACTION * v_max
+        self.solver_record.set_stage(self.solver, numerics, RECOVERY_SPEED_FRACTION * v_max)
+        box.set_max_speeds(v_max)
         if s.dt is None:
             self.stage_dt = self.automatic_step()
         else:  # the last step of the previous stage may have been cut short
@@ -483,7 +468,8 @@ class DiscreteTest:
         ``scale`` (at most its growth): the stage's ``time_step_growth`` with contact dynamics
         and an automatic step, else a fixed step (growth 1)."""
         s, numerics = self.settings, self.stage_numerics
-        growth = numerics.time_step_growth if s.dt is None and s.method == "cd" else 1.0
+        grows = s.dt is None and self.solver_record.grows_step
+        growth = numerics.time_step_growth if grows else 1.0
         return OverlapStepControl(growth, numerics.overlap_bound * self.sample.mean_diameter,
                                   scale=min(scale, growth))
 
@@ -501,8 +487,8 @@ class DiscreteTest:
         """The stage's step [s] from the time step factor's ``dt``: for the soft-contact
         solver, rounded down to whole stable sub-steps
         (:meth:`~grainlab.engine.soft_contact.SoftContactStep.whole_substeps`)."""
-        whole = getattr(self.solver, "whole_substeps", None)
-        return dt if whole is None else whole(dt, self.sample.state, self.sample.library)
+        return self.solver_record.step_length(self.solver, dt, self.sample.state,
+                                              self.sample.library)
 
     def apply_settings(self, previous: DiscreteTestSettings) -> None:
         """Take up the current ``settings`` in a stage under way (a resumed run whose
@@ -824,7 +810,7 @@ class DiscreteTest:
         free_spin = float(np.sum(self.sample.state.rotational_energies()[~loaded_bodies]))
         row["kinetic_energy_ratio"] = (row["kinetic_energy"] - free_spin) \
             / (n * p * d_mean**3) if p > 0.0 else math.nan
-        row["velocity_zigzag"] = float(getattr(self.solver, "velocity_zigzag", math.nan))
+        row.update(self.solver_record.row_fields(self.solver))
         stage = self.stage
         full = {"stage": stage.name if stage else "end", "step": sim.step_index,
                 "time": sim.time, "dt": sim.last_dt, "friction": self.solver.friction}
@@ -885,10 +871,8 @@ class DiscreteTest:
             "step_scale": self.step_control.scale,
             "alert": self.solver.alert,
             "alert_growths": self.solver.alert_growths,
-            "friction": self.solver.friction, "max_iterations": self.solver.max_iterations,
-            "overlap_recovery": self.solver.overlap_recovery,
-            "overlap_recovery_speed": self.solver.overlap_recovery_speed,
-            "tolerance": self.solver.tolerance,
+            "friction": self.solver.friction,
+            **self.solver_record.checkpoint_fields(self.solver),
             "step_index": self.simulation.step_index,
             "time": self.simulation.time,
             "unconverged_steps": self.simulation.unconverged_steps,
@@ -912,14 +896,10 @@ class DiscreteTest:
         self.solver.alert = None if data["alert"] is None else float(data["alert"])
         self.solver.alert_growths = int(data["alert_growths"])
         self.solver.friction = float(data["friction"])
-        if "max_iterations" in data:
-            self.solver.max_iterations = int(data["max_iterations"])
-            self.solver.overlap_recovery = float(data["overlap_recovery"])
-            self.solver.tolerance = float(data["tolerance"])
-        if "overlap_recovery_speed" in data:
-            self.solver.overlap_recovery_speed = float(data["overlap_recovery_speed"])
+        self.solver_record.restore(self.solver, data)
         self.stage_wall_speed = float(data.get(
-            "stage_wall_speed", self.solver.overlap_recovery_speed / RECOVERY_SPEED_FRACTION))
+            "stage_wall_speed", data.get("overlap_recovery_speed", math.inf)
+            / RECOVERY_SPEED_FRACTION))
         self.simulation.step_index = int(data["step_index"])
         self.simulation.time = float(data["time"])
         self.simulation.unconverged_steps = int(data["unconverged_steps"])
