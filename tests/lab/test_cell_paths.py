@@ -11,8 +11,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from grainlab.lab.cell_test import CellTest
-from grainlab.lab.discrete_test import DiscreteTestSettings
+from grainlab.lab.discrete_test import DiscreteTest, DiscreteTestSettings
 from grainlab.lab.load_path import LoadPath, LoadStage, frame_rotation
 from grainlab.lab.presets import (
     circular_octahedral,
@@ -38,7 +37,7 @@ SETTINGS = DiscreteTestSettings(record_every=5,
 @pytest.fixture(scope="module")
 def compacted():
     sample = loose_sample(n_particles=150, size_ratio=1.2, seed=4, boundary="periodic")
-    test = CellTest(sample, isotropic_compression(p_final=P, n_steps=1), SETTINGS)
+    test = DiscreteTest(sample, isotropic_compression(p_final=P, n_steps=1), SETTINGS)
     assert test.run()
     return sample
 
@@ -46,7 +45,7 @@ def compacted():
 def run(compacted, path: LoadPath):
     sample = copy.deepcopy(compacted)
     sample.boundary.set_reference()
-    test = CellTest(sample, path, SETTINGS)
+    test = DiscreteTest(sample, path, SETTINGS)
     assert test.run(max_steps=20_000), test.halted
     return test
 

@@ -176,8 +176,8 @@ def test_a_box_too_thin_stops_its_stage_with_the_diagnosis(tmp_path):
     test = run.test
     lengths = test.sample.box.lengths
     test.largest_diameter = float(lengths.max())  # 3 d_max > the box: the limit is 80 % of it
-    test.reference_lengths = lengths / 0.75
-    done, reason = test.wall_end()
+    test.boundary.reference_lengths = lengths / 0.75
+    done, reason = test.boundary_end()
     assert done and "box too thin" in reason and "largest particle diameters" in reason
     test.close_stage(reason)
     assert test.halted["ended"] == BOX_TOO_THIN

@@ -13,8 +13,8 @@ import pytest
 
 from grainlab.engine.simulation import Periodic
 from grainlab.lab.discrete_run import resume_run, start_run
-from grainlab.lab.discrete_test import SHORTEST_CUT
 from grainlab.lab.run_config import RunConfig
+from grainlab.lab.stage_boundary import SHORTEST_CUT
 from grainlab.lab.wall_stages import QuasiStaticCriteria
 
 AXIAL, UNLOAD = 0.002, 0.001
@@ -47,7 +47,7 @@ class _WallStrains:
 
     def act(self, simulation) -> None:
         if self.test.stage_index >= 1:
-            eps = np.log(self.test.reference_lengths / self.test.sample.box.lengths)
+            eps = np.log(self.test.boundary.reference_lengths / self.test.sample.box.lengths)
             self.strains.append({"eps_zz": eps[2], "eps_q": eps.max() - eps.min()})
 
 

@@ -101,8 +101,8 @@ def test_a_stage_judged_keeps_its_worst_stress_through_plain_data():
 def test_a_true_triaxial_stage_judges_its_generalised_stresses():
     """Constant p and b are held as components of c = B sigma (sqrt(3) p, and 0 along the
     deviator's direction that b fixes): judged like the normal stresses, against sqrt(3) p."""
+    from grainlab.lab.cell_boundary import generalised_targets
     from grainlab.lab.cell_stages import cell_stages
-    from grainlab.lab.cell_test import generalised_targets
     from grainlab.lab.run_config import RunConfig
 
     config = RunConfig.model_validate({"sample": {"boundary": "periodic"},

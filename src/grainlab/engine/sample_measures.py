@@ -71,6 +71,7 @@ import numpy as np
 from grainlab.analysis.connectivity import Connectivity
 from grainlab.analysis.contact_network import ContactNetwork
 from grainlab.engine.boundaries.wall_box import WallBox
+from grainlab.engine.convergence import convergence_columns
 from grainlab.engine.detect.narrow_phase import (
     CONTACT_CLASS_NAMES,
     Contacts,
@@ -448,10 +449,7 @@ def _measures(report, state, library, volume, stress, extra, strains, rate, dt, 
     row["z_mechanical"] = mechanical_coordination(report, state.n_bodies,
                                                   4 if friction == 0.0 else 2)
     row["n_contacts"] = float(report.n_contacts)
-    row["solver_iterations"] = float(report.iterations)
-    row["solver_converged"] = float(report.converged)
-    row["solver_change"] = report.change
-    row["solver_residual"] = report.residual
+    row.update(convergence_columns(report.convergence))
     row["max_overlap_over_d"] = report.max_overlap / mean_d
     row["kinetic_energy"] = float(state.kinetic_energy())
     return row, network

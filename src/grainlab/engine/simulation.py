@@ -171,11 +171,12 @@ class Simulation:
         self.step_index += 1
         self.time += self.last_dt
         self.last_report = report
-        if report.converged:
+        convergence = report.convergence  # None: an explicit step, nothing to converge
+        if convergence is None or convergence.converged:
             self.unconverged_in_row = 0
         else:
             self.unconverged_steps += 1
-            far = report.residual > self.divergence_factor * self.solver.tolerance
+            far = convergence.residual > self.divergence_factor * self.solver.tolerance
             self.unconverged_in_row = self.unconverged_in_row + 1 if far else 0
         self._check_health(report)
         for op in self.operations:
@@ -221,5 +222,6 @@ class Simulation:
             raise SimulationBlowUp(
                 f"solver divergence {where}: {self.unconverged_in_row} steps in a row ended "
                 f"far from convergence at the cap of {self.solver.max_iterations} sweeps (last "
-                f"residual {report.residual:.3g}, change {report.change:.3g}, tolerance "
+                f"residual {report.convergence.residual:.3g}, change "
+                f"{report.convergence.change:.3g}, tolerance "
                 f"{self.solver.tolerance:g}); raise max_iterations or reduce the time step.")

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from grainlab.engine.convergence import Convergence
 from grainlab.engine.detect.narrow_phase import Contacts
 from grainlab.engine.state import ShapeLibrary
 
@@ -43,6 +44,16 @@ class StepReport:
     relative_velocity: np.ndarray
     images: np.ndarray | None = None
     problem: object | None = None
+    explicit: bool = False
+
+    @property
+    def convergence(self) -> Convergence | None:
+        """The solve's :class:`~grainlab.engine.convergence.Convergence` (``iterations``,
+        ``converged``, ``change``, ``residual``); None for an ``explicit`` step (the soft
+        contacts of polyhedra), which has no iterations."""
+        if self.explicit:
+            return None
+        return Convergence(self.iterations, self.converged, self.change, self.residual)
 
     @property
     def image_vectors(self) -> np.ndarray:

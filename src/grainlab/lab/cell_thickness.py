@@ -81,7 +81,8 @@ def thin_cell_after_compaction(widths: np.ndarray, solid_volume: float,
 def refuse_thin_cell(test, sample_config) -> None:
     """An :class:`InputError` naming ``sample.n_particles`` (or the file that gave the
     particles) when the compaction would make the periodic cell of ``test`` (a
-    :class:`~grainlab.lab.cell_test.CellTest`, not yet run) too thin for its particles
+    :class:`~grainlab.lab.discrete_test.DiscreteTest` in a periodic cell, not yet run) too
+    thin for its particles
     (:func:`thin_cell_after_compaction`); ``sample_config`` is the run's ``[sample]``."""
     state, library = test.sample.state, test.sample.library
     why = thin_cell_after_compaction(test.sample.boundary.widths,

@@ -62,7 +62,6 @@ from grainlab.engine.shape_kinds import kinds_present
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.errors import GrainlabError, InputError
 from grainlab.lab.box_thickness import BOX_MIN_DIAMETERS
-from grainlab.lab.cell_test import CellTest
 from grainlab.lab.cell_thickness import refuse_thin_cell
 from grainlab.lab.discrete_test import DiscreteTest
 from grainlab.lab.run_checkpoint import (
@@ -266,10 +265,9 @@ class DiscreteRun:
     @property
     def cost(self) -> RunCost:
         """Wall time, steps and (soft-contact DEM) sub-steps so far."""
-        solver = self.test.solver
-        substeps = solver.n_substeps if self.config.solver.method == "dem" else None
-        return RunCost(wall_time=self.wall_time, steps=self.test.simulation.step_index,
-                       substeps=substeps)
+        test = self.test
+        return RunCost(wall_time=self.wall_time, steps=test.simulation.step_index,
+                       substeps=test.solver_record.substeps(test.solver))
 
     def result(self) -> TestResult:
         """The results so far in the test-result format; ``metadata["outcome"]`` is
@@ -490,7 +488,7 @@ class DiscreteRun:
         kind, numerics, dt = test.stage_kind, test.stage_numerics, test.settings.dt
         own = test.automatic_step() if test.stage_wall_speed > 0.0 else math.nan
         if dt is not None and dt >= DT_BLAME_FACTOR * own:
-            longest = own * (numerics.time_step_growth if self.config.solver.method == "cd"
+            longest = own * (numerics.time_step_growth if test.solver_record.grows_step
                              else 1.0)
             return (f"the time step solver.dt = {dt:g} s (--dt) is {dt / own:.3g} times this "
                     f"{kind} stage's own step, {own:.3g} s (time_step_factor "
@@ -603,26 +601,18 @@ def progress_fields(test: DiscreteTest, row: dict) -> tuple[float, str]:
     the kinetic energy ratio with their targets, so that a compaction that does not settle is
     seen stuck at its numbers, not at a percentage."""
     stage = test.stage
-    cell = isinstance(test, CellTest)  # its stage's progress: lambda in [0, n_steps]
     steps = f"step {row['step']} ({row['step'] - test.stage_start_step} of <= " \
             f"{test.settings.max_stage_steps} in the stage)"
     if stage.moving_axes:
         stop = [abs(row[c.quantity] / c.limit) for c in stage.stop if c.when == "above"
                 and c.limit and math.isfinite(row.get(c.quantity, math.nan))]
-        if stop:
-            done = max(stop)
-        elif cell:
-            done = test.progress / max(stage.n_steps, 1)
-        else:
-            done = max(abs(math.log(test.stage_start_lengths[a] / test.sample.box.lengths[a]))
-                       / abs(stage.targets[a]) for a in stage.moving_axes)
+        done = max(stop) if stop else test.boundary.fraction_done(stage)
         return min(max(done, 0.0), 1.0), (
             f"{steps}  q/p {row['q_over_trace']:.3f}  packing fraction "
             f"{row['packing_fraction']:.4f}  z {row['z']:.2f}  I {row['inertia_number']:.1e} (<= "
             f"{test.stage_numerics.inertia_number:g})")
     criteria: QuasiStaticCriteria = test.settings.quasi_static
-    targets = [test.reference_stress] if cell else \
-        [stage.targets[a] for a in stage.stress_axes if math.isfinite(stage.targets[a])]
+    targets = test.boundary.stress_goal(stage)
     held = "wall_sigma_" if "wall_sigma_xx" in row else "cell_sigma_"  # walls or cell
     wall_p = (row[held + "xx"] + row[held + "yy"] + row[held + "zz"]) / 3.0
     loaded = min(1.0, max(wall_p / np.mean(targets), 0.0)) if targets else 1.0
@@ -678,11 +668,9 @@ def start_run(folder: str | Path, config: RunConfig, *, overwrite: bool = False
 
 
 def test_for(sample: DiscreteSample, config: RunConfig) -> DiscreteTest:
-    """The lab test of ``config`` on ``sample``: in its box of walls
-    (:class:`~grainlab.lab.discrete_test.DiscreteTest`) or its periodic cell
-    (:class:`~grainlab.lab.cell_test.CellTest`)."""
-    kind = CellTest if sample.periodic else DiscreteTest
-    return kind(sample, config.load_path(), config.settings())
+    """The lab test of ``config`` on ``sample`` (:class:`~grainlab.lab.discrete_test.
+    DiscreteTest`, in the sample's box of walls or periodic cell)."""
+    return DiscreteTest(sample, config.load_path(), config.settings())
 
 
 def _new_test(config: RunConfig) -> DiscreteTest:

@@ -1,21 +1,26 @@
-"""A load path run on a discrete sample in a box of walls (contact dynamics; seeds 002/003).
+"""A load path run on a discrete sample, in a box of walls or a periodic cell (contact
+dynamics or soft-contact DEM; seeds 002/003).
 
-:class:`DiscreteTest` turns the stages of a lab :class:`~grainlab.lab.load_path.LoadPath`
-into wall controls (:mod:`grainlab.lab.wall_stages`) and runs them on a
+:class:`DiscreteTest` is one stage loop whatever the boundary: its boundary
+(:mod:`grainlab.lab.stage_boundary`: the box of walls, :class:`~grainlab.lab.box_boundary.
+BoxBoundary`, or the periodic cell, :class:`~grainlab.lab.cell_boundary.CellBoundary`) turns
+the stages of a lab :class:`~grainlab.lab.load_path.LoadPath` into its controls and owns
+their strains, progress, ends and thickness checks; its solver is a record of
+:mod:`grainlab.lab.solver_registry`. The test runs them on a
 :class:`~grainlab.engine.simulation.Simulation` through two operations: the stage control
-(walls driven, stage ends decided) and the recorder (one results row every ``record_every``
-steps, a contact-network snapshot every ``snapshot_every`` and of the state each stage ends
-in, so that a short run has its compaction and its end to analyse). Everything it needs to go on
-is plain data (:meth:`DiscreteTest.progress_arrays`), so a run can checkpoint and resume.
+(boundary driven, stage ends decided) and the recorder (one results row every
+``record_every`` steps, a contact-network snapshot every ``snapshot_every`` and of the state
+each stage ends in, so that a short run has its compaction and its end to analyse).
+Everything it needs to go on is plain data (:meth:`DiscreteTest.progress_arrays`), so a run
+can checkpoint and resume.
 
 Per stage, with the numerics of its kind (:class:`~grainlab.lab.stage_numerics.StageNumerics`:
 ``settings.compaction`` in stages without a strain-controlled axis, ``settings.shear``
 otherwise; :meth:`DiscreteTestSettings.numerics_for`):
 
 * interparticle friction (default 0 in compaction, seed 002; 0.4 in shear);
-* strain rate from the bound on the inertia number (:mod:`grainlab.lab.wall_stages`); the
-  stress-controlled walls are speed-limited to the same rate (their inward free speed at most
-  eps_dot L);
+* strain rate eps_dot from the bound on the inertia number at the stage's reference stress;
+  the stage's wall speed eps_dot L, L the boundary's largest width;
 * time step h = ``time_step_factor`` x d_min / v (defaults 0.003 in shear, 0.01 in
   compaction), v the largest wall speed of the stage, d_min the smallest member-sphere
   diameter or, for polyhedra, the smallest inscribed diameter (twice the smallest distance from
@@ -53,47 +58,23 @@ otherwise; :meth:`DiscreteTestSettings.numerics_for`):
   0.692 against 0.715); at 0.25 of the alert distance the steps fell 4.4 times but the mean
   overlap rose from 0.03 % to 0.47 % of <d>.
   Spheres and aggregates keep the wall-based step (their results unchanged);
-* stress-controlled walls are overdamped servos (``wall_servo``, default): no speed carried
-  from step to step, mass c h with the damping c = F / v_max (F = sigma A its driving force,
-  v_max its speed limit), so that the wall moves at v_max when nothing holds it and at
-  (F - R) / c against the reaction R. With momentum (``wall_servo = False``) the mass is
-  max(``wall_mass_factor`` x the particles' mass, h F / v_max), so that one step of driving
-  cannot push it past the limit (a lighter wall leaves the solver trading the driving
-  impulse between the speed limit and the contacts, and it stalls: penetrations of several
-  % of a diameter in shear were traced to this); but in shear a lateral wall held above
-  sigma for a few steps gained many times v_max outwards, flew on after the particles
-  stopped pushing, and a rigid sample of 100-200 polyhedra unloaded completely (p from
-  ~10^4 to ~50 Pa, I up to 0.06) in 30 % of the records.
+* the boundary's own controls (:mod:`grainlab.lab.box_boundary`: wall speeds, servo walls,
+  logarithmic strains from the reference box; :mod:`grainlab.lab.cell_boundary`: the cell's
+  velocity gradient and servo, natural strains from the reference cell).
 
-Strains are logarithmic, compression positive, from the reference box: the box at the end of
-the last stage without a strain-controlled axis (the consolidated sample), or the initial box
-before any. A stage without a strain-controlled axis ends when quasi-static
-(:class:`~grainlab.lab.wall_stages.QuasiStaticCriteria`). A stage that reaches
-``max_stage_steps`` first did not reach its end: the test stops there (``halted``; the stage
-goes on when resumed with a larger cap), or with ``at_max_stage_steps = "next_stage"`` the
-next stage starts all the same; either way :meth:`DiscreteTest.run_outcome` says the stage was
-not reached (:mod:`grainlab.lab.run_outcome`).
+A stage that reaches ``max_stage_steps`` first did not reach its end: the test stops there
+(``halted``; the stage goes on when resumed with a larger cap), or with
+``at_max_stage_steps = "next_stage"`` the next stage starts all the same; either way
+:meth:`DiscreteTest.run_outcome` says the stage was not reached (:mod:`grainlab.lab.
+run_outcome`). A stage whose target would leave the boundary too thin for its particles does
+not start, and one whose boundary gets there stops (``halted``), both with the diagnosis;
+:meth:`DiscreteTest.predicted_flattening` checks a whole path before a run.
 
-A box thinner than a few particles cannot hold a granular sample
-(:mod:`grainlab.lab.box_thickness`): a stage whose target would take the box below
-:func:`~grainlab.lab.box_thickness.box_limits` does not start, and a stage whose box gets there
-stops (``halted``), both with the diagnosis; :meth:`DiscreteTest.predicted_flattening` checks
-a whole path before a run.
-
-Stage ends do not wait for a record. After every step the walls alone decide (cheap: the box
-lengths give the strains): the strain target of each strain-controlled axis, stop criteria on
-strain columns (:data:`STRAIN_COLUMNS`: ``eps_q`` of the triaxial test) and
-``max_stage_steps``. The step that would carry a stage past a target is cut short, and one
-that would leave less than :data:`SHORTEST_CUT` of a step to go is stretched by that much
-instead (no sliver of a step: its forces, impulses over its length, would mean nothing):
-
-* a strain-controlled axis moves at a prescribed wall speed, so its last step is cut to end
-  on the target exactly (to round-off: :data:`TARGET_MARGIN` past it); an axis that reached
-  its target holds still while the others go on;
-* a stop criterion on a strain is crossed where the walls' speeds of the step before predict
-  (linear in the step length); the stress-controlled walls may move a little otherwise, so it
-  ends within a small fraction of a step's increment of its limit, at worst one more step of
-  at least :data:`SHORTEST_CUT` of a step.
+Stage ends do not wait for a record. After every step the boundary alone decides
+(:meth:`DiscreteTest.boundary_end`): stop criteria on its strain columns, its targets, its
+thickness, and ``max_stage_steps``; the step that would carry a stage past a target is cut
+(:data:`~grainlab.lab.stage_boundary.SHORTEST_CUT`, :data:`~grainlab.lab.stage_boundary.
+TARGET_MARGIN`).
 
 The state a stage ends in is always a results row (the last of the stage), whatever
 ``record_every``; stop criteria on other columns, and quasi-static ends, are checked at the
@@ -103,36 +84,29 @@ resumed run takes the same steps.
 Columns besides :mod:`grainlab.engine.sample_measures`: ``stage``, ``step``, ``time`` [s],
 ``dt`` [s], ``unbalanced_force_ratio``, ``kinetic_energy_ratio``, ``velocity_zigzag`` (the
 soft-contact solver's :attr:`~grainlab.engine.dem.soft_contact.SoftContactStep.velocity_zigzag`,
-NaN for contact dynamics: the run's outcome reads it, :mod:`grainlab.lab.run_outcome`),
-``friction``, and in tests
-with a one-dimensional stage (:attr:`~grainlab.lab.wall_stages.WallStage.oedometric`)
-``K0`` = (sigma_xx + sigma_yy) / (2 sigma_zz) [-] of the contact stresses.
+NaN without sub-steps: the run's outcome reads it, :mod:`grainlab.lab.run_outcome`),
+``friction``, and in tests with a one-dimensional stage (:attr:`~grainlab.lab.wall_stages.
+WallStage.oedometric`) ``K0`` = (sigma_xx + sigma_yy) / (2 sigma_zz) [-] of the contact
+stresses.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
-from grainlab._validate import at_least
-from grainlab.engine.boundaries.wall_box import WALL_NAMES
-from grainlab.engine.dem.soft_contact import SoftContactStep
-from grainlab.engine.nscd.contact_dynamics import WARM_START_EXTRAPOLATION, ContactDynamicsStep
-from grainlab.engine.sample_measures import box_strains, log_strains, sample_measures
 from grainlab.engine.shape_kinds import kinds_present, library_time_step_length
 from grainlab.engine.simulation import Periodic, Simulation
 from grainlab.engine.state import ShapeLibrary
 from grainlab.errors import InputError
-from grainlab.lab.box_thickness import (
-    Flattening,
-    box_limits,
-    predicted_flattening,
-    stage_flattening,
-)
-from grainlab.lab.load_path import LoadPath, StopCriterion
+from grainlab.lab.box_boundary import BoxBoundary
+from grainlab.lab.box_thickness import Flattening
+from grainlab.lab.cell_boundary import CellBoundary
+from grainlab.lab.discrete_test_settings import RECOVERY_SPEED_FRACTION, DiscreteTestSettings
+from grainlab.lab.load_path import LoadPath
 from grainlab.lab.run_outcome import (
     BOX_TOO_THIN,
     MAX_STAGE_STEPS,
@@ -141,16 +115,19 @@ from grainlab.lab.run_outcome import (
     RunOutcome,
     stage_outcome,
 )
-from grainlab.lab.soft_contact_settings import SOLVER_METHODS, SoftContactSettings
+from grainlab.lab.solver_registry import solver_record
+from grainlab.lab.stage_boundary import (
+    MAX_STEPS_REASON,
+    THIN_BOX,
+    StageBoundary,
+    stop_reason,
+)
 from grainlab.lab.stage_numerics import (
-    COMPACTION,
-    SHEAR,
-    STAGE_KINDS,
     StageNumerics,
     stage_kind,
 )
 from grainlab.lab.step_control import OverlapStepControl
-from grainlab.lab.wall_stages import AXES, QuasiStaticCriteria, WallStage, wall_stages
+from grainlab.lab.wall_stages import QuasiStaticCriteria
 from grainlab.prep.loose_sample import DiscreteSample
 
 
@@ -177,142 +154,15 @@ cover at most half of it between two detections, so that every contact has its r
 predicted over the step) before it closes."""
 
 
-TARGET_MARGIN = 1e-12
-"""Strain [-] by which the cut last step of a stage aims past its target, so that round-off
-cannot leave the target a hair short (and add a step of a few femtoseconds)."""
-
-SHORTEST_CUT = 0.25
-"""Shortest fraction of a step that a last step may take; a target less than this fraction of
-a step beyond a full step is reached by stretching that step instead (by at most this
-fraction). The forces of a step are its impulses over its length, and contacts that still
-approach at a small speed carry impulses that do not shrink with the step: a last step cut
-to 1.3 % of the others made p of the final row 6 times that of the row before (1000
-spheres). A stop criterion's crossing is predicted from the walls' speeds of the step before;
-where the stress-controlled walls then move less than predicted, the criterion is met one
-step later, and this bounds how short that step is (its overshoot is below this fraction of
-a step's increment)."""
-
-STRAIN_COLUMNS = tuple(box_strains(np.ones(3), np.ones(3)))
-"""The columns known from the walls alone (:func:`~grainlab.engine.sample_measures.box_strains`):
-stop criteria on them are checked after every step, the others at the records."""
-
-RECOVERY_SPEED_FRACTION = 0.25
-"""Cap of the overlap recovery's separation speed, as a fraction of the stage's wall speed [-].
-On 200 polyhedra (n_f = 30, 7.5 % overlaps left by the compaction) a cap at the full wall speed
-let p swing between 115 Pa and 170 kPa (sigma0 = 10 kPa) early in shear, with I up to 0.21;
-at 0.25 the largest I was 4e-3. Spheres never reach it (beta |g| / h <= 0.08 of the wall speed
-at 0.5 % overlaps)."""
-
-
-@dataclass(frozen=True)
-class DiscreteTestSettings:
-    """Numerical settings of a discrete test (module docstring for their roles): the
-    numerics of each kind of stage, and those of the whole run.
-
-    Attributes
-    ----------
-    compaction, shear:
-        :class:`~grainlab.lab.stage_numerics.StageNumerics` (friction, bound on the inertia
-        number, time step factor, NLGS tolerance and sweep cap, overlap recovery) of the
-        stages without and with a strain-controlled axis (:meth:`numerics_for`); defaults
-        :data:`~grainlab.lab.stage_numerics.COMPACTION` and
-        :data:`~grainlab.lab.stage_numerics.SHEAR`. The overlap recovery's separation speed
-        is capped at :data:`RECOVERY_SPEED_FRACTION` of the stage's wall speed
-        (``overlap_recovery_speed`` of the solver).
-    dt:
-        Time step [s]; None: from the stage's ``time_step_factor``.
-    theta, sweep, warm_start_extrapolation:
-        Solver settings (:class:`~grainlab.engine.nscd.contact_dynamics.ContactDynamicsStep`;
-        ``warm_start_extrapolation`` lambda in [0, 1], default
-        :data:`~grainlab.engine.nscd.contact_dynamics.WARM_START_EXTRAPOLATION`).
-    record_every, snapshot_every:
-        Steps between results rows and between contact-network snapshots (0: none; with
-        snapshots on, the state each stage ends in is one too).
-    max_stage_steps:
-        Cap on the steps of one stage (>= 1); reaching it, the stage did not reach its end.
-    at_max_stage_steps:
-        What a stage that reaches ``max_stage_steps`` does: ``"stop"`` the test there
-        (default; resumable with a larger cap) or start the ``"next_stage"`` all the same.
-    wall_mass_factor:
-        Mass of a stress-controlled wall / mass of the particles (> 0), when ``wall_servo``
-        is False.
-    wall_servo:
-        Stress-controlled walls as overdamped servos (default): no speed carried over from
-        one step to the next, damping c = sigma A / v_max (speed v_max when nothing holds
-        them, at rest when the particles push back sigma A;
-        :class:`~grainlab.engine.boundaries.wall_box.WallBox`). False: walls with the mass above.
-    quasi_static:
-        End criteria of stages without a strain-controlled axis.
-    seed:
-        Seed of the solver's visiting order.
-    method:
-        The solver: ``"cd"`` (contact dynamics, rigid grains; default) or ``"dem"``
-        (soft-contact DEM, :class:`~grainlab.engine.dem.soft_contact.SoftContactStep`); the
-        NLGS settings (``tolerance``, ``max_iterations``, ``overlap_recovery``, ``theta``,
-        ``sweep``) serve contact dynamics only.
-    dem:
-        The soft-contact law (:class:`~grainlab.lab.soft_contact_settings.
-        SoftContactSettings`), its stiffness number taken at the first stage's confining
-        stress.
-    """
-
-    compaction: StageNumerics = COMPACTION
-    shear: StageNumerics = SHEAR
-    dt: float | None = None
-    theta: float = 0.5
-    sweep: str = "coloured"
-    warm_start_extrapolation: float = WARM_START_EXTRAPOLATION
-    record_every: int = 10
-    snapshot_every: int = 0
-    max_stage_steps: int = 200_000
-    at_max_stage_steps: str = "stop"
-    wall_mass_factor: float = 1.0
-    wall_servo: bool = True
-    quasi_static: QuasiStaticCriteria = field(default_factory=QuasiStaticCriteria)
-    seed: int = 0
-    method: str = "cd"
-    dem: SoftContactSettings = field(default_factory=SoftContactSettings)
-
-    def __post_init__(self) -> None:
-        for kind in STAGE_KINDS:
-            if not isinstance(getattr(self, kind), StageNumerics):
-                raise InputError(kind, getattr(self, kind), "a StageNumerics")
-        if self.method not in SOLVER_METHODS:
-            raise InputError("method", self.method,
-                             " or ".join(f'"{m}"' for m in SOLVER_METHODS))
-        if not isinstance(self.dem, SoftContactSettings):
-            raise InputError("dem", self.dem, "a SoftContactSettings")
-        at_least("wall_mass_factor", self.wall_mass_factor)
-        if self.dt is not None:
-            at_least("dt", self.dt)
-        if self.at_max_stage_steps not in ("stop", "next_stage"):
-            raise InputError("at_max_stage_steps", self.at_max_stage_steps,
-                             '"stop" or "next_stage"')
-        for name, low in (("record_every", 1), ("snapshot_every", 0), ("max_stage_steps", 1)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) \
-                    or value < low:
-                raise InputError(name, value, f"an integer >= {low}")
-
-    def numerics_for(self, strain_controlled: bool) -> StageNumerics:
-        """The numerics of a stage with (True) or without a strain-controlled axis
-        (:func:`~grainlab.lab.stage_numerics.stage_kind`)."""
-        return getattr(self, stage_kind(strain_controlled))
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain data (each kind of stage's numerics a nested dict)."""
-        data = asdict(self)
-        data["quasi_static"] = self.quasi_static.to_dict()
-        return data
-
-
 class DiscreteTest:
-    """A load path on a discrete sample (module docstring).
+    """A load path on a discrete sample (module docstring): one stage loop, its boundary's
+    (:attr:`boundary`) and its solver's (:attr:`solver_record`) parts read from them.
 
     Parameters
     ----------
     sample:
-        The sample (its box's controls are set by the stages).
+        The sample (in a box of walls or a periodic cell: its boundary's controls are set by
+        the stages).
     path:
         A 3D lab load path (e.g. :func:`grainlab.lab.presets.triaxial_compression`).
     settings:
@@ -328,7 +178,9 @@ class DiscreteTest:
         self.sample = sample
         self.path = path
         self.settings = settings or DiscreteTestSettings()
-        self.stages: list[WallStage] = self.load_stages(path)
+        self.solver_record = solver_record(self.settings.method)
+        self.boundary: StageBoundary = (CellBoundary if sample.periodic else BoxBoundary)(self)
+        self.stages = self.load_stages(path)
         self.reports_k0 = any(stage.oedometric for stage in self.stages)
         self.on_record = on_record
         self.on_snapshot = on_snapshot
@@ -337,8 +189,6 @@ class DiscreteTest:
         self.stage_index = 0
         self.stage_started = False
         self.stage_start_step = 0
-        self.stage_start_lengths = sample.box.lengths.copy()
-        self.reference_lengths = sample.box.lengths.copy()
         self.strain_rate = 0.0
         self.n_snapshots = 0
         self._unsnapped: tuple[Any, dict[str, Any]] | None = None
@@ -355,31 +205,20 @@ class DiscreteTest:
         self.adaptive_step = spins_fast(sample.library)
         self.stage_dt = s.dt or 1.0
         self.step_control = OverlapStepControl(1.0, 1.0)
-        first = s.compaction  # each stage sets its own numerics when it starts
-        if s.method == "dem":
-            self.contact_law = s.dem.law_at(self._confining(self.stages[0]),
-                                            sample.mean_diameter)
-            self.solver = SoftContactStep(self.contact_law, dt=s.dt or 1.0,
-                                          friction=first.friction)
-        else:
-            self.contact_law = None
-            self.solver = ContactDynamicsStep(
-                dt=s.dt or 1.0, theta=s.theta, tolerance=first.tolerance,
-                max_iterations=first.max_iterations, friction=first.friction,
-                sweep=s.sweep, seed=s.seed, overlap_recovery=first.overlap_recovery,
-                gyroscopic=self.adaptive_step,
-                warm_start_extrapolation=s.warm_start_extrapolation)
+        self.solver, self.contact_law = self.solver_record.build(
+            s, sample, lambda: self.boundary.confining(self.stages[0]), self.adaptive_step)
         self.simulation = Simulation(sample, self.solver)
         self.simulation.add(_StageControl(self))
         self.simulation.add(_Recorder(self, Periodic(s.record_every)))
 
-    def load_stages(self, path: LoadPath) -> list[WallStage]:
-        """The path's stages as this test's boundary runs them (walls here)."""
-        return wall_stages(path)
+    def load_stages(self, path: LoadPath) -> list:
+        """The path's stages as this test's boundary runs them (its solver's grains
+        deformable or not: :attr:`~grainlab.lab.solver_registry.SolverRecord.deformable`)."""
+        return self.boundary.load_stages(path, self.solver_record.deformable)
 
     # -- stage logic --------------------------------------------------------------------------
     @property
-    def stage(self) -> WallStage | None:
+    def stage(self):
         """The current stage (None when finished)."""
         return None if self.stage_index >= len(self.stages) else self.stages[self.stage_index]
 
@@ -394,15 +233,9 @@ class DiscreteTest:
         """The numerics of the current stage (:meth:`DiscreteTestSettings.numerics_for`)."""
         return self.settings.numerics_for(bool(self.stage.moving_axes))
 
-    def _confining(self, stage: WallStage) -> float:
-        values = [stage.targets[a] for a in stage.stress_axes
-                  if math.isfinite(stage.targets[a])]
-        if values:
-            return max(values)
-        return self._confining_from_rows(stage)
-
-    def _confining_from_rows(self, stage) -> float:
-        """The mean stress of the last record [Pa] (a stage without a stress target)."""
+    def mean_stress_reached(self, stage) -> float:
+        """The mean stress of the last record [Pa]: the reference of a stage without a stress
+        target."""
         p = self.rows[-1]["p"] if self.rows else math.nan
         if not (math.isfinite(p) and p > 0.0):
             raise InputError(f"stage {stage.name!r}", "no stress reference",
@@ -411,79 +244,52 @@ class DiscreteTest:
         return p
 
     def start_stage(self) -> None:
-        """Set the walls, friction, strain rate and time step of the current stage; a stage
-        whose target would flatten the box does not start (the test halts, module
-        docstring)."""
+        """Set the boundary's control, the friction, strain rate and time step of the
+        current stage; a stage whose target would leave the boundary too thin does not
+        start (the test halts, module docstring)."""
         stage = self.stage
         assert stage is not None
-        box = self.sample.box
-        if stage.moving_axes:
-            flat = self._stage_flattening(stage, box.lengths, self.reference_lengths)
-            if flat:
-                self.halt(BOX_TOO_THIN, flat[0].words() + "; " + flat[0].advice())
-                return
-        p_ref = self._confining(stage)
+        refusal = self.boundary.refuse_start(stage)
+        if refusal:
+            self.halt(BOX_TOO_THIN, refusal)
+            return
+        p_ref = self.boundary.confining(stage)
         self.strain_rate = self.stage_numerics.inertia_number * \
             math.sqrt(p_ref / self.sample.state.density) / self.sample.mean_diameter
-        for a in range(3):
-            mode, target = stage.modes[a], stage.targets[a]
-            lower, upper = WALL_NAMES[2 * a], WALL_NAMES[2 * a + 1]
-            if mode == "fixed":
-                box.set_control(lower, "fixed")
-                box.set_control(upper, "fixed")
-            elif mode == "strain":
-                box.set_control(lower, "fixed")
-                box.set_control(upper, "velocity", math.copysign(1.0, target)
-                                * self.strain_rate * box.lengths[a])
-            else:
-                sigma = target if math.isfinite(target) else self._held_stress(a)
-                box.set_control(lower, "fixed")
-                box.set_control(upper, "stress", sigma)
-        self.stage_wall_speed = self.strain_rate * float(box.lengths.max())  # [m/s]
+        self.boundary.start(stage, p_ref)
+        self.stage_wall_speed = self.strain_rate * self.boundary.width()  # [m/s]
         self.stage_start_step = self.simulation.step_index
         self.stage_start_unconverged = self.simulation.unconverged_steps
-        self.stage_start_lengths = box.lengths.copy()
         self.step_control.scale = 1.0  # every stage starts at its shortest step
         self._stage_numerics()
+        self.boundary.after_step(stage)
         self.stage_started = True
 
     def _stage_numerics(self) -> None:
-        """The solver settings, wall speed limits, time step and wall masses of the current
-        stage, from the settings and the stage's wall speed ``stage_wall_speed``."""
-        s, box, numerics = self.settings, self.sample.box, self.stage_numerics
-        self.solver.friction = numerics.friction
-        self.solver.max_iterations = numerics.max_iterations
-        self.solver.overlap_recovery = numerics.overlap_recovery
-        self.solver.tolerance = numerics.tolerance
-        v_max = self.stage_wall_speed
-        box.set_max_speeds(v_max)
+        """The solver settings, time step and the boundary's speed limits and masses of the
+        current stage, from the settings and the stage's wall speed ``stage_wall_speed``."""
+        s, numerics = self.settings, self.stage_numerics
         # overlap recovery slower than the walls: beta |g| / h alone grows without bound as
         # the step shortens (spinning polyhedra), and then blows the sample apart
-        self.solver.overlap_recovery_speed = RECOVERY_SPEED_FRACTION * v_max
+        self.solver_record.set_stage(self.solver, numerics,
+                                     RECOVERY_SPEED_FRACTION * self.stage_wall_speed)
         if s.dt is None:
             self.stage_dt = self.automatic_step()
         else:  # the last step of the previous stage may have been cut short
             self.stage_dt = s.dt
         self.step_control = self._step_control(self.step_control.scale)
-        self.solver.dt = self._last_step(self.stage_dt * self.step_control.scale)
-        # stress walls: heavy enough that one step of driving force cannot take them past the
-        # speed limit (h F / m_w <= v_max): otherwise the solver spends its sweeps trading the
-        # driving impulse between the brake and the contacts
-        box.servo = s.wall_servo
-        if box.servo:
-            box.set_masses(box.servo_masses(self.solver.dt))
-        else:
-            force = box.driving_forces()
-            masses = np.maximum(float(np.sum(self.sample.state.masses)) * s.wall_mass_factor,
-                                self.solver.dt * force / v_max)
-            box.set_masses(masses)
+        self.solver.dt = self.boundary.last_step(self.stage,
+                                                 self.stage_dt * self.step_control.scale)
+        self.boundary.stage_numerics(self.stage)
 
     def _step_control(self, scale: float) -> OverlapStepControl:
         """The step control of the current stage (:mod:`grainlab.lab.step_control`) at
-        ``scale`` (at most its growth): the stage's ``time_step_growth`` with contact dynamics
-        and an automatic step, else a fixed step (growth 1)."""
+        ``scale`` (at most its growth): the stage's ``time_step_growth`` with a solver that
+        grows its step (:attr:`~grainlab.lab.solver_registry.SolverRecord.grows_step`) and
+        an automatic step, else a fixed step (growth 1)."""
         s, numerics = self.settings, self.stage_numerics
-        growth = numerics.time_step_growth if s.dt is None and s.method == "cd" else 1.0
+        grows = s.dt is None and self.solver_record.grows_step
+        growth = numerics.time_step_growth if grows else 1.0
         return OverlapStepControl(growth, numerics.overlap_bound * self.sample.mean_diameter,
                                   scale=min(scale, growth))
 
@@ -491,18 +297,11 @@ class DiscreteTest:
         """The step h [s] the current stage takes when the test's ``dt`` is not given: its
         ``time_step_factor`` x d_min [m] (:func:`time_step_length`) / the stage's wall speed
         [m/s] (the shortest: the step may grow from it by ``time_step_growth``), in whole
-        sub-steps for the soft-contact solver."""
+        sub-steps for a solver of sub-steps."""
         numerics = self.stage_numerics
-        return self._whole_substeps(numerics.time_step_factor
-                                    * time_step_length(self.sample.library)
-                                    / self.stage_wall_speed)
-
-    def _whole_substeps(self, dt: float) -> float:
-        """The stage's step [s] from the time step factor's ``dt``: for the soft-contact
-        solver, rounded down to whole stable sub-steps
-        (:meth:`~grainlab.engine.dem.soft_contact.SoftContactStep.whole_substeps`)."""
-        whole = getattr(self.solver, "whole_substeps", None)
-        return dt if whole is None else whole(dt, self.sample.state, self.sample.library)
+        return self.solver_record.step_length(
+            self.solver, numerics.time_step_factor * time_step_length(self.sample.library)
+            / self.stage_wall_speed, self.sample.state, self.sample.library)
 
     def apply_settings(self, previous: DiscreteTestSettings) -> None:
         """Take up the current ``settings`` in a stage under way (a resumed run whose
@@ -545,55 +344,31 @@ class DiscreteTest:
                     f"raise it to go on (--set solver.max_stage_steps={2 * steps})")
         return f"stage {self.halted['stage']} stopped: {self.halted['reason']}"
 
-    # -- the box against its particles (lab.box_thickness) -----------------------------------
-    def box_limits(self, reference: np.ndarray) -> np.ndarray:
-        """(3,) smallest edges [m] allowed for a consolidated box of edges ``reference``."""
-        return box_limits(self.largest_diameter, reference)
-
-    def _stage_flattening(self, stage: WallStage, start: np.ndarray,
-                          reference: np.ndarray) -> list[Flattening]:
-        return stage_flattening(stage, start, reference, self.largest_diameter,
-                                self.sample.state.n_bodies)
-
+    # -- the boundary against its particles -------------------------------------------------
     def predicted_flattening(self) -> list[Flattening]:
-        """The stages from the current one whose targets would flatten the box
-        (:func:`~grainlab.lab.box_thickness.predicted_flattening`), from the box now (the
-        stage under way: from its start)."""
+        """The stages from the current one whose targets would leave the boundary too thin
+        (:meth:`~grainlab.lab.box_boundary.BoxBoundary.predicted_flattening`; none in a
+        periodic cell), from the boundary now (the stage under way: from its start)."""
         started = self.stage_started and self.stage is not None and self.stage.moving_axes
-        lengths = self.stage_start_lengths if started else self.sample.box.lengths
-        library, state = self.sample.library, self.sample.state
-        return predicted_flattening(self.stages[self.stage_index:], lengths,
-                                    self.reference_lengths,
-                                    float(np.sum(library.volume[state.shape_ids])),
-                                    self.largest_diameter, state.n_bodies)
-
-    def _held_stress(self, axis: int) -> float:
-        if not self.rows:
-            raise InputError(f"stage {self.stage.name!r}: sigma_{AXES[axis] * 2}", "held",
-                             "a stress target: no earlier stage set this stress")
-        return float(self.rows[-1][f"wall_sigma_{AXES[axis] * 2}"])
+        return self.boundary.predicted_flattening(self.stages[self.stage_index:],
+                                                  bool(started))
 
     def drive(self) -> None:
-        """Keep the strain-controlled walls at a constant logarithmic strain rate (at rest
-        once their axis reached its target); grow or shorten the step by the overlaps
+        """Follow the step just done and set the boundary for the next (strain-controlled
+        walls at a constant logarithmic strain rate, the cell's progress and control); grow
+        or shorten the step by the overlaps where the boundary's step follows them
         (:mod:`grainlab.lab.step_control`); with polyhedra, shorten it to the particles' own
         speeds; cut the last step of the stage (module docstring)."""
-        stage, box = self.stage, self.sample.box
+        stage = self.stage
         if stage is None:
             return
-        strained = self._stage_strains()
-        for a in stage.moving_axes:
-            sign = math.copysign(1.0, stage.targets[a])
-            speed = 0.0 if abs(strained[a]) >= abs(stage.targets[a]) else \
-                sign * self.strain_rate * box.lengths[a]
-            box.set_control(WALL_NAMES[2 * a + 1], "velocity", speed)
-        scale = self._step_scale()
+        self.boundary.before_step(stage)
+        scale = self._step_scale() if self.boundary.steps_by_overlap else 1.0
         dt = self.stage_dt * scale
         if self.adaptive_step and self.settings.dt is None:
             dt = min(dt, self._particle_speed_step(scale))
-        self.solver.dt = self._last_step(dt)
-        if box.servo:  # damping fixed, mass c h follows the step (and the face areas)
-            box.set_masses(box.servo_masses(self.solver.dt))
+        self.solver.dt = self.boundary.last_step(stage, dt)
+        self.boundary.after_step(stage)
 
     def _step_scale(self) -> float:
         """The scale of the coming step (:mod:`grainlab.lab.step_control`), from the largest
@@ -622,43 +397,21 @@ class DiscreteTest:
         return scale * travel / fastest
 
     # -- stage ends (module docstring) --------------------------------------------------------
-    def wall_strains(self, lengths: np.ndarray | None = None) -> dict[str, float]:
-        """The strain columns (:data:`STRAIN_COLUMNS`) of the box now, or of a box of
-        ``lengths`` (3,) [m], from the reference box."""
-        return box_strains(self.reference_lengths,
-                           self.sample.box.lengths if lengths is None else lengths)
-
-    def _stage_strains(self) -> np.ndarray:
-        """(3,) logarithmic strains [-] since the stage began."""
-        return log_strains(self.stage_start_lengths, self.sample.box.lengths)
-
-    def wall_end(self) -> tuple[bool, str]:
-        """Whether the walls end the current stage now, and why (checked after every step):
-        a stop criterion on a strain column, every strain-controlled axis at its target, a box
-        too thin for its particles (:data:`THIN_BOX`), ``max_stage_steps``
-        (:data:`MAX_STEPS_REASON`)."""
+    def boundary_end(self) -> tuple[bool, str]:
+        """Whether the boundary ends the current stage now, and why (checked after every
+        step): a stop criterion on one of its strain columns, its targets reached or it too
+        thin for its particles (:data:`~grainlab.lab.stage_boundary.THIN_BOX`),
+        ``max_stage_steps`` (:data:`~grainlab.lab.stage_boundary.MAX_STEPS_REASON`)."""
         stage = self.stage
         assert stage is not None
-        strains = self.wall_strains()
+        self.boundary.advance(stage)
+        strains = self.boundary.strains()
         for criterion in stage.stop:
             if criterion.quantity in strains and criterion.met(strains):
-                return True, _stop_reason(criterion)
-        if stage.moving_axes:
-            strained = self._stage_strains()
-            if all(abs(strained[a]) >= abs(stage.targets[a]) for a in stage.moving_axes):
-                return True, "strain reached"
-            lengths = self.sample.box.lengths
-            limits = self.box_limits(self.reference_lengths)
-            thin = np.flatnonzero(lengths < limits)
-            if thin.size:
-                a = int(thin[0])
-                return True, (
-                    f"{THIN_BOX}: its {AXES[a]} edge is {lengths[a] * 1e3:.4g} mm, "
-                    f"{lengths[a] / self.largest_diameter:.2f} largest particle diameters "
-                    f"(d_max = {self.largest_diameter * 1e3:.4g} mm; smallest allowed "
-                    f"{limits[a] * 1e3:.4g} mm), at {strains['eps_q']:.4g} of eps_q: the "
-                    "particles are squeezed into one or two layers, where no time step or "
-                    "tolerance helps; ask a smaller strain or use more particles")
+                return True, stop_reason(criterion)
+        reason = self.boundary.target_end(stage)
+        if reason:
+            return True, reason
         if self.simulation.step_index - self.stage_start_step >= self.settings.max_stage_steps:
             return True, MAX_STEPS_REASON
         return False, ""
@@ -680,57 +433,19 @@ class DiscreteTest:
 
     def stage_done(self, row: dict[str, Any]) -> tuple[bool, str]:
         """Whether the current stage ends at this record, and why: any stop criterion,
-        :meth:`wall_end`, quasi-static (stages without a strain-controlled axis)."""
+        :meth:`boundary_end`, quasi-static (the boundary's :meth:`~grainlab.lab.
+        stage_boundary.StageBoundary.settled`)."""
         stage = self.stage
         assert stage is not None
         for criterion in stage.stop:
             if criterion.met(row):
-                return True, _stop_reason(criterion)
-        done, reason = self.wall_end()
+                return True, stop_reason(criterion)
+        done, reason = self.boundary_end()
         if done:
             return done, reason
-        if self.settled(row):
+        if self.boundary.settled(stage, row):
             return True, "quasi-static"
         return False, ""
-
-    def settled(self, row: dict[str, Any]) -> bool:
-        """Whether a stage without a strain-controlled axis is quasi-static at ``row``
-        (:class:`~grainlab.lab.wall_stages.QuasiStaticCriteria` on the walls' stresses)."""
-        stage = self.stage
-        if stage.moving_axes:
-            return False
-        targets = {a: self.sample.box.controls[2 * a + 1].value for a in stage.stress_axes}
-        return self.settings.quasi_static.met(row, targets)
-
-    def _last_step(self, dt: float) -> float:
-        """``dt`` [s], or the step that ends the stage where a step of at most
-        (1 + :data:`SHORTEST_CUT`) ``dt`` reaches a target (module docstring): the step that
-        ends a strain-controlled axis on its target, the predicted crossing of a stop criterion
-        on a strain column (at least :data:`SHORTEST_CUT` of ``dt``). Wall speeds as the
-        coming step will have them."""
-        stage, box = self.stage, self.sample.box
-        lengths = box.lengths
-        closing = box.speeds[0::2] + box.speeds[1::2]  # [m/s], > 0 shortens the axis
-        reach = dt * (1.0 + SHORTEST_CUT)  # a step may stretch this far to end the stage
-        cut = math.inf
-        for a in stage.moving_axes:
-            if closing[a] == 0.0:
-                continue
-            target = stage.targets[a] + math.copysign(TARGET_MARGIN, stage.targets[a])
-            travel = lengths[a] - self.stage_start_lengths[a] * math.exp(-target)
-            if 0.0 < travel / closing[a] <= reach:
-                cut = min(cut, travel / closing[a])  # cut short, or stretched: no sliver left
-        criteria = [c for c in stage.stop if c.quantity in STRAIN_COLUMNS]
-        if criteria:
-            now, after = self.wall_strains(), self.wall_strains(lengths - reach * closing)
-            for criterion in criteria:
-                if criterion.met(now) or not criterion.met(after):
-                    continue
-                start, end = _value(criterion, now), _value(criterion, after)
-                goal = criterion.limit + math.copysign(
-                    TARGET_MARGIN, 1.0 if criterion.when == "above" else -1.0)
-                cut = min(cut, max(SHORTEST_CUT * dt, (goal - start) / (end - start) * reach))
-        return dt if cut == math.inf else cut
 
     def end_stage(self, reason: str, ended: str = REACHED) -> None:
         """Close the current stage (``ended`` of :data:`~grainlab.lab.run_outcome.ENDINGS`)
@@ -742,8 +457,7 @@ class DiscreteTest:
             self._snapshot(*unsnapped)  # every stage's end state is a snapshot
         self._unsnapped = None
         self.outcome["stages"].append(self._stage_record(reason, ended))
-        if not stage.moving_axes:
-            self.reference_lengths = self.sample.box.lengths.copy()
+        self.boundary.stage_ended(stage)
         self.stage_index += 1
         self.stage_started = False
         ends_test = any(c.met(self.rows[-1]) and c.ends == "test" for c in stage.stop) \
@@ -785,17 +499,11 @@ class DiscreteTest:
             rows = [r for r in self.rows
                     if r["stage"] == record["name"] and start < r["step"] <= end]
             stage = by_name.get(record["name"])
-            targets = self.outcome_stress_targets(stage) if stage is not None else {}
+            targets = self.boundary.stress_targets(stage) if stage is not None else {}
             stages.append(stage_outcome(record, rows, self.settings, targets))
         return RunOutcome(stages=tuple(stages), finished=self.finished,
                           steps=self.simulation.step_index,
                           stopped=self.halted["reason"] if self.halted else "")
-
-    def outcome_stress_targets(self, stage) -> dict[str, float]:
-        """The stress targets [Pa] of a stage's stress-controlled axes, by ``"xx"``... (the
-        outcome judges the walls' stresses against them)."""
-        return {AXES[a] * 2: stage.targets[a] for a in stage.stress_axes
-                if math.isfinite(stage.targets[a])}
 
     # -- records ------------------------------------------------------------------------------
     def record(self) -> dict[str, Any]:
@@ -824,7 +532,7 @@ class DiscreteTest:
         free_spin = float(np.sum(self.sample.state.rotational_energies()[~loaded_bodies]))
         row["kinetic_energy_ratio"] = (row["kinetic_energy"] - free_spin) \
             / (n * p * d_mean**3) if p > 0.0 else math.nan
-        row["velocity_zigzag"] = float(getattr(self.solver, "velocity_zigzag", math.nan))
+        row.update(self.solver_record.row_fields(self.solver))
         stage = self.stage
         full = {"stage": stage.name if stage else "end", "step": sim.step_index,
                 "time": sim.time, "dt": sim.last_dt, "friction": self.solver.friction}
@@ -843,11 +551,9 @@ class DiscreteTest:
         return full
 
     def measures(self):
-        """The results row and contact network of the sample now
-        (:func:`~grainlab.engine.sample_measures.sample_measures`)."""
-        return sample_measures(self.simulation.last_report, self.sample.state,
-                               self.sample.library, self.sample.box, self.reference_lengths,
-                               self.simulation.last_dt, self.solver.friction)
+        """The results row and contact network of the sample now (the boundary's
+        :meth:`~grainlab.lab.stage_boundary.StageBoundary.measures`)."""
+        return self.boundary.measures()
 
     def _snapshot(self, network, full: dict[str, Any]) -> None:
         network.state.update({k: v for k, v in full.items() if k != "stage"})
@@ -875,8 +581,7 @@ class DiscreteTest:
         return {
             "stage_index": self.stage_index, "stage_started": self.stage_started,
             "stage_start_step": self.stage_start_step,
-            "stage_start_lengths": self.stage_start_lengths.copy(),
-            "reference_lengths": self.reference_lengths.copy(),
+            **self.boundary.checkpoint_arrays(),
             "strain_rate": self.strain_rate, "n_snapshots": self.n_snapshots,
             "finished": self.finished, "halted": self.halted,
             "stage_start_unconverged": self.stage_start_unconverged,
@@ -885,10 +590,8 @@ class DiscreteTest:
             "step_scale": self.step_control.scale,
             "alert": self.solver.alert,
             "alert_growths": self.solver.alert_growths,
-            "friction": self.solver.friction, "max_iterations": self.solver.max_iterations,
-            "overlap_recovery": self.solver.overlap_recovery,
-            "overlap_recovery_speed": self.solver.overlap_recovery_speed,
-            "tolerance": self.solver.tolerance,
+            "friction": self.solver.friction,
+            **self.solver_record.checkpoint_fields(self.solver),
             "step_index": self.simulation.step_index,
             "time": self.simulation.time,
             "unconverged_steps": self.simulation.unconverged_steps,
@@ -900,8 +603,7 @@ class DiscreteTest:
         self.stage_index = int(data["stage_index"])
         self.stage_started = bool(data["stage_started"])
         self.stage_start_step = int(data["stage_start_step"])
-        self.stage_start_lengths = np.asarray(data["stage_start_lengths"], dtype=float)
-        self.reference_lengths = np.asarray(data["reference_lengths"], dtype=float)
+        self.boundary.restore(data)
         self.strain_rate = float(data["strain_rate"])
         self.n_snapshots = int(data["n_snapshots"])
         self.finished = bool(data["finished"])
@@ -912,14 +614,10 @@ class DiscreteTest:
         self.solver.alert = None if data["alert"] is None else float(data["alert"])
         self.solver.alert_growths = int(data["alert_growths"])
         self.solver.friction = float(data["friction"])
-        if "max_iterations" in data:
-            self.solver.max_iterations = int(data["max_iterations"])
-            self.solver.overlap_recovery = float(data["overlap_recovery"])
-            self.solver.tolerance = float(data["tolerance"])
-        if "overlap_recovery_speed" in data:
-            self.solver.overlap_recovery_speed = float(data["overlap_recovery_speed"])
+        self.solver_record.restore(self.solver, data)
         self.stage_wall_speed = float(data.get(
-            "stage_wall_speed", self.solver.overlap_recovery_speed / RECOVERY_SPEED_FRACTION))
+            "stage_wall_speed", data.get("overlap_recovery_speed", math.inf)
+            / RECOVERY_SPEED_FRACTION))
         self.simulation.step_index = int(data["step_index"])
         self.simulation.time = float(data["time"])
         self.simulation.unconverged_steps = int(data["unconverged_steps"])
@@ -929,7 +627,7 @@ class DiscreteTest:
 
 
 class _StageControl:
-    """Drives the walls every step; starts the next stage when one ended."""
+    """Drives the boundary every step; starts the next stage when one ended."""
 
     name = "stage_control"
 
@@ -946,7 +644,7 @@ class _StageControl:
             if test.halted:
                 return
         else:
-            done, reason = test.wall_end()
+            done, reason = test.boundary_end()
             if done:
                 test.record()  # the state the stage ends in is a row
                 test.close_stage(reason)  # and the next stage's walls and step are set
@@ -975,20 +673,6 @@ class _Recorder:
         if done:
             test.close_stage(reason)
 
-
-
-MAX_STEPS_REASON = "max_stage_steps reached"
-THIN_BOX = "box too thin for its particles"
-
-
-def _stop_reason(criterion: StopCriterion) -> str:
-    return f"stop criterion {criterion.quantity} {criterion.when} {criterion.limit:g}"
-
-
-def _value(criterion: StopCriterion, row: dict[str, float]) -> float:
-    """The value ``criterion`` compares with its limit."""
-    value = float(row[criterion.quantity])
-    return abs(value) if criterion.absolute else value
 
 
 def _k0(row: dict[str, float]) -> float:

@@ -33,15 +33,12 @@ from __future__ import annotations
 from typing import Any
 
 from grainlab.errors import InputError
-from grainlab.lab.stage_numerics import STAGE_KINDS
+from grainlab.lab.solver_registry import NLGS_KEYS, solver_record
 from grainlab.prep.sample_shapes import SAMPLE_SHAPES
 
-CD_ONLY = ("solver.sweep", "solver.theta", "solver.warm_start_extrapolation",
-           "output.problems_every",
-           *(f"solver.{kind}.{key}" for kind in STAGE_KINDS
-             for key in ("tolerance", "max_iterations", "overlap_recovery",
-                         "capped_share_limit", "time_step_growth")))
-"""The keys only contact dynamics reads (module docstring)."""
+CD_ONLY = NLGS_KEYS
+"""The keys only contact dynamics reads (module docstring; its record's ``own_keys``,
+:mod:`grainlab.lab.solver_registry`)."""
 
 WALLS_ONLY = ("solver.wall_servo", "solver.wall_mass_factor", "sample.wall_friction",
               "solver.dem.rigid_walls")
@@ -69,31 +66,9 @@ FROM_PARTICLE_FILE = (*FROM_SKELETON, "sample.shape", "sample.seed", *SHAPE_KEYS
 
 
 def _solver_reason(config: Any, key: str) -> str:
-    """Why ``key`` does nothing with the config's solver and law ("" when it acts)."""
-    method, dem = config.solver.method, config.solver.dem
-    if method == "dem" and key in CD_ONLY:
-        return ("it sets the contact-dynamics solver (NLGS sweeps), which solver.method = "
-                "'dem' (--solver dem, soft contacts, explicit: no sweeps, tolerance or "
-                "iteration cap) does not use")
-    if method == "cd" and key.startswith("solver.dem."):
-        return ("it sets the soft-contact law of solver.method = 'dem' (--solver dem); "
-                "contact dynamics (the default solver, rigid grains) has no stiffness, "
-                "damping or restitution")
-    if method != "dem":
-        return ""
-    if dem.law == "linear" and key in ("solver.dem.young_modulus", "solver.dem.poisson_ratio"):
-        return ("it sets Hertz-Mindlin grains; solver.dem.law = 'linear' (--law linear) "
-                "takes its stiffness from solver.dem.normal_stiffness or --kappa")
-    if dem.law == "hertz_mindlin" and key == "solver.dem.normal_stiffness":
-        return ("it sets linear springs; solver.dem.law = 'hertz_mindlin' (--law "
-                "hertz_mindlin) takes its stiffness from --young-modulus or --kappa")
-    if key == "solver.dem.kappa":
-        given = {"linear": ("normal_stiffness", dem.normal_stiffness),
-                 "hertz_mindlin": ("young_modulus", dem.young_modulus)}[dem.law]
-        if given[1] > 0.0:
-            return (f"solver.dem.{given[0]} = {given[1]:g} sets the stiffness already "
-                    "(kappa is used only when it is 0)")
-    return ""
+    """Why ``key`` does nothing with the config's solver and law ("" when it acts): its
+    record's words (:meth:`~grainlab.lab.solver_registry.SolverRecord.inert_reason`)."""
+    return solver_record(config.solver.method).inert_reason(config, key)
 
 
 def _boundary_reason(config: Any, key: str) -> str:

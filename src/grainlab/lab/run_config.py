@@ -94,6 +94,7 @@ from grainlab.lab.presets import (
     true_triaxial,
 )
 from grainlab.lab.soft_contact_settings import SoftContactSettings
+from grainlab.lab.solver_registry import SOLVER_NAMES
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR, STAGE_KINDS, StageNumerics
 from grainlab.lab.wall_stages import QuasiStaticCriteria
 from grainlab.prep.sample_shapes import MAX_FACES, sample_shape
@@ -348,7 +349,7 @@ class SolverConfig(_Section):
     """Numerical settings (:class:`grainlab.lab.discrete_test.DiscreteTestSettings`): the
     run-wide keys, a table per kind of stage and the soft-contact law."""
 
-    method: Literal["cd", "dem"] = _RUN_WIDE.method
+    method: Literal[SOLVER_NAMES] = _RUN_WIDE.method
     dt: StrictFloat = Field(0.0, ge=0)
     theta: StrictFloat = Field(_RUN_WIDE.theta, ge=0.5, le=1.0)
     sweep: Literal["coloured", "serial"] = _RUN_WIDE.sweep

@@ -36,6 +36,7 @@ import numpy as np
 
 from grainlab.errors import InputError
 from grainlab.lab.cell_thickness import CELL_PACKING_ESTIMATE
+from grainlab.lab.solver_registry import solver_record, stiffness_setting
 
 MAX_SUBSTEPS = 5e7
 """Most sub-steps a soft-contact run may be estimated at: 200 times the 1000-sphere triaxial
@@ -94,18 +95,13 @@ def refuse_endless_run(test: Any, config: Any) -> None:
     ``test`` built, not run) too long to run (module docstring); nothing when it is not."""
     state = test.sample.state
     total = simulated_time(config, test.sample.mean_diameter, float(state.density))
-    if config.solver.method == "dem":
+    if solver_record(config.solver.method).explicit_substeps:
         dt = substep(test)
         substeps = total / dt
         work = substeps * state.n_bodies
         if substeps <= MAX_SUBSTEPS and work <= MAX_PARTICLE_SUBSTEPS:
             return
-        dem = config.solver.dem
-        key, value = "solver.dem.kappa", dem.kappa
-        if dem.law == "linear" and dem.normal_stiffness > 0.0:
-            key, value = "solver.dem.normal_stiffness", dem.normal_stiffness
-        elif dem.law == "hertz_mindlin" and dem.young_modulus > 0.0:
-            key, value = "solver.dem.young_modulus", dem.young_modulus
+        key, value = stiffness_setting(config.solver.dem)
         raise InputError(key, value, (
             f"a stiffness the run can reach its end with: the estimate is at least "
             f"{substeps:.3g} sub-steps of {dt:.3g} s over {total:.3g} s of loading for "

@@ -78,6 +78,8 @@ from typing import Any
 
 import numpy as np
 
+from grainlab.lab.solver_registry import DEFAULT_SOLVER, solver_record
+
 REACHED = "reached"
 MAX_STAGE_STEPS = "max_stage_steps"
 BOX_TOO_THIN = "box too thin"
@@ -499,14 +501,14 @@ def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
     also give the words of an unsettled stage)."""
     moving = bool(record.get("strain_controlled", False))
     numerics = settings.numerics_for(moving)
+    solver = solver_record(getattr(settings, "method", DEFAULT_SOLVER))
     ended = record.get("ended", REACHED)
     values: dict[str, Any] = {
         "name": record["name"], "ended": ended, "reason": record["reason"],
         "steps": int(record["steps"]), "capped_steps": int(record.get("capped_steps", 0)),
         "start_step": int(record.get("start_step", -1)),
         "end_step": int(record.get("end_step", -1)),
-        "max_iterations": 0 if getattr(settings, "method", "cd") == "dem"
-        else int(numerics.max_iterations),
+        "max_iterations": int(numerics.max_iterations) if solver.iterative else 0,
         "capped_share_limit": float(getattr(numerics, "capped_share_limit", 1.0))}
     if moving:
         inertia = np.array([r["inertia_number"] for r in rows], dtype=float)
@@ -524,6 +526,6 @@ def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
     elif ended != REACHED and rows:
         normal = {a: t for a, t in stress_targets.items() if not isinstance(t, tuple)}
         values["unsettled"] = _unsettled(rows[-1], settings.quasi_static, normal)
-    if getattr(settings, "method", "cd") == "dem":
+    if solver.explicit_substeps:
         values["zigzag"] = _zigzag(rows)
     return StageOutcome(**values)

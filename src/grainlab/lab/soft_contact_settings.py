@@ -24,10 +24,6 @@ from grainlab._validate import at_least, positive
 from grainlab.contact.soft_contact_law import LAW_NAMES, SoftContactLaw
 from grainlab.errors import InputError
 
-SOLVER_METHODS = ("cd", "dem")
-"""The solvers of a discrete test: contact dynamics (rigid grains, implicit) and soft-contact
-DEM (explicit)."""
-
 
 @dataclass(frozen=True)
 class SoftContactSettings:

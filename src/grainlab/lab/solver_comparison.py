@@ -43,6 +43,7 @@ import pandas as pd
 
 from grainlab.analysis.compute import Compute
 from grainlab.errors import InputError
+from grainlab.lab import solver_registry
 from grainlab.lab.discrete_run import (
     CHECKPOINT,
     CONFIG,
@@ -60,14 +61,13 @@ from grainlab.lab.run_config import (
     flat_keys,
 )
 from grainlab.lab.run_outcome import RunCost, RunOutcome
-from grainlab.lab.soft_contact_settings import SOLVER_METHODS
 from grainlab.result.test_result import TestResult, read_test_result
 
-SOLVERS = SOLVER_METHODS
+SOLVERS = solver_registry.SOLVER_NAMES
 """The two solvers compared, the reference (contact dynamics) first; also the names of the
 run folders."""
 
-SOLVER_NAMES = {"cd": "contact dynamics", "dem": "soft-contact DEM"}
+SOLVER_NAMES = {name: record.title for name, record in solver_registry.SOLVERS.items()}
 
 RESIDUAL_SHARE = 0.3
 """The residual state of a shear test: the mean over the records whose eps_q is in the last
@@ -171,20 +171,7 @@ def run_config(result: TestResult) -> dict[str, Any]:
 def solver_label(result: TestResult) -> str:
     """The solver of a run in words: ``"contact dynamics (cd)"``, ``"soft-contact DEM (dem):
     linear, kappa = 1000"``."""
-    solver = run_config(result).get("solver", {})
-    method = solver.get("method", "cd")
-    text = f"{SOLVER_NAMES.get(method, method)} ({method})"
-    if method != "dem":
-        return text
-    dem = solver.get("dem", {})
-    law = dem.get("law", "linear")
-    if law == "linear" and dem.get("normal_stiffness", 0.0) > 0.0:
-        stiffness = f"k_n = {dem['normal_stiffness']:g} N/m"
-    elif law == "hertz_mindlin" and dem.get("young_modulus", 0.0) > 0.0:
-        stiffness = f"E = {dem['young_modulus']:g} Pa"
-    else:
-        stiffness = f"kappa = {dem.get('kappa', math.nan):g}"
-    return f"{text}: {law}, {stiffness}"
+    return solver_registry.solver_label(run_config(result).get("solver", {}))
 
 
 def residual_rows(shear: pd.DataFrame) -> pd.DataFrame:
@@ -308,7 +295,7 @@ class SolverComparison(Compute):
 def _check_same_test(results: dict[str, TestResult]) -> None:
     configs = {method: run_config(result) for method, result in results.items()}
     for method, config in configs.items():
-        solver = config.get("solver", {}).get("method", "cd")
+        solver = config.get("solver", {}).get("method", solver_registry.DEFAULT_SOLVER)
         if solver != method:
             raise InputError(f"runs[{method!r}]", solver, f"a run with solver.method = "
                              f"{method!r}")

@@ -42,6 +42,7 @@ from grainlab.analysis.window_average import StrainWindow, WindowAverage
 from grainlab.errors import InputError
 from grainlab.lab.run_config import RunConfig, current_layout
 from grainlab.lab.solver_comparison import RESIDUAL_SHARE
+from grainlab.lab.solver_registry import SOLVERS
 from grainlab.prep.sample_shapes import particles_text
 from grainlab.report.curves import save_figure
 from grainlab.report.microstructure_figures import (
@@ -192,9 +193,8 @@ def _sample_lines(config: dict[str, Any], result: TestResult) -> list[tuple[str,
     if kind != "compaction" and "friction" in solver.get("shear", {}):
         lines.append(("friction mu", number(solver["shear"]["friction"])))
     if "method" in solver:
-        lines.append(("solver", {"cd": "contact dynamics (rigid grains)",
-                                 "dem": "soft-contact DEM"}.get(solver["method"],
-                                                                solver["method"])))
+        record = SOLVERS.get(solver["method"])
+        lines.append(("solver", solver["method"] if record is None else record.words))
     return lines
 
 

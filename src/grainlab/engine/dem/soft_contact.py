@@ -207,11 +207,6 @@ class SoftContactStep:
         force evaluation and its end, over themselves (:func:`~grainlab.engine.
         soft_stability.zigzag_index`): small for a motion the sub-steps resolve, about 1 for
         one that flips sign at every sub-step (an unstable sub-step)."""
-        # read and set by the lab as for contact dynamics; an explicit step has no iterations
-        self.tolerance = 1.0
-        self.max_iterations = 1
-        self.overlap_recovery = 0.0
-        self.overlap_recovery_speed = math.inf
         self.theta = 1.0
         self.alert_growths = 0
         self.n_substeps = 0

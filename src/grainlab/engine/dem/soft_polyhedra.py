@@ -313,9 +313,10 @@ class PolyhedronRows:
         impulses = np.einsum("cij,cj->ci", frames, self.point_force[kept]) * macro
         relative = np.einsum("cij,cj->ci", frames, self.point_velocity[kept])
         return StepReport(
-            n_contacts=contacts.n_contacts, iterations=1, converged=True, change=0.0,
+            n_contacts=contacts.n_contacts, iterations=0, converged=True, change=0.0,
             residual=0.0, max_overlap=float(run.stats[0]), contacts=contacts, frames=frames,
-            impulses=impulses, relative_velocity=relative, images=self.images[pair]), \
+            impulses=impulses, relative_velocity=relative, images=self.images[pair],
+            explicit=True), \
             self.point_force[kept]
 
 

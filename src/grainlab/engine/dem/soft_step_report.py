@@ -24,8 +24,8 @@ from grainlab.engine.detect.narrow_phase import Contacts
 class SoftStepReport:
     """Outcome of one soft-contact step, with the attributes of
     :class:`~grainlab.engine.step_report.StepReport`: ``n_contacts`` closed at the end
-    of the step (gap < 0), ``iterations`` 1, ``converged`` True, ``change`` and ``residual``
-    0 (an explicit step has no iterations), ``max_overlap`` [m] the largest overlap met in
+    of the step (gap < 0), ``convergence`` None (an explicit step has no iterations:
+    :mod:`grainlab.engine.solver`), ``max_overlap`` [m] the largest overlap met in
     its sub-steps, and, made on first use, the closed ``contacts``, their ``frames`` (C, 3, 3)
     (rows n, t, s), ``impulses`` (C, 3) local force x dt [N s], ``relative_velocity``
     (C, 3) local [m/s], ``images`` (C, 3); also their world ``forces`` (C, 3) [N] on body j
@@ -35,10 +35,7 @@ class SoftStepReport:
     soft_contact._Rows`); the report keeps its arrays, which the list must not write again.
     """
 
-    iterations = 1
-    converged = True
-    change = 0.0
-    residual = 0.0
+    convergence = None
     problem = None
 
     def __init__(self, rows, dt: float, max_overlap: float) -> None:

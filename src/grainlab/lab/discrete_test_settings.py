@@ -1,0 +1,138 @@
+"""The numerical settings of a discrete test (:class:`DiscreteTestSettings`): the numerics of
+each kind of stage (:class:`~grainlab.lab.stage_numerics.StageNumerics`) and those of the
+whole run (time step, solver and its own settings, records, stage caps, walls, quasi-static
+criteria); their roles are those of :mod:`grainlab.lab.discrete_test`.
+
+>>> DiscreteTestSettings().numerics_for(strain_controlled=True) == SHEAR
+True
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from grainlab._validate import at_least
+from grainlab.engine.nscd.contact_dynamics import WARM_START_EXTRAPOLATION
+from grainlab.errors import InputError
+from grainlab.lab.soft_contact_settings import SoftContactSettings
+from grainlab.lab.solver_registry import DEFAULT_SOLVER, solver_record
+from grainlab.lab.stage_numerics import (
+    COMPACTION,
+    SHEAR,
+    STAGE_KINDS,
+    StageNumerics,
+    stage_kind,
+)
+from grainlab.lab.wall_stages import QuasiStaticCriteria
+
+RECOVERY_SPEED_FRACTION = 0.25
+"""Cap of the overlap recovery's separation speed, as a fraction of the stage's wall speed [-].
+On 200 polyhedra (n_f = 30, 7.5 % overlaps left by the compaction) a cap at the full wall speed
+let p swing between 115 Pa and 170 kPa (sigma0 = 10 kPa) early in shear, with I up to 0.21;
+at 0.25 the largest I was 4e-3. Spheres never reach it (beta |g| / h <= 0.08 of the wall speed
+at 0.5 % overlaps)."""
+
+
+@dataclass(frozen=True)
+class DiscreteTestSettings:
+    """Numerical settings of a discrete test (module docstring for their roles): the
+    numerics of each kind of stage, and those of the whole run.
+
+    Attributes
+    ----------
+    compaction, shear:
+        :class:`~grainlab.lab.stage_numerics.StageNumerics` (friction, bound on the inertia
+        number, time step factor, NLGS tolerance and sweep cap, overlap recovery) of the
+        stages without and with a strain-controlled axis (:meth:`numerics_for`); defaults
+        :data:`~grainlab.lab.stage_numerics.COMPACTION` and
+        :data:`~grainlab.lab.stage_numerics.SHEAR`. The overlap recovery's separation speed
+        is capped at :data:`RECOVERY_SPEED_FRACTION` of the stage's wall speed
+        (``overlap_recovery_speed`` of the solver).
+    dt:
+        Time step [s]; None: from the stage's ``time_step_factor``.
+    theta, sweep, warm_start_extrapolation:
+        Solver settings (:class:`~grainlab.engine.nscd.contact_dynamics.ContactDynamicsStep`;
+        ``warm_start_extrapolation`` lambda in [0, 1], default
+        :data:`~grainlab.engine.nscd.contact_dynamics.WARM_START_EXTRAPOLATION`).
+    record_every, snapshot_every:
+        Steps between results rows and between contact-network snapshots (0: none; with
+        snapshots on, the state each stage ends in is one too).
+    max_stage_steps:
+        Cap on the steps of one stage (>= 1); reaching it, the stage did not reach its end.
+    at_max_stage_steps:
+        What a stage that reaches ``max_stage_steps`` does: ``"stop"`` the test there
+        (default; resumable with a larger cap) or start the ``"next_stage"`` all the same.
+    wall_mass_factor:
+        Mass of a stress-controlled wall / mass of the particles (> 0), when ``wall_servo``
+        is False.
+    wall_servo:
+        Stress-controlled walls as overdamped servos (default): no speed carried over from
+        one step to the next, damping c = sigma A / v_max (speed v_max when nothing holds
+        them, at rest when the particles push back sigma A;
+        :class:`~grainlab.engine.boundaries.wall_box.WallBox`). False: walls with the mass above.
+    quasi_static:
+        End criteria of stages without a strain-controlled axis.
+    seed:
+        Seed of the solver's visiting order.
+    method:
+        The solver, a name of :data:`~grainlab.lab.solver_registry.SOLVERS`: contact
+        dynamics (rigid grains; default) or soft-contact DEM
+        (:class:`~grainlab.engine.dem.soft_contact.SoftContactStep`); the NLGS settings
+        (``tolerance``, ``max_iterations``, ``overlap_recovery``, ``theta``, ``sweep``)
+        serve an iterative solver only (:attr:`~grainlab.lab.solver_registry.SolverRecord.
+        iterative`).
+    dem:
+        The soft-contact law (:class:`~grainlab.lab.soft_contact_settings.
+        SoftContactSettings`), its stiffness number taken at the first stage's confining
+        stress.
+    """
+
+    compaction: StageNumerics = COMPACTION
+    shear: StageNumerics = SHEAR
+    dt: float | None = None
+    theta: float = 0.5
+    sweep: str = "coloured"
+    warm_start_extrapolation: float = WARM_START_EXTRAPOLATION
+    record_every: int = 10
+    snapshot_every: int = 0
+    max_stage_steps: int = 200_000
+    at_max_stage_steps: str = "stop"
+    wall_mass_factor: float = 1.0
+    wall_servo: bool = True
+    quasi_static: QuasiStaticCriteria = field(default_factory=QuasiStaticCriteria)
+    seed: int = 0
+    method: str = DEFAULT_SOLVER
+    dem: SoftContactSettings = field(default_factory=SoftContactSettings)
+
+    def __post_init__(self) -> None:
+        for kind in STAGE_KINDS:
+            if not isinstance(getattr(self, kind), StageNumerics):
+                raise InputError(kind, getattr(self, kind), "a StageNumerics")
+        solver_record(self.method)  # a registered solver
+        if not isinstance(self.dem, SoftContactSettings):
+            raise InputError("dem", self.dem, "a SoftContactSettings")
+        at_least("wall_mass_factor", self.wall_mass_factor)
+        if self.dt is not None:
+            at_least("dt", self.dt)
+        if self.at_max_stage_steps not in ("stop", "next_stage"):
+            raise InputError("at_max_stage_steps", self.at_max_stage_steps,
+                             '"stop" or "next_stage"')
+        for name, low in (("record_every", 1), ("snapshot_every", 0), ("max_stage_steps", 1)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) \
+                    or value < low:
+                raise InputError(name, value, f"an integer >= {low}")
+
+    def numerics_for(self, strain_controlled: bool) -> StageNumerics:
+        """The numerics of a stage with (True) or without a strain-controlled axis
+        (:func:`~grainlab.lab.stage_numerics.stage_kind`)."""
+        return getattr(self, stage_kind(strain_controlled))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data (each kind of stage's numerics a nested dict)."""
+        data = asdict(self)
+        data["quasi_static"] = self.quasi_static.to_dict()
+        return data

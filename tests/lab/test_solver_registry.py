@@ -1,0 +1,104 @@
+"""The solver registry (grainlab.lab.solver_registry): the config's solver names are the
+registry's; what the lab pushes into a solver and keeps in checkpoints follows its record; an
+explicit step carries no convergence record, an iterative one does, and only steps that
+really end unconverged count as such (grainlab.engine.simulation)."""
+
+from __future__ import annotations
+
+import math
+from typing import get_args
+
+import pytest
+
+from grainlab.contact.soft_contact_law import SoftContactLaw
+from grainlab.engine.convergence import EXPLICIT_COLUMNS, Convergence, convergence_columns
+from grainlab.engine.dem.soft_contact import SoftContactStep
+from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
+from grainlab.engine.state import BodyState, ShapeLibrary
+from grainlab.errors import InputError
+from grainlab.lab.discrete_test import DiscreteTestSettings
+from grainlab.lab.option_scope import inert_settings
+from grainlab.lab.run_config import RunConfig, SolverConfig
+from grainlab.lab.solver_registry import SOLVER_NAMES, solver_label, solver_record
+from grainlab.lab.stage_numerics import SHEAR
+
+
+def test_the_config_offers_the_registered_solvers_and_refuses_others():
+    assert get_args(SolverConfig.model_fields["method"].annotation) == SOLVER_NAMES
+    assert SOLVER_NAMES[0] == DiscreteTestSettings().method  # the default is the first
+    with pytest.raises(InputError, match="method"):
+        DiscreteTestSettings(method="lattice")
+
+
+def test_stage_settings_reach_only_a_solver_that_reads_them():
+    law = SoftContactLaw.linear(1e5)
+    explicit = SoftContactStep(law, dt=1e-5, friction=0.0)
+    iterative = ContactDynamicsStep(dt=1e-5, friction=0.0)
+    for record, solver in ((solver_record("dem"), explicit), (solver_record("cd"), iterative)):
+        record.set_stage(solver, SHEAR, recovery_speed=0.1)
+        assert solver.friction == SHEAR.friction
+        fields = record.checkpoint_fields(solver)
+        if record.iterative:
+            assert fields == {"max_iterations": SHEAR.max_iterations,
+                              "overlap_recovery": SHEAR.overlap_recovery,
+                              "overlap_recovery_speed": 0.1, "tolerance": SHEAR.tolerance}
+        else:  # an explicit solver has no tolerance, no sweep cap to set or keep
+            assert fields == {}
+            assert not hasattr(solver, "tolerance") and not hasattr(solver, "max_iterations")
+
+
+def _pair(gap: float):
+    library = ShapeLibrary.from_spheres([1e-3])
+    state = BodyState.from_library(library, [0, 0], [[0.0, 0.0, 0.0], [2e-3 + gap, 0.0, 0.0]],
+                                   density=2600.0)
+    state.velocities[0] = [0.01, 0.0, 0.0]
+    state.velocities[1] = [-0.01, 0.0, 0.0]
+    return library, state
+
+
+def test_an_explicit_step_has_no_convergence_record_and_its_columns_read_one_evaluation():
+    library, state = _pair(-1e-6)
+    report = SoftContactStep(SoftContactLaw.linear(1e5), dt=1e-6, friction=0.0).step(
+        state, library)
+    assert report.n_contacts == 1 and report.convergence is None
+    assert convergence_columns(report.convergence) == EXPLICIT_COLUMNS
+
+
+def test_an_iterative_step_reports_its_sweeps_and_a_converged_head_on_contact():
+    """Two frictionless spheres closing head-on at 0.02 m/s, 1 nm apart: the step (theta =
+    1) lets them close the gap g exactly, so each ends at g / (2 h) towards the other,
+    found within the tolerance."""
+    gap, dt = 1e-9, 1e-6
+    library, state = _pair(gap)
+    solver = ContactDynamicsStep(dt=dt, friction=0.0, theta=1.0, tolerance=1e-10,
+                                 max_iterations=200)
+    report = solver.step(state, library)
+    convergence = report.convergence
+    assert isinstance(convergence, Convergence) and convergence.converged
+    assert convergence.iterations >= 1
+    columns = convergence_columns(convergence)
+    assert columns["solver_iterations"] == float(report.iterations)
+    assert columns["solver_converged"] == 1.0
+    assert state.velocities[:, 0] == pytest.approx([gap / (2 * dt), -gap / (2 * dt)],
+                                                   rel=1e-6)
+
+
+def test_options_of_one_solver_are_refused_with_the_other():
+    cd = RunConfig.model_validate({"solver": {"method": "cd"}})
+    dem = RunConfig.model_validate({"solver": {"method": "dem"}})
+    nlgs = ["solver.sweep", "solver.shear.max_iterations", "output.problems_every"]
+    soft = ["solver.dem.kappa", "solver.dem.restitution"]
+    assert list(inert_settings(cd, nlgs + soft)) == soft
+    assert list(inert_settings(dem, nlgs + soft)) == nlgs
+    assert "does not use" in inert_settings(dem, ["solver.sweep"])["solver.sweep"]
+
+
+def test_a_solver_in_words():
+    assert solver_label({"method": "cd"}) == "contact dynamics (cd)"
+    assert solver_label({"method": "dem", "dem": {"law": "linear", "kappa": 1e3}}) == \
+        "soft-contact DEM (dem): linear, kappa = 1000"
+    assert solver_record("dem").substeps(SoftContactStep(SoftContactLaw.linear(1e5),
+                                                          dt=1e-5)) == 0
+    assert solver_record("cd").substeps(ContactDynamicsStep(dt=1e-5)) is None
+    assert math.isnan(solver_record("cd").row_fields(ContactDynamicsStep(dt=1e-5))[
+        "velocity_zigzag"])
