@@ -35,6 +35,13 @@ class InputError(GrainlabError, ValueError):
         super().__init__(f"{field} = {_shown(value)} is not allowed: expected {allowed}.")
 
 
+class CellTooThin(InputError):
+    """A periodic cell narrower, across a pair of faces, than three interaction ranges of its
+    detection (2 r_max + alert): a pair would touch through two images. Raised by the
+    detection before anything of the step reaches the bodies; a lab test stops its stage on
+    it (the cell got too thin for its particles)."""
+
+
 def _shown(value: Any) -> str:
     """``value`` as a user would type it: numbers plain (``3.5``, not ``np.float64(3.5)``),
     text quoted, booleans as TOML and the command line spell them (``true``)."""

@@ -101,7 +101,7 @@ import numpy as np
 from grainlab.engine.shape_kinds import kinds_present, library_time_step_length
 from grainlab.engine.simulation import Periodic, Simulation
 from grainlab.engine.state import ShapeLibrary
-from grainlab.errors import InputError
+from grainlab.errors import CellTooThin, InputError
 from grainlab.lab.box_boundary import BoxBoundary
 from grainlab.lab.box_thickness import Flattening
 from grainlab.lab.cell_boundary import CellBoundary
@@ -572,7 +572,12 @@ class DiscreteTest:
             self.start_stage()
             if self.halted:
                 return False
-        self.simulation.run(max_steps)
+        try:
+            self.simulation.run(max_steps)
+        except CellTooThin as thin:  # the detection's own check, within a step
+            self.halt(BOX_TOO_THIN, f"{THIN_BOX}: the detection refused the cell ({thin}); "
+                      "use more particles, a cell longer along that axis (sample aspect) or "
+                      "shorter steps (time_step_factor)")
         return self.finished
 
     # -- persistence --------------------------------------------------------------------------

@@ -80,7 +80,7 @@ from pydantic import (
 )
 
 from grainlab._validate import MAX_SEED, read_toml
-from grainlab.engine.shape_kinds import MEMBER_SPHERES, SPHERE
+from grainlab.engine.shape_kinds import SPHERE
 from grainlab.errors import InputError
 from grainlab.lab.discrete_test import DiscreteTestSettings
 from grainlab.lab.load_path import LoadPath, LoadStage, StopCriterion
@@ -94,7 +94,7 @@ from grainlab.lab.presets import (
     true_triaxial,
 )
 from grainlab.lab.soft_contact_settings import SoftContactSettings
-from grainlab.lab.solver_registry import SOLVER_NAMES
+from grainlab.lab.solver_registry import SOLVER_NAMES, solver_record
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR, STAGE_KINDS, StageNumerics
 from grainlab.lab.wall_stages import QuasiStaticCriteria
 from grainlab.prep.sample_shapes import MAX_FACES, sample_shape
@@ -487,13 +487,13 @@ class RunConfig(_Section):
         (an :class:`InputError` naming ``solver.dem.rolling_friction``: their faces resist
         rolling)."""
         rolling = self.solver.dem.rolling_friction
+        families = solver_record(self.solver.method).rolling_families
         for kind in kinds or (sample_shape(self.sample.shape).kind,):
-            if (self.solver.method == "dem" and kind.narrow_phase != MEMBER_SPHERES
-                    and rolling > 0.0):
+            if families is not None and kind.narrow_phase not in families and rolling > 0.0:
                 raise InputError("solver.dem.rolling_friction", rolling, (
-                    f"0 with {kind.plural} and solver.method = 'dem' (rolling resistance "
-                    "is a model for spheres and aggregates; the faces of polyhedra resist "
-                    "rolling)"))
+                    f"0 with {kind.plural} and solver.method = '{self.solver.method}' "
+                    "(rolling resistance is a model for spheres and aggregates; the faces "
+                    "of polyhedra resist rolling)"))
 
     def settings(self) -> DiscreteTestSettings:
         """The discrete test's numerical settings: each field of

@@ -34,6 +34,7 @@ from typing import Any
 
 from grainlab.engine.dem.soft_contact import SoftContactStep
 from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
+from grainlab.engine.shape_kinds import MEMBER_SPHERES
 from grainlab.errors import InputError
 from grainlab.lab.soft_contact_settings import SoftContactSettings
 
@@ -79,6 +80,9 @@ class SolverRecord:
         settings ("" when it acts).
     label:
         ``(solver table of a config, plain data) -> str``: its settings in words.
+    rolling_families:
+        The narrow-phase families (:mod:`grainlab.engine.shape_kinds`) whose grains its
+        rolling resistance (``solver.dem.rolling_friction``) applies to; None: it has none.
     """
 
     name: str
@@ -96,6 +100,7 @@ class SolverRecord:
     runs_words: str = ""
     setting_reason: Callable[[Any, str], str] = field(default=lambda config, key: "")
     label: Callable[[dict], str] | None = None
+    rolling_families: tuple[str, ...] | None = None
 
     # -- the lab's use of the engine solver --------------------------------------------------
     def set_stage(self, solver, numerics, recovery_speed: float) -> None:
@@ -241,7 +246,8 @@ SOFT_CONTACT = SolverRecord(
     keys_words="the soft-contact law of solver.method = 'dem' (--solver dem)",
     runs_words=("solver.method = 'dem' (--solver dem, soft contacts, explicit: no sweeps, "
                 "tolerance or iteration cap)"),
-    setting_reason=_soft_law_reason, label=_soft_contact_label)
+    setting_reason=_soft_law_reason, label=_soft_contact_label,
+    rolling_families=(MEMBER_SPHERES,))
 
 
 SOLVERS: dict[str, SolverRecord] = {r.name: r for r in (CONTACT_DYNAMICS, SOFT_CONTACT)}

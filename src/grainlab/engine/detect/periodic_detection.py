@@ -78,7 +78,7 @@ from grainlab.engine.detect.periodic_spheres import (
     plain_spheres,
 )
 from grainlab.engine.state import BodyState, ShapeLibrary
-from grainlab.errors import InputError
+from grainlab.errors import CellTooThin, InputError
 from grainlab.geometry.polyhedron_contact import ANGLE_TOLERANCE, DEFAULT_MAX_POINTS
 from grainlab.geometry.triclinic_cell import TriclinicCell
 
@@ -129,14 +129,15 @@ def _checked(state, library, cell) -> None:
 
 
 def checked_cutoff(cell: TriclinicCell, bounding_radii: np.ndarray, alert: float) -> float:
-    """R_cut = 2 r_max + alert [m], or :class:`InputError` naming "periodic cell width" when
-    a width of ``cell`` is below 3 R_cut (module docstring)."""
+    """R_cut = 2 r_max + alert [m], or :class:`~grainlab.errors.CellTooThin` (an
+    :class:`InputError` naming "periodic cell width") when a width of ``cell`` is below
+    3 R_cut (module docstring)."""
     r_max = float(np.max(bounding_radii)) if bounding_radii.size else 0.0
     cutoff = 2.0 * r_max + alert
     widths = cell.widths
     if widths.min() < 3.0 * cutoff:
         axis = int(np.argmin(widths))
-        raise InputError(
+        raise CellTooThin(
             "periodic cell width", float(widths[axis]),
             f"at least 3 (2 r_max + alert) = {3.0 * cutoff:g} m across every pair of faces "
             f"(axis {axis}; r_max = {r_max:g} m, alert = {alert:g} m), so that no pair "
