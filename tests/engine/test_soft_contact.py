@@ -448,13 +448,13 @@ def test_a_run_through_the_vector_rows_gives_the_general_rows_run(monkeypatch):
     """Three steps of 512 jostling, spinning frictional Hertz spheres in a periodic cell: the
     same positions, velocities, spins and springs, bit for bit, with the vector blocks
     (:mod:`grainlab.engine.dem.sphere_rows`) or with every block through the general rows."""
-    from grainlab.engine.dem import soft_contact
+    from grainlab.engine.dem import sphere_row_list
     from grainlab.engine.dem.soft_contact_kernels import ROW_BLOCK
 
     runs = []
     for vector in (True, False):
         if not vector:
-            monkeypatch.setattr(soft_contact, "plain_blocks",
+            monkeypatch.setattr(sphere_row_list, "plain_blocks",
                                 lambda body_i, off_i, off_j: np.zeros(
                                     -(-body_i.shape[0] // ROW_BLOCK), dtype=bool))
         end, solver = jostling_spheres(8, spin=20.0)
