@@ -258,31 +258,25 @@ def bodies_parallel(close, carry, open_, half, dt, adj_start, adj_entry, force, 
                       orientations, velocities, spins, body_force, body_torque, travel, plain)
 
 
-@njit(_nrt=False)  # a call: more arguments than Python 3.11 lets Numba inline
-def _bodies(parallel, close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
-            torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping, arm,
-            gradient, carried, cx, cy, cz, positions, orientations, velocities, spins,
-            body_force, body_torque, travel, plain):
-    if parallel:
-        bodies_parallel(close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
-                        torque_j, masses, gravity, inv_mass, principal, isotropic,
-                        local_damping, arm, gradient, carried, cx, cy, cz, positions,
-                        orientations, velocities, spins, body_force, body_torque, travel,
-                        plain)
-    else:
-        bodies_kernel(close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
-                      torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping,
-                      arm, gradient, carried, cx, cy, cz, positions, orientations,
-                      velocities, spins, body_force, body_torque, travel, plain)
-
-
 @njit(_nrt=False)
 def _body_side(parallel, close, carry, open_, half, dt, rows, bodies, gravity, local_damping,
                cell, cx, cy, cz):
-    """:func:`_bodies` on the face arrays."""
-    _bodies(parallel, close, carry, open_, half, dt, rows.adj_start, rows.adj_entry, rows.force,
-            rows.torque_i, rows.torque_j, bodies.masses, gravity, bodies.inv_mass,
-            bodies.principal, bodies.isotropic, local_damping, bodies.arm, cell.gradient,
-            cell.carried, cx, cy, cz, bodies.positions, bodies.orientations,
-            bodies.velocities, bodies.spins, bodies.force, bodies.torque, bodies.travel,
-            bodies.plain_bodies)
+    """The bodies' pass (:func:`bodies_kernel`, on the threads if ``parallel``:
+    :func:`bodies_parallel`) on the rows' loads (``rows``: :class:`~grainlab.engine.dem.
+    substep_arrays.SphereRowArrays`), the ``bodies`` (:class:`~grainlab.engine.dem.
+    substep_arrays.BodyArrays`) and the cell's velocity gradient (``cell``: :class:`~grainlab.
+    engine.boundaries.periodic_cell_face.CellFace`)."""
+    if parallel:
+        bodies_parallel(close, carry, open_, half, dt, rows.adj_start, rows.adj_entry,
+                        rows.force, rows.torque_i, rows.torque_j, bodies.masses, gravity,
+                        bodies.inv_mass, bodies.principal, bodies.isotropic, local_damping,
+                        bodies.arm, cell.gradient, cell.carried, cx, cy, cz, bodies.positions,
+                        bodies.orientations, bodies.velocities, bodies.spins, bodies.force,
+                        bodies.torque, bodies.travel, bodies.plain_bodies)
+    else:
+        bodies_kernel(close, carry, open_, half, dt, rows.adj_start, rows.adj_entry,
+                      rows.force, rows.torque_i, rows.torque_j, bodies.masses, gravity,
+                      bodies.inv_mass, bodies.principal, bodies.isotropic, local_damping,
+                      bodies.arm, cell.gradient, cell.carried, cx, cy, cz, bodies.positions,
+                      bodies.orientations, bodies.velocities, bodies.spins, bodies.force,
+                      bodies.torque, bodies.travel, bodies.plain_bodies)

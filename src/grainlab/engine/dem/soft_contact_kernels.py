@@ -155,12 +155,19 @@ def _sphere_block(blk, step, record, code, params, body_i, body_j, rad_i, rad_j,
 
 
 @njit(_nrt=False)  # a call per block: more arguments than Python 3.11 lets Numba inline
-def _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_i, off_j,
-                  rad_i, rad_j, images, mu, inv_mass, positions, orientations, velocities, spins,
-                  wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
-                  torque_i, torque_j, gap, normal, point, stiffness, rel_vel, partial):
+def _forces_block(blk, step, record, code, params, rolling, rows, bodies, wall_p0, wall_n,
+                  wall_disp, wall_speed, cell_h, cell_rate):
     """The rows of block ``blk`` (:func:`contact_forces_kernel`); their springs' virial into
     ``partial[blk, :9]`` (row-major), their largest overlap [m] into ``partial[blk, 9]``."""
+    body_i, body_j, off_i, off_j = rows.body_i, rows.body_j, rows.off_i, rows.off_j
+    rad_i, rad_j, images, mu = rows.rad_i, rows.rad_j, rows.images, rows.mu
+    xi, roll, force, torque_i, torque_j = rows.xi, rows.roll, rows.force, rows.torque_i, \
+        rows.torque_j
+    gap, normal, point, stiffness, rel_vel = rows.gap, rows.normal, rows.point, \
+        rows.stiffness, rows.rel_vel
+    partial = rows.partial
+    inv_mass, positions, orientations = bodies.inv_mass, bodies.positions, bodies.orientations
+    velocities, spins = bodies.velocities, bodies.spins
     v00 = v01 = v02 = v10 = v11 = v12 = v20 = v21 = v22 = worst = 0.0
     for k in range(blk * ROW_BLOCK, min((blk + 1) * ROW_BLOCK, body_j.shape[0])):
         j = body_j[k]
@@ -270,23 +277,19 @@ def _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_
 
 
 @njit(_nrt=False)
-def _block(blk, step, record, code, params, rolling, body_i, body_j, off_i, off_j, rad_i, rad_j,
-           images, mu, inv_mass, positions, orientations, velocities, spins, wall_p0, wall_n,
-           wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force, torque_i, torque_j, gap,
-           normal, point, stiffness, rel_vel, partial, plain, springs):
+def _block(blk, step, record, code, params, rolling, rows, bodies, wall_p0, wall_n, wall_disp,
+           wall_speed, cell_h, cell_rate):
     """Block ``blk`` of the rows: by the vector kernel if its rows are plain and there is no
     rolling resistance (:func:`_sphere_block`), else row by row (:func:`_forces_block`)."""
-    if plain[blk] and rolling == 0.0:
-        _sphere_block(blk, step, record, code, params, body_i, body_j, rad_i, rad_j, images,
-                      mu, inv_mass, positions, velocities, spins, cell_h, cell_rate, xi, force,
-                      torque_i, torque_j, gap, normal, point, stiffness, rel_vel, springs,
-                      partial)
+    if rows.plain[blk] and rolling == 0.0:
+        _sphere_block(blk, step, record, code, params, rows.body_i, rows.body_j, rows.rad_i,
+                      rows.rad_j, rows.images, rows.mu, bodies.inv_mass, bodies.positions,
+                      bodies.velocities, bodies.spins, cell_h, cell_rate, rows.xi, rows.force,
+                      rows.torque_i, rows.torque_j, rows.gap, rows.normal, rows.point,
+                      rows.stiffness, rows.rel_vel, rows.springs, rows.partial)
     else:
-        _forces_block(blk, step, record, code, params, rolling, body_i, body_j, off_i, off_j,
-                      rad_i, rad_j, images, mu, inv_mass, positions, orientations, velocities,
-                      spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi,
-                      roll, force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel,
-                      partial)
+        _forces_block(blk, step, record, code, params, rolling, rows, bodies, wall_p0, wall_n,
+                      wall_disp, wall_speed, cell_h, cell_rate)
 
 
 @njit(inline="always")
@@ -302,17 +305,18 @@ def _sum_blocks(partial, virial, stats):
 
 
 @njit(cache=True, _nrt=False)  # no reference counts on the array arguments (~5 %)
-def contact_forces_kernel(step, record, code, params, rolling, body_i, body_j, off_i, off_j,
-                          rad_i, rad_j, images, mu, inv_mass, positions, orientations, velocities,
-                          spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate,
-                          xi, roll, force, torque_i, torque_j, gap, normal, point, stiffness,
-                          rel_vel, virial, partial, stats, plain, springs):
-    """Geometry and force of every row k of the list (module docstring of
-    :mod:`grainlab.contact.soft_contact_law`); ``step`` [s] is the time since the last
-    evaluation (0: the force of the current springs, nothing carried forward). Writes the rows'
-    outputs (``gap`` of every row; normal, point and relative velocity of the closed ones (of
-    every row in a plain block), and only if ``record``: the step report reads those of the
-    step's last evaluation;
+def contact_forces_kernel(step, record, code, params, rolling, rows, bodies, wall_p0, wall_n,
+                          wall_disp, wall_speed, cell_h, cell_rate, virial, stats):
+    """Geometry and force of every row k of the list ``rows``
+    (:class:`~grainlab.engine.dem.substep_arrays.SphereRowArrays`) between the ``bodies``
+    (:class:`~grainlab.engine.dem.substep_arrays.BodyArrays`) and with the walls (points
+    ``wall_p0`` (W, 3) [m], normals ``wall_n``, displacements ``wall_disp`` (W,) [m], speeds
+    ``wall_speed`` [m/s]) through the cell (``cell_h``, ``cell_rate`` (3, 3): h [m], hdot
+    [m/s]) (module docstring of :mod:`grainlab.contact.soft_contact_law`); ``step`` [s] is
+    the time since the last evaluation (0: the force of the current springs, nothing carried
+    forward). Writes the rows' outputs (``gap`` of every row; normal, point and relative
+    velocity of the closed ones (of every row in a plain block), and only if ``record``: the
+    step report reads those of the step's last evaluation;
     an open row's force, moments, stiffness and springs are zero, written once when it opens, or
     at ``step`` 0); the histories ``xi`` (C, 3) [N] and ``roll`` (C, 3) [N m] are updated;
     ``virial`` (3, 3) [N m] becomes sum_k f_k (x) l_k over the rows between bodies, f_k the
@@ -323,28 +327,20 @@ def contact_forces_kernel(step, record, code, params, rolling, body_i, body_j, o
     ``plain`` (ceil(C / ROW_BLOCK),) (:func:`plain_blocks`) go through the vector kernel of
     :mod:`grainlab.engine.dem.sphere_rows` when there is no rolling resistance (the same bits;
     ``springs`` (C, 6) scratch)."""
-    for blk in range(partial.shape[0]):
-        _block(blk, step, record, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
-               rad_j, images, mu, inv_mass, positions, orientations, velocities, spins, wall_p0,
-               wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force, torque_i,
-               torque_j, gap, normal, point, stiffness, rel_vel, partial, plain, springs)
-    _sum_blocks(partial, virial, stats)
+    for blk in range(rows.partial.shape[0]):
+        _block(blk, step, record, code, params, rolling, rows, bodies, wall_p0, wall_n,
+               wall_disp, wall_speed, cell_h, cell_rate)
+    _sum_blocks(rows.partial, virial, stats)
 
 
 @njit(cache=True, parallel=True, _nrt=False)
-def contact_forces_parallel(step, record, code, params, rolling, body_i, body_j, off_i,
-                            off_j, rad_i, rad_j, images, mu, inv_mass, positions, orientations,
-                            velocities, spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h,
-                            cell_rate, xi, roll, force, torque_i, torque_j, gap, normal, point,
-                            stiffness, rel_vel, virial, partial, stats, plain, springs):
+def contact_forces_parallel(step, record, code, params, rolling, rows, bodies, wall_p0, wall_n,
+                            wall_disp, wall_speed, cell_h, cell_rate, virial, stats):
     """:func:`contact_forces_kernel` with its blocks on the threads (the same results)."""
-    for blk in prange(partial.shape[0]):  # prange's index is unsigned: cast, one signature
-        _block(np.int64(blk), step, record, code, params, rolling, body_i, body_j, off_i,
-               off_j, rad_i, rad_j, images, mu, inv_mass, positions, orientations, velocities,
-               spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, xi, roll,
-               force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel, partial,
-               plain, springs)
-    _sum_blocks(partial, virial, stats)
+    for blk in prange(rows.partial.shape[0]):  # prange's index is unsigned: cast
+        _block(np.int64(blk), step, record, code, params, rolling, rows, bodies, wall_p0,
+               wall_n, wall_disp, wall_speed, cell_h, cell_rate)
+    _sum_blocks(rows.partial, virial, stats)
 
 
 @njit(cache=True, _nrt=False)
@@ -380,41 +376,19 @@ def virial_kernel(body_i, body_j, images, force, positions, cell_h, virial):
 
 
 @njit(cache=True, _nrt=False)
-def _forces(parallel, step, record, code, params, rolling, body_i, body_j, off_i, off_j, rad_i,
-            rad_j, images, mu, wall_rows, inv_mass, wall_p0, wall_n, positions, orientations,
-            velocities, spins, wall_disp, wall_speed, cell_h, cell_rate, xi, roll, force,
-            torque_i, torque_j, gap, normal, point, stiffness, rel_vel, virial, partial,
-            stats, wall_force, wall_stiffness, plain, springs):
+def _forces(parallel, step, record, code, params, rolling, rows, bodies, walls, cell, virial,
+            stats):
     """Contact forces of the list (on the threads if ``parallel``) and the walls' loads."""
     if parallel:
-        contact_forces_parallel(step, record, code, params, rolling, body_i, body_j, off_i, off_j,
-                                rad_i, rad_j, images, mu, inv_mass, positions, orientations,
-                                velocities, spins, wall_p0, wall_n, wall_disp, wall_speed,
-                                cell_h, cell_rate, xi, roll, force, torque_i, torque_j, gap,
-                                normal, point, stiffness, rel_vel, virial, partial, stats,
-                                plain, springs)
+        contact_forces_parallel(step, record, code, params, rolling, rows, bodies, walls.points,
+                                walls.normals, walls.disp, walls.speed, cell.h, cell.rate,
+                                virial, stats)
     else:
-        contact_forces_kernel(step, record, code, params, rolling, body_i, body_j, off_i, off_j,
-                              rad_i, rad_j, images, mu, inv_mass, positions, orientations,
-                              velocities, spins, wall_p0, wall_n, wall_disp, wall_speed,
-                              cell_h, cell_rate, xi, roll, force, torque_i, torque_j, gap,
-                              normal, point, stiffness, rel_vel, virial, partial, stats, plain,
-                              springs)
-    wall_loads_kernel(wall_rows, body_i, wall_n, force, stiffness, wall_force,
-                      wall_stiffness)
-
-
-@njit(_nrt=False)  # a call: more arguments than Python 3.11 lets Numba inline
-def _row_forces(parallel, step, record, code, params, rolling, rows, bodies, walls, cell,
-                virial, stats):
-    """:func:`_forces` on the face arrays: the rows' forces and the walls' loads."""
-    _forces(parallel, step, record, code, params, rolling, rows.body_i, rows.body_j, rows.off_i,
-            rows.off_j, rows.rad_i, rows.rad_j, rows.images, rows.mu, rows.wall_rows,
-            bodies.inv_mass, walls.points, walls.normals, bodies.positions,
-            bodies.orientations, bodies.velocities, bodies.spins, walls.disp, walls.speed,
-            cell.h, cell.rate, rows.xi, rows.roll, rows.force, rows.torque_i, rows.torque_j,
-            rows.gap, rows.normal, rows.point, rows.stiffness, rows.rel_vel, virial,
-            rows.partial, stats, walls.force, walls.stiffness, rows.plain, rows.springs)
+        contact_forces_kernel(step, record, code, params, rolling, rows, bodies, walls.points,
+                              walls.normals, walls.disp, walls.speed, cell.h, cell.rate,
+                              virial, stats)
+    wall_loads_kernel(rows.wall_rows, rows.body_i, walls.normals, rows.force, rows.stiffness,
+                      walls.force, walls.stiffness)
 
 
 @njit(cache=True, _nrt=False)
@@ -444,7 +418,7 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
     # at another would compile the callee twice (~17 s of a cold compilation)
     yes = n_steps >= 0  # True
     no = not yes
-    _row_forces(parallel, 0.0, yes, code, params, rolling, rows, bodies, walls, cell, virial,
+    _forces(parallel, 0.0, yes, code, params, rolling, rows, bodies, walls, cell, virial,
                 stats)
     stats[0] = met
     gather_kernel(rows.adj_start, rows.adj_entry, rows.force, rows.torque_i, rows.torque_j,
@@ -462,7 +436,7 @@ def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gra
         walls_move(walls, dt)
         cell_move(cell, dt)
         last = _ == n_steps - 1  # the report reads its normals, points and velocities
-        _row_forces(parallel, dt, last, code, params, rolling, rows, bodies, walls, cell,
+        _forces(parallel, dt, last, code, params, rolling, rows, bodies, walls, cell,
                     virial, stats)
         walls_settle(walls, dt)
         cell_settle(cell, dt, virial)

@@ -73,3 +73,47 @@ class SphereRowArrays(NamedTuple):
     partial: np.ndarray
     plain: np.ndarray
     springs: np.ndarray
+
+
+def body_arrays(positions: np.ndarray, velocities: np.ndarray, spins: np.ndarray,
+                inv_mass: np.ndarray, **given: np.ndarray) -> BodyArrays:
+    """:class:`BodyArrays` of N bodies at ``positions`` (N, 3) [m] with ``velocities``,
+    ``spins`` and ``inv_mass``; the other fields ``given`` by name or, if not, those of
+    unturned spheres of unit moments of inertia, at rest (zero loads and travel), each block
+    of bodies through the scalar pass."""
+    from grainlab.engine.dem.body_pass import BODY_BLOCK
+
+    n = positions.shape[0]
+    arrays = {"inv_mass": inv_mass, "masses": 1.0 / inv_mass, "principal": np.ones((n, 3)),
+              "isotropic": np.ones(n, dtype=np.bool_), "arm": np.zeros(n),
+              "plain_bodies": np.zeros(-(-n // BODY_BLOCK), dtype=np.bool_),
+              "positions": positions,
+              "orientations": np.tile(np.array([1.0, 0.0, 0.0, 0.0]), (n, 1)),
+              "velocities": velocities, "spins": spins, "force": np.zeros((n, 3)),
+              "torque": np.zeros((n, 3)), "travel": np.zeros(n)} | given
+    return BodyArrays(**{name: np.ascontiguousarray(arrays[name])
+                         for name in BodyArrays._fields})
+
+
+def sphere_row_arrays(body_i: np.ndarray, body_j: np.ndarray, rad_i: np.ndarray,
+                      rad_j: np.ndarray, **given: np.ndarray) -> SphereRowArrays:
+    """:class:`SphereRowArrays` of C rows between bodies ``body_i`` and ``body_j`` (C,) of
+    member radii ``rad_i``, ``rad_j`` [m]; the other fields ``given`` by name or, if not, those
+    of rows between the bodies' centres (no offsets, no images, mu 0), their springs unloaded,
+    their outputs zero, every block through the general rows (the gather's list and the wall
+    rows empty)."""
+    from grainlab.engine.dem.soft_contact_kernels import ROW_BLOCK
+
+    c = body_j.shape[0]
+    vectors = ("off_i", "off_j", "images", "xi", "roll", "force", "torque_i", "torque_j",
+               "normal", "point", "rel_vel")
+    arrays = {name: np.zeros((c, 3)) for name in vectors} | {
+        "body_i": body_i, "body_j": body_j, "rad_i": rad_i, "rad_j": rad_j,
+        "mu": np.zeros(c), "adj_start": np.zeros(1, dtype=np.int64),
+        "adj_entry": np.zeros(0, dtype=np.int64), "wall_rows": np.zeros(0, dtype=np.int64),
+        "gap": np.zeros(c), "stiffness": np.zeros(c), "approach": np.zeros(1),
+        "partial": np.zeros((-(-c // ROW_BLOCK), 10)),
+        "plain": np.zeros(-(-c // ROW_BLOCK), dtype=np.bool_), "springs": np.zeros((c, 6))} \
+        | given
+    return SphereRowArrays(**{name: np.ascontiguousarray(arrays[name])
+                              for name in SphereRowArrays._fields})
