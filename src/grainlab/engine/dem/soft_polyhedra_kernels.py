@@ -89,20 +89,32 @@ def _add_moment(torque, p, rx, ry, rz, fx, fy, fz, sign):
 
 
 @njit(cache=True)
-def polyhedron_forces_kernel(step, code, params, library, world, pair_i, pair_j, images, mu,
-                             r_eff, inv_mass, positions, velocities, spins, wall_p0, wall_n,
-                             wall_disp, wall_speed, cell_h, cell_rate, cos_tol, sin_tol,
-                             max_points, xi, force, torque_i, torque_j, normal, point,
-                             stiffness, rel_vel, n_points, point_gap, point_normal,
-                             point_position, point_force, point_velocity, feature_i,
-                             feature_j, pair_type, stats):
+def polyhedron_forces_kernel(step, code, params, library, world, pairs, tolerances, xi,
+                             outputs, bodies, walls, cell, stats):
     """Manifold and force of every pair p of the list (module docstring; the law of
     :mod:`grainlab.engine.dem.soft_polyhedra`); ``step`` [s] is the time since the last
     evaluation (0: the force of the current springs). ``library``: (shape_ids, face_start,
     face_count, face_vertex_start, face_vertices, edge_start, edge_count, edges, edge_faces,
     vertex_start, vertex_count, vertex_neighbour_start, vertex_neighbours); ``world`` as
     :func:`world_boundaries_kernel`'s, filled. The tangential springs ``xi`` (P, 3) [N] are
-    updated; ``stats[0]`` grows to the deepest penetration [m] met."""
+    updated; ``stats[0]`` grows to the deepest penetration [m] met. ``pairs``: (pair_i,
+    pair_j, images, mu, r_eff), ``tolerances``: (cos, sin of the angle tolerance, most points
+    kept), ``outputs``: the per-pair and per-point outputs (module docstring: force,
+    torque_i, torque_j, normal, point, stiffness, rel_vel, n_points, point_gap, point_normal,
+    point_position, point_force, point_velocity, feature_i, feature_j, pair_type); the
+    ``bodies`` (:class:`~grainlab.engine.dem.substep_arrays.BodyArrays`), the walls
+    (:class:`~grainlab.engine.boundaries.wall_box_face.WallFace`) and the cell
+    (:class:`~grainlab.engine.boundaries.periodic_cell_face.CellFace`) as they are now."""
+    pair_i, pair_j, images, mu, r_eff = pairs
+    cos_tol, sin_tol, max_points = tolerances
+    (force, torque_i, torque_j, normal, point, stiffness, rel_vel, n_points, point_gap,
+     point_normal, point_position, point_force, point_velocity, feature_i, feature_j,
+     pair_type) = outputs
+    inv_mass, positions, velocities, spins = bodies.inv_mass, bodies.positions, \
+        bodies.velocities, bodies.spins
+    wall_p0, wall_n, wall_disp, wall_speed = walls.points, walls.normals, walls.disp, \
+        walls.speed
+    cell_h, cell_rate = cell.h, cell.rate
     (shape_ids, face_start, face_count, face_vertex_start, face_vertices, edge_start,
      edge_count, edges, edge_faces, vertex_start, vertex_count, vertex_neighbour_start,
      vertex_neighbours) = library
@@ -258,19 +270,12 @@ def _loads(step, code, params, gravity, shapes, library, world, pairs, adj_start
     """World boundaries, pair forces, their sums on the ``bodies``
     (:class:`~grainlab.engine.dem.substep_arrays.BodyArrays`), the walls' loads and the
     pairs' virial."""
-    pair_i, pair_j, images, mu, r_eff = pairs
-    cos_tol, sin_tol, max_points = tolerances
-    (force, torque_i, torque_j, normal, point, stiffness, rel_vel, n_points, point_gap,
-     point_normal, point_position, point_force, point_velocity, feature_i, feature_j,
-     pair_type) = outputs
+    pair_i, pair_j, images = pairs[0], pairs[1], pairs[2]
+    force, torque_i, torque_j, stiffness = outputs[0], outputs[1], outputs[2], outputs[5]
     positions = bodies.positions
     world_boundaries_kernel(positions, bodies.orientations, shapes, world)
-    polyhedron_forces_kernel(
-        step, code, params, library, world, pair_i, pair_j, images, mu, r_eff, bodies.inv_mass,
-        positions, bodies.velocities, bodies.spins, walls.points, walls.normals, walls.disp,
-        walls.speed, cell.h, cell.rate, cos_tol, sin_tol, max_points, xi, force, torque_i,
-        torque_j, normal, point, stiffness, rel_vel, n_points, point_gap, point_normal,
-        point_position, point_force, point_velocity, feature_i, feature_j, pair_type, stats)
+    polyhedron_forces_kernel(step, code, params, library, world, pairs, tolerances, xi,
+                             outputs, bodies, walls, cell, stats)
     gather_kernel(adj_start, adj_entry, force, torque_i, torque_j, bodies.masses, gravity,
                   bodies.force, bodies.torque)
     wall_loads_kernel(wall_rows, pair_i, walls.normals, force, stiffness, walls.force,
