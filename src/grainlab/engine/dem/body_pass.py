@@ -194,11 +194,12 @@ def isotropic_blocks(isotropic: np.ndarray) -> np.ndarray:
 @njit(_nrt=False)
 def _bodies_block(blk, close, carry, open_, half, dt, adj_start, adj_entry, force, torque_i,
                   torque_j, masses, gravity, inv_mass, principal, isotropic, local_damping, arm,
-                  gradient, carried, cx, cy, cz, positions, orientations, velocities, spins,
+                  gradient, carried, centre, positions, orientations, velocities, spins,
                   body_force, body_torque, travel, plain):
     """The bodies of block ``blk``: through the vector kernel (after the gather, then
     :func:`~grainlab.engine.dem.sphere_bodies.large_turns`) if they are all of isotropic inertia
     (``plain[blk]``) and there is no local damping, else body by body; the same bits."""
+    cx, cy, cz = centre  # x_c [m], the centre of mass the take-up of L is about
     lo, hi = blk * BODY_BLOCK, min((blk + 1) * BODY_BLOCK, masses.shape[0])
     if plain[blk] and local_damping == 0.0:
         if close:
@@ -240,7 +241,7 @@ def bodies_kernel(close, carry, open_, half, dt, adj_start, adj_entry, force, to
     for blk in range(plain.shape[0]):
         _bodies_block(blk, close, carry, open_, half, dt, adj_start, adj_entry, force,
                       torque_i, torque_j, masses, gravity, inv_mass, principal, isotropic,
-                      local_damping, arm, gradient, carried, cx, cy, cz, positions,
+                      local_damping, arm, gradient, carried, (cx, cy, cz), positions,
                       orientations, velocities, spins, body_force, body_torque, travel, plain)
 
 
@@ -254,8 +255,9 @@ def bodies_parallel(close, carry, open_, half, dt, adj_start, adj_entry, force, 
     for blk in prange(plain.shape[0]):
         _bodies_block(np.int64(blk), close, carry, open_, half, dt, adj_start, adj_entry,
                       force, torque_i, torque_j, masses, gravity, inv_mass, principal,
-                      isotropic, local_damping, arm, gradient, carried, cx, cy, cz, positions,
-                      orientations, velocities, spins, body_force, body_torque, travel, plain)
+                      isotropic, local_damping, arm, gradient, carried, (cx, cy, cz),
+                      positions, orientations, velocities, spins, body_force, body_torque,
+                      travel, plain)
 
 
 @njit(_nrt=False)
