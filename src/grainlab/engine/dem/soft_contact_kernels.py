@@ -1,6 +1,10 @@
 """Compiled kernels of the explicit soft-contact DEM step (Numba; STYLE.md 2, 8):
-contact forces on a neighbour list, their gather on the bodies, velocity-Verlet sub-steps with
-quaternion rotations, servo walls and a servo cell (:mod:`grainlab.engine.dem.soft_contact`).
+contact forces on a neighbour list and the velocity-Verlet sub-step loop around them
+(:mod:`grainlab.engine.dem.soft_contact`). The loop holds no boundary code: the walls and the
+cell move, servo and sum their loads through their compiled faces
+(:mod:`grainlab.engine.boundaries.wall_box_face`,
+:mod:`grainlab.engine.boundaries.periodic_cell_face`), the bodies are kicked and drifted by
+:mod:`grainlab.engine.dem.body_pass`.
 
 Contact list. Row k is a member pair (a of body i, b of body j) found within the skin at the
 last detection: ``body_i`` (-1 - w for wall w), ``body_j``, member offsets in the body frames
