@@ -20,6 +20,7 @@ from grainlab.engine.boundaries.boundary import FixedPlanes
 from grainlab.engine.boundaries.wall_box import WallBox
 from grainlab.engine.dem.soft_contact import SoftContactStep
 from grainlab.engine.dem.soft_contact_kernels import contact_forces_kernel
+from grainlab.engine.dem.substep_arrays import body_arrays, sphere_row_arrays
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.geometry.sphere_aggregate import from_spheres
 
@@ -264,14 +265,18 @@ def turned_spring_force(n_steps, vector=False):
     start = None
     for step in range(n_steps + 1):
         positions = x0 @ rotation(step * dt).T
+        force, torque_i, torque_j, gap, normal, point, stiffness, rel_vel = outputs
+        rows = sphere_row_arrays(
+            np.array([0]), np.array([1]), np.array([radius]), np.array([radius]),
+            mu=np.array([10.0]), xi=xi, roll=roll, force=force, torque_i=torque_i,
+            torque_j=torque_j, gap=gap, normal=normal, point=point, stiffness=stiffness,
+            rel_vel=rel_vel, plain=np.array([vector]))
+        bodies = body_arrays(positions, np.cross(omega, positions), np.array([omega, omega]),
+                             np.array([1.0, 1.0]))
         contact_forces_kernel(
-            0.0 if step == 0 else dt, True, 0, params, 0.0, np.array([0]), np.array([1]),
-            np.zeros((1, 3)), np.zeros((1, 3)), np.array([radius]), np.array([radius]),
-            np.zeros((1, 3)), np.array([10.0]), np.array([1.0, 1.0]), positions,
-            np.array([[1.0, 0.0, 0.0, 0.0]] * 2), np.cross(omega, positions),
-            np.array([omega, omega]), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0),
-            np.zeros(0), np.eye(3), np.zeros((3, 3)), xi, roll, *outputs, np.zeros((3, 3)),
-            np.zeros((1, 10)), np.zeros(1), np.array([vector]), np.zeros((1, 6)))
+            0.0 if step == 0 else dt, True, 0, params, 0.0, rows, bodies, np.zeros((0, 3)),
+            np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.eye(3), np.zeros((3, 3)),
+            np.zeros((3, 3)), np.zeros(1))
         if start is None:
             start = outputs[0][0].copy()
     return start, outputs[0][0].copy(), rotation(1.0) @ start
@@ -448,13 +453,13 @@ def test_a_run_through_the_vector_rows_gives_the_general_rows_run(monkeypatch):
     """Three steps of 512 jostling, spinning frictional Hertz spheres in a periodic cell: the
     same positions, velocities, spins and springs, bit for bit, with the vector blocks
     (:mod:`grainlab.engine.dem.sphere_rows`) or with every block through the general rows."""
-    from grainlab.engine.dem import soft_contact
+    from grainlab.engine.dem import sphere_row_list
     from grainlab.engine.dem.soft_contact_kernels import ROW_BLOCK
 
     runs = []
     for vector in (True, False):
         if not vector:
-            monkeypatch.setattr(soft_contact, "plain_blocks",
+            monkeypatch.setattr(sphere_row_list, "plain_blocks",
                                 lambda body_i, off_i, off_j: np.zeros(
                                     -(-body_i.shape[0] // ROW_BLOCK), dtype=bool))
         end, solver = jostling_spheres(8, spin=20.0)

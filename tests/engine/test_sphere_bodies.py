@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grainlab.engine.dem.soft_contact_kernels import BODY_BLOCK, bodies_kernel, isotropic_blocks
+from grainlab.engine.dem.body_pass import BODY_BLOCK, bodies_kernel, isotropic_blocks
 from grainlab.engine.quaternion import SMALL_TURN
 
 

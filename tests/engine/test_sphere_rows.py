@@ -9,6 +9,7 @@ import pytest
 
 from grainlab.contact.soft_contact_law import SoftContactLaw
 from grainlab.engine.dem.soft_contact_kernels import ROW_BLOCK, contact_forces_kernel, plain_blocks
+from grainlab.engine.dem.substep_arrays import body_arrays, sphere_row_arrays
 
 RADIUS = 1e-3
 
@@ -55,20 +56,19 @@ def evaluate(rows, law, step, record, vector):
            "torque_j": np.zeros((c, 3)), "gap": np.zeros(c), "normal": np.zeros((c, 3)),
            "point": np.zeros((c, 3)), "stiffness": np.full(c, -1.0),
            "rel_vel": np.zeros((c, 3)), "virial": np.zeros((3, 3))}
-    blocks = -(-c // ROW_BLOCK)
     stats = np.zeros(1)
     zeros = np.zeros((c, 3))
     plain = plain_blocks(rows["body_i"], zeros, zeros)
     assert plain.all()
-    contact_forces_kernel(
-        step, record, law.code, law.params, 0.0, rows["body_i"], rows["body_j"], zeros,
-        zeros, rows["rad_i"], rows["rad_j"], rows["images"], rows["mu"], rows["inv_mass"],
-        rows["positions"], np.tile([1.0, 0.0, 0.0, 0.0], (rows["positions"].shape[0], 1)),
-        rows["velocities"], rows["spins"], np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0),
-        np.zeros(0), rows["cell_h"], rows["cell_rate"], xi, roll, out["force"],
-        out["torque_i"], out["torque_j"], out["gap"], out["normal"], out["point"],
-        out["stiffness"], out["rel_vel"], out["virial"], np.zeros((blocks, 10)), stats,
-        plain & vector, np.zeros((c, 6)))
+    arrays = sphere_row_arrays(rows["body_i"], rows["body_j"], rows["rad_i"], rows["rad_j"],
+                               images=rows["images"], mu=rows["mu"], xi=xi, roll=roll,
+                               plain=plain & vector, **{k: v for k, v in out.items()
+                                                        if k != "virial"})
+    bodies = body_arrays(rows["positions"], rows["velocities"], rows["spins"],
+                         rows["inv_mass"])
+    contact_forces_kernel(step, record, law.code, law.params, 0.0, arrays, bodies,
+                          np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0),
+                          rows["cell_h"], rows["cell_rate"], out["virial"], stats)
     out["xi"], out["stats"] = xi, stats
     return out
 

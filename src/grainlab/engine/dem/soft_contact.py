@@ -40,11 +40,11 @@ The boundary (:mod:`grainlab.engine.boundaries.boundary`) is asked for its const
 step, as
 by contact dynamics. A driven wall moves at its speed through the step. A servo wall starts
 the step at the speed its servo gives from the step before (:func:`~grainlab.engine.
-soft_contact_kernels.servo_kernel`: the wall's mean reaction over the last step, in the
+boundaries.wall_box_face.servo_kernel`: the wall's mean reaction over the last step, in the
 overdamped servo of contact dynamics, same gains and bounds, taken backward in time with the
 stiffness K of the wall's contacts), then its servo runs again after the forces of every
-sub-step (:func:`~grainlab.engine.dem.soft_contact_kernels.servo_walls`: the same servo on the
-wall's load at that sub-step, correcting :data:`~grainlab.engine.dem.soft_contact_kernels.
+sub-step (:func:`~grainlab.engine.boundaries.wall_box_face.servo_walls`: the same servo on the
+wall's load at that sub-step, correcting :data:`~grainlab.engine.boundaries.wall_box_face.
 SUBSTEP_SERVO_FRACTION` of a stiff load's error per sub-step, as YADE's triaxial stress
 controller does with its ``wallDamping``; K the largest the wall's contacts had in the step,
 so that a wall that loses its last contact for a sub-step does not rush in at the loose
@@ -56,11 +56,11 @@ the step (its mean speed). Once per step was not enough on stiff grains: a servo
 the mean load of the last step lagged the sample, and the lateral stresses of a 300-sphere
 triaxial test at kappa = 1e4 swung from 0.4 to 2.2 sigma0 (39 % median error; 2.2 % at
 every sub-step, 0.8 % at kappa = 1e3, 4.5 % at kappa = 1e5). The
-periodic cell is servoed at every sub-step (:func:`~grainlab.engine.dem.soft_contact_kernels.
-cell_servo_kernel`: the stress of the contacts' springs over all the contacts, low-passed
-over :data:`FILTER_SUBSTEPS` stable sub-steps, the stiffness of the affine deformation of
-the contacts in the denominator), the bodies taking up each change of its rate at once
-(YADE's homogeneous deformation); the cell's integral term (:mod:`grainlab.engine.
+periodic cell is servoed at every sub-step (:func:`~grainlab.engine.boundaries.
+periodic_cell_face.cell_servo_kernel`: the stress of the contacts' springs over all the
+contacts, low-passed over :data:`FILTER_SUBSTEPS` stable sub-steps, the stiffness of the
+affine deformation of the contacts in the denominator), the bodies taking up each change of
+its rate at once (YADE's homogeneous deformation); the cell's integral term (:mod:`grainlab.engine.
 periodic_boundary`) then learns from the step's mean stress while a prescribed part of the
 rate deforms the sample. A lateral stress of a sheared periodic sample holds its target
 within about 1 % (median). The step's report holds the contacts closed at its end with
@@ -101,15 +101,16 @@ from grainlab.engine.boundaries.boundary import (
     DetectionPhases,
     as_boundary,
 )
-from grainlab.engine.dem.neighbour_rows import carry_springs_kernel, member_rows_kernel
-from grainlab.engine.dem.soft_contact_kernels import (
-    ROW_BLOCK,
+from grainlab.engine.boundaries.periodic_cell_face import CellFace
+from grainlab.engine.boundaries.wall_box_face import (
     SERVO_INTEGRAL,
     SUBSTEP_SERVO_FRACTION,
-    body_rows,
-    isotropic_blocks,
-    plain_blocks,
+    WallFace,
     servo_kernel,
+)
+from grainlab.engine.dem.body_pass import isotropic_blocks
+from grainlab.engine.dem.neighbour_rows import carry_springs_kernel
+from grainlab.engine.dem.soft_contact_kernels import (
     substeps_kernel,
 )
 from grainlab.engine.dem.soft_polyhedra import PolyhedronRows, has_polyhedra, smallest_radius
@@ -121,7 +122,8 @@ from grainlab.engine.dem.soft_stability import (
     zigzag_sums_kernel,
 )
 from grainlab.engine.dem.soft_step_report import SoftStepReport
-from grainlab.engine.detect.narrow_phase import Contacts
+from grainlab.engine.dem.sphere_row_list import SphereRows
+from grainlab.engine.dem.substep_arrays import BodyArrays
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.step_report import StepReport, contact_keys
@@ -134,7 +136,7 @@ FILTER_SUBSTEPS = 20.0
 sub-steps (four collisions: the law's stable step is 0.2 of a contact's half period)."""
 PARALLEL_BODIES = {"tbb": 1000, "workqueue": 8000, "omp": 8000}
 """From this many bodies, per threading layer, the sub-steps share the rows and the bodies out
-over Numba's threads (:func:`~grainlab.engine.dem.soft_contact_kernels.bodies_parallel`; the same
+over Numba's threads (:func:`~grainlab.engine.dem.body_pass.bodies_parallel`; the same
 results on any number of threads). Each sub-step then starts two parallel loops (three before
 the bodies' end of a sub-step and start of the next became one pass), ~0.02 ms each with TBB
 and ~0.17 ms with workqueue on the 2-core machine (measured), so that below this the threads
@@ -228,7 +230,7 @@ class SoftContactStep:
         self._filtered = np.zeros((3, 3))
         """The springs' stress [Pa] low-passed over :attr:`filter_time` (the cell's servo)."""
         self._phases: DetectionPhases | None = None
-        self._rows: _Rows | None = None
+        self._rows: SphereRows | None = None
         """The neighbour list, kept from step to step while it is valid."""
         self._end = (np.zeros((0, 3)), np.zeros((0, 4)))
         """The bodies' positions and orientations at the end of the last step."""
@@ -267,7 +269,7 @@ class SoftContactStep:
                   "driven": np.array(int(self._driven)), "carried": self._carried.copy(),
                   "filtered": self._filtered.copy(),
                   "substeps": np.array(self.n_substeps, dtype=np.int64)}
-        if isinstance(self._rows, _Rows):  # (a polyhedra list is rebuilt at every step)
+        if isinstance(self._rows, SphereRows):  # (a polyhedra list is rebuilt at every step)
             arrays |= {f"list_{k}": v for k, v in self._rows.to_arrays().items()}
             arrays |= {"end_positions": self._end[0].copy(),
                        "end_orientations": self._end[1].copy()}
@@ -288,7 +290,7 @@ class SoftContactStep:
             self.n_substeps = int(arrays["substeps"])
         self._rows = None
         if "list_body_i" in arrays:
-            self._rows = _Rows.from_arrays(
+            self._rows = SphereRows.from_arrays(
                 {k[5:]: v for k, v in arrays.items() if k.startswith("list_")})
             self._end = (np.asarray(arrays["end_positions"], dtype=np.float64).copy(),
                          np.asarray(arrays["end_orientations"], dtype=np.float64).copy())
@@ -406,13 +408,13 @@ class SoftContactStep:
             self._phases = DetectionPhases.with_alert(self.skin, sphere_rows=True)
         return self._phases
 
-    def _kept_list(self, state, library, bounds, run) -> _Rows | None:
+    def _kept_list(self, state, library, bounds, run) -> SphereRows | None:
         """The list of the last step if it is still valid for this one (the same bodies where
         that step left them, the same walls, and no two points nearer to closing the skin
         than :func:`~grainlab.engine.dem.soft_contact_kernels.substeps_kernel` allows); None if
         it must be rebuilt."""
         rows = self._rows
-        if (not isinstance(rows, _Rows) or rows.travel.shape[0] != state.n_bodies
+        if (not isinstance(rows, SphereRows) or rows.travel.shape[0] != state.n_bodies
                 or rows.wall_normals.shape != bounds.wall_normals.shape
                 or not np.array_equal(rows.wall_normals, bounds.wall_normals)
                 or not np.array_equal(self._end[0], state.positions)
@@ -428,7 +430,7 @@ class SoftContactStep:
         run.rows = rows
         return rows
 
-    def _build_list(self, state, library, boundary, bounds, run) -> _Rows:
+    def _build_list(self, state, library, boundary, bounds, run) -> SphereRows:
         """The neighbour list at the current configuration, with the springs it carries."""
         phases = self._detection(library)
         now = replace(bounds, wall_points=bounds.wall_points
@@ -441,7 +443,7 @@ class SoftContactStep:
         if has_polyhedra(library, self.law):  # one row per body pair (soft_polyhedra)
             rows = PolyhedronRows(contacts, images, state, library, bounds, self.friction)
         else:
-            rows = _Rows(contacts, np.ascontiguousarray(images, dtype=np.float64), state,
+            rows = SphereRows(contacts, np.ascontiguousarray(images, dtype=np.float64), state,
                          library, bounds, self.friction)
             rows.keys = contact_keys(contacts, state.n_bodies, library)
         rows.built_walls = np.array(now.wall_points, dtype=np.float64)
@@ -484,111 +486,6 @@ def isochoric_wall_speeds(bounds) -> np.ndarray:
         if np.any(servo):
             walls[servo] = -rate * lengths[servo] / np.count_nonzero(servo)
     return walls
-
-
-class _Rows:
-    """A neighbour list as the kernels take it (:mod:`grainlab.engine.dem.soft_contact_kernels`),
-    with what decides how long it lives: the bodies' ``travel`` (N,) [m] since it was built,
-    the walls (``built_walls`` (W, 3) [m], ``wall_normals``) and the cell matrix
-    ``built_cell`` (3, 3) [m] it was built at, and the kernel's bound ``approach`` (1,) [m]."""
-
-    SAVED = ("body_i", "body_j", "member_i", "member_j", "contact_type", "images", "off_i",
-             "off_j", "rad_i", "rad_j", "mu", "wall_rows", "adj_start",
-             "adj_entry", "xi", "roll", "keys", "travel", "approach", "built_walls",
-             "wall_normals", "built_cell")
-    """The arrays that restore a list (checkpoints); the rest is recomputed by the kernels."""
-
-    def __init__(self, contacts: Contacts | None, images=None, state=None, library=None,
-                 bounds=None, friction=0.0):
-        if contacts is None:  # filled by from_arrays
-            return
-        self.images = images
-        c = contacts.n_contacts
-        self.member_i = np.ascontiguousarray(contacts.member_i, dtype=np.int64)
-        self.member_j = np.ascontiguousarray(contacts.member_j, dtype=np.int64)
-        self.contact_type = np.ascontiguousarray(contacts.contact_type)
-        self.body_i = np.ascontiguousarray(contacts.body_i, dtype=np.int64)
-        self.body_j = np.ascontiguousarray(contacts.body_j, dtype=np.int64)
-        self.off_i, self.off_j = np.empty((c, 3)), np.empty((c, 3))
-        self.rad_i, self.rad_j = np.empty(c), np.empty(c)
-        member_rows_kernel(self.body_i, self.body_j, self.member_i, self.member_j,
-                           np.ascontiguousarray(library.sphere_start[state.shape_ids]),
-                           np.ascontiguousarray(library.sphere_offsets, dtype=np.float64),
-                           np.ascontiguousarray(library.sphere_radii, dtype=np.float64),
-                           self.off_i, self.off_j, self.rad_i, self.rad_j)
-        self.mu = np.zeros(c)
-        self.set_friction(bounds, friction)
-        self.wall_rows = np.flatnonzero(self.body_i < 0).astype(np.int64)
-        n = state.n_bodies
-        self.adj_start, self.adj_entry = body_rows(self.body_i, self.body_j, n)
-        self.xi = np.zeros((c, 3))
-        self.roll = np.zeros((c, 3))
-        self.keys = np.zeros(c, dtype=np.int64)
-        self.travel = np.zeros(n)
-        self.approach = np.zeros(1)
-        self.built_walls = np.zeros((0, 3))
-        self.wall_normals = np.zeros((0, 3))
-        self.built_cell = np.zeros((3, 3))
-        self._outputs()
-
-    def _outputs(self) -> None:
-        c = self.body_j.shape[0]
-        self.renew_report_outputs()
-        self.torque_i = np.zeros((c, 3))
-        self.torque_j = np.zeros((c, 3))
-        self.stiffness = np.zeros(c)
-        self.partial = np.zeros((-(-c // ROW_BLOCK), 10))  # the force pass's block sums
-        self.springs = np.zeros((c, 6))  # the vector force pass's springs and branches
-        self.plain = plain_blocks(self.body_i, self.off_i, self.off_j)
-
-    def renew_report_outputs(self) -> None:
-        """New arrays for the outputs a step report reads (gaps, normals, points, forces,
-        relative velocities), so that the report of the step before keeps its own
-        (:class:`~grainlab.engine.dem.soft_step_report.SoftStepReport`). Every call of the
-        sub-steps starts with an evaluation that writes them all."""
-        c = self.body_j.shape[0]
-        self.gap = np.empty(c)
-        self.normal = np.empty((c, 3))
-        self.point = np.empty((c, 3))
-        self.force = np.empty((c, 3))
-        self.rel_vel = np.empty((c, 3))
-
-    def set_friction(self, bounds, friction: float) -> None:
-        """The Coulomb coefficients of the rows: ``friction`` between bodies, each wall's
-        own on its rows (they may change from stage to stage)."""
-        inner = self.body_i >= 0
-        self.mu[inner] = float(friction)
-        if not np.all(inner):
-            self.mu[~inner] = bounds.wall_friction[-1 - self.body_i[~inner]]
-
-    def built_wall_disp(self, bounds) -> np.ndarray:
-        """(W,) [m] where the walls were when the list was built, along their normals, from
-        where they are at the start of this step (the kernel's ``wall_disp_built``)."""
-        return np.einsum("wi,wi->w", self.built_walls - bounds.wall_points, self.wall_normals)
-
-    def to_arrays(self) -> dict[str, np.ndarray]:
-        """The arrays of :data:`SAVED` (copies)."""
-        return {name: np.array(getattr(self, name)) for name in self.SAVED}
-
-    @classmethod
-    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> _Rows:
-        """The list :meth:`to_arrays` saved."""
-        rows = cls(None)
-        for name in cls.SAVED:
-            value = np.ascontiguousarray(arrays[name])
-            if value.dtype.kind in "iu" and name != "contact_type":
-                value = value.astype(np.int64)
-            elif value.dtype.kind == "f":
-                value = value.astype(np.float64)
-            setattr(rows, name, value)
-        rows.images = rows.images.reshape(-1, 3)
-        for name in ("off_i", "off_j", "xi", "roll"):
-            setattr(rows, name, getattr(rows, name).reshape(-1, 3))
-        rows.built_walls = rows.built_walls.reshape(-1, 3)
-        rows.wall_normals = rows.wall_normals.reshape(-1, 3)
-        rows.approach = rows.approach.reshape(1)
-        rows._outputs()
-        return rows
 
 
 def rotation_arms(library: ShapeLibrary, shape_ids: np.ndarray) -> np.ndarray:
@@ -641,7 +538,7 @@ class _Run:
     def __init__(self, state, bodies: _BodyConstants, bounds, n_walls, n_dofs, macro):
         self.state = state
         self.bounds = bounds
-        self.rows: _Rows | None = None
+        self.rows: SphereRows | None = None
         self.masses = bodies.masses
         self.inv_mass = bodies.inv_mass
         self.principal = bodies.principal
@@ -652,7 +549,7 @@ class _Run:
         self.wall_disp = np.zeros(n_walls)
         self.wall_speed = np.array(bounds.wall_free, dtype=np.float64)
         self.cell_h = np.array(bounds.cell_matrix, dtype=np.float64)
-        # the cell's servo (kernels.cell_servo_kernel): L = L_0 + sum_d e_d G_d, e_d =
+        # the cell's servo (periodic_cell_face.cell_servo_kernel): L = L_0 + sum_d e_d G_d, e_d =
         # clip(free_d - scale_d c_d), as periodic_boundary's servo (scale = kappa_d V dt)
         inverse = np.linalg.inv(bounds.cell_matrix)
         self.cell_gradient = np.ascontiguousarray(bounds.cell_fixed @ inverse)
@@ -675,7 +572,7 @@ class _Run:
         self.wall_force = np.zeros(n_walls)
         self.wall_stiffness = np.zeros(n_walls)
         self.stats = np.zeros(1)
-        f64 = np.float64  # the walls' servos, at every sub-step (kernels.servo_walls)
+        f64 = np.float64  # the walls' servos, at every sub-step (wall_box_face)
         self.macro = float(macro)
         self.servo_inv_mass = np.ascontiguousarray(bounds.wall_inv_mass, dtype=f64)
         self.servo_free = np.ascontiguousarray(bounds.wall_free, dtype=f64)
@@ -694,9 +591,9 @@ class _Run:
 
     def servo(self, wall_load: np.ndarray, macro: float) -> np.ndarray:
         """The walls' speeds at the start of the step (:func:`~grainlab.engine.
-        soft_contact_kernels.servo_kernel`) from the last step's mean loads and the servos'
+        wall_box_face.servo_kernel`) from the last step's mean loads and the servos'
         memories; returns the memories, which the sub-steps then update (their servo,
-        :func:`~grainlab.engine.dem.soft_contact_kernels.servo_walls`, starts from these
+        :func:`~grainlab.engine.boundaries.wall_box_face.servo_walls`, starts from these
         memories, the stiffnesses of the last step's end and the integral gain set here).
         When a driven deformation starts, the memories start from
         :func:`isochoric_wall_speeds`. (The cell's servo runs at every sub-step, in the
@@ -715,7 +612,39 @@ class _Run:
         self.driven = driven
         return wall_memory
 
-    def damped_substep(self, solver: SoftContactStep, rows: _Rows, horizon: float) -> float:
+    def body_arrays(self, travel: np.ndarray) -> BodyArrays:
+        """The bodies' arrays of the sub-steps, ``travel`` (N,) [m] the list's."""
+        state = self.state
+        return BodyArrays(self.inv_mass, self.masses, self.principal, self.isotropic, self.arm,
+                          self.plain_bodies, state.positions, state.orientations,
+                          state.velocities, state.angular_velocities, self.body_force,
+                          self.body_torque, travel)
+
+    def wall_face(self, disp_built: np.ndarray) -> WallFace:
+        """The walls' face of the sub-steps (:mod:`grainlab.engine.boundaries.wall_box_face`),
+        ``disp_built`` (W,) [m] their displacements when the list was built."""
+        bounds, f64 = self.bounds, np.float64
+        return WallFace(np.ascontiguousarray(bounds.wall_points, dtype=f64),
+                        np.ascontiguousarray(bounds.wall_normals, dtype=f64), self.wall_disp,
+                        self.wall_speed, disp_built, self.servo_inv_mass, self.servo_free,
+                        self.servo_max, self.wall_memory, self.wall_floor, self.wall_force,
+                        self.wall_stiffness, self.wall_impulse, self.macro, self.integral,
+                        SUBSTEP_SERVO_FRACTION)
+
+    def cell_face(self, solver: SoftContactStep, h_built: np.ndarray) -> CellFace:
+        """The cell's face of the sub-steps (:mod:`grainlab.engine.boundaries.
+        periodic_cell_face`), ``h_built`` (3, 3) [m] the cell when the list was built; that of
+        a fixed cell in a wall box."""
+        bounds, f64 = self.bounds, np.float64
+        return CellFace(self.cell_h, h_built, self.cell_rate, self.cell_gradient,
+                        self.cell_directions, self.cell_scale,
+                        np.ascontiguousarray(bounds.cell_free, dtype=f64),
+                        np.ascontiguousarray(bounds.cell_bounds, dtype=f64).reshape(-1, 2),
+                        self.cell_stiffness, solver._filtered, self.cell_dofs, self.gradient,
+                        solver._carried, self.stress_impulse, float(solver.filter_time),
+                        self.wall_disp.shape[0] == 0)
+
+    def damped_substep(self, solver: SoftContactStep, rows: SphereRows, horizon: float) -> float:
         """The dashpots' bound [s] on the sub-step for the contacts of ``rows``, each at its
         overlap after ``horizon`` [s] of approach (:mod:`grainlab.engine.dem.soft_stability`)."""
         if isinstance(rows, PolyhedronRows):
@@ -729,38 +658,18 @@ class _Run:
             np.ascontiguousarray(bounds.wall_normals, dtype=f64), self.wall_disp,
             self.wall_speed, self.cell_h, solver._carried @ self.cell_h))
 
-    def advance(self, solver: SoftContactStep, rows: _Rows, n_steps: int, h: float) -> int:
+    def advance(self, solver: SoftContactStep, rows: SphereRows, n_steps: int, h: float) -> int:
         """Up to ``n_steps`` sub-steps of ``h`` [s] on ``rows`` (0: only the loads now);
         returns those done."""
         if isinstance(rows, PolyhedronRows):
             return rows.advance(self, solver, n_steps, h, OVERLAP_LIMIT)
         state, bounds, law = self.state, self.bounds, solver.law
-        f64 = np.float64
         done = substeps_kernel(
-            n_steps, h, float(solver.skin), law.code, law.params,
-            law.rolling_friction, law.local_damping, solver.gravity,
-            rows.body_i, rows.body_j, rows.off_i, rows.off_j, rows.rad_i, rows.rad_j,
-            rows.images, rows.mu, rows.adj_start, rows.adj_entry, rows.wall_rows,
-            self.inv_mass, self.masses,
-            self.principal, self.isotropic, self.arm,
-            np.ascontiguousarray(bounds.wall_points, dtype=f64),
-            np.ascontiguousarray(bounds.wall_normals, dtype=f64), self.wall_speed,
-            self.cell_gradient, self.cell_directions, self.cell_scale,
-            np.ascontiguousarray(bounds.cell_free, dtype=f64),
-            np.ascontiguousarray(bounds.cell_bounds, dtype=f64).reshape(-1, 2),
-            self.cell_stiffness, solver.filter_time, solver._filtered,
-            rows.built_wall_disp(bounds), rows.built_cell,
-            state.positions, state.orientations, state.velocities, state.angular_velocities,
-            rows.xi, rows.roll, self.wall_disp, self.cell_h, self.cell_dofs, self.gradient,
-            solver._carried, self.cell_rate, rows.travel,
-            rows.force, rows.torque_i, rows.torque_j, rows.gap, rows.normal, rows.point,
-            rows.stiffness, rows.rel_vel, self.virial, self.body_force, self.body_torque,
-            self.wall_force, self.wall_stiffness, self.wall_impulse, self.stress_impulse,
-            self.stats, rows.approach, rows.partial,
-            threads_pay(state.n_bodies), self.servo_inv_mass, self.servo_free,
-            self.servo_max, self.wall_memory, self.macro, self.integral,
-            SUBSTEP_SERVO_FRACTION, self.wall_floor, rows.plain, rows.springs,
-            self.plain_bodies)
+            n_steps, h, float(solver.skin), law.code, law.params, law.rolling_friction,
+            law.local_damping, solver.gravity, rows.arrays(),
+            self.body_arrays(rows.travel), self.wall_face(rows.built_wall_disp(bounds)),
+            self.cell_face(solver, rows.built_cell), self.virial, self.stats,
+            threads_pay(state.n_bodies))
         smallest = float(np.min(rows.rad_j)) if rows.rad_j.size else math.inf
         if self.stats[0] > OVERLAP_LIMIT * smallest:
             raise SimulationBlowUp(
@@ -783,7 +692,7 @@ class _Run:
                            state.angular_velocities, self.cell_h, self.cell_rate, sums)
         return zigzag_index(sums)
 
-    def report(self, rows: _Rows, macro: float) -> tuple[StepReport | SoftStepReport,
+    def report(self, rows: SphereRows, macro: float) -> tuple[StepReport | SoftStepReport,
                                                           ClosedContacts | SoftStepReport]:
         """The contacts closed at the end of the step, as a step report (copied out of a
         sphere list only when read: :class:`~grainlab.engine.dem.soft_step_report.

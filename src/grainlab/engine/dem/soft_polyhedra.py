@@ -105,7 +105,7 @@ from functools import lru_cache
 import numpy as np
 
 from grainlab.contact.soft_contact_law import SoftContactLaw
-from grainlab.engine.dem.soft_contact_kernels import SUBSTEP_SERVO_FRACTION, body_rows
+from grainlab.engine.dem.soft_contact_kernels import body_rows
 from grainlab.engine.dem.soft_polyhedra_kernels import polyhedra_substeps_kernel
 from grainlab.engine.dem.soft_stability import (
     BLOCK,
@@ -231,27 +231,14 @@ class PolyhedronRows:
         step ``run`` (:class:`~grainlab.engine.dem.soft_contact.SoftContactStep`'s); returns those
         done. A penetration beyond ``overlap_limit`` x the smallest inscribed radius stops the
         run."""
-        state, bounds, law = run.state, run.bounds, solver.law
-        f64 = np.float64
+        state, law = run.state, solver.law
         done = polyhedra_substeps_kernel(
             n_steps, h, float(solver.skin), law.code, law.params, law.local_damping,
             solver.gravity, self.bodies, self.library, self.world, self.pairs,
-            self.adj_start, self.adj_entry, self.wall_rows, run.inv_mass,
-            run.masses, run.principal, run.isotropic,
-            run.arm, np.ascontiguousarray(bounds.wall_points, dtype=f64),
-            np.ascontiguousarray(bounds.wall_normals, dtype=f64), run.wall_speed,
-            (run.cell_gradient, run.cell_directions, run.cell_scale,
-             np.ascontiguousarray(bounds.cell_free, dtype=f64),
-             np.ascontiguousarray(bounds.cell_bounds, dtype=f64).reshape(-1, 2),
-             run.cell_stiffness, solver._filtered, run.cell_dofs, run.gradient,
-             solver._carried, run.cell_rate, run.virial, run.stress_impulse),
-            solver.filter_time, run.wall_disp.copy(), run.cell_h.copy(), self.tolerances,
-            state.positions, state.orientations, state.velocities, state.angular_velocities,
-            self.xi, run.wall_disp, run.cell_h, np.zeros(state.n_bodies), self.outputs,
-            run.body_force, run.body_torque, run.wall_force, run.wall_stiffness,
-            run.wall_impulse, run.stats,
-            (run.servo_inv_mass, run.servo_free, run.servo_max, run.wall_memory, run.macro,
-             run.integral, SUBSTEP_SERVO_FRACTION, run.wall_floor))
+            self.adj_start, self.adj_entry, self.wall_rows, self.tolerances, self.xi,
+            self.outputs, run.body_arrays(np.zeros(state.n_bodies)),
+            run.wall_face(run.wall_disp.copy()), run.cell_face(solver, run.cell_h.copy()),
+            run.virial, run.stats)
         if run.stats[0] > overlap_limit * self.smallest_radius:
             raise SimulationBlowUp(
                 f"runaway penetration in the soft-contact step: {run.stats[0]:.3g} m, more "

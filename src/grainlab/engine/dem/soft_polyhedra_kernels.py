@@ -19,11 +19,11 @@ point; per closed manifold point (slot r < ``n_points[p]`` of (P, K) arrays, K t
 points kept): gap [m], normal, position [m], world force on j [N] (its normal force plus
 its share of the pair's tangential force), relative velocity [m/s], feature ids and the
 pair's type code. The sums on the bodies and the boundary's loads are those of the sphere
-path (:func:`~grainlab.engine.dem.soft_contact_kernels.gather_kernel`,
+path (:func:`~grainlab.engine.dem.body_pass.gather_kernel`,
 :func:`~grainlab.engine.dem.soft_contact_kernels.wall_loads_kernel`) on the pair rows, the
-kicks and drifts its :func:`~grainlab.engine.dem.soft_contact_kernels.kick_kernel` and
-:func:`~grainlab.engine.dem.soft_contact_kernels.drift_kernel`, the periodic cell's servo its
-:func:`~grainlab.engine.dem.soft_contact_kernels.cell_servo_kernel` on the stress of the pairs'
+kicks and drifts its :func:`~grainlab.engine.dem.body_pass.kick_kernel` and
+:func:`~grainlab.engine.dem.body_pass.drift_kernel`, the periodic cell's servo its
+:func:`~grainlab.engine.boundaries.periodic_cell_face.cell_servo_kernel` on the stress of the pairs'
 forces (:func:`~grainlab.engine.dem.soft_contact_kernels.virial_kernel`).
 """
 
@@ -37,18 +37,16 @@ from numba import njit
 from grainlab.contact.contact_kinematics import less_body_i, point_velocity
 from grainlab.contact.soft_contact_law import contact_law
 from grainlab.contact.tangential_spring import mindlin_coulomb
-from grainlab.engine.dem.soft_contact_kernels import (
-    _det3,
+from grainlab.engine.boundaries.periodic_cell_face import (
     carry_gradient_kernel,
-    cell_servo_kernel,
-    cell_stiffness_kernel,
-    drift_kernel,
-    gather_kernel,
-    kick_kernel,
-    servo_walls,
-    virial_kernel,
-    wall_loads_kernel,
+    cell_move,
+    cell_settle,
+    cell_shift,
+    cell_start,
 )
+from grainlab.engine.boundaries.wall_box_face import walls_move, walls_moved, walls_settle
+from grainlab.engine.dem.body_pass import drift_kernel, gather_kernel, kick_kernel
+from grainlab.engine.dem.soft_contact_kernels import virial_kernel, wall_loads_kernel
 from grainlab.engine.detect.polyhedron_narrow_phase import _body_features, world_polyhedron
 from grainlab.geometry.polyhedron_contact import MAX_POINTS, signed_distance
 from grainlab.geometry.polyhedron_manifold import pair_manifold, wall_manifold
@@ -91,20 +89,32 @@ def _add_moment(torque, p, rx, ry, rz, fx, fy, fz, sign):
 
 
 @njit(cache=True)
-def polyhedron_forces_kernel(step, code, params, library, world, pair_i, pair_j, images, mu,
-                             r_eff, inv_mass, positions, velocities, spins, wall_p0, wall_n,
-                             wall_disp, wall_speed, cell_h, cell_rate, cos_tol, sin_tol,
-                             max_points, xi, force, torque_i, torque_j, normal, point,
-                             stiffness, rel_vel, n_points, point_gap, point_normal,
-                             point_position, point_force, point_velocity, feature_i,
-                             feature_j, pair_type, stats):
+def polyhedron_forces_kernel(step, code, params, library, world, pairs, tolerances, xi,
+                             outputs, bodies, walls, cell, stats):
     """Manifold and force of every pair p of the list (module docstring; the law of
     :mod:`grainlab.engine.dem.soft_polyhedra`); ``step`` [s] is the time since the last
     evaluation (0: the force of the current springs). ``library``: (shape_ids, face_start,
     face_count, face_vertex_start, face_vertices, edge_start, edge_count, edges, edge_faces,
     vertex_start, vertex_count, vertex_neighbour_start, vertex_neighbours); ``world`` as
     :func:`world_boundaries_kernel`'s, filled. The tangential springs ``xi`` (P, 3) [N] are
-    updated; ``stats[0]`` grows to the deepest penetration [m] met."""
+    updated; ``stats[0]`` grows to the deepest penetration [m] met. ``pairs``: (pair_i,
+    pair_j, images, mu, r_eff), ``tolerances``: (cos, sin of the angle tolerance, most points
+    kept), ``outputs``: the per-pair and per-point outputs (module docstring: force,
+    torque_i, torque_j, normal, point, stiffness, rel_vel, n_points, point_gap, point_normal,
+    point_position, point_force, point_velocity, feature_i, feature_j, pair_type); the
+    ``bodies`` (:class:`~grainlab.engine.dem.substep_arrays.BodyArrays`), the walls
+    (:class:`~grainlab.engine.boundaries.wall_box_face.WallFace`) and the cell
+    (:class:`~grainlab.engine.boundaries.periodic_cell_face.CellFace`) as they are now."""
+    pair_i, pair_j, images, mu, r_eff = pairs
+    cos_tol, sin_tol, max_points = tolerances
+    (force, torque_i, torque_j, normal, point, stiffness, rel_vel, n_points, point_gap,
+     point_normal, point_position, point_force, point_velocity, feature_i, feature_j,
+     pair_type) = outputs
+    inv_mass, positions, velocities, spins = bodies.inv_mass, bodies.positions, \
+        bodies.velocities, bodies.spins
+    wall_p0, wall_n, wall_disp, wall_speed = walls.points, walls.normals, walls.disp, \
+        walls.speed
+    cell_h, cell_rate = cell.h, cell.rate
     (shape_ids, face_start, face_count, face_vertex_start, face_vertices, edge_start,
      edge_count, edges, edge_faces, vertex_start, vertex_count, vertex_neighbour_start,
      vertex_neighbours) = library
@@ -255,126 +265,73 @@ def polyhedron_forces_kernel(step, code, params, library, world, pair_i, pair_j,
 
 
 @njit(cache=True)
-def _loads(step, code, params, gravity, bodies, library, world, pairs, adj_start, adj_entry,
-           wall_rows, inv_mass, masses, positions, orientations, velocities, spins, wall_p0,
-           wall_n, wall_disp, wall_speed, cell_h, cell_rate, tolerances, xi, outputs,
-           body_force, body_torque, wall_force, wall_stiffness, virial, stats):
-    """World boundaries, pair forces, their sums on the bodies, the walls' loads and the
+def _loads(step, code, params, gravity, shapes, library, world, pairs, adj_start, adj_entry,
+           wall_rows, bodies, walls, cell, tolerances, xi, outputs, virial, stats):
+    """World boundaries, pair forces, their sums on the ``bodies``
+    (:class:`~grainlab.engine.dem.substep_arrays.BodyArrays`), the walls' loads and the
     pairs' virial."""
-    pair_i, pair_j, images, mu, r_eff = pairs
-    cos_tol, sin_tol, max_points = tolerances
-    (force, torque_i, torque_j, normal, point, stiffness, rel_vel, n_points, point_gap,
-     point_normal, point_position, point_force, point_velocity, feature_i, feature_j,
-     pair_type) = outputs
-    world_boundaries_kernel(positions, orientations, bodies, world)
-    polyhedron_forces_kernel(
-        step, code, params, library, world, pair_i, pair_j, images, mu, r_eff, inv_mass,
-        positions, velocities, spins, wall_p0, wall_n, wall_disp, wall_speed, cell_h,
-        cell_rate, cos_tol, sin_tol, max_points, xi, force, torque_i, torque_j, normal, point,
-        stiffness, rel_vel, n_points, point_gap, point_normal, point_position, point_force,
-        point_velocity, feature_i, feature_j, pair_type, stats)
-    gather_kernel(adj_start, adj_entry, force, torque_i, torque_j, masses, gravity,
-                  body_force, body_torque)
-    wall_loads_kernel(wall_rows, pair_i, wall_n, force, stiffness, wall_force, wall_stiffness)
-    virial_kernel(pair_i, pair_j, images, force, positions, cell_h, virial)
+    pair_i, pair_j, images = pairs[0], pairs[1], pairs[2]
+    force, torque_i, torque_j, stiffness = outputs[0], outputs[1], outputs[2], outputs[5]
+    positions = bodies.positions
+    world_boundaries_kernel(positions, bodies.orientations, shapes, world)
+    polyhedron_forces_kernel(step, code, params, library, world, pairs, tolerances, xi,
+                             outputs, bodies, walls, cell, stats)
+    gather_kernel(adj_start, adj_entry, force, torque_i, torque_j, bodies.masses, gravity,
+                  bodies.force, bodies.torque)
+    wall_loads_kernel(wall_rows, pair_i, walls.normals, force, stiffness, walls.force,
+                      walls.stiffness)
+    virial_kernel(pair_i, pair_j, images, force, positions, cell.h, virial)
 
 
 @njit(cache=True)
 def polyhedra_substeps_kernel(n_steps, dt, skin, code, params, local_damping, gravity,
-                              bodies, library, world, pairs, adj_start, adj_entry, wall_rows,
-                              inv_mass, masses, principal, isotropic, arm, wall_p0,
-                              wall_n, wall_speed, cell, filter_time, wall_disp_built,
-                              cell_h_built, tolerances, positions, orientations, velocities,
-                              spins, xi, wall_disp, cell_h, travel, outputs, body_force,
-                              body_torque, wall_force, wall_stiffness, wall_impulse, stats,
-                              walls_servo):
-    """Up to ``n_steps`` velocity-Verlet sub-steps of ``dt`` [s] on the pair list (``bodies``
-    and ``world`` as :func:`world_boundaries_kernel`'s, ``library`` and the rest as
-    :func:`polyhedron_forces_kernel`'s; ``pairs``: (pair_i, pair_j, images, mu, r_eff),
-    ``tolerances``: (cos, sin of the angle tolerance, most points kept); ``cell``: the
-    periodic cell's servo (L_0, G_d, scale_d, free_d, bounds_d, K_d, the filtered stress,
-    e_d, L, the carried L, hdot, the virial, the stress summed over time); ``walls_servo``: the
-    walls' servo at every sub-step (wall_inv_mass, wall_free, wall_max, wall_memory, macro,
-    integral, servo_gain, wall_floor, as :func:`~grainlab.engine.dem.soft_contact_kernels.
-    servo_walls` takes them), as
+                              shapes, library, world, pairs, adj_start, adj_entry, wall_rows,
+                              tolerances, xi, outputs, bodies, walls, cell, virial, stats):
+    """Up to ``n_steps`` velocity-Verlet sub-steps of ``dt`` [s] on the pair list (``shapes``
+    and ``world`` as :func:`world_boundaries_kernel`'s ``bodies`` and ``world``, ``library``
+    and the rest as :func:`polyhedron_forces_kernel`'s; ``pairs``: (pair_i, pair_j, images,
+    mu, r_eff), ``tolerances``: (cos, sin of the angle tolerance, most points kept)) for the
+    ``bodies`` (:class:`~grainlab.engine.dem.substep_arrays.BodyArrays`), the boundary given
+    by its faces ``walls`` (:class:`~grainlab.engine.boundaries.wall_box_face.WallFace`) and
+    ``cell`` (:class:`~grainlab.engine.boundaries.periodic_cell_face.CellFace`), as
     :func:`~grainlab.engine.dem.soft_contact_kernels.substeps_kernel` does on the sphere rows
     (same kicks, drifts, boundary motion and servos, load sums and early stop when two points
     may have approached by more than ``skin`` [m]); ``n_steps`` = 0: only the loads now.
     Returns the sub-steps done; ``stats[0]`` becomes the deepest penetration [m] met. The
-    cell's servo reads the pairs' whole forces (a pair's spring and dashpot are not kept
-    apart), low-passed as for the spheres."""
-    (cell_gradient, cell_directions, cell_scale, cell_free, cell_bounds, cell_stiffness,
-     filtered, cell_dofs, gradient, carried, cell_rate, virial, stress_impulse) = cell
+    cell's servo reads the pairs' whole forces ``virial`` (3, 3) [N m] (a pair's spring and
+    dashpot are not kept apart), low-passed as for the spheres."""
     pair_i, pair_j, images = pairs[0], pairs[1], pairs[2]
     normal, stiffness = outputs[3], outputs[5]
-    (wall_inv_mass, wall_free, wall_max, wall_memory, macro, integral, servo_gain,
-     wall_floor) = walls_servo
-    wall_servo = False
-    for w in range(wall_inv_mass.shape[0]):
-        wall_servo = wall_servo or wall_inv_mass[w] > 0.0
     half = 0.5 * dt
-    servo = cell_dofs.shape[0] > 0
-    periodic = wall_disp.shape[0] == 0
-    _loads(0.0, code, params, gravity, bodies, library, world, pairs, adj_start, adj_entry,
-           wall_rows, inv_mass, masses, positions, orientations, velocities, spins, wall_p0,
-           wall_n, wall_disp, wall_speed, cell_h, cell_rate, tolerances, xi, outputs,
-           body_force, body_torque, wall_force, wall_stiffness, virial, stats)
-    if servo:
-        cell_stiffness_kernel(pair_i, pair_j, images, stiffness, normal, positions, cell_h,
-                              cell_directions, cell_stiffness)
-        cell_servo_kernel(0.0, virial, cell_h, cell_gradient, cell_directions, cell_scale,
-                          cell_free, cell_bounds, cell_stiffness, filter_time, filtered,
-                          cell_dofs, gradient)
-    else:
-        gradient[:, :] = cell_gradient
-    carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell_h, cell_rate)
+    _loads(0.0, code, params, gravity, shapes, library, world, pairs, adj_start, adj_entry,
+           wall_rows, bodies, walls, cell, tolerances, xi, outputs, virial, stats)
+    cell_start(cell, virial, pair_i, pair_j, images, stiffness, normal, bodies.masses,
+               bodies.positions, bodies.velocities)
     done = 0
     previous = 0.0
     for _ in range(n_steps):
-        kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
-                    body_force, body_torque, velocities, spins)
-        drift_kernel(dt, principal, isotropic, arm, positions, orientations, velocities,
-                     spins, travel)
-        for w in range(wall_disp.shape[0]):
-            wall_disp[w] += dt * wall_speed[w]
-        for a in range(3):
-            for b in range(3):
-                cell_h[a, b] += dt * cell_rate[a, b]
-        _loads(dt, code, params, gravity, bodies, library, world, pairs, adj_start, adj_entry,
-               wall_rows, inv_mass, masses, positions, orientations, velocities, spins,
-               wall_p0, wall_n, wall_disp, wall_speed, cell_h, cell_rate, tolerances, xi,
-               outputs, body_force, body_torque, wall_force, wall_stiffness, virial, stats)
-        if wall_servo:
-            servo_walls(dt, macro, integral * dt / macro, servo_gain, wall_inv_mass,
-                        wall_free, wall_max, wall_force, wall_stiffness, wall_memory,
-                        wall_speed, wall_floor)
-        kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
-                    body_force, body_torque, velocities, spins)
-        if servo:
-            cell_servo_kernel(dt, virial, cell_h, cell_gradient, cell_directions, cell_scale,
-                              cell_free, cell_bounds, cell_stiffness, filter_time, filtered,
-                              cell_dofs, gradient)
-        if periodic:
-            carry_gradient_kernel(gradient, carried, masses, positions, velocities, cell_h,
-                                  cell_rate)
-            volume = _det3(cell_h)
-            for a in range(3):
-                for b in range(3):
-                    stress_impulse[a, b] += dt * virial[a, b] / volume
-        for w in range(wall_impulse.shape[0]):
-            wall_impulse[w] += dt * wall_force[w]
+        kick_kernel(half, bodies.inv_mass, bodies.principal, bodies.isotropic, local_damping,
+                    bodies.orientations, bodies.force, bodies.torque, bodies.velocities,
+                    bodies.spins)
+        drift_kernel(dt, bodies.principal, bodies.isotropic, bodies.arm, bodies.positions,
+                     bodies.orientations, bodies.velocities, bodies.spins, bodies.travel)
+        walls_move(walls, dt)
+        cell_move(cell, dt)
+        _loads(dt, code, params, gravity, shapes, library, world, pairs, adj_start, adj_entry,
+               wall_rows, bodies, walls, cell, tolerances, xi, outputs, virial, stats)
+        walls_settle(walls, dt)
+        kick_kernel(half, bodies.inv_mass, bodies.principal, bodies.isotropic, local_damping,
+                    bodies.orientations, bodies.force, bodies.torque, bodies.velocities,
+                    bodies.spins)
+        cell_settle(cell, dt, virial)
+        if cell.periodic:
+            carry_gradient_kernel(cell.gradient, cell.carried, bodies.masses, bodies.positions,
+                                  bodies.velocities, cell.h, cell.rate)
         done += 1
         reach = 0.0
-        for b in range(travel.shape[0]):
-            reach = max(reach, travel[b])
-        moved = 0.0
-        for w in range(wall_disp.shape[0]):
-            moved = max(moved, abs(wall_disp[w] - wall_disp_built[w]))
-        shift = 0.0
-        for a in range(3):
-            for b in range(3):
-                shift += (cell_h[a, b] - cell_h_built[a, b]) ** 2
-        total = 2.0 * reach + moved + math.sqrt(3.0 * shift)
+        for b in range(bodies.travel.shape[0]):
+            reach = max(reach, bodies.travel[b])
+        total = 2.0 * reach + walls_moved(walls) + cell_shift(cell)
         if 2.0 * total - previous > skin:  # the next sub-step might go past the skin
             break
         previous = total

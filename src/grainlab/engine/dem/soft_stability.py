@@ -390,7 +390,7 @@ def sphere_rows_rates(rows, horizon: float, law, inv_mass, inv_inertia, position
                       wall_speed, cell_h, cell_rate) -> tuple[float, float]:
     """(a [1/s^2], b [1/s], c_n / m*_n [1/s]) of :func:`stable_rates_kernel` for a list of
     member spheres
-    (:class:`~grainlab.engine.dem.soft_contact._Rows`), each row at its overlap after
+    (:class:`~grainlab.engine.dem.sphere_row_list.SphereRows`), each row at its overlap after
     ``horizon`` [s] (:func:`sphere_elements_kernel`); ``law`` a
     :class:`~grainlab.contact.soft_contact_law.SoftContactLaw`."""
     c, n = rows.body_j.shape[0], inv_mass.shape[0]

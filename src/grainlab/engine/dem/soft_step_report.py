@@ -32,7 +32,7 @@ class SoftStepReport:
     (what a boundary reads, :class:`~grainlab.engine.boundaries.boundary.BoundaryMotion`).
 
     ``rows`` is the neighbour list at the end of the step (:class:`~grainlab.engine.
-    soft_contact._Rows`); the report keeps its arrays, which the list must not write again.
+    sphere_row_list.SphereRows`); the report keeps its arrays, which the list must not write again.
     """
 
     convergence = None
