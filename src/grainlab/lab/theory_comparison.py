@@ -62,6 +62,10 @@ DILATANCY_SHARE = 0.3
 
 INITIAL = "initial"
 
+GRID_SLACK = 1e-9
+"""A run's row counts as inside the model's strain range within this fraction of the largest
+strain (a stage's end strain, reached by both, differs by round-off) [-]."""
+
 
 def check_theory_kind(kind: str, field: str = "KIND") -> str:
     """``kind`` if the model can follow it (:data:`THEORY_KINDS`)."""
@@ -123,7 +127,8 @@ def on_simulation_grid(simulation: pd.DataFrame, model: pd.DataFrame) -> pd.Data
         mod = pd.concat([before, mod])
         x = mod["eps_axial"].to_numpy()
         order = np.argsort(x, kind="stable")
-        low, high = x.min() - 1e-15, x.max() + 1e-15
+        slack = GRID_SLACK * max(float(np.abs(x).max()), 1e-12)
+        low, high = x.min() - slack, x.max() + slack
         kept = sim[(sim["eps_axial"] >= low) & (sim["eps_axial"] <= high)]
         if not len(kept):
             break
