@@ -60,7 +60,8 @@ def test_the_command_writes_its_files_and_exits_0(comparison_folder):
         assert (out / name).is_file(), name
     differences = pd.read_csv(out / "theory-differences.csv")
     assert set(differences["distribution"]) == {"homogeneous", "maxwellian-average"}
-    assert {"peak_q_over_p", "end_q_over_p", "dilatancy"} <= set(differences["quantity"])
+    assert {"peak_q_over_p", "end_q_over_p", "dilatancy", "reached_eps_axial",
+            "own_peak_q_over_p"} <= set(differences["quantity"])
     rows = differences.dropna(subset=["simulation", "model"])
     assert np.allclose(rows["model_minus_simulation"], rows["model"] - rows["simulation"])
 

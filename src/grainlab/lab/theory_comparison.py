@@ -20,8 +20,10 @@ Row 0 of each side is the state at the end of the compaction (stage ``"initial"`
 distribution law the peak q/p, the q/p and eps_vol at the largest strain both reached, and
 the dilatancy rate -d eps_vol / d eps_axial fitted over the last :data:`DILATANCY_SHARE`
 of that strain range (triaxial, extension); for an oedometer K0 and sigma_zz at the end of
-each stage; and the mean stress p at the start (the model's is the snapshot's contact-force
-stress, the run's its boundary's).
+each stage; the mean stress p at the start (the model's is the snapshot's contact-force
+stress, the run's its boundary's); and, each side over its own rows (a model that stops
+early, or a run recorded sparsely, leaves little on the common grid), the strain each
+reached and its peak q/p.
 """
 
 from __future__ import annotations
@@ -197,7 +199,7 @@ class TheoryComparison(Compute):
         self._results = {}
         self._store(kind=kind, result=result, models=models, failures=failures,
                     curves=pd.concat(curves, ignore_index=True),
-                    differences=_differences(kind, pairs, models))
+                    differences=_differences(kind, pairs, simulation, models))
         return self
 
     @property
@@ -272,17 +274,32 @@ def _measures(kind: str, curves: pd.DataFrame) -> list[tuple[str, str, float]]:
     ]
 
 
+def _whole_path(curves: pd.DataFrame) -> list[tuple[str, str, float]]:
+    """(quantity, meaning, value) of one side over all its own rows (not the common grid)."""
+    loading = curves[curves["stage"] != INITIAL]
+    if not len(loading):
+        return []
+    return [("reached_eps_axial", "eps_zz at the end of its own path (each side)",
+             float(loading["eps_axial"].iloc[-1])),
+            ("own_peak_q_over_p", "peak q/p over its own path (each side)",
+             float(np.nanmax(loading["q_over_p"])))]
+
+
 def _differences(kind: str, pairs: dict[str, tuple[pd.DataFrame, pd.DataFrame]],
-                 results: dict[str, TestResult]) -> pd.DataFrame:
+                 simulation: pd.DataFrame, results: dict[str, TestResult]) -> pd.DataFrame:
     """The rows of :attr:`TheoryComparison.differences`; ``pairs``: per distribution law the
-    simulation's rows and the model's on the same grid."""
+    simulation's rows and the model's on the same grid; ``simulation``: all the run's rows
+    (the model's own are in ``results``)."""
     rows = []
+    whole = dict(((q, m), v) for q, m, v in _whole_path(simulation))
     for name, (sim, curves) in pairs.items():
         measured = dict(((q, m), v) for q, m, v in _measures(kind, curves))
         for (quantity, meaning), reference in (((q, m), v) for q, m, v in
                                                _measures(kind, sim)):
             model = measured.get((quantity, meaning), math.nan)
             rows.append((name, quantity, meaning, reference, model))
+        own = _whole_path(_curves(results[name].table, name))
+        rows += [(name, q, m, whole.get((q, m), math.nan), v) for q, m, v in own]
         outcome = results[name].metadata.get("outcome", {})
         rows.append((name, "model_completed", "the model followed the whole path (1) or "
                      "stopped (0: its outcome in model-LAW.csv's metadata and the log)",
