@@ -197,8 +197,10 @@ class TheoryComparison(Compute):
             pairs[name] = (table[table["side"] == SIMULATION], table[table["side"] == name])
             curves.append(pairs[name][1])
         self._results = {}
+        own = [simulation, *(_curves(test.table, name) for name, test in models.items())]
         self._store(kind=kind, result=result, models=models, failures=failures,
                     curves=pd.concat(curves, ignore_index=True),
+                    own_curves=pd.concat(own, ignore_index=True),
                     differences=_differences(kind, pairs, simulation, models))
         return self
 
@@ -227,6 +229,12 @@ class TheoryComparison(Compute):
         """Both sides on the simulation's grid (:data:`CURVE_COLUMNS`; the run's rows with
         ``side`` "simulation", a model's with its distribution law)."""
         return self._get("curves")
+
+    @property
+    def own_curves(self) -> pd.DataFrame:
+        """Each side on its own rows (the columns of :data:`CURVE_COLUMNS`): the run's as
+        recorded, a model's at each of its steps (what the figure draws)."""
+        return self._get("own_curves")
 
     @property
     def differences(self) -> pd.DataFrame:

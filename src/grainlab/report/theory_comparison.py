@@ -2,9 +2,11 @@
 (``theory.png``): the simulation in black, one colour per distribution law, on the same axes.
 
 Triaxial and extension: q/p and eps_vol against the vertical strain eps_zz (from the end of
-the compaction, compression > 0). Oedometer: K0 and sigma_zz against eps_zz. The curves are
-those of :attr:`~grainlab.lab.theory_comparison.TheoryComparison.curves` (both sides on the
-simulation's strain grid); the run stated in the title.
+the compaction, compression > 0). Oedometer: K0 and sigma_zz against eps_zz. Each side is
+drawn on its own rows (:attr:`~grainlab.lab.theory_comparison.TheoryComparison.own_curves`:
+the run's records, the model's steps, so that a model that stops before the run's first
+record still shows); the numbers on the common grid are the table's. The run stated in the
+title.
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ def theory_comparison_figure(comparison: TheoryComparison) -> Figure:
     the first."""
     columns = PANELS.get(comparison.kind, SHEAR_PANELS)
     figure, axes = new_figure_axes(1, len(columns), figsize=(5.2 * len(columns), 4.0))
-    curves = comparison.curves
+    curves = comparison.own_curves
     for index, side in enumerate(dict.fromkeys(curves["side"])):
         rows = curves[curves["side"] == side]
         simulation = side == SIMULATION
