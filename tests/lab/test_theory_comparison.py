@@ -17,7 +17,9 @@ from grainlab.errors import InputError
 from grainlab.lab.run_micro_element import (
     check_distributions,
     compaction_snapshot,
+    mean_diameter,
     model_path,
+    run_contact_law,
     run_micro_element_model,
 )
 from grainlab.lab.solver_comparison import read_run_result
@@ -90,6 +92,20 @@ def test_the_model_starts_from_the_runs_stress(comparison_folder):
     stage = path.stages[0]
     assert stage.control[:3] == ("stress", "stress", "strain")
     assert stage.values[0] == stage.values[1] == pytest.approx(1e5)
+
+
+def test_the_model_takes_the_springs_the_dem_would_give_the_run(comparison_folder):
+    """Rigid grains (contact dynamics): k_n = kappa sigma0 <d> with the DEM's default
+    kappa = 1e4, k_s = 0.5 k_n, and the loading's friction mu = 0.4 = tan phi_mu."""
+    out, _ = comparison_folder
+    result = read_run_result(out / "run")
+    network = compaction_snapshot(out / "run" / "snapshots.h5")
+    law = run_contact_law(result, network)
+    diameters = (6.0 * np.asarray(network.volumes) / np.pi) ** (1.0 / 3.0)
+    assert mean_diameter(network) == pytest.approx(diameters.mean(), rel=1e-12)
+    assert law.normal_stiffness == pytest.approx(1e4 * 1e5 * diameters.mean(), rel=1e-12)
+    assert law.shear_stiffness == pytest.approx(0.5 * law.normal_stiffness, rel=1e-12)
+    assert law.friction_coefficient == pytest.approx(0.4, rel=1e-12)
 
 
 def test_both_sides_are_on_the_runs_strain_grid(comparison_folder):
@@ -171,3 +187,11 @@ def test_what_the_model_cannot_do_is_refused_by_name(tmp_path):
         assert result.exit_code == 2, result.output
         assert named in result.output, result.output
         assert not (out / "run").exists()
+    # the springs' options are the model's even when the run's grains are rigid: --kappa is
+    # accepted with contact dynamics (the refusal that follows is --snapshot-every's)
+    result = runner.invoke(app, ["theory-vs-sim", "triaxial", "--kappa", "1e3",
+                                 "--snapshot-every", "0", "--out", str(tmp_path / "never")])
+    assert result.exit_code == 2 and "--snapshot-every" in result.output, result.output
+    result = runner.invoke(app, ["theory-vs-sim", "triaxial", "--restitution", "0.3",
+                                 "--out", str(tmp_path / "never")])
+    assert result.exit_code == 2 and "--restitution" in result.output, result.output

@@ -24,7 +24,12 @@ from rich.table import Table
 from grainlab.cli.discrete import complete_run, console
 from grainlab.cli.errors import friendly_errors
 from grainlab.cli.inputs import output_folder
-from grainlab.cli.run_input import as_typed, asked_config, sample_source
+from grainlab.cli.run_input import (
+    as_typed,
+    command_config,
+    refuse_inert_options,
+    sample_source,
+)
 from grainlab.cli.run_options import THEORY, takes_options
 from grainlab.errors import InputError
 
@@ -56,14 +61,15 @@ def theory_vs_sim_command(**options: Any) -> None:
     contact dynamics unless --solver dem), build seed 001's micro-element model from the
     contact-network snapshot at the end of its compaction (one micro-element per particle,
     the run's contact forces as its initial state, the run's springs and friction), drive it
-    along the rest of the run's load path, once per --distribution, and overlay them:
+    along the rest of the run's load path, once per --distribution, and overlay them
+    (--law, --kappa, --young-modulus set the model's springs whatever the solver):
     OUT/theory.png (q/p and eps_vol against the vertical strain, or K0 and sigma_zz for an
     oedometer), OUT/theory.csv (both sides on the run's strain grid) and
     OUT/theory-differences.csv (peak q/p, q/p and eps_vol at the largest strain both reached,
     dilatancy rate, or K0 per stage; model - simulation). Run again with the same options, it
     reuses the run that ended and resumes one that was stopped; --overwrite starts over."""
     from grainlab.lab.discrete_run import DiscreteRun
-    from grainlab.lab.run_micro_element import check_distributions
+    from grainlab.lab.run_micro_element import MODEL_KEYS, check_distributions
     from grainlab.lab.run_outcome import EXIT_NOT_AS_ASKED, RunOutcome
     from grainlab.lab.solver_comparison import open_solver_run
     from grainlab.lab.theory_comparison import TheoryComparison, check_theory_kind
@@ -75,7 +81,10 @@ def theory_vs_sim_command(**options: Any) -> None:
     comparison = TheoryComparison(distributions, options["model_steps"])
     options = sample_source(THEORY, options)
     output_folder("--out", out)
-    config, given = asked_config(kind, options["config"], options, THEORY)
+    config, given = command_config(kind, options["config"], options, THEORY)
+    read_by_the_model = {key: value for key, value in given.items() if key not in MODEL_KEYS}
+    for note in refuse_inert_options([config], read_by_the_model, options["config"]):
+        console.print(f"[bold yellow]note:[/] {escape(note)}", soft_wrap=True)
     if config.output.snapshot_every == 0:
         raise as_typed(InputError("output.snapshot_every", 0, (
             "> 0: the model is built from the snapshot at the end of the compaction (a run "

@@ -56,6 +56,12 @@ from grainlab.result.test_result import TestResult
 COMPACTION = "compaction"
 """The stage whose end the model starts from."""
 
+MODEL_KEYS = ("solver.dem.law", "solver.dem.kappa", "solver.dem.normal_stiffness",
+              "solver.dem.young_modulus", "solver.dem.poisson_ratio",
+              "solver.dem.stiffness_ratio")
+"""The config keys the model's contact law reads (:func:`run_contact_law`), whatever the
+run's solver: a contact-dynamics run ignores them, its model does not."""
+
 DISTRIBUTION_READINGS: dict[str, dict[str, str]] = {
     "homogeneous": {"distribution": "homogeneous"},
     "maxwellian": {"distribution": "maxwellian", "maxwellian_reference": "overall"},
