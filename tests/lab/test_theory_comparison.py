@@ -168,6 +168,9 @@ def test_the_dilatancy_rate_is_the_slope_over_the_last_part_of_the_strain():
     eps_vol = np.where(eps < 0.01, 0.2 * eps, 0.002 - 0.4 * (eps - 0.01))
     curves = _curves(SIMULATION, "shear", eps, eps, eps_vol)
     assert _dilatancy(curves) == pytest.approx(0.4, rel=1e-10)
+    # in extension eps_zz falls: the same dilation per unit |eps_zz| has the same rate
+    stretched = _curves(SIMULATION, "shear", -eps, eps, eps_vol)
+    assert _dilatancy(stretched) == pytest.approx(0.4, rel=1e-10)
 
 
 def test_what_the_model_cannot_do_is_refused_by_name(tmp_path):

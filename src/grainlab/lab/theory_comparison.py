@@ -18,12 +18,12 @@ Row 0 of each side is the state at the end of the compaction (stage ``"initial"`
 
 :attr:`TheoryComparison.differences` says by how much the model and the run differ: per
 distribution law the peak q/p, the q/p and eps_vol at the largest strain both reached, and
-the dilatancy rate -d eps_vol / d eps_axial fitted over the last :data:`DILATANCY_SHARE`
-of that strain range (triaxial, extension); for an oedometer K0 and sigma_zz at the end of
-each stage; the mean stress p at the start (the model's is the snapshot's contact-force
-stress, the run's its boundary's); and, each side over its own rows (a model that stops
-early, or a run recorded sparsely, leaves little on the common grid), the strain each
-reached and its peak q/p.
+the dilatancy rate -d eps_vol / d|eps_axial| (> 0 dilating) fitted over the last
+:data:`DILATANCY_SHARE` of that strain range (triaxial, extension); for an oedometer K0
+and sigma_zz at the end of each stage; the mean stress p at the start (the model's is the
+snapshot's contact-force stress, the run's its boundary's); and, each side over its own
+rows (a model that stops early, or a run recorded sparsely, leaves little on the common
+grid), the strain each reached and its peak q/p.
 """
 
 from __future__ import annotations
@@ -245,10 +245,11 @@ class TheoryComparison(Compute):
 
 
 def _dilatancy(curves: pd.DataFrame) -> float:
-    """-d eps_vol / d eps_axial, least squares over the last DILATANCY_SHARE of the strains."""
-    x, y = curves["eps_axial"].to_numpy(), curves["eps_vol"].to_numpy()
-    top = np.nanmax(np.abs(x)) if len(x) else 0.0
-    late = np.abs(x) >= (1.0 - DILATANCY_SHARE) * top
+    """-d eps_vol / d|eps_axial| (> 0: dilating, in compression or extension), least squares
+    over the last DILATANCY_SHARE of the strains."""
+    x, y = np.abs(curves["eps_axial"].to_numpy()), curves["eps_vol"].to_numpy()
+    top = np.nanmax(x) if len(x) else 0.0
+    late = x >= (1.0 - DILATANCY_SHARE) * top
     if top <= 0.0 or np.count_nonzero(late) < 2:
         return math.nan
     return -float(np.polyfit(x[late], y[late], 1)[0])
@@ -274,10 +275,10 @@ def _measures(kind: str, curves: pd.DataFrame) -> list[tuple[str, str, float]]:
     return [
         *out,
         ("peak_q_over_p", "peak q/p", float(np.nanmax(loading["q_over_p"]))),
-        ("end_eps_axial", "largest eps_zz both reached", float(end["eps_axial"])),
-        ("end_q_over_p", "q/p at the largest eps_zz both reached", float(end["q_over_p"])),
+        ("end_eps_axial", "largest |eps_zz| both reached", float(end["eps_axial"])),
+        ("end_q_over_p", "q/p at the largest |eps_zz| both reached", float(end["q_over_p"])),
         ("end_eps_vol", "eps_vol there (compression > 0)", float(end["eps_vol"])),
-        ("dilatancy", f"dilatancy rate -d eps_vol / d eps_zz over the last "
+        ("dilatancy", f"dilatancy rate -d eps_vol / d|eps_zz| over the last "
                       f"{100 * DILATANCY_SHARE:g} %", _dilatancy(loading)),
     ]
 
