@@ -1,5 +1,8 @@
 """A discrete triaxial run and the micro-element model of its own packing, side by side.
 
+(The command ``grainlab theory-vs-sim triaxial`` does the same on one specimen in one go,
+with one results table and one figure; this script shows the steps.)
+
 The model is built from the run's snapshot at the start of shear (the end of the compaction
 stage: one micro-element per sphere with its contacting neighbours, periodic-image contacts
 kept, the run's contact forces as the initial state), with the run's contact law (linear

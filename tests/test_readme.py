@@ -102,7 +102,9 @@ def _chains() -> list[list[str]]:
 
 LEFT_BEHIND = {"runs/tri": ("snapshots.h5", "vtk-checkpoint", "report/report.md"),
                "analysis": ("analysis.csv",),
-               "runs/cmp": ("cd/results.h5", "dem/results.h5", "compare.png", "compare.csv")}
+               "runs/cmp": ("cd/results.h5", "dem/results.h5", "compare.png", "compare.csv"),
+               "runs/theory": ("run/results.h5", "theory.png", "theory.csv",
+                               "theory-differences.csv")}
 """What the README says some commands leave behind, by their --out folder."""
 
 
@@ -147,7 +149,7 @@ def test_every_readme_command_runs_as_typed(shard, tmp_path, monkeypatch):
         if arguments[0] == "triaxial" and "--eps-q" not in arguments:
             arguments += ["--eps-q", "0.02"]  # the default 0.5 would flatten 24 particles
         if arguments[0] in ("triaxial", "compaction", "oedometer", "resume", "test",
-                            "compare"):
+                            "compare", "theory-vs-sim"):
             arguments.append("--no-progress")
         result = runner.invoke(app, arguments)
         assert result.exit_code == 0, f"{line}\n{result.output}"

@@ -21,7 +21,7 @@ from grainlab.lab.run_config import RunConfig, flat_keys
 
 runner = CliRunner()
 CLICK = typer.main.get_command(app)
-KIND_ARGUMENT = {"test": ["triaxial"], "compare": ["triaxial"]}
+KIND_ARGUMENT = {"test": ["triaxial"], "compare": ["triaxial"], "theory-vs-sim": ["triaxial"]}
 """The KIND a command needs before its options."""
 
 

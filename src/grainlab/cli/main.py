@@ -16,6 +16,7 @@ from grainlab.cli import (
     precompile,
     report,
     study,
+    theory_vs_sim,
 )
 
 app = typer.Typer(
@@ -37,6 +38,7 @@ app.command("compaction")(discrete.compaction_command)
 app.command("oedometer")(discrete.oedometer_command)
 app.command("test")(discrete.lab_test_command)
 app.command("compare")(compare.compare_command)
+app.command("theory-vs-sim")(theory_vs_sim.theory_vs_sim_command)
 app.command("resume")(discrete.resume_command)
 app.command("vtk")(discrete.vtk_command)
 app.command("report")(report.report_command)

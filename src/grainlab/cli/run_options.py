@@ -1,12 +1,12 @@
 """The options of the discrete-run commands, each declared once: its flags, the config key it
 sets, its help, its default, its type and the commands that take it (:data:`RUN_OPTIONS`).
 
-``grainlab triaxial``, ``compaction``, ``oedometer``, ``test KIND`` and ``compare KIND`` are
-built from this table: :func:`takes_options` gives a command the signature of its options
-(typer reads a command's options from :func:`inspect.signature`), and the command receives
-them as keywords. An option that sets a config key has no default of its own on the command
-line (None: the value of ``--config``'s file, or the config's one default, which its help
-shows, read from :class:`~grainlab.lab.run_config.RunConfig`).
+``grainlab triaxial``, ``compaction``, ``oedometer``, ``test KIND``, ``compare KIND`` and
+``theory-vs-sim KIND`` are built from this table: :func:`takes_options` gives a command the
+signature of its options (typer reads a command's options from :func:`inspect.signature`),
+and the command receives them as keywords. An option that sets a config key has no default
+of its own on the command line (None: the value of ``--config``'s file, or the config's one
+default, which its help shows, read from :class:`~grainlab.lab.run_config.RunConfig`).
 
 >>> [option.typed for option in options_of("compaction") if option.name == "tolerance"]
 ['--tolerance']
@@ -31,12 +31,18 @@ F = TypeVar("F", bound=Callable)
 
 RUN_COMMANDS = ("triaxial", "compaction", "oedometer", "test")
 """The commands that start one run (of one solver)."""
-COMMANDS = (*RUN_COMMANDS, "compare")
+THEORY = "theory-vs-sim"
+"""The command that runs one discrete run and the micro-element model of its packing."""
+COMMANDS = (*RUN_COMMANDS, "compare", THEORY)
 """Every command built from :data:`RUN_OPTIONS`."""
-LOADING = ("triaxial", "oedometer", "test", "compare")
+LOADING = ("triaxial", "oedometer", "test", "compare", THEORY)
 """The commands whose test has a loading after the compaction."""
 ANY_KIND = ("test", "compare")
 """The commands that run any test (KIND)."""
+ONE_RUN = (*RUN_COMMANDS, THEORY)
+"""The commands whose discrete run is one run of one solver (--solver, the sample files)."""
+SEVERAL_KINDS = (*ANY_KIND, THEORY)
+"""The commands that take KIND."""
 
 
 @dataclass(frozen=True)
@@ -155,12 +161,19 @@ RUN_OPTIONS: tuple[RunOption, ...] = (
     RunOption("kind", ("KIND",), "The lab test: " + ", ".join(TEST_KINDS) + " ("
               + ", ".join(PERIODIC_ONLY) + " need --boundary periodic).", str, ("compare",),
               default=..., argument=True),
+    RunOption("kind", ("KIND",), "The lab test: triaxial, extension or oedometer (the tests "
+              "the micro-element model follows along the vertical strain).", str, (THEORY,),
+              default=..., argument=True),
     RunOption("out", ("--out", "-o"), "Run folder (config.toml, results.csv, snapshots.h5, "
               "checkpoint.h5, run.log, figures).", Path, RUN_COMMANDS,
               default=Path("grainlab-run")),
     RunOption("out", ("--out", "-o"), "Comparison folder: OUT/cd and OUT/dem (a run folder "
               "each), compare.png and compare.csv.", Path, ("compare",),
               default=Path("grainlab-compare")),
+    RunOption("out", ("--out", "-o"), "Comparison folder: OUT/run (the discrete run's "
+              "folder), theory.csv (both sides on one strain grid), theory-differences.csv, "
+              "theory.png and model-LAW.csv.", Path, (THEORY,),
+              default=Path("grainlab-theory")),
     RunOption("boundary", ("--boundary",), "What holds the sample: walls (a box of six walls, "
               "as the seeds) or periodic (a periodic deformable cell: no walls, every stress "
               "and strain component controlled; needed to shear).", str, COMMANDS,
@@ -184,7 +197,7 @@ RUN_OPTIONS: tuple[RunOption, ...] = (
     RunOption("density", ("--density",), "Particle density [kg/m^3].", float, COMMANDS,
               "sample.density"),
     RunOption("height_ratio", ("--height-ratio",), "Height / width of the loose start box (a "
-              "taller periodic cell keeps room to compress along z).", float, ANY_KIND,
+              "taller periodic cell keeps room to compress along z).", float, SEVERAL_KINDS,
               "sample.height_ratio"),
     RunOption("mu", ("--mu",), "Friction coefficient between particles [-] while loading "
               "(solver.shear.friction; the compaction is frictionless unless "
@@ -198,11 +211,11 @@ RUN_OPTIONS: tuple[RunOption, ...] = (
               "times faster and slightly rate dependent.", float, LOADING,
               "solver.shear.inertia_number"),
     RunOption("eps_q", ("--eps-q",), "Deviatoric strain eps_q = eps_1 - eps_3 at which the "
-              "test ends [-].", float, ("triaxial", *ANY_KIND), "test.eps_q_max"),
+              "test ends [-].", float, ("triaxial", *SEVERAL_KINDS), "test.eps_q_max"),
     RunOption("axial_strain", ("--axial-strain",), "Vertical strain of loading [-].", float,
-              ("oedometer", *ANY_KIND), "test.axial_strain"),
+              ("oedometer", *SEVERAL_KINDS), "test.axial_strain"),
     RunOption("unload_strain", ("--unload-strain",), "Vertical strain of unloading [-] (0: "
-              "no unloading).", float, ("oedometer", *ANY_KIND), "test.unload_strain"),
+              "no unloading).", float, ("oedometer", *SEVERAL_KINDS), "test.unload_strain"),
     RunOption("b", ("--b",), "true_triaxial: b = (sigma_2 - sigma_3) / (sigma_1 - sigma_3), "
               "held with p = SIGMA0 (z major, x intermediate, y minor).", float, ANY_KIND,
               "test.b"),
@@ -236,7 +249,7 @@ RUN_OPTIONS: tuple[RunOption, ...] = (
     RunOption("max_iterations", ("--max-iterations",), "Most NLGS sweeps per loading step "
               "(solver.shear.max_iterations; 100 to 1000 is usual); fewer is faster, with "
               "larger overlaps and unconverged steps flagged in the results "
-              "(docs/discrete_engine.md).", int, ("triaxial", *ANY_KIND),
+              "(docs/discrete_engine.md).", int, ("triaxial", *SEVERAL_KINDS),
               "solver.shear.max_iterations",
               compaction_key="solver.compaction.max_iterations"),
     RunOption("record_every", ("--record-every",), "Steps between results rows.", int,
@@ -251,7 +264,7 @@ RUN_OPTIONS: tuple[RunOption, ...] = (
               COMMANDS, "output.vtk_every"),
     RunOption("solver", ("--solver",), "The solver: cd (contact dynamics: rigid grains, "
               "implicit) or dem (soft-contact DEM: elastic contacts, explicit).", str,
-              RUN_COMMANDS, "solver.method"),
+              ONE_RUN, "solver.method"),
     RunOption("solver", ("--solver",), "Refused: compare runs both solvers.", str,
               ("compare",), hidden=True),
     RunOption("law", ("--law",), "dem: contact law, linear (spring-dashpot, Cundall & "
@@ -268,15 +281,22 @@ RUN_OPTIONS: tuple[RunOption, ...] = (
               "at random in a loose box, compacted), deposition (a dense sphere packing built "
               "layer by layer, each sphere the circumscribed sphere of a particle, as Azéma, "
               "Radjaï & Dubois 2013; walls only) or file (--skeleton-file or "
-              "--particle-file).", str, RUN_COMMANDS, "sample.preparation"),
+              "--particle-file).", str, ONE_RUN, "sample.preparation"),
     RunOption("skeleton_file", ("--skeleton-file",), "A .csv (x,y,z,radius) or .npz file of "
               "spheres: each the circumscribed sphere of a particle of --shape (implies "
-              "--preparation file).", Path, RUN_COMMANDS, "sample.skeleton_file"),
+              "--preparation file).", Path, ONE_RUN, "sample.skeleton_file"),
     RunOption("particle_file", ("--particle-file",), "A .csv (particle,kind,x,y,z,radius) or "
               ".npz file of the particles themselves: spheres, aggregates' member spheres or "
               "polyhedra's vertices, in world coordinates [m] (docs/discrete_engine.md; "
               "implies --preparation file; the shapes, sizes and box come from the file).",
-              Path, RUN_COMMANDS, "sample.particle_file"),
+              Path, ONE_RUN, "sample.particle_file"),
+    RunOption("distributions", ("--distribution",), "The micro-element model's "
+              "distribution law of strain (repeatable: one model each, on one figure): "
+              "homogeneous (seed 001 eq. 2.30), maxwellian (eq. 2.32, the overall C), "
+              "maxwellian-average (eq. 2.32 with C_bar) or maxwellian-first-order (eq. 2.35 "
+              "to first order) [default: homogeneous].", list[str], (THEORY,)),
+    RunOption("model_steps", ("--model-steps",), "About how many steps the model takes "
+              "over the run's path after the compaction.", int, (THEORY,), default=200),
     RunOption("config", ("--config",), "A config.toml to start from (options given here "
               "override it).", Path, COMMANDS),
     RunOption("overwrite", ("--overwrite",), "Replace a run already in OUT.", bool, COMMANDS,

@@ -1,0 +1,200 @@
+"""A discrete run and seed 001's micro-element model of its own packing: the model starts from
+the run's stress at the end of the compaction, follows the rest of the run's path, and both
+sides land on the run's strain grid; the interpolation onto that grid and the dilatancy rate
+are checked on curves known in closed form; a kind the model cannot follow and an unknown
+distribution law are refused naming the field, before anything is written."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from grainlab.analysis.contact_stress import stress_from_network
+from grainlab.cli.main import app
+from grainlab.errors import InputError
+from grainlab.lab.run_micro_element import (
+    check_distributions,
+    compaction_snapshot,
+    mean_diameter,
+    model_path,
+    run_contact_law,
+    run_micro_element_model,
+)
+from grainlab.lab.solver_comparison import read_run_result
+from grainlab.lab.theory_comparison import (
+    SIMULATION,
+    TheoryComparison,
+    _dilatancy,
+    check_theory_kind,
+    on_simulation_grid,
+)
+
+runner = CliRunner()
+
+SMALL_TRIAXIAL = ["theory-vs-sim", "triaxial", "-n", "40", "--eps-q", "0.03", "--sigma0",
+                  "1e5", "--mu", "0.4", "--inertia", "0.01", "--record-every", "2", "--seed",
+                  "1", "--distribution", "homogeneous", "--distribution",
+                  "maxwellian-average", "--model-steps", "60", "--no-progress"]
+"""40 rigid spheres in a box, contact dynamics, to eps_q = 0.03: a few seconds once compiled."""
+
+WALL_BALANCE = 1e-3
+"""In a box the model's stress is the particle contacts' plus the walls' that balance each
+particle (from_snapshot, walls="balance"): it equals the run's stress on the walls up to the
+particles' residual imbalance, which the quasi-static end of the compaction keeps below
+1e-3 of p [-]."""
+
+
+@pytest.fixture(scope="module")
+def comparison_folder(tmp_path_factory):
+    out = tmp_path_factory.mktemp("theory") / "cmp"
+    result = runner.invoke(app, [*SMALL_TRIAXIAL, "--out", str(out)])
+    return out, result
+
+
+@pytest.mark.long
+def test_the_command_writes_its_files_and_exits_0(comparison_folder):
+    out, result = comparison_folder
+    assert result.exit_code == 0, result.output
+    for name in ("run/results.h5", "run/snapshots.h5", "theory.csv", "theory-differences.csv",
+                 "theory.png", "model-homogeneous.csv", "model-maxwellian-average.csv"):
+        assert (out / name).is_file(), name
+    differences = pd.read_csv(out / "theory-differences.csv")
+    assert set(differences["distribution"]) == {"homogeneous", "maxwellian-average"}
+    assert {"peak_q_over_p", "end_q_over_p", "dilatancy", "reached_eps_axial",
+            "own_peak_q_over_p"} <= set(differences["quantity"])
+    rows = differences.dropna(subset=["simulation", "model"])
+    assert np.allclose(rows["model_minus_simulation"], rows["model"] - rows["simulation"])
+
+
+def test_the_model_starts_from_the_runs_stress(comparison_folder):
+    out, _ = comparison_folder
+    result = read_run_result(out / "run")
+    network = compaction_snapshot(out / "run" / "snapshots.h5")
+    end = result.table[result.table["stage"] == "compaction"].iloc[-1]
+    run_stress = np.array([[end["sigma_xx"], end["sigma_xy"], end["sigma_xz"]],
+                           [end["sigma_xy"], end["sigma_yy"], end["sigma_yz"]],
+                           [end["sigma_xz"], end["sigma_yz"], end["sigma_zz"]]])
+    # the snapshot taken at the end of the compaction is the run's last compaction row (whose
+    # stress is the symmetric part of the contacts' (1/V) sum f (x) l)
+    assert network.state["step"] == end["step"]
+    snapshot = stress_from_network(network)
+    np.testing.assert_allclose(0.5 * (snapshot + snapshot.T), run_stress, rtol=0,
+                               atol=1e-12 * end["p"])
+    for name in ("homogeneous", "maxwellian", "maxwellian-average"):
+        model = run_micro_element_model(result, network, name)
+        np.testing.assert_allclose(model.stress_tensor(), run_stress, rtol=0,
+                                   atol=WALL_BALANCE * end["p"])
+    # and the path it follows is the run's loading: the same axial strain increment in all
+    path = model_path(result, 60)
+    assert [stage.name for stage in path.stages] == ["shear"]
+    stage = path.stages[0]
+    assert stage.control[:3] == ("stress", "stress", "strain")
+    assert stage.values[0] == stage.values[1] == pytest.approx(1e5)
+
+
+def test_the_model_takes_the_springs_the_dem_would_give_the_run(comparison_folder):
+    """Rigid grains (contact dynamics): k_n = kappa sigma0 <d> with the DEM's default
+    kappa = 1e4, k_s = 0.5 k_n, and the loading's friction mu = 0.4 = tan phi_mu."""
+    out, _ = comparison_folder
+    result = read_run_result(out / "run")
+    network = compaction_snapshot(out / "run" / "snapshots.h5")
+    law = run_contact_law(result, network)
+    diameters = (6.0 * np.asarray(network.volumes) / np.pi) ** (1.0 / 3.0)
+    assert mean_diameter(network) == pytest.approx(diameters.mean(), rel=1e-12)
+    assert law.normal_stiffness == pytest.approx(1e4 * 1e5 * diameters.mean(), rel=1e-12)
+    assert law.shear_stiffness == pytest.approx(0.5 * law.normal_stiffness, rel=1e-12)
+    assert law.friction_coefficient == pytest.approx(0.4, rel=1e-12)
+
+
+def test_both_sides_are_on_the_runs_strain_grid(comparison_folder):
+    out, _ = comparison_folder
+    curves = pd.read_csv(out / "theory.csv")
+    simulation = curves[curves["side"] == SIMULATION].reset_index(drop=True)
+    assert simulation["eps_axial"].iloc[0] == 0.0
+    assert (np.diff(simulation["eps_axial"]) > 0).all()  # triaxial: eps_zz grows
+    for name in ("homogeneous", "maxwellian-average"):
+        model = curves[curves["side"] == name].reset_index(drop=True)
+        assert 2 <= len(model) <= len(simulation)
+        np.testing.assert_array_equal(model["eps_axial"],
+                                      simulation["eps_axial"].iloc[:len(model)])
+        assert list(model["stage"]) == list(simulation["stage"].iloc[:len(model)])
+        # the same state at the start: the run's stress, to the wall balance
+        assert model["p"].iloc[0] == pytest.approx(simulation["p"].iloc[0], rel=WALL_BALANCE)
+        assert model["q_over_p"].iloc[0] == pytest.approx(simulation["q_over_p"].iloc[0],
+                                                          abs=10 * WALL_BALANCE)
+
+
+def test_the_comparison_computed_again_is_the_same(comparison_folder):
+    out, _ = comparison_folder
+    again = TheoryComparison(["homogeneous", "maxwellian-average"], 60).compute(out / "run")
+    written = pd.read_csv(out / "theory.csv")
+    np.testing.assert_allclose(again.curves["q_over_p"].to_numpy(),
+                               written["q_over_p"].to_numpy(), rtol=1e-12)
+
+
+def _curves(side, stages, eps, q_over_p, eps_vol):
+    n = len(eps)
+    return pd.DataFrame({"side": side, "stage": stages, "eps_axial": eps, "eps_q": eps,
+                         "q_over_p": q_over_p, "eps_vol": eps_vol, "K0": np.ones(n),
+                         "sigma_zz": np.ones(n), "p": np.ones(n)})
+
+
+def test_a_model_on_the_runs_grid_is_interpolated_linearly_and_cut_where_it_stopped():
+    """A model linear in the strain (q/p = 2 eps + 0.1) on a finer grid than the run's,
+    through a loading and an unloading stage: on the run's strains its values are exact; a
+    model that stopped half-way through the unloading keeps the run's rows it reached."""
+    sim_eps = np.array([0.0, 0.003, 0.0065, 0.01, 0.008, 0.0055])
+    stages = ["initial", "loading", "loading", "loading", "unloading", "unloading"]
+    simulation = _curves(SIMULATION, stages, sim_eps, np.zeros(6), np.zeros(6))
+    loading = np.linspace(0.0, 0.01, 41)
+    unloading = np.linspace(0.01, 0.0065, 15)[1:]
+    eps = np.concatenate([loading, unloading])
+    model_stages = ["initial"] + ["loading"] * 40 + ["unloading"] * 14
+    model = _curves("m", model_stages, eps, 2 * eps + 0.1, -0.5 * eps)
+    table = on_simulation_grid(simulation, model)
+    mod = table[table["side"] == "m"]
+    sim = table[table["side"] == SIMULATION]
+    np.testing.assert_array_equal(mod["eps_axial"], sim_eps[:5])
+    np.testing.assert_allclose(mod["q_over_p"], 2 * sim_eps[:5] + 0.1, rtol=1e-12)
+    np.testing.assert_allclose(mod["eps_vol"], -0.5 * sim_eps[:5], rtol=1e-12)
+    assert list(mod["stage"]) == stages[:5]
+    assert len(sim) == len(mod)
+
+
+def test_the_dilatancy_rate_is_the_slope_over_the_last_part_of_the_strain():
+    eps = np.linspace(0.0, 0.05, 51)
+    eps_vol = np.where(eps < 0.01, 0.2 * eps, 0.002 - 0.4 * (eps - 0.01))
+    curves = _curves(SIMULATION, "shear", eps, eps, eps_vol)
+    assert _dilatancy(curves) == pytest.approx(0.4, rel=1e-10)
+    # in extension eps_zz falls: the same dilation per unit |eps_zz| has the same rate
+    stretched = _curves(SIMULATION, "shear", -eps, eps, eps_vol)
+    assert _dilatancy(stretched) == pytest.approx(0.4, rel=1e-10)
+
+
+def test_what_the_model_cannot_do_is_refused_by_name(tmp_path):
+    with pytest.raises(InputError, match="KIND"):
+        check_theory_kind("simple_shear")
+    with pytest.raises(InputError, match="--distribution"):
+        check_distributions(["voigt"])
+    with pytest.raises(InputError, match="--model-steps"):
+        TheoryComparison(["homogeneous"], 0)
+    for arguments, named in ((["simple_shear"], "KIND"),
+                             (["compaction"], "KIND"),
+                             (["triaxial", "--distribution", "voigt"], "--distribution"),
+                             (["triaxial", "--snapshot-every", "0"], "--snapshot-every")):
+        out = tmp_path / "never"
+        result = runner.invoke(app, ["theory-vs-sim", *arguments, "-n", "40", "--out",
+                                     str(out)])
+        assert result.exit_code == 2, result.output
+        assert named in result.output, result.output
+        assert not (out / "run").exists()
+    # the springs' options are the model's even when the run's grains are rigid: --kappa is
+    # accepted with contact dynamics (the refusal that follows is --snapshot-every's)
+    result = runner.invoke(app, ["theory-vs-sim", "triaxial", "--kappa", "1e3",
+                                 "--snapshot-every", "0", "--out", str(tmp_path / "never")])
+    assert result.exit_code == 2 and "--snapshot-every" in result.output, result.output
+    result = runner.invoke(app, ["theory-vs-sim", "triaxial", "--restitution", "0.3",
+                                 "--out", str(tmp_path / "never")])
+    assert result.exit_code == 2 and "--restitution" in result.output, result.output
