@@ -13,9 +13,10 @@ import pytest
 
 from grainlab.engine.simulation import Periodic
 from grainlab.errors import InputError
-from grainlab.lab.discrete_run import RESULTS_H5, progress_fields, resume_run, start_run
+from grainlab.lab.discrete_run import RESULTS_H5, resume_run, start_run
 from grainlab.lab.discrete_test import DiscreteTestSettings
 from grainlab.lab.run_config import RunConfig
+from grainlab.lab.run_operations import progress_fields
 from grainlab.lab.run_outcome import (
     MAX_STAGE_STEPS,
     REACHED,
@@ -157,11 +158,11 @@ def test_reached_stage_words():
 def test_the_progress_bar_estimates_the_time_left_in_each_stage(tmp_path):
     from rich.progress import TimeRemainingColumn
 
-    from grainlab.lab.discrete_run import _ProgressBar
+    from grainlab.lab.run_operations import ProgressBar
 
     config = _short_triaxial()
     run = start_run(tmp_path / "run", config)
-    bar = _ProgressBar(run.test)
+    bar = ProgressBar(run.test)
     assert any(isinstance(c, TimeRemainingColumn) for c in bar.progress.columns)
     stages = []
 

@@ -47,7 +47,6 @@ import os
 import shutil
 import signal
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -80,9 +79,9 @@ from grainlab.lab.run_checkpoint import (
 )
 from grainlab.lab.run_config import CHANGEABLE_ON_RESUME, RunConfig, parse_assignments
 from grainlab.lab.run_estimate import refuse_endless_run
+from grainlab.lab.run_operations import Every, ProblemWriter, ProgressBar
 from grainlab.lab.run_outcome import RunCost, RunOutcome
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR
-from grainlab.lab.wall_stages import QuasiStaticCriteria
 from grainlab.prep.inscribed_sample import deposited_sample, inscribed_sample
 from grainlab.prep.loose_sample import loose_sample
 from grainlab.prep.particle_files import read_particles
@@ -212,11 +211,11 @@ class DiscreteRun:
         test.on_stage_end = self._stage_ended
         out = config.output
         if out.checkpoint_every:
-            test.simulation.add(_Every("checkpoint", out.checkpoint_every, self.checkpoint))
+            test.simulation.add(Every("checkpoint", out.checkpoint_every, self.checkpoint))
         if out.vtk_every:
-            test.simulation.add(_Every("vtk", out.vtk_every, self.write_vtk))
+            test.simulation.add(Every("vtk", out.vtk_every, self.write_vtk))
         if out.problems_every and hasattr(test.solver, "keep_problem"):
-            test.simulation.add(_ProblemWriter(folder / PROBLEMS, out.problems_every))
+            test.simulation.add(ProblemWriter(folder / PROBLEMS, out.problems_every))
 
     def _stage_ended(self, test: DiscreteTest) -> None:
         ended = test.outcome["stages"][-1]
@@ -380,7 +379,7 @@ class DiscreteRun:
                 previous[signum] = signal.signal(signum, on_signal)
             except ValueError:  # not the main thread: signals stay as they are
                 break
-        bar = _ProgressBar(test) if progress else None
+        bar = ProgressBar(test) if progress else None
         if bar is not None:
             test.on_record = bar.update
         start = self._clock = time.perf_counter()
@@ -507,122 +506,6 @@ class DiscreteRun:
                     f"raise it (default {default}; 100 to 1000 is usual).",
                     f"solver.{kind}.max_iterations", str(default))
         return None
-
-
-class _Every:
-    """Calls ``action()`` every ``period`` steps."""
-
-    def __init__(self, name: str, period: int, action: Callable[[], Any]) -> None:
-        from grainlab.engine.simulation import Periodic
-
-        self.name = name
-        self.trigger = Periodic(period)
-        self.action = action
-
-    def act(self, simulation) -> None:
-        self.action()
-
-
-class _ProblemWriter:
-    """Stores the contact problem of every ``period``-th step in FCLib's layout
-    (:func:`~grainlab.engine.nscd.contact_problem.write_fclib`): it asks the solver to assemble
-    the problem only on those steps."""
-
-    name = "problems"
-
-    def __init__(self, folder: Path, period: int) -> None:
-        self.folder = folder
-        self.period = period
-
-    @staticmethod
-    def trigger(step_index: int) -> bool:
-        return True
-
-    def act(self, simulation) -> None:
-        from grainlab.engine.nscd.contact_problem import write_fclib
-
-        report = simulation.last_report
-        if report is not None and report.problem is not None and report.n_contacts:
-            self.folder.mkdir(exist_ok=True)
-            step = simulation.step_index
-            write_fclib(report.problem, self.folder / f"step-{step:08d}.hdf5",
-                        title=f"grainlab step {step}",
-                        description=f"{report.n_contacts} contacts, {report.iterations} "
-                                    f"sweeps, converged {report.converged}",
-                        reactions=report.impulses)
-        simulation.solver.keep_problem = (simulation.step_index + 1) % self.period == 0
-
-
-class _ProgressBar:
-    """A rich progress bar per stage (strain or quasi-static state), with the time spent and
-    the time left in the stage as its progress so far predicts (the bar restarts with each
-    stage, so that the estimate is the stage's own)."""
-
-    def __init__(self, test: DiscreteTest) -> None:
-        from rich.progress import (
-            BarColumn,
-            Progress,
-            TextColumn,
-            TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
-
-        self.test = test
-        self.progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
-                                 TextColumn("{task.fields[info]}"), TimeElapsedColumn(),
-                                 TextColumn("left"), TimeRemainingColumn())
-        self.task = None
-        self.stage_name: str | None = None
-
-    def start(self) -> None:
-        self.progress.start()
-        self.task = self.progress.add_task("starting", total=1.0, info="")
-
-    def update(self, test: DiscreteTest, row: dict) -> None:
-        if test.stage is None or self.task is None:
-            return
-        if test.stage.name != self.stage_name:
-            self.stage_name = test.stage.name
-            self.progress.reset(self.task, total=1.0, completed=0.0)
-        done, info = progress_fields(test, row)
-        self.progress.update(self.task, completed=done, description=test.stage.name,
-                             info=info)
-
-    def stop(self) -> None:
-        self.progress.stop()
-
-
-def progress_fields(test: DiscreteTest, row: dict) -> tuple[float, str]:
-    """(fraction done in [0, 1], text) of the progress bar at a record. A stage with a
-    strain-controlled axis: its stop quantity (eps_q...) against its limit, else its strain
-    (walls) or progress (periodic cell) against its target. A compaction: half the mean
-    boundary stress (walls or cell) against its target, half the unbalanced force ratio
-    against its quasi-static bound on a log scale (1 to the bound), the text showing both and
-    the kinetic energy ratio with their targets, so that a compaction that does not settle is
-    seen stuck at its numbers, not at a percentage."""
-    stage = test.stage
-    steps = f"step {row['step']} ({row['step'] - test.stage_start_step} of <= " \
-            f"{test.settings.max_stage_steps} in the stage)"
-    if stage.moving_axes:
-        stop = [abs(row[c.quantity] / c.limit) for c in stage.stop if c.when == "above"
-                and c.limit and math.isfinite(row.get(c.quantity, math.nan))]
-        done = max(stop) if stop else test.boundary.fraction_done(stage)
-        return min(max(done, 0.0), 1.0), (
-            f"{steps}  q/p {row['q_over_trace']:.3f}  packing fraction "
-            f"{row['packing_fraction']:.4f}  z {row['z']:.2f}  I {row['inertia_number']:.1e} (<= "
-            f"{test.stage_numerics.inertia_number:g})")
-    criteria: QuasiStaticCriteria = test.settings.quasi_static
-    targets = test.boundary.stress_goal(stage)
-    held = "wall_sigma_" if "wall_sigma_xx" in row else "cell_sigma_"  # walls or cell
-    wall_p = (row[held + "xx"] + row[held + "yy"] + row[held + "zz"]) / 3.0
-    loaded = min(1.0, max(wall_p / np.mean(targets), 0.0)) if targets else 1.0
-    ratio, bound = row["unbalanced_force_ratio"], criteria.unbalanced_force
-    settled = min(1.0, max(math.log(ratio) / math.log(bound), 0.0)) \
-        if ratio > 0.0 and math.isfinite(ratio) else 0.0
-    info = (f"{steps}  unbalanced force {ratio:.3g} (-> <= {bound:g})  kinetic energy "
-            f"{row['kinetic_energy_ratio']:.2g} (-> <= {criteria.kinetic_energy:g})  "
-            f"p {row['p']:.4g} Pa  packing fraction {row['packing_fraction']:.4f}")
-    return 0.5 * loaded + 0.5 * settled, info
 
 
 def _walls(boundary):

@@ -28,12 +28,12 @@ from grainlab.lab.discrete_run import (
     CONFIG,
     RESULTS_H5,
     RunInterrupted,
-    progress_fields,
     resume_run,
     start_run,
 )
 from grainlab.lab.run_checkpoint import CHECKPOINT, PREVIOUS_CHECKPOINT
 from grainlab.lab.run_config import RunConfig
+from grainlab.lab.run_operations import progress_fields
 
 PROGRESS = "progress.json"
 STOP_FILE = "stop-requested"
