@@ -31,6 +31,15 @@ from grainlab.engine.nscd.contact_colouring import (
     slab_contacts,
 )
 from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
+from grainlab.engine.nscd.sweep_arrays import (
+    BodyRows,
+    CellRows,
+    ContactRows,
+    Motion,
+    SolveSettings,
+    SweepGroups,
+    WallRows,
+)
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 
@@ -243,14 +252,17 @@ def test_kernel_with_no_contacts_returns_free_velocities():
     w_free = np.array([[0.1, 0.0, 0.0]])
     velocities, spins, residuals = np.empty((1, 3)), np.empty((1, 3)), np.ones(2)
     iterations = nlgs_parallel.nlgs_coloured_kernel(
-        empty_i, empty_i, np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
-        np.ones(1), np.eye(3)[None], v_free, w_free, np.zeros((0, 3)), np.zeros(0), np.zeros(0),
-        np.zeros(0), np.zeros(0), np.zeros(0), DT, np.zeros((0, 3)), np.zeros((3, 3)),
-        np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0), np.zeros((0, 2)), empty_i,
-        np.zeros(2, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64),
-        0, 1e-5, 1e-5, 10,
-        np.zeros((0, 3)), velocities, spins, np.zeros(0), np.zeros(0), np.zeros((3, 3)),
-        np.zeros((0, 3, 3)), residuals,
+        ContactRows(empty_i, empty_i, np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
+                    np.zeros((0, 3)), np.zeros(0), np.zeros(0)),
+        BodyRows(np.ones(1), np.eye(3)[None], v_free, w_free),
+        WallRows(np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0)),
+        CellRows(np.zeros((3, 3)), np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0),
+                 np.zeros((0, 2))),
+        SolveSettings(DT, 1e-5, 1e-5, 10),
+        SweepGroups(empty_i, np.zeros(2, dtype=np.int64), np.zeros(1, dtype=np.int64),
+                    np.zeros(1, dtype=np.int64), 0),
+        Motion(velocities, spins, np.zeros(0), np.zeros(0), np.zeros((3, 3))),
+        np.zeros((0, 3)), np.zeros((0, 3, 3)), residuals,
     )
     assert iterations == 0
     np.testing.assert_array_equal(velocities, v_free)
