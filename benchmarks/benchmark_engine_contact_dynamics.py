@@ -42,7 +42,6 @@ import numpy as np
 from numba import njit
 
 import grainlab.engine.nscd.contact_dynamics as cd
-import grainlab.engine.nscd.nlgs_parallel as nlgs_parallel
 from grainlab.engine.boundaries.wall_box import WallBox
 from grainlab.engine.detect.broad_phase import CellListBroadPhase
 from grainlab.engine.state import BodyState, ShapeLibrary
