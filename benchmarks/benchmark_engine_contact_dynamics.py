@@ -42,7 +42,6 @@ import numpy as np
 from numba import njit
 
 import grainlab.engine.nscd.contact_dynamics as cd
-import grainlab.engine.nscd.nlgs_parallel as nlgs_parallel
 from grainlab.engine.boundaries.wall_box import WallBox
 from grainlab.engine.detect.broad_phase import CellListBroadPhase
 from grainlab.engine.state import BodyState, ShapeLibrary
@@ -138,8 +137,8 @@ def run(library, state0, box0, sweep: str, threads: int) -> dict:
     phases = step._phases(library)
     broad, narrow = phases.broad, phases.narrow
     with mock.patch.object(cd, "nlgs_kernel", clock.wrap("kernel", cd.nlgs_kernel)), \
-            mock.patch.object(nlgs_parallel, "nlgs_coloured_kernel",
-                              clock.wrap("kernel", nlgs_parallel.nlgs_coloured_kernel)), \
+            mock.patch.object(cd, "nlgs_coloured_kernel",
+                              clock.wrap("kernel", cd.nlgs_coloured_kernel)), \
             mock.patch.object(cd, "colour_contacts", clock.wrap("colour", cd.colour_contacts)), \
             mock.patch.object(broad, "find_pairs", clock.wrap("broad", broad.find_pairs)), \
             mock.patch.object(narrow, "detect", clock.wrap("narrow", narrow.detect)):

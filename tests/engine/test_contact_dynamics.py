@@ -16,6 +16,15 @@ import pytest
 from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
 from grainlab.engine.nscd.nlgs_parallel import nlgs_coloured_kernel
 from grainlab.engine.nscd.serial_sweep import nlgs_kernel
+from grainlab.engine.nscd.sweep_arrays import (
+    BodyRows,
+    CellRows,
+    ContactRows,
+    Motion,
+    SolveSettings,
+    SweepGroups,
+    WallRows,
+)
 from grainlab.engine.simulation import Simulation, SimulationBlowUp
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.step_report import StepReport
@@ -28,8 +37,8 @@ R = 0.5
 DT = 1e-3
 TOL = 1e-5
 FLOOR = ([[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]])
-NO_CELL = (np.zeros((0, 3)), np.zeros((3, 3)), np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0),
-           np.zeros((0, 2)))  # no contacts, no periodic cell
+NO_CELL = CellRows(np.zeros((3, 3)), np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0),
+                   np.zeros((0, 2)))  # no periodic cell
 
 
 def spheres(positions, radius=R):
@@ -268,11 +277,13 @@ def test_kernel_with_no_contacts_returns_free_velocities():
     w_free = np.array([[0.1, 0.0, 0.0]])
     velocities, spins, residuals = np.empty((1, 3)), np.empty((1, 3)), np.ones(2)
     iterations = nlgs_kernel(
-        empty_i, empty_i, np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
-        np.ones(1), np.eye(3)[None], v_free, w_free, np.zeros((0, 3)), np.zeros(0), np.zeros(0),
-        np.zeros(0), np.zeros(0), np.zeros(0), DT, *NO_CELL, empty_i, TOL, TOL, 10,
-        np.zeros((0, 3)), velocities, spins, np.zeros(0), np.zeros(0), np.zeros((3, 3)),
-        np.zeros((0, 3, 3)), residuals,
+        ContactRows(empty_i, empty_i, np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
+                    np.zeros((0, 3)), np.zeros(0), np.zeros(0)),
+        BodyRows(np.ones(1), np.eye(3)[None], v_free, w_free),
+        WallRows(np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0)), NO_CELL,
+        SolveSettings(DT, TOL, TOL, 10), empty_i,
+        Motion(velocities, spins, np.zeros(0), np.zeros(0), np.zeros((3, 3))),
+        np.zeros((0, 3)), np.zeros((0, 3, 3)), residuals,
     )
     assert iterations == 0
     np.testing.assert_array_equal(velocities, v_free)
@@ -289,12 +300,13 @@ def chain_kernel_arguments(free_velocity_z):
     arm_i = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.5]])
     arm_j = np.array([[0.0, 0.0, -0.5], [0.0, 0.0, -0.5]])
     v_free = np.array([[0.0, 0.0, free_velocity_z]] * 2)
-    head = (body, other, frame, arm_i, arm_j, np.ones(2), np.tile(np.eye(3), (2, 1, 1)),
-            v_free, np.zeros((2, 3)), np.array([[0.0, 0.0, 1.0]]), np.zeros(1), np.zeros(1),
-            np.full(1, np.inf), np.full(2, 0.4), np.zeros(2), DT,
-            np.zeros((2, 3)), *NO_CELL[1:])
-    outputs = (np.zeros((2, 3)), np.empty((2, 3)), np.empty((2, 3)), np.zeros(1), np.zeros(0),
-               np.zeros((3, 3)), np.empty((2, 3, 3)), np.zeros(2))
+    head = (ContactRows(body, other, frame, arm_i, arm_j, np.zeros((2, 3)), np.full(2, 0.4),
+                        np.zeros(2)),
+            BodyRows(np.ones(2), np.tile(np.eye(3), (2, 1, 1)), v_free, np.zeros((2, 3))),
+            WallRows(np.array([[0.0, 0.0, 1.0]]), np.zeros(1), np.zeros(1), np.full(1, np.inf)),
+            NO_CELL, SolveSettings(DT, TOL, TOL, 1000))
+    outputs = (Motion(np.empty((2, 3)), np.empty((2, 3)), np.zeros(1), np.zeros(0),
+                      np.zeros((3, 3))), np.zeros((2, 3)), np.empty((2, 3, 3)), np.zeros(2))
     return head, outputs
 
 
@@ -302,11 +314,11 @@ def chain_kernel_arguments(free_velocity_z):
 def test_the_sweeps_stop_at_the_first_non_finite_sweep(sweep):
     head, outputs = chain_kernel_arguments(np.nan)
     if sweep == "serial":
-        done = nlgs_kernel(*head, np.array([0, 1]), TOL, TOL, 1000, *outputs)
+        done = nlgs_kernel(*head, np.array([0, 1]), *outputs)
     else:
-        done = nlgs_coloured_kernel(*head, np.array([0, 1]), np.array([0, 1, 2, 2]),
-                                    np.array([0, 1, 2]), np.array([0, 1]), 2, TOL, TOL, 1000,
-                                    *outputs)
+        groups = SweepGroups(np.array([0, 1]), np.array([0, 1, 2, 2]), np.array([0, 1, 2]),
+                             np.array([0, 1]), 2)
+        done = nlgs_coloured_kernel(*head, groups, *outputs)
     assert done == 1  # not the cap of 1000
     assert np.isnan(outputs[-1]).all()  # change and residual say it
 

@@ -23,6 +23,7 @@ import numba
 import numpy as np
 import pytest
 
+import grainlab.engine.nscd.contact_dynamics as contact_dynamics
 import grainlab.engine.nscd.nlgs_parallel as nlgs_parallel
 from grainlab.engine.boundaries.wall_box import WallBox
 from grainlab.engine.nscd.contact_colouring import (
@@ -31,6 +32,15 @@ from grainlab.engine.nscd.contact_colouring import (
     slab_contacts,
 )
 from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
+from grainlab.engine.nscd.sweep_arrays import (
+    BodyRows,
+    CellRows,
+    ContactRows,
+    Motion,
+    SolveSettings,
+    SweepGroups,
+    WallRows,
+)
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 
@@ -223,6 +233,34 @@ def test_coloured_sweep_does_not_depend_on_the_threads(monkeypatch):
         assert_same_run(outcome, outcomes[0])
 
 
+def test_one_chain_in_the_serial_order_is_the_serial_sweep(monkeypatch):
+    # the serial and coloured sweeps share one sweep body: the coloured kernel given a single
+    # chain of every contact in the serial sweep's order (the contacts' own) repeats the
+    # serial sweep's arithmetic, bit for bit (fewer contacts than a reduction block: the same
+    # sums in the same order), iteration counts and wall motion included
+    class InOrder:
+        def permutation(self, n):
+            return np.arange(n)
+
+    def one_chain(rows, walls, x_m, serial):
+        n_contacts = rows.body_i.shape[0]
+        return SweepGroups(np.arange(n_contacts), np.array([0, 1]), np.array([0, n_contacts]),
+                           np.arange(x_m.shape[0]), 0)
+
+    monkeypatch.setattr(contact_dynamics, "_sweep_groups", one_chain)
+    sample = fcc_sample(seed=2)
+    outcomes = []
+    for sweep in ("serial", "coloured"):
+        library, state, box = copy.deepcopy(sample)
+        step = ContactDynamicsStep(dt=DT, gravity=(0.0, 0.0, -G), friction=MU, sweep=sweep,
+                                   tolerance=1e-8, max_iterations=5000)
+        step._rng = InOrder()
+        reports = [step.step(state, library, box) for _ in range(2)]
+        assert 3 * state.n_bodies < reports[-1].n_contacts < nlgs_parallel._BLOCK
+        outcomes.append((state, box, reports))
+    assert_same_run(outcomes[1], outcomes[0])
+
+
 def assert_same_run(outcome, reference):
     """Two runs (state, box, reports) bit for bit the same, each step obeying Coulomb and
     Signorini."""
@@ -243,14 +281,17 @@ def test_kernel_with_no_contacts_returns_free_velocities():
     w_free = np.array([[0.1, 0.0, 0.0]])
     velocities, spins, residuals = np.empty((1, 3)), np.empty((1, 3)), np.ones(2)
     iterations = nlgs_parallel.nlgs_coloured_kernel(
-        empty_i, empty_i, np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
-        np.ones(1), np.eye(3)[None], v_free, w_free, np.zeros((0, 3)), np.zeros(0), np.zeros(0),
-        np.zeros(0), np.zeros(0), np.zeros(0), DT, np.zeros((0, 3)), np.zeros((3, 3)),
-        np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0), np.zeros((0, 2)), empty_i,
-        np.zeros(2, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64),
-        0, 1e-5, 1e-5, 10,
-        np.zeros((0, 3)), velocities, spins, np.zeros(0), np.zeros(0), np.zeros((3, 3)),
-        np.zeros((0, 3, 3)), residuals,
+        ContactRows(empty_i, empty_i, np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
+                    np.zeros((0, 3)), np.zeros(0), np.zeros(0)),
+        BodyRows(np.ones(1), np.eye(3)[None], v_free, w_free),
+        WallRows(np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0)),
+        CellRows(np.zeros((3, 3)), np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0),
+                 np.zeros((0, 2))),
+        SolveSettings(DT, 1e-5, 1e-5, 10),
+        SweepGroups(empty_i, np.zeros(2, dtype=np.int64), np.zeros(1, dtype=np.int64),
+                    np.zeros(1, dtype=np.int64), 0),
+        Motion(velocities, spins, np.zeros(0), np.zeros(0), np.zeros((3, 3))),
+        np.zeros((0, 3)), np.zeros((0, 3, 3)), residuals,
     )
     assert iterations == 0
     np.testing.assert_array_equal(velocities, v_free)

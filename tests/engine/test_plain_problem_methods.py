@@ -21,6 +21,7 @@ from grainlab.engine.nscd.contact_problem import (
     write_fclib,
 )
 from grainlab.engine.nscd.plain_problem_methods import METHODS, jacobi_relaxation_bound, solve
+from grainlab.engine.nscd.sweep_arrays import BodyRows, ContactRows, WallRows
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.step_report import contact_frames
 from grainlab.errors import InputError, SolverDivergence
@@ -29,6 +30,8 @@ G, H, MASS = 9.81, 1e-3, 0.5
 TIGHT = 1e-10
 DT_PILE = 1e-4
 CAPS = {"nlgs": 2000, "psor": 2000, "apgd": 20000, "jacobi": 20000}
+
+FLOOR_ROWS = WallRows([[0.0, 0.0, 1.0]], [0.0], [0.0], [np.inf])  # a fixed floor z = 0
 
 
 def wall_problem(normals, mu, inv_inertia=None, gravity=(0.0, 0.0, -G)):
@@ -39,12 +42,14 @@ def wall_problem(normals, mu, inv_inertia=None, gravity=(0.0, 0.0, -G)):
     c = normals.shape[0]
     inertia = np.zeros((1, 3, 3)) if inv_inertia is None else inv_inertia
     return assemble_problem(
-        body_i=-1 - np.arange(c), body_j=np.zeros(c, dtype=np.int64),
-        frame=contact_frames(normals), arm_i=np.zeros((c, 3)), arm_j=-0.1 * normals,
-        inv_mass=[1.0 / MASS], inv_inertia=inertia,
-        free_velocities=[np.asarray(gravity) * H], free_spins=np.zeros((1, 3)),
-        wall_normals=normals, wall_inv_mass=np.zeros(c), wall_free_speeds=np.zeros(c),
-        mu=np.full(c, mu), gap_term=np.zeros(c), dt=H)
+        ContactRows(body_i=-1 - np.arange(c), body_j=np.zeros(c, dtype=np.int64),
+                    frame=contact_frames(normals), arm_i=np.zeros((c, 3)),
+                    arm_j=-0.1 * normals, images=np.zeros((c, 3)), mu=np.full(c, mu),
+                    gap=np.zeros(c)),
+        BodyRows(inv_mass=[1.0 / MASS], inv_inertia=inertia,
+                 free_velocities=[np.asarray(gravity) * H], free_spins=np.zeros((1, 3))),
+        WallRows(normals=normals, inv_mass=np.zeros(c), free_speeds=np.zeros(c),
+                 max_speeds=np.full(c, np.inf)), None, H)
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -75,10 +80,12 @@ def test_a_stack_of_three_spheres_carries_its_weight_down(method):
     body_j = np.array([0, 1, 2])
     normals = np.tile([0.0, 0.0, 1.0], (3, 1))
     problem = assemble_problem(
-        body_i, body_j, contact_frames(normals), np.tile([0.0, 0.0, 0.1], (3, 1)),
-        np.tile([0.0, 0.0, -0.1], (3, 1)), np.full(3, 1.0 / MASS),
-        np.tile(np.eye(3) * 250.0, (3, 1, 1)), np.tile([0.0, 0.0, -G * H], (3, 1)),
-        np.zeros((3, 3)), [[0.0, 0.0, 1.0]], [0.0], [0.0], np.full(3, 0.4), np.zeros(3), H)
+        ContactRows(body_i, body_j, contact_frames(normals), np.tile([0.0, 0.0, 0.1], (3, 1)),
+                    np.tile([0.0, 0.0, -0.1], (3, 1)), np.zeros((3, 3)), np.full(3, 0.4),
+                    np.zeros(3)),
+        BodyRows(np.full(3, 1.0 / MASS), np.tile(np.eye(3) * 250.0, (3, 1, 1)),
+                 np.tile([0.0, 0.0, -G * H], (3, 1)), np.zeros((3, 3))),
+        FLOOR_ROWS, None, H)
     solution = solve(problem, method, tolerance=TIGHT, max_iterations=CAPS[method])
     assert solution.converged
     np.testing.assert_allclose(solution.reactions.reshape(3, 3)[:, 0],
@@ -235,10 +242,12 @@ def test_a_capped_solve_says_it_did_not_converge():
     body_j = np.arange(n)
     normals = np.tile([0.0, 0.0, 1.0], (n, 1))
     problem = assemble_problem(
-        body_i, body_j, contact_frames(normals), np.tile([0.0, 0.0, 0.1], (n, 1)),
-        np.tile([0.0, 0.0, -0.1], (n, 1)), np.ones(n), np.tile(np.eye(3), (n, 1, 1)),
-        np.tile([0.0, 0.0, -1.0], (n, 1)), np.zeros((n, 3)), [[0.0, 0.0, 1.0]], [0.0], [0.0],
-        np.full(n, 0.4), np.zeros(n), 1.0)
+        ContactRows(body_i, body_j, contact_frames(normals), np.tile([0.0, 0.0, 0.1], (n, 1)),
+                    np.tile([0.0, 0.0, -0.1], (n, 1)), np.zeros((n, 3)), np.full(n, 0.4),
+                    np.zeros(n)),
+        BodyRows(np.ones(n), np.tile(np.eye(3), (n, 1, 1)), np.tile([0.0, 0.0, -1.0], (n, 1)),
+                 np.zeros((n, 3))),
+        FLOOR_ROWS, None, 1.0)
     capped = solve(problem, "nlgs", tolerance=1e-10, max_iterations=3)
     assert not capped.converged and capped.iterations == 3 and capped.error > 1e-10
     assert np.all(np.diff(capped.errors) <= 0.0) or capped.errors.size == 3

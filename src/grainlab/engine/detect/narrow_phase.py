@@ -60,13 +60,17 @@ import numpy as np
 from numba import njit, prange
 
 from grainlab.engine.detect.polyhedron_narrow_phase import (
+    ContactBuffers,
+    ManifoldSettings,
+    MemberSpheres,
+    ShapeTopology,
     angle_tolerances,
     polyhedron_pairs_kernel,
     polyhedron_walls_kernel,
     world_polyhedra,
 )
 from grainlab.engine.quaternion import rotate
-from grainlab.engine.state import BodyState, ReadOnlyArrays, ShapeLibrary
+from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron_contact import ANGLE_TOLERANCE, DEFAULT_MAX_POINTS, MAX_POINTS
 
@@ -352,36 +356,31 @@ class NarrowPhase:
         body_start, centres, radii = self.world_spheres(state, library)
         bounding = np.ascontiguousarray(library.bounding_radius[state.shape_ids])
         positions = np.ascontiguousarray(state.positions)
-        is_poly, bvs, wv, bfs, wn, wo = world_polyhedra(state, library)
+        polyhedra = world_polyhedra(state, library)
+        is_poly = polyhedra.is_poly
         any_poly = bool(is_poly.any())
         if any_poly:
             poly_pairs = np.ascontiguousarray(pairs[is_poly[pairs[:, 0]] | is_poly[pairs[:, 1]]])
-        cos_tol, sin_tol = angle_tolerances(self.angle_tolerance)
+        settings = ManifoldSettings(float(self.alert), *angle_tolerances(self.angle_tolerance),
+                                    int(self.max_points))
         shape_ids = np.ascontiguousarray(state.shape_ids, dtype=np.int64)
-        lib = ReadOnlyArrays(library)
+        topology = ShapeTopology.of(library)
+        spheres = MemberSpheres(body_start, centres, radii)
         while True:
             self._buffers[-1][:] = 0
             sphere_rows = self._buffers[:-1]
+            rows = ContactBuffers(*self._buffers)
             n_pair = pair_contacts_kernel(
                 pairs, body_start, centres, radii, self.alert, 0, *sphere_rows)
             if any_poly:
-                n_pair = polyhedron_pairs_kernel(
-                    poly_pairs, is_poly, shape_ids, positions, bvs, wv, bfs, wn, wo,
-                    lib.face_start, lib.face_count, lib.face_vertex_start, lib.face_vertices,
-                    lib.edge_start, lib.edge_count, lib.edges, lib.edge_faces,
-                    lib.vertex_start, lib.vertex_count, lib.vertex_neighbour_start,
-                    lib.vertex_neighbours, body_start, centres, radii, self.alert, cos_tol,
-                    sin_tol, self.max_points, n_pair, *self._buffers)
+                n_pair = polyhedron_pairs_kernel(poly_pairs, shape_ids, positions, polyhedra,
+                                                 topology, spheres, settings, n_pair, rows)
             n_all = wall_contacts_kernel(
                 points, normals, positions, bounding, body_start, centres, radii, self.alert,
                 n_pair, *sphere_rows)
             if any_poly:
-                n_all = polyhedron_walls_kernel(
-                    points, normals, positions, bounding, is_poly, shape_ids, bvs, wv, bfs, wn,
-                    lib.face_start, lib.face_count, lib.face_vertex_start, lib.face_vertices,
-                    lib.edge_start, lib.edge_count, lib.edges, lib.vertex_start,
-                    lib.vertex_count, lib.vertex_neighbour_start, lib.vertex_neighbours,
-                    self.alert, cos_tol, sin_tol, self.max_points, n_all, *self._buffers)
+                n_all = polyhedron_walls_kernel(points, normals, positions, bounding, shape_ids,
+                                                polyhedra, topology, settings, n_all, rows)
             if n_all <= self.capacity:
                 break
             self._allocate(max(math.ceil(_GROWTH * n_all), self.capacity + 1))

@@ -19,6 +19,7 @@ launcher regrows and reruns).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
@@ -73,24 +74,100 @@ def world_polyhedra_kernel(
                          body_face_start, world_vertices, world_normals, world_offsets)
 
 
+class WorldPolyhedra(NamedTuple):
+    """The boundaries of the polyhedron bodies in the world frame (:func:`world_polyhedra`):
+    ``is_poly`` (N,) bool, body n's vertices ``world_vertices`` (V_w, 3) [m] at rows
+    ``body_vertex_start[n] .. body_vertex_start[n + 1] - 1``, its face normals
+    ``world_normals`` (F_w, 3) and offsets ``world_offsets`` (F_w,) [m] at rows
+    ``body_face_start[n] ..``."""
+
+    is_poly: np.ndarray
+    body_vertex_start: np.ndarray
+    world_vertices: np.ndarray
+    body_face_start: np.ndarray
+    world_normals: np.ndarray
+    world_offsets: np.ndarray
+
+
+class ShapeTopology(NamedTuple):
+    """The polyhedra's topology in local ids, per shape s of the
+    :class:`~grainlab.engine.state.ShapeLibrary`: faces (``face_start``, ``face_count``,
+    CSR ``face_vertex_start`` into ``face_vertices``), edges (``edge_start``, ``edge_count``,
+    ``edges`` (E, 2), ``edge_faces`` (E, 2)) and vertex neighbours (``vertex_start``,
+    ``vertex_count``, CSR ``vertex_neighbour_start`` into ``vertex_neighbours``)."""
+
+    face_start: np.ndarray
+    face_count: np.ndarray
+    face_vertex_start: np.ndarray
+    face_vertices: np.ndarray
+    edge_start: np.ndarray
+    edge_count: np.ndarray
+    edges: np.ndarray
+    edge_faces: np.ndarray
+    vertex_start: np.ndarray
+    vertex_count: np.ndarray
+    vertex_neighbour_start: np.ndarray
+    vertex_neighbours: np.ndarray
+
+    @classmethod
+    def of(cls, library) -> ShapeTopology:
+        """The topology arrays of ``library`` as the kernels take them (read-only,
+        C-contiguous)."""
+        lib = ReadOnlyArrays(library)
+        return cls(*(getattr(lib, name) for name in cls._fields))
+
+
+class MemberSpheres(NamedTuple):
+    """The member spheres in the world frame: body n's at rows ``body_start[n] ..
+    body_start[n + 1] - 1`` of ``centres`` (S, 3) [m] and ``radii`` (S,) [m]."""
+
+    body_start: np.ndarray
+    centres: np.ndarray
+    radii: np.ndarray
+
+
+class ManifoldSettings(NamedTuple):
+    """Alert distance ``alert`` [m], (cos, sin) of the classification angle ``cos_tol``,
+    ``sin_tol``, and the most points of a manifold ``max_points``."""
+
+    alert: float
+    cos_tol: float
+    sin_tol: float
+    max_points: int
+
+
+class ContactBuffers(NamedTuple):
+    """The rows the narrow phase writes: ``body_i``, ``body_j``, ``member_i``, ``member_j``
+    (R,) int64, ``point`` (R, 3) [m], ``normal`` (R, 3), ``gap`` (R,) [m], ``contact_type``
+    (R,) (module docstring)."""
+
+    body_i: np.ndarray
+    body_j: np.ndarray
+    member_i: np.ndarray
+    member_j: np.ndarray
+    point: np.ndarray
+    normal: np.ndarray
+    gap: np.ndarray
+    contact_type: np.ndarray
+
+
 @njit(inline="always")
-def _store(row, bi, bj, mi, mj, g, n, p, code,
-           body_i, body_j, member_i, member_j, point, normal, gap, contact_type):
-    if row < gap.shape[0]:
-        body_i[row] = bi
-        body_j[row] = bj
-        member_i[row] = mi
-        member_j[row] = mj
-        gap[row] = g
+def _store(row, bi, bj, mi, mj, g, n, p, code, rows):
+    if row < rows.gap.shape[0]:
+        rows.body_i[row] = bi
+        rows.body_j[row] = bj
+        rows.member_i[row] = mi
+        rows.member_j[row] = mj
+        rows.gap[row] = g
         for c in range(3):
-            normal[row, c] = n[c]
-            point[row, c] = p[c]
-        contact_type[row] = code
+            rows.normal[row, c] = n[c]
+            rows.point[row, c] = p[c]
+        rows.contact_type[row] = code
 
 
 @njit(inline="always")
 def _sphere_row(row, poly, other, a, poly_first, wv, wn, wo, fs, fv, ed, centre, radius,
-                alert, body_i, body_j, member_i, member_j, point, normal, gap, contact_type):
+                alert, rows):
     """One polyhedron-member-sphere row; ``poly_first`` says whether the polyhedron is
     body i. Returns the next row."""
     n = np.empty(3)
@@ -99,11 +176,9 @@ def _sphere_row(row, poly, other, a, poly_first, wv, wn, wo, fs, fv, ed, centre,
     if g > alert:
         return row
     if poly_first:
-        _store(row, poly, other, code, a, g, n, p, kind,
-               body_i, body_j, member_i, member_j, point, normal, gap, contact_type)
+        _store(row, poly, other, code, a, g, n, p, kind, rows)
     else:
-        _store(row, other, poly, a, code, g, -n, p, kind,
-               body_i, body_j, member_i, member_j, point, normal, gap, contact_type)
+        _store(row, other, poly, a, code, g, -n, p, kind, rows)
     return row + 1
 
 
@@ -124,18 +199,30 @@ def _body_features(b, s, body_vertex_start, world_vertices, body_face_start, wor
     return v, n, o, fs, e, ef, ns
 
 
+@njit(inline="always")
+def _features(b, s, polyhedra, topology):
+    """:func:`_body_features` of body b (shape s) from the :class:`WorldPolyhedra` and the
+    :class:`ShapeTopology`."""
+    t = topology
+    return _body_features(b, s, polyhedra.body_vertex_start, polyhedra.world_vertices,
+                          polyhedra.body_face_start, polyhedra.world_normals,
+                          polyhedra.world_offsets, t.face_start, t.face_count,
+                          t.face_vertex_start, t.edge_start, t.edge_count, t.edges,
+                          t.edge_faces, t.vertex_start, t.vertex_count,
+                          t.vertex_neighbour_start)
+
+
 @njit(cache=True)
-def polyhedron_pairs_kernel(
-    pairs, is_poly, shape_ids, positions, body_vertex_start, world_vertices, body_face_start,
-    world_normals, world_offsets, face_start, face_count, face_vertex_start, face_vertices,
-    edge_start, edge_count, edges, edge_faces, vertex_start, vertex_count,
-    vertex_neighbour_start, vertex_neighbours, sphere_body_start, world_centres, world_radii,
-    alert, cos_tol, sin_tol, max_points, start,
-    body_i, body_j, member_i, member_j, point, normal, gap, contact_type,
-):
-    """Contacts (gap <= alert) of the candidate pairs (P, 2) with at least one polyhedron
-    (``is_poly`` (N,) bool); written from row ``start``; returns start + rows needed."""
+def polyhedron_pairs_kernel(pairs, shape_ids, positions, polyhedra, topology, spheres,
+                            settings, start, rows):
+    """Contacts (gap <= ``settings.alert``) of the candidate pairs (P, 2) with at least one
+    polyhedron (``polyhedra``: :class:`WorldPolyhedra`; ``topology``:
+    :class:`ShapeTopology`; ``spheres``: :class:`MemberSpheres`; ``settings``:
+    :class:`ManifoldSettings`) into ``rows`` (:class:`ContactBuffers`), written from row
+    ``start``; returns start + rows needed."""
     row = start
+    is_poly, fv, nbrs = polyhedra.is_poly, topology.face_vertices, topology.vertex_neighbours
+    alert = settings.alert
     n_out = np.empty(3)
     pts = np.empty((MAX_POINTS, 3))
     gps = np.empty(MAX_POINTS)
@@ -148,86 +235,66 @@ def polyhedron_pairs_kernel(
             continue
         si, sj = shape_ids[i], shape_ids[j]
         if is_poly[i] and is_poly[j]:
-            va, na, oa, fsa, ea, efa, nsa = _body_features(
-                i, si, body_vertex_start, world_vertices, body_face_start, world_normals,
-                world_offsets, face_start, face_count, face_vertex_start, edge_start,
-                edge_count, edges, edge_faces, vertex_start, vertex_count,
-                vertex_neighbour_start)
-            vb, nb, ob, fsb, eb, efb, nsb = _body_features(
-                j, sj, body_vertex_start, world_vertices, body_face_start, world_normals,
-                world_offsets, face_start, face_count, face_vertex_start, edge_start,
-                edge_count, edges, edge_faces, vertex_start, vertex_count,
-                vertex_neighbour_start)
+            va, na, oa, fsa, ea, efa, nsa = _features(i, si, polyhedra, topology)
+            vb, nb, ob, fsb, eb, efb, nsb = _features(j, sj, polyhedra, topology)
             g, found = signed_distance(
-                va, na, oa, fsa, face_vertices, ea, efa, nsa, vertex_neighbours, positions[i],
-                vb, nb, ob, fsb, face_vertices, eb, efb, nsb, vertex_neighbours, positions[j],
-                alert, n_out)
+                va, na, oa, fsa, fv, ea, efa, nsa, nbrs, positions[i],
+                vb, nb, ob, fsb, fv, eb, efb, nsb, nbrs, positions[j], alert, n_out)
             if not found:
                 continue
             count, code = pair_manifold(
-                va, na, oa, fsa, face_vertices, ea, efa, nsa, vertex_neighbours,
-                vb, nb, ob, fsb, face_vertices, eb, efb, nsb, vertex_neighbours,
-                g, n_out, alert, cos_tol, sin_tol, max_points, pts, gps, nrm, ida, idb)
+                va, na, oa, fsa, fv, ea, efa, nsa, nbrs, vb, nb, ob, fsb, fv, eb, efb, nsb, nbrs,
+                g, n_out, alert, settings.cos_tol, settings.sin_tol, settings.max_points, pts,
+                gps, nrm, ida, idb)
             for r in range(count):
-                _store(row, i, j, ida[r], idb[r], gps[r], nrm[r], pts[r], code,
-                       body_i, body_j, member_i, member_j, point, normal, gap, contact_type)
+                _store(row, i, j, ida[r], idb[r], gps[r], nrm[r], pts[r], code, rows)
                 row += 1
         else:
             poly, other = (i, j) if is_poly[i] else (j, i)
-            sp = shape_ids[poly]
-            wv, wn, wo, fs, ed, _, _ = _body_features(
-                poly, sp, body_vertex_start, world_vertices, body_face_start, world_normals,
-                world_offsets, face_start, face_count, face_vertex_start, edge_start,
-                edge_count, edges, edge_faces, vertex_start, vertex_count,
-                vertex_neighbour_start)
-            for a in range(sphere_body_start[other], sphere_body_start[other + 1]):
-                row = _sphere_row(row, poly, other, a - sphere_body_start[other], poly == i,
-                                  wv, wn, wo, fs, face_vertices, ed, world_centres[a],
-                                  world_radii[a], alert, body_i, body_j, member_i, member_j,
-                                  point, normal, gap, contact_type)
+            wv, wn, wo, fs, ed, _, _ = _features(poly, shape_ids[poly], polyhedra, topology)
+            first = spheres.body_start[other]
+            for a in range(first, spheres.body_start[other + 1]):
+                row = _sphere_row(row, poly, other, a - first, poly == i, wv, wn, wo, fs, fv,
+                                  ed, spheres.centres[a], spheres.radii[a], alert, rows)
     return row
 
 
 @njit(cache=True)
-def polyhedron_walls_kernel(
-    wall_points, wall_normals, positions, bounding_radii, is_poly, shape_ids,
-    body_vertex_start, world_vertices, body_face_start, world_normals, face_start,
-    face_count, face_vertex_start, face_vertices, edge_start, edge_count, edges,
-    vertex_start, vertex_count, vertex_neighbour_start, vertex_neighbours,
-    alert, cos_tol, sin_tol, max_points, start,
-    body_i, body_j, member_i, member_j, point, normal, gap, contact_type,
-):
-    """Contacts (gap <= alert) of the polyhedron bodies with plane walls (points (W, 3) [m],
-    unit normals (W, 3)); wall w is body_i = -1 - w, member_i = -1; member_j is a vertex id.
-    Written from row ``start``; returns start + rows needed."""
+def polyhedron_walls_kernel(wall_points, wall_normals, positions, bounding_radii, shape_ids,
+                            polyhedra, topology, settings, start, rows):
+    """Contacts (gap <= ``settings.alert``) of the polyhedron bodies (``polyhedra``,
+    ``topology``: as :func:`polyhedron_pairs_kernel`) with plane walls (points (W, 3) [m],
+    unit normals (W, 3)) into ``rows``; wall w is body_i = -1 - w, member_i = -1; member_j
+    is a vertex id. Written from row ``start``; returns start + rows needed."""
     row = start
+    t, bvs, bfs = topology, polyhedra.body_vertex_start, polyhedra.body_face_start
     pts = np.empty((MAX_POINTS, 3))
     gps = np.empty(MAX_POINTS)
     ids = np.empty(MAX_POINTS, dtype=np.int64)
     for w in range(wall_points.shape[0]):
         for n in range(positions.shape[0]):
-            if not is_poly[n]:
+            if not polyhedra.is_poly[n]:
                 continue
             h = (positions[n] - wall_points[w]) @ wall_normals[w]
-            if h - bounding_radii[n] > alert:
+            if h - bounding_radii[n] > settings.alert:
                 continue
             s = shape_ids[n]
             count, code = wall_manifold(
-                world_vertices[body_vertex_start[n]:body_vertex_start[n + 1]],
-                world_normals[body_face_start[n]:body_face_start[n + 1]],
-                face_vertex_start[face_start[s]:face_start[s] + face_count[s] + 1],
-                face_vertices, edges[edge_start[s]:edge_start[s] + edge_count[s]],
-                vertex_neighbour_start[vertex_start[s]:vertex_start[s] + vertex_count[s] + 1],
-                vertex_neighbours, wall_points[w], wall_normals[w], alert, cos_tol, sin_tol,
-                max_points, pts, gps, ids)
+                polyhedra.world_vertices[bvs[n]:bvs[n + 1]],
+                polyhedra.world_normals[bfs[n]:bfs[n + 1]],
+                t.face_vertex_start[t.face_start[s]:t.face_start[s] + t.face_count[s] + 1],
+                t.face_vertices, t.edges[t.edge_start[s]:t.edge_start[s] + t.edge_count[s]],
+                t.vertex_neighbour_start[t.vertex_start[s]:t.vertex_start[s]
+                                         + t.vertex_count[s] + 1],
+                t.vertex_neighbours, wall_points[w], wall_normals[w], settings.alert,
+                settings.cos_tol, settings.sin_tol, settings.max_points, pts, gps, ids)
             for r in range(count):
-                _store(row, -1 - w, n, -1, ids[r], gps[r], wall_normals[w], pts[r], code,
-                       body_i, body_j, member_i, member_j, point, normal, gap, contact_type)
+                _store(row, -1 - w, n, -1, ids[r], gps[r], wall_normals[w], pts[r], code, rows)
                 row += 1
     return row
 
 
-def world_polyhedra(state, library):
+def world_polyhedra(state, library) -> WorldPolyhedra:
     """The boundaries of the bodies of the narrow-phase family
     :data:`~grainlab.engine.shape_kinds.POLYHEDRON_FEATURES` in the world frame: (is_poly (N,)
     (the bodies of that family), body_vertex_start
@@ -249,8 +316,8 @@ def world_polyhedra(state, library):
             ids, lib.vertex_start, lib.vertices, lib.face_start, lib.face_normals,
             lib.face_offsets, body_vertex_start, body_face_start, world_vertices,
             world_normals, world_offsets)
-    return is_poly, body_vertex_start, world_vertices, body_face_start, world_normals, \
-        world_offsets
+    return WorldPolyhedra(is_poly, body_vertex_start, world_vertices, body_face_start,
+                          world_normals, world_offsets)
 
 
 def angle_tolerances(angle: float) -> tuple[float, float]:

@@ -114,6 +114,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import NamedTuple
 
 import numpy as np
 from numba import get_num_threads
@@ -140,6 +141,15 @@ from grainlab.engine.nscd.nlgs_parallel import (
     slab_count,
 )
 from grainlab.engine.nscd.serial_sweep import nlgs_kernel
+from grainlab.engine.nscd.sweep_arrays import (
+    BodyRows,
+    CellRows,
+    ContactRows,
+    Motion,
+    SolveSettings,
+    SweepGroups,
+    WallRows,
+)
 from grainlab.engine.quaternion import quat_to_matrices, rotate_quaternions
 from grainlab.engine.shape_kinds import library_time_step_length
 from grainlab.engine.state import BodyState, ShapeLibrary
@@ -294,31 +304,79 @@ class ContactDynamicsStep:
         (:class:`~grainlab.engine.boundaries.periodic_boundary.PeriodicCell`), None (open space) or
         (points (W, 3) [m], normals (W, 3)) of fixed planes with normals pointing into the
         bodies' region (friction ``self.friction``)."""
-        h, theta = self.dt, self.theta
+        h = self.dt
         _check_finite_state(state)
         boundary = as_boundary(walls, self.friction)
-        bounds = boundary.constraints(h, theta)
+        bounds = boundary.constraints(h, self.theta)
+        predicted = self._predict(state, bounds)
         # largest approach within the step: two bodies (or a body and a wall) closing in
+        phases = self._phases(library, h * (2.0 * predicted.speed + bounds.speed
+                                            + float(np.linalg.norm(self.gravity)) * h))
+        contacts, images = boundary.detect(predicted.state, library, phases, bounds)
+        rows, bodies = self._contact_rows(state, predicted, contacts, images, bounds)
+        wall_rows, cell = _boundary_rows(bounds)
+        change_tolerance = self.tolerance if self.change_tolerance is None else \
+            self.change_tolerance
+        settings = SolveSettings(float(h), float(self.tolerance), float(change_tolerance),
+                                 int(self.max_iterations))
+        problem = assemble_problem(rows, bodies, wall_rows, cell, h) if self.keep_problem \
+            else None
+        keys = contact_keys(contacts, state.n_bodies, library)
+        impulses = h * np.einsum("cij,cj->ci", rows.frame, self._warm_start_forces(keys))
+        if self.warm_start_extrapolation > 0.0:
+            impulses = project_on_cones(impulses, rows.mu)
+        images = rows.images
+        crossing = np.any(images != 0.0, axis=1)
+        motion, iterations, change, residual = self._solve(
+            rows, bodies, wall_rows, cell, settings, impulses, predicted.x_m,
+            crossing if bounds.has_free_cell else None, predicted.speed)
+        forces = self._remember_forces(keys, rows.frame, impulses)
+        relative = _closing_velocities(rows, wall_rows, motion, crossing)
+        # end-of-step configuration
+        state.velocities[:] = motion.velocities
+        state.angular_velocities[:] = motion.spins
+        state.positions[:] = predicted.x_m + self.theta * h * motion.velocities
+        state.orientations[:] = rotate_quaternions(predicted.q_m, self.theta * h * motion.spins)
+        boundary.finish_step(BoundaryMotion(
+            dt=h, theta=self.theta, wall_speeds=motion.wall_speeds,
+            wall_reactions=np.zeros(0), cell_dofs=motion.cell_dofs, cell_rate=motion.cell_rate,
+            closed=ClosedContacts(contacts, images, impulses, forces)))
+        n_contacts = contacts.n_contacts
+        return StepReport(
+            n_contacts=n_contacts, iterations=int(iterations),
+            converged=bool(n_contacts == 0 or (change <= change_tolerance
+                                               and residual <= self.tolerance)),
+            change=change, residual=residual,
+            max_overlap=float(max(0.0, -contacts.gap.min())) if n_contacts else 0.0,
+            contacts=contacts, frames=rows.frame, impulses=impulses,
+            relative_velocity=relative, images=images, problem=problem,
+        )
+
+    def _predict(self, state: BodyState, bounds) -> _Predicted:
+        """The free motion (gravity, gyroscopic spins, a periodic cell's change of rate) and
+        the detection configuration q_m = q + (1 - theta) h v of a step."""
+        h, theta = self.dt, self.theta
         speed = float(np.sqrt(np.max(np.sum(state.velocities**2, axis=1)))) \
             if state.n_bodies else 0.0
-        phases = self._phases(library, h * (2.0 * speed + bounds.speed
-                                            + float(np.linalg.norm(self.gravity)) * h))
-        kernel_normals = np.ascontiguousarray(bounds.wall_normals, dtype=np.float64)
-        n_bodies = state.n_bodies
         rotations = quat_to_matrices(state.orientations)
-        # free velocities and detection configuration q_m
         free_v = np.ascontiguousarray(state.velocities + h * self.gravity[None, :])
         free_w = np.ascontiguousarray(self._free_spins(state, rotations))
         x_m = state.positions + (1.0 - theta) * h * state.velocities
         q_m = rotate_quaternions(state.orientations, (1.0 - theta) * h * state.angular_velocities)
-        predicted = replace(state, positions=x_m, orientations=q_m)
         if np.any(bounds.affine_change != 0.0):  # a periodic cell whose rate changed
             centre = np.average(x_m, axis=0, weights=state.masses)
             free_v += (x_m - centre) @ bounds.affine_change.T
-        contacts, images = boundary.detect(predicted, library, phases, bounds)
+        return _Predicted(replace(state, positions=x_m, orientations=q_m), x_m, q_m,
+                          free_v, free_w, speed)
+
+    def _contact_rows(self, state: BodyState, predicted: _Predicted, contacts, images,
+                      bounds) -> tuple[ContactRows, BodyRows]:
+        """The kernels' rows of the detected ``contacts`` (local frames, arms from the
+        centres at q_m, friction, gap terms) and of the bodies (inverse masses, world inverse
+        inertia at q_m, free velocities)."""
+        h, x_m = self.dt, predicted.x_m
         n_contacts = contacts.n_contacts
         images = np.ascontiguousarray(images, dtype=np.float64)
-        # local frames, arms, masses and world inverse inertia at q_m
         frames = contact_frames(contacts.normal)
         arm_i = np.zeros((n_contacts, 3))
         inner = contacts.body_i >= 0
@@ -327,125 +385,67 @@ class ContactDynamicsStep:
         crossing = np.any(images != 0.0, axis=1)
         if np.any(crossing):  # the arm of j reaches from its image: x_j + h_m m_k
             arm_j[crossing] -= images[crossing] @ bounds.cell_matrix.T
-        inv_mass = 1.0 / state.masses
-        r_m = quat_to_matrices(q_m)
+        r_m = quat_to_matrices(predicted.q_m)
         inv_inertia = np.ascontiguousarray(
             np.einsum("nij,nj,nkj->nik", r_m, 1.0 / state.inertias, r_m))
-        keys = contact_keys(contacts, n_bodies, library)
         mu = np.full(n_contacts, self.friction)
         on_wall = ~inner
         if np.any(on_wall):
             mu[on_wall] = bounds.wall_friction[-1 - contacts.body_i[on_wall]]
-        impulses = h * np.einsum("cij,cj->ci", frames, self._warm_start_forces(keys))
-        if self.warm_start_extrapolation > 0.0:
-            impulses = project_on_cones(impulses, mu)
-        velocities = np.empty((n_bodies, 3))
-        spins = np.empty((n_bodies, 3))
-        wall_speeds = np.empty(bounds.n_walls)
-        n_cell = bounds.cell_inv_mass.shape[0]
-        cell_dofs = np.empty(n_cell)
-        cell_rate = np.empty((3, 3))
-        delassus = np.empty((n_contacts, 3, 3))
-        residuals = np.zeros(2)
         # gap term g* [m] of the law U_n + g*/h >= 0: max(0, g) + max(beta min(0, g), -v_r h)
         gap_term = np.maximum(contacts.gap, 0.0) + np.maximum(
             self.overlap_recovery * np.minimum(contacts.gap, 0.0),
             -self.overlap_recovery_speed * h)
-        kernel_inv_mass = np.ascontiguousarray(bounds.wall_inv_mass, dtype=np.float64)
-        walls_in = (kernel_normals, kernel_inv_mass,
-                    np.ascontiguousarray(bounds.wall_free, dtype=np.float64),
-                    np.ascontiguousarray(bounds.wall_max, dtype=np.float64))
-        cell_in = (images, np.ascontiguousarray(bounds.cell_fixed, dtype=np.float64),
-                   np.ascontiguousarray(bounds.cell_basis, dtype=np.float64),
-                   np.ascontiguousarray(bounds.cell_inv_mass, dtype=np.float64),
-                   np.ascontiguousarray(bounds.cell_free, dtype=np.float64),
-                   np.ascontiguousarray(bounds.cell_bounds, dtype=np.float64))
-        change_tolerance = self.tolerance if self.change_tolerance is None else \
-            self.change_tolerance
-        problem = None
-        if self.keep_problem:
-            problem = assemble_problem(
-                contacts.body_i, contacts.body_j, frames, arm_i, arm_j, inv_mass, inv_inertia,
-                free_v, free_w, kernel_normals, kernel_inv_mass, walls_in[2], mu, gap_term, h,
-                images, cell_in[1], cell_in[2], cell_in[3], cell_in[4])
+        return (ContactRows(contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i),
+                            arm_j, images, mu, gap_term),
+                BodyRows(1.0 / state.masses, inv_inertia, predicted.free_v, predicted.free_w))
+
+    def _solve(self, rows: ContactRows, bodies: BodyRows, walls: WallRows, cell: CellRows,
+               settings: SolveSettings, impulses: np.ndarray, x_m: np.ndarray, serial,
+               speed: float) -> tuple[Motion, int, float, float]:
+        """The NLGS solve of the step (``impulses`` in: warm start, out: solution), serial or
+        coloured (``serial``: contacts the coloured sweep must visit one by one, None): the
+        end-of-step motion, the sweeps done, the last relative change and residual; refuses
+        non-finite results (:func:`_check_finite_solve`) and, when strict, no convergence."""
+        n_bodies, n_contacts = bodies.inv_mass.shape[0], rows.body_i.shape[0]
+        motion = Motion(np.empty((n_bodies, 3)), np.empty((n_bodies, 3)),
+                        np.empty(walls.inv_mass.shape[0]), np.empty(cell.inv_mass.shape[0]),
+                        np.empty((3, 3)))
+        delassus = np.empty((n_contacts, 3, 3))
+        residuals = np.zeros(2)
         if self.sweep == "serial":
             order = self._rng.permutation(n_contacts).astype(np.int64)
-            iterations = nlgs_kernel(
-                contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
-                inv_mass, inv_inertia, free_v, free_w, *walls_in, mu, gap_term, h, *cell_in,
-                order, self.tolerance, change_tolerance, self.max_iterations,
-                impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus,
-                residuals,
-            )
+            iterations = nlgs_kernel(rows, bodies, walls, cell, settings, order, motion,
+                                     impulses, delassus, residuals)
         else:
-            serial = crossing if bounds.has_free_cell else None
-            colouring = colour_contacts(contacts.body_i, contacts.body_j, kernel_inv_mass,
-                                        n_bodies, serial=serial)
-            sizes = np.diff(colouring.offsets[: colouring.n_colours + 1])
-            if n_contacts >= MIN_SLABS and (sizes.size == 0 or sizes.max() < MIN_COLOURS):
-                # colours too small to be worth waking the threads for each: slabs instead
-                # (their count and order from the packing, whatever the number of threads)
-                groups = slab_contacts(contacts.body_i, contacts.body_j, x_m,
-                                       kernel_inv_mass, serial=serial,
-                                       n_slabs=slab_count(n_contacts))
-                n_parallel = groups.n_colours if get_num_threads() > 1 else 0
-                body_order = groups.body_order
-            else:
-                groups = colouring
-                n_parallel = parallel_colours(colouring.offsets, colouring.n_colours,
-                                              get_num_threads())
-                body_order = spatial_order(x_m) if n_bodies >= SPATIAL_ORDER_BODIES else \
-                    np.arange(n_bodies, dtype=np.int64)
             iterations = nlgs_coloured_kernel(
-                contacts.body_i, contacts.body_j, frames, np.ascontiguousarray(arm_i), arm_j,
-                inv_mass, inv_inertia, free_v, free_w, *walls_in, mu, gap_term, h, *cell_in,
-                groups.order, groups.offsets, groups.chains, body_order, n_parallel,
-                self.tolerance,
-                change_tolerance, self.max_iterations,
-                impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus,
-                residuals,
-            )
+                rows, bodies, walls, cell, settings, _sweep_groups(rows, walls, x_m, serial),
+                motion, impulses, delassus, residuals)
         change, residual = float(residuals[0]), float(residuals[1])
         _check_finite_solve(iterations, change, residual, impulses,
-                            {"body velocities": velocities, "angular velocities": spins,
-                             "wall speeds": wall_speeds, "cell rate": cell_rate}, h, speed)
-        converged = n_contacts == 0 or (change <= change_tolerance
+                            {"body velocities": motion.velocities,
+                             "angular velocities": motion.spins,
+                             "wall speeds": motion.wall_speeds, "cell rate": motion.cell_rate},
+                            self.dt, speed)
+        converged = n_contacts == 0 or (change <= settings.change_tolerance
                                         and residual <= self.tolerance)
         if not converged and self.strict:
             raise ConvergenceError(
                 f"NLGS did not converge in {iterations} sweeps: relative change {change:.3e}, "
                 f"residual {residual:.3e} (tolerance {self.tolerance:.3e}, "
                 f"{n_contacts} contacts).")
-        # warm start of the next step: forces in the world frame, sorted by key
-        forces = np.einsum("cji,cj->ci", frames, impulses) / h
+        return motion, iterations, change, residual
+
+    def _remember_forces(self, keys: np.ndarray, frames: np.ndarray,
+                         impulses: np.ndarray) -> np.ndarray:
+        """The world forces (C, 3) [N] of the step's ``impulses``, kept by contact key (sorted)
+        for the warm start of the next step (the last step's moved to the step before)."""
+        forces = np.einsum("cji,cj->ci", frames, impulses) / self.dt
         order_keys = np.argsort(keys, kind="stable")
         self._earlier_keys, self._earlier_forces = self._warm_keys, self._warm_forces
         self._warm_keys = keys[order_keys]
         self._warm_forces = forces[order_keys]
-        relative = _relative_velocities(contacts, frames, arm_i, arm_j, velocities, spins)
-        if np.any(crossing):
-            relative[crossing] += np.einsum("cij,cj->ci", frames[crossing],
-                                            images[crossing] @ cell_rate.T)
-        if bounds.n_walls and np.any(on_wall):
-            relative[on_wall] -= wall_speeds[-1 - contacts.body_i[on_wall], None] * \
-                np.einsum("cij,cj->ci", frames[on_wall],
-                          kernel_normals[-1 - contacts.body_i[on_wall]])
-        # end-of-step configuration
-        state.velocities[:] = velocities
-        state.angular_velocities[:] = spins
-        state.positions[:] = x_m + theta * h * velocities
-        state.orientations[:] = rotate_quaternions(q_m, theta * h * spins)
-        boundary.finish_step(BoundaryMotion(
-            dt=h, theta=theta, wall_speeds=wall_speeds, wall_reactions=np.zeros(0),
-            cell_dofs=cell_dofs, cell_rate=cell_rate,
-            closed=ClosedContacts(contacts, images, impulses, forces)))
-        max_overlap = float(max(0.0, -contacts.gap.min())) if n_contacts else 0.0
-        return StepReport(
-            n_contacts=n_contacts, iterations=int(iterations), converged=bool(converged),
-            change=change, residual=residual, max_overlap=max_overlap, contacts=contacts,
-            frames=frames, impulses=impulses, relative_velocity=relative, images=images,
-            problem=problem,
-        )
+        return forces
 
     def _warm_start_forces(self, keys: np.ndarray) -> np.ndarray:
         """World forces (C, 3) [N] the contacts of ``keys`` (C,) start from (module docstring,
@@ -537,6 +537,72 @@ def _find_keys(sorted_keys: np.ndarray, keys: np.ndarray) -> tuple[np.ndarray, n
     return sorted_keys[where] == keys, where
 
 
+
+
+class _Predicted(NamedTuple):
+    """A step's detection configuration (``state`` at positions ``x_m`` (N, 3) [m] and
+    orientations ``q_m`` (N, 4)), free velocities ``free_v``, ``free_w`` (N, 3) [m/s],
+    [rad/s], and the largest speed [m/s] at its start."""
+
+    state: BodyState
+    x_m: np.ndarray
+    q_m: np.ndarray
+    free_v: np.ndarray
+    free_w: np.ndarray
+    speed: float
+
+
+def _boundary_rows(bounds) -> tuple[WallRows, CellRows]:
+    """The kernels' rows of the walls and of the periodic cell of a step's ``bounds``
+    (:mod:`grainlab.engine.boundaries.boundary`)."""
+    def as_float(array):
+        return np.ascontiguousarray(array, dtype=np.float64)
+
+    return (WallRows(as_float(bounds.wall_normals), as_float(bounds.wall_inv_mass),
+                     as_float(bounds.wall_free), as_float(bounds.wall_max)),
+            CellRows(as_float(bounds.cell_fixed), as_float(bounds.cell_basis),
+                     as_float(bounds.cell_inv_mass), as_float(bounds.cell_free),
+                     as_float(bounds.cell_bounds)))
+
+
+def _sweep_groups(rows: ContactRows, walls: WallRows, x_m: np.ndarray, serial) -> SweepGroups:
+    """The coloured sweep's groups: colours (:func:`colour_contacts`), or slabs
+    (:func:`slab_contacts`) when the colours are too small to be worth waking the threads
+    for each (their count and order from the packing, whatever the number of threads)."""
+    n_bodies, n_contacts = x_m.shape[0], rows.body_i.shape[0]
+    colouring = colour_contacts(rows.body_i, rows.body_j, walls.inv_mass, n_bodies,
+                                serial=serial)
+    sizes = np.diff(colouring.offsets[: colouring.n_colours + 1])
+    if n_contacts >= MIN_SLABS and (sizes.size == 0 or sizes.max() < MIN_COLOURS):
+        groups = slab_contacts(rows.body_i, rows.body_j, x_m, walls.inv_mass, serial=serial,
+                               n_slabs=slab_count(n_contacts))
+        n_parallel = groups.n_colours if get_num_threads() > 1 else 0
+        body_order = groups.body_order
+    else:
+        groups = colouring
+        n_parallel = parallel_colours(colouring.offsets, colouring.n_colours,
+                                      get_num_threads())
+        body_order = spatial_order(x_m) if n_bodies >= SPATIAL_ORDER_BODIES else \
+            np.arange(n_bodies, dtype=np.int64)
+    return SweepGroups(groups.order, groups.offsets, groups.chains, body_order, int(n_parallel))
+
+
+def _closing_velocities(rows: ContactRows, walls: WallRows, motion: Motion,
+                        crossing: np.ndarray) -> np.ndarray:
+    """End-of-step local relative velocities (C, 3) [m/s] of body j w.r.t. body i (or its
+    wall), an image moving with the cell (NumPy twin of the kernel's scalar law)."""
+    relative = _relative_velocities(rows, rows.frame, rows.arm_i, rows.arm_j,
+                                    motion.velocities, motion.spins)
+    frames = rows.frame
+    if np.any(crossing):
+        relative[crossing] += np.einsum("cij,cj->ci", frames[crossing],
+                                        rows.images[crossing] @ motion.cell_rate.T)
+    on_wall = rows.body_i < 0
+    if walls.inv_mass.shape[0] and np.any(on_wall):
+        wall = -1 - rows.body_i[on_wall]
+        relative[on_wall] -= motion.wall_speeds[wall, None] * \
+            np.einsum("cij,cj->ci", frames[on_wall], walls.normals[wall])
+    return relative
 
 
 def _smallest_radius(library: ShapeLibrary) -> float:

@@ -154,48 +154,91 @@ def project_on_cones(z: np.ndarray, mu: np.ndarray) -> np.ndarray:
     return out
 
 
-def assemble_problem(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-                     free_velocities, free_spins, wall_normals, wall_inv_mass,
-                     wall_free_speeds, mu, gap_term, dt, images=None, cell_fixed=None,
-                     cell_basis=None, cell_inv_mass=None, cell_free=None
-                     ) -> FrictionalContactProblem:
+def assemble_problem(contacts, bodies, walls, cell, dt) -> FrictionalContactProblem:
     """The plain problem (W, q, mu) of a contact-dynamics step, from the arrays its kernels
-    take (:func:`~grainlab.engine.nscd.serial_sweep.nlgs_kernel`: same names, units and
-    conventions; ``gap_term`` (C,) [m] the g* of the law, ``dt`` [s]).
+    take (:func:`~grainlab.engine.nscd.serial_sweep.nlgs_kernel`: the named tuples of
+    :mod:`~grainlab.engine.nscd.sweep_arrays`, same names, units and conventions):
+    ``contacts`` (:class:`ContactRows`, its ``gap`` the g* [m] of the law), ``bodies``
+    (:class:`BodyRows`), ``walls`` (:class:`WallRows`, speed limits unused), ``cell``
+    (:class:`CellRows`, bounds unused; None: no periodic cell), ``dt`` [s]; array-likes are
+    accepted.
 
     W = H M^-1 H^T over the degrees of freedom: per body its velocity and angular velocity
-    (M^-1: 1/m and the world inverse inertia), per mobile wall (``wall_inv_mass`` > 0) its
+    (M^-1: 1/m and the world inverse inertia), per mobile wall (``walls.inv_mass`` > 0) its
     normal speed, per free degree of freedom d of a periodic cell its value e_d
-    (``cell_inv_mass[d]`` > 0). Rows of H for contact k (body j, minus body i): F_k (v -
+    (``cell.inv_mass[d]`` > 0). Rows of H for contact k (body j, minus body i): F_k (v -
     [r] w) for a body, -F_k n_w for a wall w on side i, F_k H_d m_k for cell dof d when body
     j is the image m_k. q = H v_free + F_k (hdot_fixed m_k) + g*_k / h e_n, with the free
     values of every degree of freedom."""
-    body_i = np.asarray(body_i, dtype=np.int64)
-    body_j = np.asarray(body_j, dtype=np.int64)
-    frame = np.asarray(frame, dtype=np.float64).reshape(-1, 3, 3)
+    body_i = np.asarray(contacts.body_i, dtype=np.int64)
+    frame = np.asarray(contacts.frame, dtype=np.float64).reshape(-1, 3, 3)
     n_contacts = body_i.size
-    n_bodies = np.asarray(inv_mass).size
-    wall_inv_mass = np.asarray(wall_inv_mass, dtype=np.float64).reshape(-1)
+    n_bodies = np.asarray(bodies.inv_mass).size
+    wall_inv_mass = np.asarray(walls.inv_mass, dtype=np.float64).reshape(-1)
     n_walls = wall_inv_mass.size
-    wall_normals = np.asarray(wall_normals, dtype=np.float64).reshape(n_walls, 3)
-    images = np.zeros((n_contacts, 3)) if images is None else \
-        np.asarray(images, dtype=np.float64).reshape(n_contacts, 3)
-    cell_basis = np.zeros((0, 3, 3)) if cell_basis is None else \
-        np.asarray(cell_basis, dtype=np.float64).reshape(-1, 3, 3)
-    n_cell = cell_basis.shape[0]
-    cell_inv_mass = np.zeros(n_cell) if cell_inv_mass is None else \
-        np.asarray(cell_inv_mass, dtype=np.float64).reshape(n_cell)
-    cell_free = np.zeros(n_cell) if cell_free is None else \
-        np.asarray(cell_free, dtype=np.float64).reshape(n_cell)
-    cell_fixed = np.zeros((3, 3)) if cell_fixed is None else \
-        np.asarray(cell_fixed, dtype=np.float64).reshape(3, 3)
+    wall_normals = np.asarray(walls.normals, dtype=np.float64).reshape(n_walls, 3)
+    wall_free = np.asarray(walls.free_speeds, dtype=np.float64).reshape(n_walls)
+    images = np.asarray(contacts.images, dtype=np.float64).reshape(n_contacts, 3)
+    if cell is None:
+        cell_fixed, cell_basis, cell_inv_mass = np.zeros((3, 3)), np.zeros((0, 3, 3)), \
+            np.zeros(0)
+        cell_free = np.zeros(0)
+    else:
+        cell_fixed = np.asarray(cell.fixed, dtype=np.float64).reshape(3, 3)
+        cell_basis = np.asarray(cell.basis, dtype=np.float64).reshape(-1, 3, 3)
+        n_cell = cell_basis.shape[0]
+        cell_inv_mass = np.asarray(cell.inv_mass, dtype=np.float64).reshape(n_cell)
+        cell_free = np.asarray(cell.free, dtype=np.float64).reshape(n_cell)
     mobile_walls = np.flatnonzero(wall_inv_mass > 0.0)
     free_cell = np.flatnonzero(cell_inv_mass > 0.0)
     wall_column = np.full(n_walls, -1, dtype=np.int64)
     wall_column[mobile_walls] = 6 * n_bodies + np.arange(mobile_walls.size)
-    cell_column = 6 * n_bodies + mobile_walls.size + np.arange(free_cell.size)
-    n_dofs = 6 * n_bodies + mobile_walls.size + free_cell.size
+    h_matrix = _constraint_matrix(
+        contacts, frame, wall_normals, wall_column, images, cell_basis[free_cell],
+        6 * n_bodies + mobile_walls.size + np.arange(free_cell.size),
+        6 * n_bodies + mobile_walls.size + free_cell.size)
 
+    inverse_blocks = [sp.block_diag([sp.diags(np.full(3, float(m))), sp.csr_matrix(inertia)])
+                      for m, inertia in zip(np.asarray(bodies.inv_mass, dtype=np.float64),
+                                            np.asarray(bodies.inv_inertia, dtype=np.float64)
+                                            .reshape(n_bodies, 3, 3), strict=True)]
+    extra = np.concatenate([wall_inv_mass[mobile_walls], cell_inv_mass[free_cell]])
+    if extra.size:
+        inverse_blocks.append(sp.diags(extra))
+    inverse_mass = sp.block_diag(inverse_blocks, format="csr") if inverse_blocks else \
+        sp.csr_matrix((0, 0))
+    delassus = (h_matrix @ inverse_mass @ h_matrix.T).tocsr()
+
+    free = np.concatenate([
+        np.concatenate([np.asarray(bodies.free_velocities, dtype=np.float64).reshape(n_bodies, 3),
+                        np.asarray(bodies.free_spins, dtype=np.float64).reshape(n_bodies, 3)],
+                       axis=1).ravel(),
+        wall_free[mobile_walls], cell_free[free_cell]])
+    q = (h_matrix @ free).reshape(n_contacts, 3)
+    fixed_walls = np.flatnonzero((body_i < 0) & (wall_column[np.maximum(-1 - body_i, 0)] < 0))
+    if fixed_walls.size:  # a driven wall moves at its prescribed speed
+        wall = -1 - body_i[fixed_walls]
+        q[fixed_walls] -= wall_free[wall][:, None] * np.einsum(
+            "cij,cj->ci", frame[fixed_walls], wall_normals[wall])
+    crossing = np.flatnonzero(np.any(images != 0.0, axis=1))
+    if crossing.size:  # images move with the cell's prescribed rate and its fixed dofs
+        rate = cell_fixed.copy()
+        for d in range(cell_basis.shape[0]):
+            if cell_inv_mass[d] <= 0.0:
+                rate += cell_free[d] * cell_basis[d]
+        q[crossing] += np.einsum("cij,cj->ci", frame[crossing], images[crossing] @ rate.T)
+    q[:, 0] += np.asarray(contacts.gap, dtype=np.float64).reshape(n_contacts) / float(dt)
+    return FrictionalContactProblem(delassus, q.ravel(), contacts.mu)
+
+
+def _constraint_matrix(contacts, frame, wall_normals, wall_column, images, free_basis,
+                       cell_column, n_dofs) -> sp.csr_matrix:
+    """H (3C, n_dofs) of :func:`assemble_problem`: per contact, its bodies' columns (6 per
+    body), its mobile wall's column (``wall_column[w]`` >= 0) and, for an image, the columns
+    ``cell_column`` of the cell's free degrees of freedom (directions ``free_basis``)."""
+    body_i = np.asarray(contacts.body_i, dtype=np.int64)
+    body_j = np.asarray(contacts.body_j, dtype=np.int64)
+    n_contacts = body_i.size
     rows, cols, vals = [], [], []
     local_rows = 3 * np.arange(n_contacts)[:, None] + np.arange(3)[None, :]  # (C, 3)
 
@@ -207,8 +250,8 @@ def assemble_problem(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
         cols.append(c.ravel())
         vals.append(blocks.ravel())
 
-    for body, arm, sign in ((body_j, np.asarray(arm_j, dtype=np.float64), 1.0),
-                            (body_i, np.asarray(arm_i, dtype=np.float64), -1.0)):
+    for body, arm, sign in ((body_j, np.asarray(contacts.arm_j, dtype=np.float64), 1.0),
+                            (body_i, np.asarray(contacts.arm_i, dtype=np.float64), -1.0)):
         inner = body >= 0
         if np.any(inner):
             f = frame[inner]
@@ -230,48 +273,15 @@ def assemble_problem(body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
                                          wall_normals[wall[mobile]])[:, :, None]
                 add(mask, wall_column[wall[mobile]][:, None], block)
     crossing = np.flatnonzero(np.any(images != 0.0, axis=1))
-    if crossing.size and free_cell.size:
-        g = np.einsum("dab,cb->cda", cell_basis[free_cell], images[crossing])  # (c, D, 3)
+    if crossing.size and free_basis.shape[0]:
+        g = np.einsum("dab,cb->cda", free_basis, images[crossing])  # (c, D, 3)
         block = np.einsum("cij,cdj->cid", frame[crossing], g)
-        add(crossing, np.broadcast_to(cell_column, (crossing.size, free_cell.size)), block)
-    h_matrix = sp.csr_matrix(
+        add(crossing, np.broadcast_to(cell_column, (crossing.size, free_basis.shape[0])), block)
+    return sp.csr_matrix(
         (np.concatenate(vals) if vals else np.zeros(0),
          (np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64),
           np.concatenate(cols) if cols else np.zeros(0, dtype=np.int64))),
         shape=(3 * n_contacts, n_dofs))
-
-    inverse_blocks = [sp.block_diag([sp.diags(np.full(3, float(m))), sp.csr_matrix(inertia)])
-                      for m, inertia in zip(np.asarray(inv_mass, dtype=np.float64),
-                                            np.asarray(inv_inertia, dtype=np.float64)
-                                            .reshape(n_bodies, 3, 3), strict=True)]
-    extra = np.concatenate([wall_inv_mass[mobile_walls], cell_inv_mass[free_cell]])
-    if extra.size:
-        inverse_blocks.append(sp.diags(extra))
-    inverse_mass = sp.block_diag(inverse_blocks, format="csr") if inverse_blocks else \
-        sp.csr_matrix((0, 0))
-    delassus = (h_matrix @ inverse_mass @ h_matrix.T).tocsr()
-
-    free = np.concatenate([
-        np.concatenate([np.asarray(free_velocities, dtype=np.float64).reshape(n_bodies, 3),
-                        np.asarray(free_spins, dtype=np.float64).reshape(n_bodies, 3)],
-                       axis=1).ravel(),
-        np.asarray(wall_free_speeds, dtype=np.float64).reshape(n_walls)[mobile_walls],
-        cell_free[free_cell]])
-    q = (h_matrix @ free).reshape(n_contacts, 3)
-    fixed_walls = np.flatnonzero((body_i < 0) & (wall_column[np.maximum(-1 - body_i, 0)] < 0))
-    if fixed_walls.size:  # a driven wall moves at its prescribed speed
-        wall = -1 - body_i[fixed_walls]
-        speed = np.asarray(wall_free_speeds, dtype=np.float64).reshape(n_walls)[wall]
-        q[fixed_walls] -= speed[:, None] * np.einsum("cij,cj->ci", frame[fixed_walls],
-                                                     wall_normals[wall])
-    if crossing.size:  # images move with the cell's prescribed rate and its fixed dofs
-        rate = cell_fixed.copy()
-        for d in range(n_cell):
-            if cell_inv_mass[d] <= 0.0:
-                rate += cell_free[d] * cell_basis[d]
-        q[crossing] += np.einsum("cij,cj->ci", frame[crossing], images[crossing] @ rate.T)
-    q[:, 0] += np.asarray(gap_term, dtype=np.float64).reshape(n_contacts) / float(dt)
-    return FrictionalContactProblem(delassus, q.ravel(), mu)
 
 
 # --------------------------------------------------------------------------------------------

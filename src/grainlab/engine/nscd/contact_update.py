@@ -65,16 +65,20 @@ def _dot3(a0, a1, a2, b0, b1, b2):
 
 
 @njit(inline="always")
-def _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j, velocities, spins,
-                       wall_normals, wall_speeds, images, cell_rate):
-    """Local (n, t, s) velocity of body j relative to body i at contact k [m/s]; a wall
-    (body_i = -1 - w) moves with the speed ``wall_speeds[w]`` along its normal; in a periodic
-    cell body j may be its image translated by h m_k (``images[k]`` = m_k), which moves with
-    the cell: its velocity is v_j + hdot m_k, ``cell_rate`` = hdot (3, 3) [m/s]."""
+def _relative_velocity(k, contacts, wall_normals, motion):
+    """Local (n, t, s) velocity of body j relative to body i at contact k [m/s] in the motion
+    ``motion`` (:class:`~grainlab.engine.nscd.sweep_arrays.Motion`); a wall (body_i = -1 - w)
+    moves with the speed ``motion.wall_speeds[w]`` along its normal ``wall_normals[w]``; in
+    a periodic cell body j may be its image translated by h m_k (``contacts.images[k]`` =
+    m_k), which moves with the cell: its velocity is v_j + hdot m_k, hdot =
+    ``motion.cell_rate`` (3, 3) [m/s]."""
+    velocities, spins, cell_rate = motion.velocities, motion.spins, motion.cell_rate
+    frame, images = contacts.frame, contacts.images
     ux, uy, uz = 0.0, 0.0, 0.0
-    j = body_j[k]
+    j = contacts.body_j[k]
     if j >= 0:
         wx, wy, wz = spins[j, 0], spins[j, 1], spins[j, 2]
+        arm_j = contacts.arm_j
         px, py, pz = point_velocity(velocities[j, 0], velocities[j, 1], velocities[j, 2],
                                     wx, wy, wz, arm_j[k, 0], arm_j[k, 1], arm_j[k, 2])
         ux, uy, uz = ux + px, uy + py, uz + pz
@@ -83,14 +87,16 @@ def _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j, velocities, spins
             ux += cell_rate[0, 0] * mx + cell_rate[0, 1] * my + cell_rate[0, 2] * mz
             uy += cell_rate[1, 0] * mx + cell_rate[1, 1] * my + cell_rate[1, 2] * mz
             uz += cell_rate[2, 0] * mx + cell_rate[2, 1] * my + cell_rate[2, 2] * mz
-    i = body_i[k]
+    i = contacts.body_i[k]
     if i >= 0:
         wx, wy, wz = spins[i, 0], spins[i, 1], spins[i, 2]
+        arm_i = contacts.arm_i
         px, py, pz = point_velocity(velocities[i, 0], velocities[i, 1], velocities[i, 2],
                                     wx, wy, wz, arm_i[k, 0], arm_i[k, 1], arm_i[k, 2])
         ux, uy, uz = ux - px, uy - py, uz - pz
     else:
         w = -1 - i
+        wall_speeds = motion.wall_speeds
         ux -= wall_speeds[w] * wall_normals[w, 0]
         uy -= wall_speeds[w] * wall_normals[w, 1]
         uz -= wall_speeds[w] * wall_normals[w, 2]
@@ -100,31 +106,33 @@ def _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j, velocities, spins
 
 
 @njit(inline="always")
-def _apply(k, dn, dt_, ds, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-           velocities, spins, wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
-           cell_inv_mass, cell_dofs, cell_rate):
-    """Add the local impulse change (dn, dt_, ds) of contact k to its two bodies (a wall
-    moves only along its normal, with inverse mass ``wall_inv_mass[w]``, 0 if driven); a
-    contact with an image (``images[k]`` = m_k != 0) also drives the periodic cell's free
-    degrees of freedom e_d (:func:`_apply_to_cell`)."""
+def _apply(k, dn, dt_, ds, contacts, bodies, walls, cell, motion):
+    """Add the local impulse change (dn, dt_, ds) of contact k to its two bodies' ``motion``
+    (a wall moves only along its normal, with inverse mass ``walls.inv_mass[w]``, 0 if
+    driven); a contact with an image (``contacts.images[k]`` = m_k != 0) also drives the
+    periodic cell's free degrees of freedom e_d (:func:`_apply_to_cell`)."""
+    frame = contacts.frame
     px = frame[k, 0, 0] * dn + frame[k, 1, 0] * dt_ + frame[k, 2, 0] * ds
     py = frame[k, 0, 1] * dn + frame[k, 1, 1] * dt_ + frame[k, 2, 1] * ds
     pz = frame[k, 0, 2] * dn + frame[k, 1, 2] * dt_ + frame[k, 2, 2] * ds
-    if cell_inv_mass.shape[0] > 0:
-        _apply_to_cell(k, px, py, pz, images, cell_basis, cell_inv_mass, cell_dofs, cell_rate)
+    if cell.inv_mass.shape[0] > 0:
+        _apply_to_cell(k, px, py, pz, contacts.images, cell, motion)
+    wall_inv_mass, wall_normals = walls.inv_mass, walls.normals
+    inv_mass, inv_inertia = bodies.inv_mass, bodies.inv_inertia
+    velocities, spins = motion.velocities, motion.spins
     for side in range(2):
-        b = body_j[k] if side == 0 else body_i[k]
+        b = contacts.body_j[k] if side == 0 else contacts.body_i[k]
         if b < 0:
             w = -1 - b
             if wall_inv_mass[w] > 0.0:
-                wall_speeds[w] -= wall_inv_mass[w] * (
+                motion.wall_speeds[w] -= wall_inv_mass[w] * (
                     px * wall_normals[w, 0] + py * wall_normals[w, 1] + pz * wall_normals[w, 2])
             continue
         sign = 1.0 if side == 0 else -1.0
         if side == 0:
-            rx, ry, rz = arm_j[k, 0], arm_j[k, 1], arm_j[k, 2]
+            rx, ry, rz = contacts.arm_j[k, 0], contacts.arm_j[k, 1], contacts.arm_j[k, 2]
         else:
-            rx, ry, rz = arm_i[k, 0], arm_i[k, 1], arm_i[k, 2]
+            rx, ry, rz = contacts.arm_i[k, 0], contacts.arm_i[k, 1], contacts.arm_i[k, 2]
         fx, fy, fz = sign * px, sign * py, sign * pz
         velocities[b, 0] += inv_mass[b] * fx
         velocities[b, 1] += inv_mass[b] * fy
@@ -136,18 +144,19 @@ def _apply(k, dn, dt_, ds, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_in
 
 
 @njit(inline="always")
-def _apply_to_cell(k, px, py, pz, images, cell_basis, cell_inv_mass, cell_dofs, cell_rate):
+def _apply_to_cell(k, px, py, pz, images, cell, motion):
     """The cell's share of a world impulse change (px, py, pz) [N s] on the image of body j
     at contact k: each free degree of freedom e_d (hdot = hdot_fixed + sum_d e_d H_d, H_d =
-    ``cell_basis[d]`` (3, 3) [m]) changes by kappa_d (H_d m_k) . P, kappa_d =
-    ``cell_inv_mass[d]`` [1/(N s^2)] (:mod:`grainlab.engine.boundaries.periodic_boundary`), and hdot
-    with it."""
+    ``cell.basis[d]`` (3, 3) [m]) changes by kappa_d (H_d m_k) . P, kappa_d =
+    ``cell.inv_mass[d]`` [1/(N s^2)] (:mod:`grainlab.engine.boundaries.periodic_boundary`),
+    and hdot (``motion.cell_rate``) with it."""
     mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
     if mx == 0.0 and my == 0.0 and mz == 0.0:
         return
+    cell_inv_mass, cell_dofs, cell_rate = cell.inv_mass, motion.cell_dofs, motion.cell_rate
     for d in range(cell_inv_mass.shape[0]):
         if cell_inv_mass[d] > 0.0:
-            h = cell_basis[d]
+            h = cell.basis[d]
             gx = h[0, 0] * mx + h[0, 1] * my + h[0, 2] * mz
             gy = h[1, 0] * mx + h[1, 1] * my + h[1, 2] * mz
             gz = h[2, 0] * mx + h[2, 1] * my + h[2, 2] * mz
@@ -158,25 +167,20 @@ def _apply_to_cell(k, px, py, pz, images, cell_basis, cell_inv_mass, cell_dofs, 
                     cell_rate[a, b] += delta * h[a, b]
 
 
-
-
 @njit(inline="always")
-def update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-                    wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
-                    wall_speeds, delassus, images, cell_basis, cell_inv_mass, cell_dofs,
-                    cell_rate, running):
-    """One Gauss-Seidel update (serial and coloured sweeps): local solve of contact k
-    against the current body velocities; applies the impulse change to its bodies and
-    returns its squared norm [N^2 s^2]. Before the update it writes the contact's share of
-    the running residual into ``running[k]``: (||natural map||^2, ||w P||^2, ||U'||^2)
-    [m^2/s^2] at the current iterate (module docstring); not with an empty ``running``
-    (0, 3), when the change decides."""
+def update_contact(k, contacts, bodies, walls, cell, motion, impulses, delassus, work):
+    """One Gauss-Seidel update (every sweep): local solve of contact k against the current
+    ``motion``; applies the impulse change to its bodies and returns its squared norm
+    [N^2 s^2]. Before the update it writes the contact's share of the running residual into
+    ``work.running[k]``: (||natural map||^2, ||w P||^2, ||U'||^2) [m^2/s^2] at the current
+    iterate (module docstring); not with an empty ``work.running`` (0, 3), when the change
+    decides."""
     w = delassus[k]
-    un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
-                                    velocities, spins, wall_normals, wall_speeds, images,
-                                    cell_rate)
+    mu = contacts.mu
+    running = work.running
+    un, ut, us = _relative_velocity(k, contacts, walls.normals, motion)
     p0, p1, p2 = impulses[k, 0], impulses[k, 1], impulses[k, 2]
-    vn = un + shift[k]
+    vn = un + work.shift[k]
     if running.shape[0] > 0:  # only when the running residual decides (no change tolerance)
         running[k, 0], running[k, 1], running[k, 2] = natural_map(mu[k], w[0, 0], p0, p1, p2,
                                                                   vn, ut, us)
@@ -187,30 +191,24 @@ def update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia
     q0, q1, q2 = local_solve(w, fn, ft, fs, mu[k], p0, p1, p2)
     d0, d1, d2 = q0 - p0, q1 - p1, q2 - p2
     impulses[k, 0], impulses[k, 1], impulses[k, 2] = q0, q1, q2
-    _apply(k, d0, d1, d2, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-           velocities, spins, wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
-           cell_inv_mass, cell_dofs, cell_rate)
+    _apply(k, d0, d1, d2, contacts, bodies, walls, cell, motion)
     return d0 * d0 + d1 * d1 + d2 * d2
 
 
 @njit(inline="always")
-def skipped_update(k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-                   wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
-                   wall_speeds, delassus, open_sweeps, images, cell_basis, cell_inv_mass,
-                   cell_dofs, cell_rate, running):
+def skipped_update(k, skip, contacts, bodies, walls, cell, motion, impulses, delassus, work):
     """:func:`update_contact` unless contact k has been open (P = 0) at its last ``skip``
     visits (then it is left alone, its running-residual share zero, and 0 returned);
-    ``open_sweeps[k]`` counts those visits."""
+    ``work.open_sweeps[k]`` counts those visits."""
+    open_sweeps, running = work.open_sweeps, work.running
     if open_sweeps[k] >= skip:
         if running.shape[0] > 0:
             running[k, 0] = 0.0
             running[k, 1] = 0.0
             running[k, 2] = 0.0
         return 0.0
-    change = update_contact(k, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-                            wall_normals, wall_inv_mass, mu, shift, impulses, velocities,
-                            spins, wall_speeds, delassus, images, cell_basis, cell_inv_mass,
-                            cell_dofs, cell_rate, running)
+    change = update_contact(k, contacts, bodies, walls, cell, motion, impulses, delassus,
+                            work)
     if impulses[k, 0] == 0.0:
         open_sweeps[k] += 1
     else:

@@ -18,8 +18,11 @@ Layout. The per-contact arrays are first gathered into colour order (one paralle
 step, like one sweep), so that each colour is a contiguous range: a sweep streams through
 memory instead of striding by the number of colours (which missed the cache on every contact
 from ~10^4 contacts on), and the impulses and Delassus blocks are scattered back at the end.
-The sweeps are compiled without the Numba runtime (``_nrt=False``, see
-:func:`_coloured_sweeps`).
+The sweeps are compiled without the Numba runtime (``_nrt=False``): they allocate nothing, and
+the arrays handed to the inlined scalar laws are then not reference-counted. With the runtime,
+every inlined call increments and decrements the shared reference count of each array argument
+atomically (measured: ~35 of the ~42 ns of one ``_relative_velocity`` call), which also
+serialises the threads on those counters.
 
 Convergence as in ``nlgs_kernel``: the relative change after every sweep, the residual pass
 only after a sweep whose change is below the tolerance (and at the cap); a non-finite change
@@ -34,26 +37,25 @@ sums, as does the visiting order). The whole solve, iteration count included, is
 reproducible across thread counts.
 
 >>> import numpy as np
->>> body = np.array([-1, 0]); other = np.array([0, 1])          # floor - sphere 0 - sphere 1
->>> frame = np.tile(np.eye(3)[[2, 0, 1]], (2, 1, 1))                 # rows n = e_z, t, s
->>> arm_i = np.array([[0, 0, 0], [0, 0, 0.5]])
->>> arm_j = np.array([[0, 0, -0.5], [0, 0, -0.5]]); inv_inertia = np.tile(np.eye(3), (2, 1, 1))
->>> v_free = np.array([[0, 0, -0.01], [0, 0, -0.01]])
->>> order, offsets = np.array([0, 1]), np.array([0, 1, 2, 2])  # colours {0}, {1}, no serial
->>> chains = np.array([0, 1, 2])                                # one contact per chain
->>> bodies = np.array([0, 1])                                   # bodies in their own order
->>> out = np.zeros((2, 3)), np.empty((2, 3)), np.empty((2, 3)), np.zeros(1)
->>> delassus, residuals = np.empty((2, 3, 3)), np.zeros(2)
->>> no_cell = (np.zeros((2, 3)), np.zeros((3, 3)), np.zeros((0, 3, 3)), np.zeros(0),
-...            np.zeros(0), np.zeros((0, 2)))                       # wall box: no cell
->>> cell_out = np.zeros(0), np.zeros((3, 3))
->>> sweeps = nlgs_coloured_kernel(
-...     body, other, frame, arm_i, arm_j, np.ones(2), inv_inertia, v_free, np.zeros((2, 3)),
-...     np.array([[0.0, 0, 1]]), np.zeros(1), np.zeros(1), np.full(1, np.inf),
-...     np.full(2, 0.4), np.zeros(2), 1e-3, *no_cell,
-...     order, offsets, chains, bodies, 2, 1e-10, 1e-10, 100, *out[:3], out[3], *cell_out,
-...     delassus, residuals)
->>> bool(np.abs(out[1]).max() < 1e-9), out[0][:, 0].round(6).tolist()   # at rest: P_n = 2mv, mv
+>>> from grainlab.engine.nscd.sweep_arrays import (BodyRows, CellRows, ContactRows, Motion,
+...     SolveSettings, SweepGroups, WallRows)
+>>> contacts = ContactRows(                                     # floor - sphere 0 - sphere 1
+...     np.array([-1, 0]), np.array([0, 1]), np.tile(np.eye(3)[[2, 0, 1]], (2, 1, 1)),
+...     np.array([[0, 0, 0], [0, 0, 0.5]]), np.array([[0, 0, -0.5], [0, 0, -0.5]]),
+...     np.zeros((2, 3)), np.full(2, 0.4), np.zeros(2))     # frames: rows n = e_z, t, s
+>>> bodies = BodyRows(np.ones(2), np.tile(np.eye(3), (2, 1, 1)),
+...                   np.array([[0, 0, -0.01], [0, 0, -0.01]]), np.zeros((2, 3)))
+>>> walls = WallRows(np.array([[0.0, 0, 1]]), np.zeros(1), np.zeros(1), np.full(1, np.inf))
+>>> no_cell = CellRows(np.zeros((3, 3)), np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0),
+...                    np.zeros((0, 2)))                        # wall box: no cell
+>>> groups = SweepGroups(np.array([0, 1]), np.array([0, 1, 2, 2]), np.array([0, 1, 2]),
+...                      np.array([0, 1]), 2)   # colours {0}, {1}, no serial; one per chain
+>>> motion = Motion(np.empty((2, 3)), np.empty((2, 3)), np.zeros(1), np.zeros(0),
+...                 np.zeros((3, 3)))
+>>> impulses, delassus, residuals = np.zeros((2, 3)), np.empty((2, 3, 3)), np.zeros(2)
+>>> sweeps = nlgs_coloured_kernel(contacts, bodies, walls, no_cell,
+...     SolveSettings(1e-3, 1e-10, 1e-10, 100), groups, motion, impulses, delassus, residuals)
+>>> bool(np.abs(motion.velocities).max() < 1e-9), impulses[:, 0].round(6).tolist()  # P_n
 (True, [0.02, 0.01])
 """
 
@@ -64,22 +66,29 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from grainlab.contact.coulomb_cone import natural_map
 from grainlab.engine.nscd.contact_colouring import power_of_two_below
-from grainlab.engine.nscd.contact_update import (
-    SKIP_OPEN,
-    SKIP_REVISIT,
-    _apply,
-    _relative_velocity,
-    check_due,
-    check_spaced,
-    running_residual,
-    skipped_update,
-)
+from grainlab.engine.nscd.contact_update import SKIP_OPEN, SKIP_REVISIT
 from grainlab.engine.nscd.delassus import delassus_kernel
-from grainlab.engine.nscd.speed_limits import brake_cell, brake_walls, start_cell
+from grainlab.engine.nscd.speed_limits import start_cell
+from grainlab.engine.nscd.sweep_arrays import (
+    BodyRows,
+    ContactRows,
+    Motion,
+    SweepGroups,
+    SweepWork,
+)
+from grainlab.engine.nscd.sweep_runs import (
+    brake,
+    check_residual,
+    check_run,
+    check_wanted,
+    free_run,
+    relative_change,
+    solved,
+    sweep_run,
+    warm_run,
+)
 
-_TINY = 1e-300  # as in contact_dynamics
 _BLOCK = 1024  # contacts per block of the parallel reductions (fixed: thread-independent)
 _PARALLEL_BLOCKS = 8  # fewer blocks: the reductions in a plain loop (the same sums)
 MIN_SLABS = 1024
@@ -121,26 +130,17 @@ spheres) lose: 47 ns in a loop, 65 ns in parallel."""
 
 
 # --------------------------------------------------------------------------------------------
-# Scalar law: one contact update
+# Runs of contacts (the sweep body of :mod:`~grainlab.engine.nscd.sweep_runs`, compiled once)
 # --------------------------------------------------------------------------------------------
 
 
 @njit(_nrt=False)  # not inlined: one compiled body for the threads and the plain loop
-def _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_spins,
-                wall_normals, wall_free_speeds, images, free_rate, gap, dt, shift, partial):
-    """Gap shifts max(0, g) / h [m/s] of the contacts of block b, and their ||U'_free||^2
+def _free_block(b, contacts, walls, free, dt, shift, partial):
+    """Gap shifts g / h [m/s] of the contacts of block b, and their ||U'_free||^2
     [m^2/s^2] into ``partial[b, 0]``."""
-    n_contacts = body_i.shape[0]
     lo = b * _BLOCK
-    hi = min(lo + _BLOCK, n_contacts)
-    free2 = 0.0
-    for k in range(lo, hi):
-        shift[k] = gap[k] / dt
-        un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
-                                        free_velocities, free_spins, wall_normals,
-                                        wall_free_speeds, images, free_rate)
-        free2 += (un + shift[k]) ** 2 + ut * ut + us * us
-    partial[b, 0] = free2
+    hi = min(lo + _BLOCK, contacts.body_i.shape[0])
+    partial[b, 0] = free_run(lo, hi, contacts, walls, free, dt, shift)
 
 
 @njit(_nrt=False)  # not inlined: one compiled body for the threads and the plain loop
@@ -167,26 +167,13 @@ def _change_block(b, impulses, delta2, running, partial):
 
 
 @njit(_nrt=False)  # not inlined: one compiled body for the threads and the plain loop
-def _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins, wall_normals,
-                 wall_speeds, images, cell_rate, mu, shift, impulses, delassus, partial):
+def _check_block(b, contacts, walls, motion, impulses, delassus, shift, partial):
     """Sums over the contacts of block b of the check pass (as in ``nlgs_kernel``):
     ``partial[b, :3]`` = (||w P||^2, ||U'||^2, ||natural-map residual||^2) [m^2/s^2]."""
-    n_contacts = body_i.shape[0]
     lo = b * _BLOCK
-    hi = min(lo + _BLOCK, n_contacts)
-    wp_norm2, u_norm2, res2 = 0.0, 0.0, 0.0
-    for k in range(lo, hi):
-        un, ut, us = _relative_velocity(k, body_i, body_j, frame, arm_i, arm_j,
-                                        velocities, spins, wall_normals, wall_speeds, images,
-                                        cell_rate)
-        r2, z2, u2 = natural_map(mu[k], delassus[k, 0, 0], impulses[k, 0], impulses[k, 1],
-                                 impulses[k, 2], un + shift[k], ut, us)
-        wp_norm2 += z2
-        u_norm2 += u2
-        res2 += r2
-    partial[b, 0] = wp_norm2
-    partial[b, 1] = u_norm2
-    partial[b, 2] = res2
+    hi = min(lo + _BLOCK, contacts.body_i.shape[0])
+    partial[b, 0], partial[b, 1], partial[b, 2] = check_run(lo, hi, contacts, walls, motion,
+                                                            impulses, delassus, shift)
 
 
 _PIECES = 64
@@ -202,29 +189,18 @@ def _chains_per_piece(lo, hi):
 
 
 @njit(_nrt=False)  # a call per piece or plain group: the law compiled once, not per loop
-def _apply_run(lo, hi, impulses, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-               velocities, spins, wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
-               cell_inv_mass, cell_dofs, cell_rate):
+def _apply_run(lo, hi, contacts, bodies, walls, cell, motion, impulses):
     """The warm start of contacts lo..hi-1, one after the other."""
-    for k in range(lo, hi):
-        _apply(k, impulses[k, 0], impulses[k, 1], impulses[k, 2], body_i, body_j, frame,
-               arm_i, arm_j, inv_mass, inv_inertia, velocities, spins, wall_normals,
-               wall_inv_mass, wall_speeds, images, cell_basis, cell_inv_mass, cell_dofs,
-               cell_rate)
+    warm_run(lo, hi, contacts, bodies, walls, cell, motion, impulses)
 
 
 @njit(_nrt=False)
-def _update_run(lo, hi, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia,
-                wall_normals, wall_inv_mass, mu, shift, impulses, velocities, spins,
-                wall_speeds, delassus, open_sweeps, images, cell_basis, cell_inv_mass,
-                cell_dofs, cell_rate, running, delta2):
-    """One sweep of contacts lo..hi-1, one after the other (their squared impulse changes
-    into ``delta2``)."""
-    for k in range(lo, hi):
-        delta2[k] = skipped_update(
-            k, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, wall_normals,
-            wall_inv_mass, mu, shift, impulses, velocities, spins, wall_speeds, delassus,
-            open_sweeps, images, cell_basis, cell_inv_mass, cell_dofs, cell_rate, running)
+def _update_run(lo, hi, order, skip, contacts, bodies, walls, cell, motion, impulses, delassus,
+                work):
+    """One sweep of contacts lo..hi-1 (``order`` empty: in place), one after the other
+    (their squared impulse changes into ``work.delta2``)."""
+    sweep_run(lo, hi, order, skip, contacts, bodies, walls, cell, motion, impulses, delassus,
+              work)
 
 
 # --------------------------------------------------------------------------------------------
@@ -233,92 +209,68 @@ def _update_run(lo, hi, skip, body_i, body_j, frame, arm_i, arm_j, inv_mass, inv
 
 
 @njit(cache=True, parallel=True, _nrt=False)
-def _coloured_sweeps(
-    body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
-    wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
-    mu, gap, dt, images, cell_basis, cell_inv_mass, cell_bounds, free_rate,
-    colour_offsets, chains, n_parallel, tolerance, change_tolerance, max_iterations,
-    impulses, velocities, spins, wall_speeds, cell_dofs, cell_rate, delassus, residuals, shift,
-    delta2, partial, brakes, cell_brakes, open_sweeps, running,
-):
+def _coloured_sweeps(contacts, bodies, walls, cell, settings, groups, free, motion, impulses,
+                     delassus, residuals, work, partial):
     """Warm start, sweeps and checks of :func:`nlgs_coloured_kernel` on contacts already in
-    group order (group g = chains ``colour_offsets[g] .. colour_offsets[g + 1] - 1``, chain c
-    = contacts ``chains[c] .. chains[c + 1] - 1``; the chains of each of the first
-    ``n_parallel`` groups swept in parallel), with their Delassus blocks given; scratch
-    ``shift`` (C,), ``delta2`` (C,), ``partial`` (n_blocks, 5), ``running`` (C, 3) ((0, 3)
-    with a finite ``change_tolerance``: not measured). Returns the sweeps done.
-
-    Compiled without the Numba runtime (``_nrt=False``): it allocates nothing, and the arrays
-    handed to the inlined scalar laws are then not reference-counted. With the runtime, every
-    inlined call increments and decrements the shared reference count of each array argument
-    atomically (measured: ~35 of the ~42 ns of one ``_relative_velocity`` call), which also
-    serialises the threads on those counters.
+    group order (``groups.order`` empty; group g = chains ``groups.offsets[g] ..
+    groups.offsets[g + 1] - 1``, chain c = contacts ``groups.chains[c] .. groups.chains[c +
+    1] - 1``; the chains of each of the first ``groups.n_parallel`` groups swept in
+    parallel), with their Delassus blocks given; ``free`` the free motion; scratch ``work``
+    (:class:`~grainlab.engine.nscd.sweep_arrays.SweepWork`, ``work.delta2`` (C,)),
+    ``partial`` (n_blocks, 5). Returns the sweeps done. Compiled without the Numba runtime
+    (module docstring, "Layout").
     """
     n_blocks = partial.shape[0]
-    n_groups = colour_offsets.shape[0] - 1
+    offsets, chains, n_parallel = groups.offsets, groups.chains, groups.n_parallel
+    n_groups = offsets.shape[0] - 1
     # the reductions in parallel too, when they are worth waking the threads for
     parallel = n_parallel > 0 and n_blocks >= _PARALLEL_BLOCKS
     # gap shifts and ||U'_free||^2 per block
     if parallel:
-        for b in prange(n_blocks):
-            _free_block(np.int64(b), body_i, body_j, frame, arm_i, arm_j, free_velocities,
-                        free_spins, wall_normals, wall_free_speeds, images, free_rate, gap, dt,
-                        shift, partial)  # prange's index is unsigned: cast, one signature
+        for b in prange(n_blocks):  # prange's index is unsigned: cast, one signature
+            _free_block(np.int64(b), contacts, walls, free, settings.dt, work.shift, partial)
     else:
         for b in range(n_blocks):
-            _free_block(b, body_i, body_j, frame, arm_i, arm_j, free_velocities, free_spins,
-                        wall_normals, wall_free_speeds, images, free_rate, gap, dt, shift,
-                        partial)
+            _free_block(b, contacts, walls, free, settings.dt, work.shift, partial)
     free_norm2 = 0.0
     for b in range(n_blocks):
         free_norm2 += partial[b, 0]
     for g in range(n_groups):  # warm start, group by group
-        lo, hi = colour_offsets[g], colour_offsets[g + 1]
+        lo, hi = offsets[g], offsets[g + 1]
         if g < n_parallel and hi - lo > 1:
             per = _chains_per_piece(lo, hi)
             for piece in prange((hi - lo + per - 1) // per):
                 c = lo + np.int64(piece) * per
-                _apply_run(chains[c], chains[min(c + per, hi)], impulses, body_i, body_j,
-                           frame, arm_i, arm_j, inv_mass, inv_inertia, velocities, spins,
-                           wall_normals, wall_inv_mass, wall_speeds, images, cell_basis,
-                           cell_inv_mass, cell_dofs, cell_rate)
+                _apply_run(chains[c], chains[min(c + per, hi)], contacts, bodies, walls, cell,
+                           motion, impulses)
         else:
-            _apply_run(chains[lo], chains[hi], impulses, body_i, body_j, frame, arm_i, arm_j,
-                       inv_mass, inv_inertia, velocities, spins, wall_normals, wall_inv_mass,
-                       wall_speeds, images, cell_basis, cell_inv_mass, cell_dofs, cell_rate)
+            _apply_run(chains[lo], chains[hi], contacts, bodies, walls, cell, motion, impulses)
     iterations = 0
     last_check = 0
     full = True  # the first sweep, every SKIP_REVISIT-th and the one after a failed check
-    while iterations < max_iterations:
+    while iterations < settings.max_iterations:
         iterations += 1
-        skip = SKIP_OPEN if not full else max_iterations + 1
+        skip = SKIP_OPEN if not full else settings.max_iterations + 1
         for g in range(n_groups):
-            lo, hi = colour_offsets[g], colour_offsets[g + 1]
+            lo, hi = offsets[g], offsets[g + 1]
             if g < n_parallel and hi - lo > 1:
                 per = _chains_per_piece(lo, hi)
                 for piece in prange((hi - lo + per - 1) // per):
                     c = lo + np.int64(piece) * per
-                    _update_run(chains[c], chains[min(c + per, hi)], skip, body_i, body_j,
-                                frame, arm_i, arm_j, inv_mass, inv_inertia, wall_normals,
-                                wall_inv_mass, mu, shift, impulses, velocities, spins,
-                                wall_speeds, delassus, open_sweeps, images, cell_basis,
-                                cell_inv_mass, cell_dofs, cell_rate, running, delta2)
+                    _update_run(chains[c], chains[min(c + per, hi)], groups.order, skip,
+                                contacts, bodies, walls, cell, motion, impulses, delassus, work)
             else:
-                _update_run(chains[lo], chains[hi], skip, body_i, body_j, frame, arm_i, arm_j,
-                            inv_mass, inv_inertia, wall_normals, wall_inv_mass, mu, shift,
-                            impulses, velocities, spins, wall_speeds, delassus, open_sweeps,
-                            images, cell_basis, cell_inv_mass, cell_dofs, cell_rate, running,
-                            delta2)
+                _update_run(chains[lo], chains[hi], groups.order, skip, contacts, bodies, walls,
+                            cell, motion, impulses, delassus, work)
         full = iterations % SKIP_REVISIT == 0
-        brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
-        brake_cell(cell_basis, cell_inv_mass, cell_bounds, cell_brakes, cell_dofs, cell_rate)
+        brake(walls, cell, motion, work)
         # relative change of the sweep: sums per block of _BLOCK contacts, then in block order
         if parallel:
             for b in prange(n_blocks):
-                _change_block(np.int64(b), impulses, delta2, running, partial)
+                _change_block(np.int64(b), impulses, work.delta2, work.running, partial)
         else:
             for b in range(n_blocks):
-                _change_block(b, impulses, delta2, running, partial)
+                _change_block(b, impulses, work.delta2, work.running, partial)
         change2, p_norm2 = 0.0, 0.0
         run_res2, run_wp2, run_u2 = 0.0, 0.0, 0.0
         for b in range(n_blocks):
@@ -327,100 +279,126 @@ def _coloured_sweeps(
             run_res2 += partial[b, 2]
             run_wp2 += partial[b, 3]
             run_u2 += partial[b, 4]
-        change = 0.0 if change2 == 0.0 else math.sqrt(change2 / max(p_norm2, _TINY))
+        change = relative_change(change2, p_norm2)
         residuals[0] = change
         if not math.isfinite(change):  # non-finite impulses: stop, the caller refuses them
             residuals[1] = math.nan
             break
-        if iterations < max_iterations:
-            # the residual pass only once the change (or, without a change tolerance, the
-            # running residual) is small, and at the cap
-            if change_tolerance < np.inf:
-                if change > change_tolerance or not check_spaced(iterations, last_check):
-                    continue
-            elif not check_due(running_residual(run_res2, run_wp2, run_u2, free_norm2),
-                               tolerance, iterations, last_check):
-                continue
+        if not check_wanted(iterations, last_check, change, (run_res2, run_wp2, run_u2),
+                            free_norm2, settings):
+            continue  # the residual pass only once the change or running residual is small
         # check pass (no update)
         last_check = iterations
         if parallel:
             for b in prange(n_blocks):
-                _check_block(np.int64(b), body_i, body_j, frame, arm_i, arm_j, velocities, spins,
-                             wall_normals, wall_speeds, images, cell_rate, mu, shift,
-                             impulses, delassus, partial)
+                _check_block(np.int64(b), contacts, walls, motion, impulses, delassus,
+                             work.shift, partial)
         else:
             for b in range(n_blocks):
-                _check_block(b, body_i, body_j, frame, arm_i, arm_j, velocities, spins,
-                             wall_normals, wall_speeds, images, cell_rate, mu, shift,
-                             impulses, delassus, partial)
+                _check_block(b, contacts, walls, motion, impulses, delassus, work.shift,
+                             partial)
         wp_norm2, u_norm2, res2 = 0.0, 0.0, 0.0
         for b in range(n_blocks):
             wp_norm2 += partial[b, 0]
             u_norm2 += partial[b, 1]
             res2 += partial[b, 2]
-        scale = max(math.sqrt(free_norm2), math.sqrt(wp_norm2), math.sqrt(u_norm2), _TINY)
-        residual = math.sqrt(res2) / scale
+        residual = check_residual(free_norm2, wp_norm2, u_norm2, res2)
         residuals[1] = residual
-        if (change <= change_tolerance and residual <= tolerance) \
-                or not math.isfinite(residual):
+        if solved(change, residual, settings):
             break
         full = True  # a skipped contact may be the one that fails
     return iterations
 
 
 @njit(cache=True, parallel=True)
-def nlgs_coloured_kernel(
-    body_i, body_j, frame, arm_i, arm_j, inv_mass, inv_inertia, free_velocities, free_spins,
-    wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
-    mu, gap, dt, images, cell_fixed, cell_basis, cell_inv_mass, cell_free, cell_bounds,
-    colour_order, colour_offsets, chains, body_order, n_parallel_colours, tolerance,
-    change_tolerance, max_iterations, impulses, velocities, spins, wall_speeds, cell_dofs,
-    cell_rate, delassus, residuals,
-):
+def nlgs_coloured_kernel(contacts, bodies, walls, cell, settings, groups, motion, impulses,
+                         delassus, residuals):
     """Frictional unilateral contact problem on impulses by coloured (parallel) nonlinear
     Gauss-Seidel.
 
     Arguments as :func:`~grainlab.engine.nscd.serial_sweep.nlgs_kernel`, with its visiting
-    ``order`` replaced by a colouring or slabs (:mod:`~grainlab.engine.nscd.contact_colouring`):
-    ``colour_order`` (C,) int64, the contacts grouped; ``chains`` (K + 1,) int64, chain c at
-    rows ``chains[c] .. chains[c + 1] - 1`` of ``colour_order`` (a colouring: one contact
-    per chain); ``colour_offsets`` (G + 1,) int64, group g the chains ``colour_offsets[g] ..
-    colour_offsets[g + 1] - 1``. The groups are visited in order; the chains of each of the
-    first ``n_parallel_colours`` groups with ``prange``, each chain's contacts one after the
-    other; the other groups in a plain loop (results do not depend on
-    ``n_parallel_colours``; see :func:`parallel_colours`). Chains of a parallel group must
-    not share a body >= 0 nor a mobile wall, nor (with free cell degrees of freedom) have an
-    image (the kernel does not check: a conflict would race). ``body_order`` (N,) int64, a
-    permutation of the bodies: the sweeps work on the bodies' arrays gathered in that order
-    (row r holds body ``body_order[r]``) and scattered back at the end; the same arithmetic,
-    so the same bits whatever the order. Bodies in slab order keep the threads of a slab sweep
-    off each other's cache lines (with bodies numbered at random in space, two threads
-    updating neighbours in memory shared their lines: the slabs were no faster than one
-    thread).
+    ``order`` replaced by a colouring or slabs ``groups``
+    (:class:`~grainlab.engine.nscd.sweep_arrays.SweepGroups`,
+    :mod:`~grainlab.engine.nscd.contact_colouring`): ``groups.order`` (C,) int64, the
+    contacts grouped; ``groups.chains`` (K + 1,) int64, chain c at rows ``chains[c] ..
+    chains[c + 1] - 1`` of ``groups.order`` (a colouring: one contact per chain);
+    ``groups.offsets`` (G + 1,) int64, group g the chains ``offsets[g] .. offsets[g + 1] -
+    1``. The groups are visited in order; the chains of each of the first
+    ``groups.n_parallel`` groups with ``prange``, each chain's contacts one after the other;
+    the other groups in a plain loop (results do not depend on ``n_parallel``; see
+    :func:`parallel_colours`). Chains of a parallel group must not share a body >= 0 nor a
+    mobile wall, nor (with free cell degrees of freedom) have an image (the kernel does not
+    check: a conflict would race). ``groups.body_order`` (N,) int64, a permutation of the
+    bodies: the sweeps work on the bodies' arrays gathered in that order (row r holds body
+    ``body_order[r]``) and scattered back at the end; the same arithmetic, so the same bits
+    whatever the order. Bodies in slab order keep the threads of a slab sweep off each
+    other's cache lines (with bodies numbered at random in space, two threads updating
+    neighbours in memory shared their lines: the slabs were no faster than one thread).
 
-    Outputs: ``impulses`` (C, 3) local (P_n, P_t, P_s) [N s] (in: warm start; out: solution);
-    ``velocities``, ``spins`` (N, 3) end-of-step velocities [m/s], [rad/s]; ``wall_speeds``
-    (W,) end-of-step wall normal speeds [m/s]; ``delassus`` (C, 3, 3) [1/kg];
-    ``residuals`` (2,) = (relative change, natural-map residual) of the last sweep.
-    Returns the number of sweeps done (``max_iterations`` when not converged, fewer when
-    a change or residual was not finite: ``residuals`` then holds it).
+    Outputs as ``nlgs_kernel``: ``motion``, ``impulses`` (C, 3), ``delassus`` (C, 3, 3),
+    ``residuals`` (2,). Returns the number of sweeps done (``max_iterations`` when not
+    converged, fewer when a change or residual was not finite: ``residuals`` then holds it).
     """
-    n_contacts = body_i.shape[0]
-    n_bodies = inv_mass.shape[0]
-    velocities[:, :] = free_velocities
-    spins[:, :] = free_spins
-    wall_speeds[:] = wall_free_speeds
+    n_contacts = contacts.body_i.shape[0]
+    motion.velocities[:, :] = bodies.free_velocities
+    motion.spins[:, :] = bodies.free_spins
+    motion.wall_speeds[:] = walls.free_speeds
     residuals[0] = 0.0
     residuals[1] = 0.0
-    brakes = np.zeros(wall_speeds.shape[0])
-    cell_brakes = np.zeros(cell_dofs.shape[0])
-    start_cell(cell_fixed, cell_basis, cell_free, cell_dofs, cell_rate)
-    free_rate = cell_rate.copy()
+    work = SweepWork(np.empty(n_contacts), np.zeros(n_contacts, dtype=np.int64),
+                     np.zeros((n_contacts if settings.change_tolerance == np.inf else 0, 3)),
+                     np.zeros(n_contacts), np.zeros(motion.wall_speeds.shape[0]),
+                     np.zeros(motion.cell_dofs.shape[0]))  # running residual rows: inf only
+    start_cell(cell.fixed, cell.basis, cell.free, motion.cell_dofs, motion.cell_rate)
+    free_rate = motion.cell_rate.copy()
     if n_contacts == 0:
-        brake_walls(wall_inv_mass, wall_max_speeds, brakes, wall_speeds)
-        brake_cell(cell_basis, cell_inv_mass, cell_bounds, cell_brakes, cell_dofs, cell_rate)
+        brake(walls, cell, motion, work)
         return 0
-    # gather the bodies into body_order (row r holds body body_order[r]; rank: its inverse)
+    rank, c_bodies, c_motion = _gathered_bodies(bodies, motion, groups.body_order)
+    c_contacts, c_impulses = _gathered_contacts(contacts, impulses, groups.order, rank)
+    c_free = Motion(c_bodies.free_velocities, c_bodies.free_spins, walls.free_speeds,
+                    motion.cell_dofs, free_rate)
+    n_blocks = (n_contacts + _BLOCK - 1) // _BLOCK
+    c_delassus = np.empty((n_contacts, 3, 3))
+    # (a parallel loop takes named tuples made by a call or passed in: their arrays here)
+    body_i, body_j, frame = c_contacts.body_i, c_contacts.body_j, c_contacts.frame
+    arm_i, arm_j, images = c_contacts.arm_i, c_contacts.arm_j, c_contacts.images
+    inv_mass, inv_inertia = c_bodies.inv_mass, c_bodies.inv_inertia
+    for b in prange(n_blocks):  # Delassus blocks (they allocate: outside _coloured_sweeps)
+        lo = b * _BLOCK
+        hi = min(lo + _BLOCK, n_contacts)
+        delassus_kernel(body_i[lo:hi], body_j[lo:hi], frame[lo:hi], arm_i[lo:hi],
+                        arm_j[lo:hi], inv_mass, inv_inertia, walls.normals, walls.inv_mass,
+                        images[lo:hi], cell.basis, cell.inv_mass, c_delassus[lo:hi])
+    in_place = SweepGroups(np.zeros(0, dtype=np.int64), groups.offsets, groups.chains,
+                           groups.body_order, groups.n_parallel)
+    iterations = _coloured_sweeps(c_contacts, c_bodies, walls, cell, settings, in_place, c_free,
+                                  c_motion, c_impulses, c_delassus, residuals, work,
+                                  np.zeros((n_blocks, 5)))
+    body_order, order = groups.body_order, groups.order
+    velocities, spins = motion.velocities, motion.spins
+    c_velocities, c_spins = c_motion.velocities, c_motion.spins
+    for r in prange(rank.shape[0]):  # scatter the bodies back
+        b = body_order[r]
+        for a in range(3):
+            velocities[b, a] = c_velocities[r, a]
+            spins[b, a] = c_spins[r, a]
+    for m in prange(n_contacts):  # scatter back (a permutation: each row written once)
+        k = order[m]
+        for a in range(3):
+            impulses[k, a] = c_impulses[m, a]
+            for b in range(3):
+                delassus[k, a, b] = c_delassus[m, a, b]
+    return iterations
+
+
+@njit(parallel=True)
+def _gathered_bodies(bodies, motion, body_order):
+    """The bodies' rows gathered into ``body_order`` (row r holds body ``body_order[r]``):
+    (rank (N,) int64, its inverse permutation; the gathered
+    :class:`~grainlab.engine.nscd.sweep_arrays.BodyRows`; the gathered :class:`Motion`, its
+    velocities and spins the free ones, its walls and cell those of ``motion``)."""
+    n_bodies = bodies.inv_mass.shape[0]
     rank = np.empty(n_bodies, dtype=np.int64)
     b_inv_mass = np.empty(n_bodies)
     b_inv_inertia = np.empty((n_bodies, 3, 3))
@@ -431,15 +409,25 @@ def nlgs_coloured_kernel(
     for r in prange(n_bodies):
         b = body_order[r]
         rank[b] = r
-        b_inv_mass[r] = inv_mass[b]
+        b_inv_mass[r] = bodies.inv_mass[b]
         for a in range(3):
-            b_free_v[r, a] = free_velocities[b, a]
-            b_free_w[r, a] = free_spins[b, a]
-            b_velocities[r, a] = free_velocities[b, a]
-            b_spins[r, a] = free_spins[b, a]
+            b_free_v[r, a] = bodies.free_velocities[b, a]
+            b_free_w[r, a] = bodies.free_spins[b, a]
+            b_velocities[r, a] = bodies.free_velocities[b, a]
+            b_spins[r, a] = bodies.free_spins[b, a]
             for e in range(3):
-                b_inv_inertia[r, a, e] = inv_inertia[b, a, e]
-    # gather the contacts into colour order (row m holds contact colour_order[m])
+                b_inv_inertia[r, a, e] = bodies.inv_inertia[b, a, e]
+    return (rank, BodyRows(b_inv_mass, b_inv_inertia, b_free_v, b_free_w),
+            Motion(b_velocities, b_spins, motion.wall_speeds, motion.cell_dofs,
+                   motion.cell_rate))
+
+
+@njit(parallel=True)
+def _gathered_contacts(contacts, impulses, order, rank):
+    """The contacts' rows and their impulses gathered into ``order`` (row m holds contact
+    ``order[m]``), their bodies renumbered by ``rank``: (the gathered
+    :class:`~grainlab.engine.nscd.sweep_arrays.ContactRows`, impulses (C, 3))."""
+    n_contacts = order.shape[0]
     c_body_i = np.empty(n_contacts, dtype=np.int64)
     c_body_j = np.empty(n_contacts, dtype=np.int64)
     c_frame = np.empty((n_contacts, 3, 3))
@@ -449,51 +437,21 @@ def nlgs_coloured_kernel(
     c_gap = np.empty(n_contacts)
     c_images = np.empty((n_contacts, 3))
     c_impulses = np.empty((n_contacts, 3))
-    c_delassus = np.empty((n_contacts, 3, 3))
     for m in prange(n_contacts):
-        k = colour_order[m]
-        c_body_i[m] = rank[body_i[k]] if body_i[k] >= 0 else body_i[k]
-        c_body_j[m] = rank[body_j[k]]
-        c_mu[m] = mu[k]
-        c_gap[m] = gap[k]
+        k = order[m]
+        c_body_i[m] = rank[contacts.body_i[k]] if contacts.body_i[k] >= 0 else contacts.body_i[k]
+        c_body_j[m] = rank[contacts.body_j[k]]
+        c_mu[m] = contacts.mu[k]
+        c_gap[m] = contacts.gap[k]
         for a in range(3):
-            c_arm_i[m, a] = arm_i[k, a]
-            c_arm_j[m, a] = arm_j[k, a]
-            c_images[m, a] = images[k, a]
+            c_arm_i[m, a] = contacts.arm_i[k, a]
+            c_arm_j[m, a] = contacts.arm_j[k, a]
+            c_images[m, a] = contacts.images[k, a]
             c_impulses[m, a] = impulses[k, a]
             for b in range(3):
-                c_frame[m, a, b] = frame[k, a, b]
-    n_blocks = (n_contacts + _BLOCK - 1) // _BLOCK
-    for b in prange(n_blocks):  # Delassus blocks (they allocate: outside _coloured_sweeps)
-        lo = b * _BLOCK
-        hi = min(lo + _BLOCK, n_contacts)
-        delassus_kernel(c_body_i[lo:hi], c_body_j[lo:hi], c_frame[lo:hi], c_arm_i[lo:hi],
-                        c_arm_j[lo:hi], b_inv_mass, b_inv_inertia, wall_normals,
-                        wall_inv_mass, c_images[lo:hi], cell_basis, cell_inv_mass,
-                        c_delassus[lo:hi])
-    measured = n_contacts if change_tolerance == np.inf else 0  # running residual rows
-    iterations = _coloured_sweeps(
-        c_body_i, c_body_j, c_frame, c_arm_i, c_arm_j, b_inv_mass, b_inv_inertia, b_free_v,
-        b_free_w, wall_normals, wall_inv_mass, wall_free_speeds, wall_max_speeds,
-        c_mu, c_gap, dt, c_images, cell_basis, cell_inv_mass, cell_bounds, free_rate,
-        colour_offsets, chains, n_parallel_colours, tolerance, change_tolerance,
-        max_iterations,
-        c_impulses, b_velocities, b_spins, wall_speeds, cell_dofs, cell_rate, c_delassus,
-        residuals, np.empty(n_contacts), np.zeros(n_contacts), np.zeros((n_blocks, 5)), brakes,
-        cell_brakes, np.zeros(n_contacts, dtype=np.int64),
-        np.zeros((measured, 3)))
-    for r in prange(n_bodies):  # scatter the bodies back
-        b = body_order[r]
-        for a in range(3):
-            velocities[b, a] = b_velocities[r, a]
-            spins[b, a] = b_spins[r, a]
-    for m in prange(n_contacts):  # scatter back (a permutation: each row written once)
-        k = colour_order[m]
-        for a in range(3):
-            impulses[k, a] = c_impulses[m, a]
-            for b in range(3):
-                delassus[k, a, b] = c_delassus[m, a, b]
-    return iterations
+                c_frame[m, a, b] = contacts.frame[k, a, b]
+    return (ContactRows(c_body_i, c_body_j, c_frame, c_arm_i, c_arm_j, c_images, c_mu, c_gap),
+            c_impulses)
 
 
 # --------------------------------------------------------------------------------------------
