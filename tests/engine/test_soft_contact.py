@@ -435,7 +435,7 @@ def test_threads_change_nothing(monkeypatch):
     import numba
 
     from grainlab.engine.dem import soft_contact
-    from grainlab.engine.dem.soft_contact_kernels import ROW_BLOCK
+    from grainlab.engine.dem.substep_arrays import ROW_BLOCK
 
     runs = []
     for threshold in (10**9, 0):  # serial, then parallel
@@ -454,7 +454,7 @@ def test_a_run_through_the_vector_rows_gives_the_general_rows_run(monkeypatch):
     same positions, velocities, spins and springs, bit for bit, with the vector blocks
     (:mod:`grainlab.engine.dem.sphere_rows`) or with every block through the general rows."""
     from grainlab.engine.dem import sphere_row_list
-    from grainlab.engine.dem.soft_contact_kernels import ROW_BLOCK
+    from grainlab.engine.dem.substep_arrays import ROW_BLOCK
 
     runs = []
     for vector in (True, False):

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from grainlab.contact.soft_contact_law import SoftContactLaw
-from grainlab.engine.dem.soft_contact_kernels import ROW_BLOCK, contact_forces_kernel, plain_blocks
-from grainlab.engine.dem.substep_arrays import body_arrays, sphere_row_arrays
+from grainlab.engine.dem.soft_contact_kernels import contact_forces_kernel, plain_blocks
+from grainlab.engine.dem.substep_arrays import ROW_BLOCK, body_arrays, sphere_row_arrays
 
 RADIUS = 1e-3
 

@@ -104,16 +104,6 @@ def _kick_body(b, half, inv_mass, principal, isotropic, local_damping, orientati
         spins[b, 2] += half * az
 
 
-@njit(cache=True, _nrt=False)
-def kick_kernel(half, inv_mass, principal, isotropic, local_damping, orientations,
-                body_force, body_torque, velocities, spins):
-    """Half kick of velocity Verlet: v += (h/2) F / m, omega += (h/2) I_w^-1 T (``half`` =
-    h/2 [s]), F and T reduced by the local damping alpha |F| sign(v) per component."""
-    for b in range(inv_mass.shape[0]):
-        _kick_body(b, half, inv_mass, principal, isotropic, local_damping, orientations,
-                   body_force, body_torque, velocities, spins)
-
-
 @njit(inline="always")
 def _drift_body(b, dt, principal, isotropic, arm, positions, orientations, velocities,
                 spins, travel):
@@ -142,19 +132,6 @@ def _drift_body(b, dt, principal, isotropic, arm, positions, orientations, veloc
         inverse = _world_tensor(nw, nx, ny, nz, 1.0 / principal[b, 0],
                                 1.0 / principal[b, 1], 1.0 / principal[b, 2])
         spins[b, 0], spins[b, 1], spins[b, 2] = _apply_tensor(inverse, lx, ly, lz)
-
-
-@njit(cache=True, _nrt=False)
-def drift_kernel(dt, principal, isotropic, arm, positions, orientations, velocities,
-                 spins, travel):
-    """Drift: x += h v; q <- exp(h omega / 2) q (world frame); a body with anisotropic
-    inertia keeps its angular momentum L = I_w omega through the turn, so omega follows the
-    new orientation (torque-free precession). ``travel`` (N,) [m] grows by the largest
-    displacement of a point its contacts are computed from (|dx| + |omega| h ``arm``, the
-    rotation arms of :func:`grainlab.engine.dem.soft_contact.rotation_arms`)."""
-    for b in range(positions.shape[0]):
-        _drift_body(b, dt, principal, isotropic, arm, positions, orientations,
-                    velocities, spins, travel)
 
 
 @njit(inline="always")
@@ -231,12 +208,16 @@ def bodies_kernel(close, carry, open_, half, dt, adj_start, adj_entry, force, to
                   arm, gradient, carried, cx, cy, cz, positions, orientations,
                   velocities, spins, body_force, body_torque, travel, plain):
     """The bodies' side of the sub-steps, body by body: with ``close`` the gather and the
-    half kick that end a sub-step (:func:`gather_kernel`, :func:`kick_kernel`), with
-    ``carry`` the change of the cell's velocity gradient taken up (v += (L - L_carried)
-    (x - x_c), x_c = (``cx``, ``cy``, ``cz``) [m]: :func:`carry_gradient_kernel`), with
-    ``open_`` the half kick and the drift that start the next (:func:`kick_kernel`,
-    :func:`drift_kernel`), in that order. Each body's operations are those of the separate
-    kernels, in their order: the same bits. In blocks of :data:`BODY_BLOCK` bodies, those
+    half kick that end a sub-step (:func:`gather_kernel`; the kick v += (h/2) F / m,
+    omega += (h/2) I_w^-1 T, ``half`` = h/2 [s], F and T reduced by the local damping
+    alpha |F| sign(v) per component), with ``carry`` the change of the cell's velocity
+    gradient taken up (v += (L - L_carried) (x - x_c), x_c = (``cx``, ``cy``, ``cz``) [m]:
+    :func:`~grainlab.engine.boundaries.periodic_cell_face.carry_gradient_kernel`), with
+    ``open_`` the half kick and the drift that start the next (x += h v;
+    q <- exp(h omega / 2) q in the world frame, a body of anisotropic inertia keeping its
+    angular momentum I_w omega through the turn; ``travel`` (N,) [m] grows by
+    |dx| + |omega| h ``arm``, the largest displacement of a point its contacts are computed
+    from), in that order. In blocks of :data:`BODY_BLOCK` bodies, those
     flagged in ``plain`` (:func:`isotropic_blocks`) as vector code (:func:`_bodies_block`)."""
     for blk in range(plain.shape[0]):
         _bodies_block(blk, close, carry, open_, half, dt, adj_start, adj_entry, force,

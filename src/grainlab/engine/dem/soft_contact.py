@@ -110,9 +110,6 @@ from grainlab.engine.boundaries.wall_box_face import (
 )
 from grainlab.engine.dem.body_pass import isotropic_blocks
 from grainlab.engine.dem.neighbour_rows import carry_springs_kernel
-from grainlab.engine.dem.soft_contact_kernels import (
-    substeps_kernel,
-)
 from grainlab.engine.dem.soft_polyhedra import PolyhedronRows, has_polyhedra, smallest_radius
 from grainlab.engine.dem.soft_stability import (
     HORIZON_STEPS,
@@ -124,6 +121,7 @@ from grainlab.engine.dem.soft_stability import (
 from grainlab.engine.dem.soft_step_report import SoftStepReport
 from grainlab.engine.dem.sphere_row_list import SphereRows
 from grainlab.engine.dem.substep_arrays import BodyArrays
+from grainlab.engine.dem.substep_loop import substeps
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.step_report import StepReport, contact_keys
@@ -411,7 +409,7 @@ class SoftContactStep:
     def _kept_list(self, state, library, bounds, run) -> SphereRows | None:
         """The list of the last step if it is still valid for this one (the same bodies where
         that step left them, the same walls, and no two points nearer to closing the skin
-        than :func:`~grainlab.engine.dem.soft_contact_kernels.substeps_kernel` allows); None if
+        than :func:`~grainlab.engine.dem.substep_loop.substeps_kernel` allows); None if
         it must be rebuilt."""
         rows = self._rows
         if (not isinstance(rows, SphereRows) or rows.travel.shape[0] != state.n_bodies
@@ -493,7 +491,7 @@ def rotation_arms(library: ShapeLibrary, shape_ids: np.ndarray) -> np.ndarray:
     of the body moves by |omega| h x that arm: the farthest member-sphere centre for shapes
     of member spheres (0 for a sphere at its centre of mass, whose turns move no contact),
     the bounding radius for polyhedra (their vertices). The neighbour list's travel counts
-    it (:func:`~grainlab.engine.dem.soft_contact_kernels.substeps_kernel`)."""
+    it (:func:`~grainlab.engine.dem.substep_loop.substeps_kernel`)."""
     arms = np.array(library.bounding_radius, dtype=np.float64)
     count = library.vertex_count
     for s in range(arms.shape[0]):
@@ -664,8 +662,8 @@ class _Run:
         if isinstance(rows, PolyhedronRows):
             return rows.advance(self, solver, n_steps, h, OVERLAP_LIMIT)
         state, bounds, law = self.state, self.bounds, solver.law
-        done = substeps_kernel(
-            n_steps, h, float(solver.skin), law.code, law.params, law.rolling_friction,
+        done = substeps(
+            n_steps, h, float(solver.skin), (law.code, law.params, law.rolling_friction),
             law.local_damping, solver.gravity, rows.arrays(),
             self.body_arrays(rows.travel), self.wall_face(rows.built_wall_disp(bounds)),
             self.cell_face(solver, rows.built_cell), self.virial, self.stats,

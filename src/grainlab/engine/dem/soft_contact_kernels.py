@@ -1,10 +1,8 @@
-"""Compiled kernels of the explicit soft-contact DEM step (Numba; STYLE.md 2, 8):
-contact forces on a neighbour list and the velocity-Verlet sub-step loop around them
-(:mod:`grainlab.engine.dem.soft_contact`). The loop holds no boundary code: the walls and the
-cell move, servo and sum their loads through their compiled faces
-(:mod:`grainlab.engine.boundaries.wall_box_face`,
-:mod:`grainlab.engine.boundaries.periodic_cell_face`), the bodies are kicked and drifted by
-:mod:`grainlab.engine.dem.body_pass`.
+"""Compiled kernels of the explicit soft-contact DEM step on member spheres (Numba; STYLE.md
+2, 8): the contact forces of a neighbour list of sphere rows, registered as the list's force
+pass of the sub-step loop (:func:`sphere_force_pass`;
+:mod:`grainlab.engine.dem.substep_loop`, which moves the bodies and the boundary), and the
+step report's copy of the closed rows (:mod:`grainlab.engine.dem.soft_contact`).
 
 Contact list. Row k is a member pair (a of body i, b of body j) found within the skin at the
 last detection: ``body_i`` (-1 - w for wall w), ``body_j``, member offsets in the body frames
@@ -12,7 +10,8 @@ last detection: ``body_i`` (-1 - w for wall w), ``body_j``, member offsets in th
 ``images`` (C, 3) (member b is at x_j + R_j off_j + h m_k). Each evaluation recomputes the
 exact sphere-sphere or sphere-plane geometry of every row from the current configuration, so
 the list stays valid while no two points have approached by more than the skin
-(:func:`substeps_kernel` stops early when they might have).
+(:func:`~grainlab.engine.dem.substep_loop.substeps_kernel` stops early when they might
+have).
 
 Gather. The forces of the rows are written per row and summed per body from a CSR list
 (``adj_start`` (N + 1,), ``adj_entry``: 2 k for the j side of row k, 2 k + 1 for its i side),
@@ -25,8 +24,8 @@ kicks, drift, the cell's velocity gradient taken up) is body by body, in blocks 
 :mod:`grainlab.engine.dem.sphere_bodies`). So the same sub-steps run on one thread
 (:func:`contact_forces_kernel`, :func:`~grainlab.engine.dem.body_pass.bodies_kernel`) or on
 several (:func:`contact_forces_parallel`, :func:`~grainlab.engine.dem.body_pass.
-bodies_parallel`: ``parallel`` in :func:`substeps_kernel`) with the same results, bit for
-bit, whatever the number of threads.
+bodies_parallel`: ``parallel`` in :func:`~grainlab.engine.dem.substep_loop.substeps_kernel`)
+with the same results, bit for bit, whatever the number of threads.
 Each parallel loop costs ~0.02 ms to start with Numba's TBB layer on a
 2-core machine, ~0.17 ms with workqueue (two per sub-step: the rows, then the bodies'
 end of the sub-step and start of the next in one pass), so the threads pay from about
@@ -45,19 +44,10 @@ from grainlab.contact.contact_kinematics import less_body_i, point_velocity, sph
 from grainlab.contact.rolling_resistance import rolling_spring
 from grainlab.contact.soft_contact_law import contact_law
 from grainlab.contact.tangential_spring import mindlin_coulomb
-from grainlab.engine.boundaries.periodic_cell_face import (
-    branch,
-    cell_move,
-    cell_settle,
-    cell_shift,
-    cell_start,
-    centre_of_mass,
-    gradient_changed,
-    take_up,
-)
-from grainlab.engine.boundaries.wall_box_face import walls_move, walls_moved, walls_settle
-from grainlab.engine.dem.body_pass import _body_side, gather_kernel
+from grainlab.engine.boundaries.periodic_cell_face import branch
 from grainlab.engine.dem.sphere_rows import sphere_rows_kernel
+from grainlab.engine.dem.substep_arrays import ROW_BLOCK, SphereRowArrays
+from grainlab.engine.dem.substep_loop import register_force_pass
 from grainlab.engine.detect.narrow_phase import sphere_sphere
 from grainlab.engine.quaternion import rotate
 
@@ -96,13 +86,6 @@ def _body_rows_kernel(body_i, body_j, adj_start, adj_entry):
     for b in range(n, 0, -1):  # back to the starts
         adj_start[b] = adj_start[b - 1]
     adj_start[0] = 0
-
-
-ROW_BLOCK = 512
-"""Rows per block of the force pass: the springs' virial is summed per block, then over the
-blocks in order, whether the blocks run one after the other or on several threads (the same
-sums, bit for bit, on any number of threads). Small, so that a few thousand rows still share
-out evenly (8493 rows of 2000 spheres on 2 threads: blocks of 4096 gave 1.15x, of 512 1.7x)."""
 
 
 def plain_blocks(body_i: np.ndarray, off_i: np.ndarray, off_j: np.ndarray) -> np.ndarray:
@@ -379,10 +362,15 @@ def virial_kernel(body_i, body_j, images, force, positions, cell_h, virial):
             virial[a, 2] += force[k, a] * lz
 
 
+@register_force_pass(SphereRowArrays)
 @njit(cache=True, _nrt=False)
-def _forces(parallel, step, record, code, params, rolling, rows, bodies, walls, cell, virial,
-            stats):
-    """Contact forces of the list (on the threads if ``parallel``) and the walls' loads."""
+def sphere_force_pass(parallel, step, record, law, rows, bodies, walls, cell, virial, stats):
+    """The force pass of the sphere rows in the sub-step loop
+    (:func:`~grainlab.engine.dem.substep_loop.substeps_kernel`): the rows' forces (on the
+    threads if ``parallel``: :func:`contact_forces_parallel`, else
+    :func:`contact_forces_kernel`) and the walls' loads (:func:`wall_loads_kernel`); ``law``:
+    (code, parameters, rolling coefficient)."""
+    code, params, rolling = law
     if parallel:
         contact_forces_parallel(step, record, code, params, rolling, rows, bodies, walls.points,
                                 walls.normals, walls.disp, walls.speed, cell.h, cell.rate,
@@ -393,78 +381,6 @@ def _forces(parallel, step, record, code, params, rolling, rows, bodies, walls, 
                               virial, stats)
     wall_loads_kernel(rows.wall_rows, rows.body_i, walls.normals, rows.force, rows.stiffness,
                       walls.force, walls.stiffness)
-
-
-@njit(cache=True, _nrt=False)
-def substeps_kernel(n_steps, dt, skin, code, params, rolling, local_damping, gravity, rows,
-                    bodies, walls, cell, virial, stats, parallel):
-    """Up to ``n_steps`` velocity-Verlet sub-steps of ``dt`` [s] on the current list ``rows``
-    (:class:`~grainlab.engine.dem.substep_arrays.SphereRowArrays`) for the ``bodies``
-    (:class:`~grainlab.engine.dem.substep_arrays.BodyArrays`): half kick, drift (the boundary
-    moves: :func:`~grainlab.engine.boundaries.wall_box_face.walls_move`,
-    :func:`~grainlab.engine.boundaries.periodic_cell_face.cell_move`), forces, half kick;
-    between the forces and the kick the boundary's faces settle
-    (:func:`~grainlab.engine.boundaries.wall_box_face.walls_settle`: the walls' servos and
-    loads summed into their impulses; :func:`~grainlab.engine.boundaries.periodic_cell_face.
-    cell_settle`: the cell's servo sets L from the contacts' springs' stress ``virial`` (3, 3)
-    [N m], and the stress summed over time), and the bodies take up L with the kick. Stops
-    early, after a complete sub-step, when two points may have approached by more than
-    ``skin`` [m] since the list was built (2 max travel + the walls' and the cell's own
-    motion, with the next sub-step's increment taken as the last one's), so that no contact
-    is missed; ``bodies.travel`` (N,) [m] and ``rows.approach`` (1,) [m] (that bound after the
-    last sub-step) carry over from call to call while the list lives. Returns the sub-steps
-    done; ``stats[0]`` becomes the largest overlap [m] met. With ``parallel`` the rows and the
-    bodies are shared out over the threads (the same results:
-    :func:`contact_forces_parallel`, :func:`~grainlab.engine.dem.body_pass.bodies_parallel`)."""
-    half = 0.5 * dt
-    met = stats[0]  # the overlaps met in the sub-steps, not those at the start
-    # flags as typed booleans, not literals: a literal True or False at one call and a flag
-    # at another would compile the callee twice (~17 s of a cold compilation)
-    yes = n_steps >= 0  # True
-    no = not yes
-    _forces(parallel, 0.0, yes, code, params, rolling, rows, bodies, walls, cell, virial,
-                stats)
-    stats[0] = met
-    gather_kernel(rows.adj_start, rows.adj_entry, rows.force, rows.torque_i, rows.torque_j,
-                  bodies.masses, gravity, bodies.force, bodies.torque)
-    cell_start(cell, virial, rows.body_i, rows.body_j, rows.images, rows.stiffness,
-               rows.normal, bodies.masses, bodies.positions, bodies.velocities)
-    done = 0
-    previous = rows.approach[0]
-    # the first sub-step's half kick and drift; each later one's come with the end of the
-    # sub-step before, in one pass over the bodies (one parallel loop less per sub-step)
-    if n_steps > 0:
-        _body_side(parallel, no, no, yes, half, dt, rows, bodies, gravity, local_damping, cell,
-                   0.0, 0.0, 0.0)
-    for _ in range(n_steps):
-        walls_move(walls, dt)
-        cell_move(cell, dt)
-        last = _ == n_steps - 1  # the report reads its normals, points and velocities
-        _forces(parallel, dt, last, code, params, rolling, rows, bodies, walls, cell,
-                    virial, stats)
-        walls_settle(walls, dt)
-        cell_settle(cell, dt, virial)
-        done += 1
-        reach = 0.0
-        for b in range(bodies.travel.shape[0]):
-            reach = max(reach, bodies.travel[b])
-        reach *= 2.0
-        total = reach + walls_moved(walls) + cell_shift(cell)
-        rows.approach[0] = total
-        # the next sub-step might go past the skin: stop after this one
-        stop = 2.0 * total - previous > skin or last
-        previous = total
-        change = cell.periodic and gradient_changed(cell.gradient, cell.carried)
-        cx = cy = cz = 0.0
-        if change:
-            cx, cy, cz = centre_of_mass(bodies.masses, bodies.positions)
-        _body_side(parallel, yes, change, not stop, half, dt, rows, bodies, gravity,
-                   local_damping, cell, cx, cy, cz)
-        if cell.periodic:  # hdot = L h follows the cell
-            take_up(change, cell.gradient, cell.carried, cell.h, cell.rate)
-        if stop:
-            break
-    return done
 
 
 @njit(inline="always")

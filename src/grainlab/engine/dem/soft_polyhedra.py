@@ -84,6 +84,7 @@ docs/discrete_engine.md).
 A cube of side 1 cm at rest on a face sinks by m g / k_n, each corner carrying a quarter:
 
 >>> from grainlab.contact.soft_contact_law import SoftContactLaw
+from grainlab.engine.dem import soft_polyhedra_kernels  # noqa: F401 (registers the pass)
 >>> from grainlab.engine.dem.soft_contact import SoftContactStep
 >>> from grainlab.geometry.polyhedron import from_vertices
 >>> cube = from_vertices([[x, y, z] for x in (0, 0.01) for y in (0, 0.01) for z in (0, 0.01)])
@@ -105,8 +106,8 @@ from functools import lru_cache
 import numpy as np
 
 from grainlab.contact.soft_contact_law import SoftContactLaw
+from grainlab.engine.dem import soft_polyhedra_kernels  # noqa: F401 (registers the pass)
 from grainlab.engine.dem.soft_contact_kernels import body_rows
-from grainlab.engine.dem.soft_polyhedra_kernels import polyhedra_substeps_kernel
 from grainlab.engine.dem.soft_stability import (
     BLOCK,
     LAW_COLUMNS,
@@ -114,6 +115,8 @@ from grainlab.engine.dem.soft_stability import (
     polyhedron_elements_kernel,
     stable_rates_kernel,
 )
+from grainlab.engine.dem.substep_arrays import PolyhedronPairArrays
+from grainlab.engine.dem.substep_loop import substeps
 from grainlab.engine.detect.narrow_phase import Contacts
 from grainlab.engine.detect.polyhedron_narrow_phase import angle_tolerances
 from grainlab.engine.shape_kinds import (
@@ -204,7 +207,6 @@ class PolyhedronRows:
                         lib.edge_faces, lib.vertex_start, lib.vertex_count,
                         lib.vertex_neighbour_start, lib.vertex_neighbours)
         self.world = (bvs, wv, bfs, wn, wo)
-        self.pairs = (self.pair_i, self.pair_j, self.images, self.mu, self.r_eff)
         k = DEFAULT_MAX_POINTS
         self.tolerances = (*angle_tolerances(ANGLE_TOLERANCE), k)
         self.force, self.torque_i, self.torque_j = (np.zeros((p, 3)) for _ in range(3))
@@ -217,28 +219,30 @@ class PolyhedronRows:
         self.feature_i = np.zeros((p, k), dtype=np.int64)
         self.feature_j = np.zeros((p, k), dtype=np.int64)
         self.pair_type = np.zeros(p, dtype=np.int8)
+        self.travel = np.zeros(n)
+        self.approach = np.zeros(1)
 
-    @property
-    def outputs(self) -> tuple:
-        """The kernels' per-pair and per-point outputs, in their order."""
-        return (self.force, self.torque_i, self.torque_j, self.normal, self.point,
-                self.stiffness, self.rel_vel, self.n_points, self.point_gap, self.point_normal,
-                self.point_position, self.point_force, self.point_velocity, self.feature_i,
-                self.feature_j, self.pair_type)
+    def arrays(self) -> PolyhedronPairArrays:
+        """The pairs' arrays of the sub-steps."""
+        return PolyhedronPairArrays(
+            self.pair_i, self.pair_j, self.images, self.mu, self.r_eff, self.adj_start,
+            self.adj_entry, self.wall_rows, self.xi, self.force, self.torque_i, self.torque_j,
+            self.normal, self.point, self.stiffness, self.rel_vel, self.approach,
+            self.n_points, self.point_gap, self.point_normal, self.point_position,
+            self.point_force, self.point_velocity, self.feature_i, self.feature_j,
+            self.pair_type, self.bodies, self.library, self.world, self.tolerances)
 
     def advance(self, run, solver, n_steps: int, h: float, overlap_limit: float) -> int:
         """Up to ``n_steps`` sub-steps of ``h`` [s] (0: only the loads now) for the solver's
         step ``run`` (:class:`~grainlab.engine.dem.soft_contact.SoftContactStep`'s); returns those
         done. A penetration beyond ``overlap_limit`` x the smallest inscribed radius stops the
         run."""
-        state, law = run.state, solver.law
-        done = polyhedra_substeps_kernel(
-            n_steps, h, float(solver.skin), law.code, law.params, law.local_damping,
-            solver.gravity, self.bodies, self.library, self.world, self.pairs,
-            self.adj_start, self.adj_entry, self.wall_rows, self.tolerances, self.xi,
-            self.outputs, run.body_arrays(np.zeros(state.n_bodies)),
+        law = solver.law
+        done = substeps(
+            n_steps, h, float(solver.skin), (law.code, law.params, 0.0), law.local_damping,
+            solver.gravity, self.arrays(), run.body_arrays(self.travel),
             run.wall_face(run.wall_disp.copy()), run.cell_face(solver, run.cell_h.copy()),
-            run.virial, run.stats)
+            run.virial, run.stats, False)
         if run.stats[0] > overlap_limit * self.smallest_radius:
             raise SimulationBlowUp(
                 f"runaway penetration in the soft-contact step: {run.stats[0]:.3g} m, more "

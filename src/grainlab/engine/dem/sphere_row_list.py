@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from grainlab.engine.dem.neighbour_rows import member_rows_kernel
-from grainlab.engine.dem.soft_contact_kernels import ROW_BLOCK, body_rows, plain_blocks
-from grainlab.engine.dem.substep_arrays import SphereRowArrays
+from grainlab.engine.dem.soft_contact_kernels import body_rows, plain_blocks
+from grainlab.engine.dem.substep_arrays import ROW_BLOCK, SphereRowArrays
 from grainlab.engine.detect.narrow_phase import Contacts
 
 
