@@ -437,11 +437,11 @@ def test_overlap_recovery_speed_is_capped(cap_fraction):
     delta, beta = 1e-3, 0.5
     uncapped = beta * delta / DT
     library, state = spheres([[0.0, 0.0, 0.0], [1.0 - delta, 0.0, 0.0]])
-    step = ContactDynamicsStep(dt=DT, friction=0.4, tolerance=1e-10, overlap_recovery=beta,
-                               overlap_recovery_speed=cap_fraction * uncapped)
+    step = ContactDynamicsStep(dt=DT, friction=0.4, tolerance=1e-10, overlap_recovery=beta)
+    step.overlap_recovery_speed = cap_fraction * uncapped
     assert step.step(state, library).converged
     u_n = state.velocities[1, 0] - state.velocities[0, 0]
     assert u_n == pytest.approx(min(cap_fraction, 1.0) * uncapped, rel=1e-9)
     np.testing.assert_allclose(state.momentum(), 0.0, atol=1e-15)
     with pytest.raises(InputError, match="overlap_recovery_speed"):
-        ContactDynamicsStep(dt=DT, overlap_recovery_speed=0.0)
+        step.overlap_recovery_speed = 0.0

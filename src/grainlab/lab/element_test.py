@@ -420,30 +420,86 @@ def run_element_test(
     >>> r.outcome["status"], round(float(last["sigma_xx"] / last["sigma_zz"]), 9)
     ('completed', 0.333333333)
     """
+    parameters = {"max_iterations": max_iterations, "tolerance": tolerance,
+                  "absolute_tolerance": absolute_tolerance, "max_halvings": max_halvings,
+                  "substep_threshold": substep_threshold,
+                  "singular_tolerance": singular_tolerance}
+    ctl = _checked_controller(specimen, path, parameters)
+    log = _RunLog(rows=[_record(specimen, "initial", 0, 0, 0.0, _StepReport())])
+    _run_stages(specimen, path, ctl, progress, log)
+    if log.unconverged:
+        warnings.warn(
+            f"{len(log.unconverged)} step(s) of {path.name!r} ended with a stress error above "
+            f"the tolerance after {max_iterations} corrections (increments "
+            f"{log.unconverged[:5]}...); see the 'converged' and 'stress_error' columns",
+            GrainlabWarning, stacklevel=2)
+    return TestResult.create(
+        pd.DataFrame(log.rows), specimen=specimen.describe(), load_path=path.to_dict(),
+        parameters=parameters, outcome=log.summary(ctl),
+        dimension=path.dimension, title=path.name)
+
+
+def _checked_controller(specimen: ElementSpecimen, path: LoadPath,
+                        parameters: dict[str, Any]) -> _Controller:
+    """The step controller of :func:`run_element_test`'s numerical ``parameters``, each
+    checked, after checking that ``path`` is a load path of the specimen's dimension."""
     if not isinstance(path, LoadPath):
         raise InputError("path", path, "a LoadPath (see grainlab.lab.load_path presets)")
     if specimen.dimension != path.dimension:
         raise InputError("path.dimension", path.dimension,
                          f"the specimen's dimension {specimen.dimension}")
-    for name, value in (("max_iterations", max_iterations), ("max_halvings", max_halvings)):
+    for name in ("max_iterations", "max_halvings"):
+        value = parameters[name]
         if isinstance(value, bool) or not isinstance(value, int) or value < 0:
             raise InputError(name, value, "an integer >= 0")
-    for name, value in (("tolerance", tolerance), ("absolute_tolerance", absolute_tolerance),
-                        ("substep_threshold", substep_threshold),
-                        ("singular_tolerance", singular_tolerance)):
+    for name in ("tolerance", "absolute_tolerance", "substep_threshold", "singular_tolerance"):
+        value = parameters[name]
         if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0.0):
             raise InputError(name, value, "a finite number >= 0")
-    ctl = _Controller(max_iterations, float(tolerance), float(absolute_tolerance),
-                      max_halvings, float(substep_threshold), float(singular_tolerance))
-    rows = [_record(specimen, "initial", 0, 0, 0.0, _StepReport())]
-    outcome: dict[str, Any] = {"status": "completed"}
-    stopped: list[dict[str, Any]] = []
-    unconverged: list[int] = []
-    iterations = [0]
-    sub_steps = 0
+    return _Controller(parameters["max_iterations"], float(parameters["tolerance"]),
+                       float(parameters["absolute_tolerance"]), parameters["max_halvings"],
+                       float(parameters["substep_threshold"]),
+                       float(parameters["singular_tolerance"]))
+
+
+@dataclass
+class _RunLog:
+    """What :func:`run_element_test` gathers as it goes: the table's rows, the outcome (a
+    failure's), the stop criteria met, the unconverged increments, the corrections of each
+    step and the sub-steps."""
+
+    rows: list[dict[str, Any]]
+    outcome: dict[str, Any] = field(default_factory=lambda: {"status": "completed"})
+    stopped: list[dict[str, Any]] = field(default_factory=list)
+    unconverged: list[int] = field(default_factory=list)
+    iterations: list[int] = field(default_factory=lambda: [0])
+    sub_steps: int = 0
+
+    def add(self, row: dict[str, Any], report: _StepReport) -> None:
+        """One step's row and its corrections and sub-steps."""
+        self.iterations.append(report.iterations)
+        self.sub_steps += report.sub_steps
+        self.rows.append(row)
+
+    def summary(self, ctl: _Controller) -> dict[str, Any]:
+        """``metadata["outcome"]`` (:func:`run_element_test`, "Returns")."""
+        return self.outcome | {
+            "steps_completed": len(self.rows) - 1,
+            "iterations_total": int(sum(self.iterations)),
+            "iterations_max": int(max(self.iterations)),
+            "sub_steps_total": self.sub_steps,
+            "halvings": ctl.totals["halvings"],
+            "unconverged_steps": len(self.unconverged),
+            "unconverged_increments": self.unconverged[:_UNCONVERGED_LISTED],
+            "stopped": self.stopped,
+        }
+
+
+def _run_stages(specimen: ElementSpecimen, path: LoadPath, ctl: _Controller,
+                progress: Callable[[int, int], None] | None, log: _RunLog) -> None:
+    """The stages of ``path`` step by step into ``log``, until the path ends, a stop
+    criterion ends the test or a step fails."""
     increment = 0
-    total = path.n_steps
-    ended = False
     for stage in path.stages:
         frame = ControlFrame(stage)
         start = frame.matrix(0.0) @ specimen.stress()
@@ -456,51 +512,21 @@ def run_element_test(
             except _Failure as failure:
                 if failure.applied:
                     report = failure.report or _StepReport(converged=False, error=math.nan)
-                    iterations.append(report.iterations)
-                    sub_steps += report.sub_steps
-                    rows.append(_record(specimen, stage.name, k, increment,
-                                        stage.frame_angle(k), report))
-                outcome = {"status": "failure", "reason": failure.reason,
-                           "stage": stage.name, "step": k, "increment": increment}
-                ended = True
-                break
-            iterations.append(report.iterations)
-            sub_steps += report.sub_steps
+                    log.add(_record(specimen, stage.name, k, increment,
+                                    stage.frame_angle(k), report), report)
+                log.outcome = {"status": "failure", "reason": failure.reason,
+                               "stage": stage.name, "step": k, "increment": increment}
+                return
             if not report.converged:
-                unconverged.append(increment)
+                log.unconverged.append(increment)
             row = _record(specimen, stage.name, k, increment, stage.frame_angle(k), report)
-            rows.append(row)
+            log.add(row, report)
             if progress is not None:
-                progress(increment, total)
+                progress(increment, path.n_steps)
             hit = next((c for c in stage.stop if c.met(row)), None)
             if hit is not None:
-                stopped.append({"stage": stage.name, "increment": increment,
-                                "criterion": hit.to_dict()})
-                ended = hit.ends == "test"
+                log.stopped.append({"stage": stage.name, "increment": increment,
+                                    "criterion": hit.to_dict()})
+                if hit.ends == "test":
+                    return
                 break
-        if ended:
-            break
-    outcome.update({
-        "steps_completed": len(rows) - 1,
-        "iterations_total": int(sum(iterations)),
-        "iterations_max": int(max(iterations)),
-        "sub_steps_total": sub_steps,
-        "halvings": ctl.totals["halvings"],
-        "unconverged_steps": len(unconverged),
-        "unconverged_increments": unconverged[:_UNCONVERGED_LISTED],
-        "stopped": stopped,
-    })
-    if unconverged:
-        warnings.warn(
-            f"{len(unconverged)} step(s) of {path.name!r} ended with a stress error above the "
-            f"tolerance after {max_iterations} corrections (increments "
-            f"{unconverged[:5]}...); see the 'converged' and 'stress_error' columns",
-            GrainlabWarning, stacklevel=2)
-    parameters = {"max_iterations": max_iterations, "tolerance": tolerance,
-                  "absolute_tolerance": absolute_tolerance, "max_halvings": max_halvings,
-                  "substep_threshold": substep_threshold,
-                  "singular_tolerance": singular_tolerance}
-    return TestResult.create(
-        pd.DataFrame(rows), specimen=specimen.describe(), load_path=path.to_dict(),
-        parameters=parameters, outcome=outcome,
-        dimension=path.dimension, title=path.name)

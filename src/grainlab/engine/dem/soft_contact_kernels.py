@@ -141,6 +141,54 @@ def _sphere_block(blk, step, record, code, params, body_i, body_j, rad_i, rad_j,
     partial[blk, 9] = worst
 
 
+@njit(inline="always")
+def _member_j(k, j, mx, my, mz, image, off_j, positions, orientations, cell_h):
+    """Row k's body j through its image (x_j + h m, m = (mx, my, mz), if ``image``) and the
+    centre of its member (the offset ``off_j[k]`` turned with the body) [m]: (jx, jy, jz, bx,
+    by, bz)."""
+    ox, oy, oz = off_j[k, 0], off_j[k, 1], off_j[k, 2]
+    if ox != 0.0 or oy != 0.0 or oz != 0.0:  # a member off the centre (aggregates)
+        qj = orientations[j]
+        ox, oy, oz = rotate(qj[0], qj[1], qj[2], qj[3], ox, oy, oz)
+    jx, jy, jz = positions[j, 0], positions[j, 1], positions[j, 2]
+    if image:  # the image of body j: x_j + h m
+        jx += cell_h[0, 0] * mx + cell_h[0, 1] * my + cell_h[0, 2] * mz
+        jy += cell_h[1, 0] * mx + cell_h[1, 1] * my + cell_h[1, 2] * mz
+        jz += cell_h[2, 0] * mx + cell_h[2, 1] * my + cell_h[2, 2] * mz
+    return jx, jy, jz, jx + ox, jy + oy, jz + oz
+
+
+@njit(inline="always")
+def _release(k, rows):
+    """Row k opened: its springs, force, moments and stiffness set to zero."""
+    for a in range(3):
+        rows.xi[k, a] = 0.0
+        rows.roll[k, a] = 0.0
+        rows.force[k, a] = 0.0
+        rows.torque_i[k, a] = 0.0
+        rows.torque_j[k, a] = 0.0
+    rows.stiffness[k] = 0.0
+
+
+@njit(inline="always")
+def _moments(k, rows, turn, step, rolling, fx, fy, fz, rix, riy, riz, rjx, rjy, rjz, nx, ny,
+             nz, spin_n, wx, wy, wz, s_n, r_eff, fn):
+    """The moments [N m] of row k's force (fx, fy, fz) [N] on j at arm r_j and on i at arm
+    r_i [m], with the rolling spring's moment (:func:`~grainlab.contact.rolling_resistance.
+    rolling_spring`, the relative spin (wx, wy, wz) [rad/s] of j to i) if ``rolling`` > 0."""
+    mjx, mjy, mjz = rjy * fz - rjz * fy, rjz * fx - rjx * fz, rjx * fy - rjy * fx
+    mix, miy, miz = -(riy * fz - riz * fy), -(riz * fx - rix * fz), -(rix * fy - riy * fx)
+    if rolling > 0.0:
+        roll = rows.roll
+        lx, ly, lz = rolling_spring(turn, step, roll[k, 0], roll[k, 1], roll[k, 2], nx, ny,
+                                    nz, spin_n, wx, wy, wz, s_n, rolling, r_eff, fn)
+        roll[k, 0], roll[k, 1], roll[k, 2] = lx, ly, lz
+        mjx, mjy, mjz = mjx + lx, mjy + ly, mjz + lz
+        mix, miy, miz = mix - lx, miy - ly, miz - lz
+    rows.torque_j[k, 0], rows.torque_j[k, 1], rows.torque_j[k, 2] = mjx, mjy, mjz
+    rows.torque_i[k, 0], rows.torque_i[k, 1], rows.torque_i[k, 2] = mix, miy, miz
+
+
 @njit(_nrt=False)  # a call per block: more arguments than Python 3.11 lets Numba inline
 def _forces_block(blk, step, record, code, params, rolling, rows, bodies, wall_p0, wall_n,
                   wall_disp, wall_speed, cell_h, cell_rate):
@@ -148,8 +196,7 @@ def _forces_block(blk, step, record, code, params, rolling, rows, bodies, wall_p
     ``partial[blk, :9]`` (row-major), their largest overlap [m] into ``partial[blk, 9]``."""
     body_i, body_j, off_i, off_j = rows.body_i, rows.body_j, rows.off_i, rows.off_j
     rad_i, rad_j, images, mu = rows.rad_i, rows.rad_j, rows.images, rows.mu
-    xi, roll, force, torque_i, torque_j = rows.xi, rows.roll, rows.force, rows.torque_i, \
-        rows.torque_j
+    xi, force = rows.xi, rows.force
     gap, normal, point, stiffness, rel_vel = rows.gap, rows.normal, rows.point, \
         rows.stiffness, rows.rel_vel
     partial = rows.partial
@@ -160,17 +207,9 @@ def _forces_block(blk, step, record, code, params, rolling, rows, bodies, wall_p
         j = body_j[k]
         i = body_i[k]
         mx, my, mz = images[k, 0], images[k, 1], images[k, 2]
-        ox, oy, oz = off_j[k, 0], off_j[k, 1], off_j[k, 2]
-        if ox != 0.0 or oy != 0.0 or oz != 0.0:  # a member off the centre (aggregates)
-            qj = orientations[j]
-            ox, oy, oz = rotate(qj[0], qj[1], qj[2], qj[3], ox, oy, oz)
-        jx, jy, jz = positions[j, 0], positions[j, 1], positions[j, 2]
         image = mx != 0.0 or my != 0.0 or mz != 0.0
-        if image:  # the image of body j: x_j + h m
-            jx += cell_h[0, 0] * mx + cell_h[0, 1] * my + cell_h[0, 2] * mz
-            jy += cell_h[1, 0] * mx + cell_h[1, 1] * my + cell_h[1, 2] * mz
-            jz += cell_h[2, 0] * mx + cell_h[2, 1] * my + cell_h[2, 2] * mz
-        bx, by, bz = jx + ox, jy + oy, jz + oz
+        jx, jy, jz, bx, by, bz = _member_j(k, j, mx, my, mz, image, off_j, positions,
+                                           orientations, cell_h)
         rb = rad_j[k]
         nx = ny = nz = cx = cy = cz = ra = 0.0
         if i >= 0:
@@ -193,12 +232,7 @@ def _forces_block(blk, step, record, code, params, rolling, rows, bodies, wall_p
         gap[k] = g
         if g >= 0.0:  # open: the springs are released (once: an open row stays zero)
             if step == 0.0 or stiffness[k] != 0.0:
-                xi[k, 0], xi[k, 1], xi[k, 2] = 0.0, 0.0, 0.0
-                roll[k, 0], roll[k, 1], roll[k, 2] = 0.0, 0.0, 0.0
-                force[k, 0], force[k, 1], force[k, 2] = 0.0, 0.0, 0.0
-                torque_i[k, 0], torque_i[k, 1], torque_i[k, 2] = 0.0, 0.0, 0.0
-                torque_j[k, 0], torque_j[k, 1], torque_j[k, 2] = 0.0, 0.0, 0.0
-                stiffness[k] = 0.0
+                _release(k, rows)
             continue
         if i >= 0:
             r_eff = ra * rb / (ra + rb)
@@ -246,17 +280,8 @@ def _forces_block(blk, step, record, code, params, rolling, rows, bodies, wall_p
             v00, v01, v02 = v00 + ex * lx, v01 + ex * ly, v02 + ex * lz
             v10, v11, v12 = v10 + ey * lx, v11 + ey * ly, v12 + ey * lz
             v20, v21, v22 = v20 + ez * lx, v21 + ez * ly, v22 + ez * lz
-        mjx, mjy, mjz = rjy * fz - rjz * fy, rjz * fx - rjx * fz, rjx * fy - rjy * fx
-        mix, miy, miz = -(riy * fz - riz * fy), -(riz * fx - rix * fz), -(rix * fy - riy * fx)
-        if rolling > 0.0:
-            lx, ly, lz = rolling_spring(turn, step, roll[k, 0], roll[k, 1], roll[k, 2], nx, ny,
-                                        nz, spin_n, wjx - wix, wjy - wiy, wjz - wiz, s_n,
-                                        rolling, r_eff, fn)
-            roll[k, 0], roll[k, 1], roll[k, 2] = lx, ly, lz
-            mjx, mjy, mjz = mjx + lx, mjy + ly, mjz + lz
-            mix, miy, miz = mix - lx, miy - ly, miz - lz
-        torque_j[k, 0], torque_j[k, 1], torque_j[k, 2] = mjx, mjy, mjz
-        torque_i[k, 0], torque_i[k, 1], torque_i[k, 2] = mix, miy, miz
+        _moments(k, rows, turn, step, rolling, fx, fy, fz, rix, riy, riz, rjx, rjy, rjz, nx,
+                 ny, nz, spin_n, wjx - wix, wjy - wiy, wjz - wiz, s_n, r_eff, fn)
     partial[blk, 0], partial[blk, 1], partial[blk, 2] = v00, v01, v02
     partial[blk, 3], partial[blk, 4], partial[blk, 5] = v10, v11, v12
     partial[blk, 6], partial[blk, 7], partial[blk, 8] = v20, v21, v22

@@ -213,15 +213,21 @@ class ContactDynamicsStep:
     overlap_recovery:
         beta in [0, 1]: an existing overlap (g < 0) must open by beta |g| within the step
         (U_n >= beta |g| / h; module docstring); 0 (default): the pure law, overlaps kept.
-    overlap_recovery_speed:
-        Largest separation speed [m/s] > 0 the recovery may ask for (U_n >= min(beta |g| / h,
-        this)); inf (default): no cap. beta |g| / h grows as the step shrinks: with the short
-        steps of spinning polyhedra it reached ~1 m/s and blew an 8-polyhedron sample apart
-        (p jumped to 7.7e7 Pa at the first shearing step).
     warm_start_extrapolation:
         lambda in [0, 1]: a contact found in the two previous steps starts from its last
         force plus lambda times that force's change over the last step, projected on its
         Coulomb cone (module docstring, "Warm start"); 0: from its last force.
+
+    Attributes
+    ----------
+    overlap_recovery_speed:
+        Largest separation speed [m/s] > 0 the recovery may ask for (U_n >= min(beta |g| / h,
+        this)); inf (the default): no cap. beta |g| / h grows as the step shrinks: with the
+        short steps of spinning polyhedra it reached ~1 m/s and blew an 8-polyhedron sample
+        apart (p jumped to 7.7e7 Pa at the first shearing step). A stage's setting, as
+        ``overlap_recovery``, ``tolerance`` and ``max_iterations`` (the lab sets them at each
+        stage: :meth:`~grainlab.lab.solver_registry.SolverRecord.set_stage`); checked when
+        set.
     """
 
     def __init__(
@@ -229,8 +235,7 @@ class ContactDynamicsStep:
         max_iterations: int = 1000, gravity=(0.0, 0.0, 0.0), friction: float = 0.4,
         alert: float | None = None, gyroscopic: bool = False, strict: bool = False,
         seed: int = 0, sweep: str = "coloured", overlap_recovery: float = 0.0,
-        overlap_recovery_speed: float = math.inf, change_tolerance: float | None = None,
-        warm_start_extrapolation: float = 0.0,
+        change_tolerance: float | None = None, warm_start_extrapolation: float = 0.0,
     ) -> None:
         self.dt = at_least("dt", dt)
         theta_value = at_least("theta", theta)
@@ -256,12 +261,8 @@ class ContactDynamicsStep:
         if sweep not in _SWEEPS:
             raise InputError("sweep", sweep, "one of " + ", ".join(map(repr, _SWEEPS)))
         self.sweep = sweep
-        recovery = at_least("overlap_recovery", overlap_recovery, strict=False)
-        if recovery > 1.0:
-            raise InputError("overlap_recovery", overlap_recovery, "a number in [0, 1]")
-        self.overlap_recovery = recovery
-        self.overlap_recovery_speed = math.inf if overlap_recovery_speed == math.inf else \
-            at_least("overlap_recovery_speed", overlap_recovery_speed)
+        self.overlap_recovery = overlap_recovery
+        self.overlap_recovery_speed = math.inf
         self.warm_start_extrapolation = in_range(
             "warm_start_extrapolation", warm_start_extrapolation, 0.0, 1.0, closed="[]")
         self._warm_keys = np.zeros(0, dtype=np.int64)
@@ -272,6 +273,28 @@ class ContactDynamicsStep:
         self._detection: DetectionPhases | None = None
         self.keep_problem = False
         """Attach each step's plain problem to its report (``StepReport.problem``)."""
+
+    @property
+    def overlap_recovery(self) -> float:
+        """beta in [0, 1] (the ``overlap_recovery`` parameter)."""
+        return self._overlap_recovery
+
+    @overlap_recovery.setter
+    def overlap_recovery(self, value: float) -> None:
+        recovery = at_least("overlap_recovery", value, strict=False)
+        if recovery > 1.0:
+            raise InputError("overlap_recovery", value, "a number in [0, 1]")
+        self._overlap_recovery = recovery
+
+    @property
+    def overlap_recovery_speed(self) -> float:
+        """The recovery's speed cap v_r [m/s] (class docstring, "Attributes")."""
+        return self._overlap_recovery_speed
+
+    @overlap_recovery_speed.setter
+    def overlap_recovery_speed(self, value: float) -> None:
+        self._overlap_recovery_speed = math.inf if value == math.inf else \
+            at_least("overlap_recovery_speed", value)
 
     def _phases(self, library: ShapeLibrary, travel: float = 0.0) -> DetectionPhases:
         """Broad and narrow phases; the alert distance grows (never shrinks) to 1.5 x
