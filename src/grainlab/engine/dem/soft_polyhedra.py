@@ -84,7 +84,6 @@ docs/discrete_engine.md).
 A cube of side 1 cm at rest on a face sinks by m g / k_n, each corner carrying a quarter:
 
 >>> from grainlab.contact.soft_contact_law import SoftContactLaw
-from grainlab.engine.dem import soft_polyhedra_kernels  # noqa: F401 (registers the pass)
 >>> from grainlab.engine.dem.soft_contact import SoftContactStep
 >>> from grainlab.geometry.polyhedron import from_vertices
 >>> cube = from_vertices([[x, y, z] for x in (0, 0.01) for y in (0, 0.01) for z in (0, 0.01)])
