@@ -97,7 +97,6 @@ from grainlab._validate import at_least
 from grainlab.contact.soft_contact_law import SoftContactLaw
 from grainlab.engine.boundaries.boundary import (
     BoundaryMotion,
-    ClosedContacts,
     DetectionPhases,
     as_boundary,
 )
@@ -113,15 +112,11 @@ from grainlab.engine.dem.neighbour_rows import carry_springs_kernel
 from grainlab.engine.dem.soft_polyhedra import PolyhedronRows, has_polyhedra, smallest_radius
 from grainlab.engine.dem.soft_stability import (
     HORIZON_STEPS,
-    damped_limit,
-    sphere_rows_rates,
     zigzag_index,
     zigzag_sums_kernel,
 )
-from grainlab.engine.dem.soft_step_report import SoftStepReport
 from grainlab.engine.dem.sphere_row_list import SphereRows
 from grainlab.engine.dem.substep_arrays import BodyArrays
-from grainlab.engine.dem.substep_loop import substeps
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.step_report import StepReport, contact_keys
@@ -294,6 +289,12 @@ class SoftContactStep:
                          np.asarray(arrays["end_orientations"], dtype=np.float64).copy())
 
     @property
+    def carried_gradient(self) -> np.ndarray:
+        """(3, 3) [1/s] the periodic cell's velocity gradient L the bodies' velocities carry
+        (updated in place by the sub-steps)."""
+        return self._carried
+
+    @property
     def filter_time(self) -> float:
         """Time [s] over which the periodic cell's servo low-passes the contacts' stress:
         :data:`FILTER_SUBSTEPS` sub-steps of the springs' rule (a few collisions: the law's
@@ -372,7 +373,7 @@ class SoftContactStep:
         self.last_substeps = n_sub
         self._wall_load = np.column_stack([run.wall_impulse / macro, run.wall_stiffness,
                                            memory])
-        report, closed = run.report(rows, macro)
+        report, closed = rows.report(run, macro)
         self.velocity_zigzag = run.zigzag(rows)
         boundary.finish_step(BoundaryMotion(
             dt=macro, theta=1.0, wall_speeds=run.mean_wall_speeds(),
@@ -388,7 +389,7 @@ class SoftContactStep:
         (:mod:`grainlab.engine.dem.soft_stability`; :attr:`damped_substep`)."""
         if self.fixed_substep is not None:
             return self.fixed_substep
-        self.damped_substep = run.damped_substep(self, rows, HORIZON_STEPS * span)
+        self.damped_substep = rows.damped_substep(run, self, HORIZON_STEPS * span)
         return min(self.spring_substep, self.damped_substep)
 
     def _body_constants(self, state: BodyState, library: ShapeLibrary) -> _BodyConstants:
@@ -570,6 +571,7 @@ class _Run:
         self.wall_force = np.zeros(n_walls)
         self.wall_stiffness = np.zeros(n_walls)
         self.stats = np.zeros(1)
+        self.parallel = threads_pay(state.n_bodies)
         f64 = np.float64  # the walls' servos, at every sub-step (wall_box_face)
         self.macro = float(macro)
         self.servo_inv_mass = np.ascontiguousarray(bounds.wall_inv_mass, dtype=f64)
@@ -639,65 +641,26 @@ class _Run:
                         np.ascontiguousarray(bounds.cell_free, dtype=f64),
                         np.ascontiguousarray(bounds.cell_bounds, dtype=f64).reshape(-1, 2),
                         self.cell_stiffness, solver._filtered, self.cell_dofs, self.gradient,
-                        solver._carried, self.stress_impulse, float(solver.filter_time),
+                        solver.carried_gradient, self.stress_impulse, float(solver.filter_time),
                         self.wall_disp.shape[0] == 0)
 
-    def damped_substep(self, solver: SoftContactStep, rows: SphereRows, horizon: float) -> float:
-        """The dashpots' bound [s] on the sub-step for the contacts of ``rows``, each at its
-        overlap after ``horizon`` [s] of approach (:mod:`grainlab.engine.dem.soft_stability`)."""
-        if isinstance(rows, PolyhedronRows):
-            return rows.damped_substep(self, solver, horizon, OVERLAP_LIMIT)
-        bounds, f64 = self.bounds, np.float64
-        state = self.state
-        return damped_limit(*sphere_rows_rates(
-            rows, horizon, solver.law, self.inv_mass, self.inv_inertia, state.positions,
-            state.orientations, state.velocities, state.angular_velocities,
-            np.ascontiguousarray(bounds.wall_points, dtype=f64),
-            np.ascontiguousarray(bounds.wall_normals, dtype=f64), self.wall_disp,
-            self.wall_speed, self.cell_h, solver._carried @ self.cell_h))
-
-    def advance(self, solver: SoftContactStep, rows: SphereRows, n_steps: int, h: float) -> int:
+    def advance(self, solver: SoftContactStep, rows, n_steps: int, h: float) -> int:
         """Up to ``n_steps`` sub-steps of ``h`` [s] on ``rows`` (0: only the loads now);
-        returns those done."""
-        if isinstance(rows, PolyhedronRows):
-            return rows.advance(self, solver, n_steps, h, OVERLAP_LIMIT)
-        state, bounds, law = self.state, self.bounds, solver.law
-        done = substeps(
-            n_steps, h, float(solver.skin), (law.code, law.params, law.rolling_friction),
-            law.local_damping, solver.gravity, rows.arrays(),
-            self.body_arrays(rows.travel), self.wall_face(rows.built_wall_disp(bounds)),
-            self.cell_face(solver, rows.built_cell), self.virial, self.stats,
-            threads_pay(state.n_bodies))
-        smallest = float(np.min(rows.rad_j)) if rows.rad_j.size else math.inf
-        if self.stats[0] > OVERLAP_LIMIT * smallest:
+        returns those done. An overlap beyond :data:`OVERLAP_LIMIT` x the list's smallest
+        length (``rows.smallest_radius``) stops the run with a diagnosis."""
+        done = rows.advance(self, solver, n_steps, h)
+        if self.stats[0] > OVERLAP_LIMIT * rows.smallest_radius:
             raise SimulationBlowUp(
                 f"runaway overlap in the soft-contact step: {self.stats[0]:.3g} m, more than "
-                f"{OVERLAP_LIMIT} x the smallest member radius {smallest:.3g} m; the contacts "
-                f"are too soft for the load ({law.model}) or the sub-step "
-                f"{h:.3g} s too long for their stiffness.")
+                f"{OVERLAP_LIMIT} x the smallest {rows.size_words} {rows.smallest_radius:.3g} "
+                f"m; the contacts are too soft for the load ({solver.law.model}) or the "
+                f"sub-step {h:.3g} s too long for their stiffness.")
         return int(done)
 
     def zigzag(self, rows) -> float:
         """:func:`~grainlab.engine.dem.soft_stability.zigzag_index` of the contacts between bodies
         closed at the end of the step."""
         state, sums = self.state, np.zeros(4)
-        if isinstance(rows, PolyhedronRows):
-            contacts = rows.closed_points()
-        else:
-            contacts = (rows.body_i, rows.body_j, rows.images, rows.gap < 0.0, rows.point,
-                        rows.normal, rows.rel_vel)
-        zigzag_sums_kernel(*contacts, state.positions, state.velocities,
+        zigzag_sums_kernel(*rows.closed_points(), state.positions, state.velocities,
                            state.angular_velocities, self.cell_h, self.cell_rate, sums)
         return zigzag_index(sums)
-
-    def report(self, rows: SphereRows, macro: float) -> tuple[StepReport | SoftStepReport,
-                                                          ClosedContacts | SoftStepReport]:
-        """The contacts closed at the end of the step, as a step report (copied out of a
-        sphere list only when read: :class:`~grainlab.engine.dem.soft_step_report.
-        SoftStepReport`), and as the boundary reads them."""
-        if isinstance(rows, PolyhedronRows):
-            report, forces = rows.report(self, macro)
-            return report, ClosedContacts(report.contacts, report.image_vectors,
-                                          report.impulses, forces)
-        report = SoftStepReport(rows, macro, float(self.stats[0]))
-        return report, report

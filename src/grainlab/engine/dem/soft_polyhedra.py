@@ -105,6 +105,7 @@ from functools import lru_cache
 import numpy as np
 
 from grainlab.contact.soft_contact_law import SoftContactLaw
+from grainlab.engine.boundaries.boundary import ClosedContacts
 from grainlab.engine.dem import soft_polyhedra_kernels  # noqa: F401 (registers the pass)
 from grainlab.engine.dem.soft_contact_kernels import body_rows
 from grainlab.engine.dem.soft_stability import (
@@ -124,7 +125,6 @@ from grainlab.engine.shape_kinds import (
     family_mask,
     library_time_step_length,
 )
-from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.engine.state import BodyState, ReadOnlyArrays, ShapeLibrary
 from grainlab.engine.step_report import StepReport, contact_frames, contact_keys
 from grainlab.errors import InputError
@@ -170,6 +170,9 @@ def equivalent_radii(state: BodyState, library: ShapeLibrary) -> np.ndarray:
 class PolyhedronRows:
     """A neighbour list of polyhedra as the kernels take it (module docstring): one row per
     body pair or polyhedron-wall pair found at the detection, its spring and its outputs."""
+
+    size_words = "inscribed radius"
+    """What :attr:`smallest_radius` [m] is, in a diagnosis."""
 
     def __init__(self, contacts: Contacts, images, state: BodyState, library: ShapeLibrary,
                  bounds, friction: float) -> None:
@@ -231,31 +234,23 @@ class PolyhedronRows:
             self.point_force, self.point_velocity, self.feature_i, self.feature_j,
             self.pair_type, self.bodies, self.library, self.world, self.tolerances)
 
-    def advance(self, run, solver, n_steps: int, h: float, overlap_limit: float) -> int:
+    def advance(self, run, solver, n_steps: int, h: float) -> int:
         """Up to ``n_steps`` sub-steps of ``h`` [s] (0: only the loads now) for the solver's
         step ``run`` (:class:`~grainlab.engine.dem.soft_contact.SoftContactStep`'s); returns those
-        done. A penetration beyond ``overlap_limit`` x the smallest inscribed radius stops the
-        run."""
+        done."""
         law = solver.law
-        done = substeps(
+        return substeps(
             n_steps, h, float(solver.skin), (law.code, law.params, 0.0), law.local_damping,
             solver.gravity, self.arrays(), run.body_arrays(self.travel),
             run.wall_face(run.wall_disp.copy()), run.cell_face(solver, run.cell_h.copy()),
             run.virial, run.stats, False)
-        if run.stats[0] > overlap_limit * self.smallest_radius:
-            raise SimulationBlowUp(
-                f"runaway penetration in the soft-contact step: {run.stats[0]:.3g} m, more "
-                f"than {overlap_limit} x the smallest inscribed radius "
-                f"{self.smallest_radius:.3g} m; the contacts are too soft for the load "
-                f"({law.model}) or the sub-step {h:.3g} s too long for their stiffness.")
-        return int(done)
 
-    def damped_substep(self, run, solver, horizon: float, overlap_limit: float) -> float:
+    def damped_substep(self, run, solver, horizon: float) -> float:
         """The dashpots' bound [s] on the sub-step for these pairs, their manifolds evaluated
         now (a step of no sub-step: the loads, as the step's own start then computes them
         again), each penetrating point at its overlap after ``horizon`` [s] of approach
         (:func:`~grainlab.engine.dem.soft_stability.polyhedron_elements_kernel`)."""
-        self.advance(run, solver, 0, solver.spring_substep, overlap_limit)
+        self.advance(run, solver, 0, solver.spring_substep)
         law, state = solver.law, run.state
         p, k = self.point_gap.shape
         e = p * (k + 1)
@@ -286,10 +281,11 @@ class PolyhedronRows:
                 np.ones(pair.shape[0], dtype=np.bool_), self.point_position[kept],
                 self.point_normal[kept], self.point_velocity[kept])
 
-    def report(self, run, macro: float) -> tuple[StepReport, np.ndarray]:
+    def report(self, run, macro: float) -> tuple[StepReport, ClosedContacts]:
         """The penetrating points at the end of the step, as a step report (module
         docstring): impulses = (normal force + share of the pair's tangential force) x
-        ``macro`` [s]; and those forces (C, 3) [N] in the world frame."""
+        ``macro`` [s]; and as the boundary reads them, with those forces (C, 3) [N] in the
+        world frame."""
         k = self.point_gap.shape[1]
         kept = np.arange(k)[None, :] < self.n_points[:, None]
         pair = np.repeat(np.arange(self.pair_j.shape[0]), self.n_points)
@@ -302,12 +298,13 @@ class PolyhedronRows:
         frames = contact_frames(normal)
         impulses = np.einsum("cij,cj->ci", frames, self.point_force[kept]) * macro
         relative = np.einsum("cij,cj->ci", frames, self.point_velocity[kept])
-        return StepReport(
+        report = StepReport(
             n_contacts=contacts.n_contacts, iterations=0, converged=True, change=0.0,
             residual=0.0, max_overlap=float(run.stats[0]), contacts=contacts, frames=frames,
             impulses=impulses, relative_velocity=relative, images=self.images[pair],
-            explicit=True), \
-            self.point_force[kept]
+            explicit=True)
+        return report, ClosedContacts(report.contacts, report.image_vectors, report.impulses,
+                                      self.point_force[kept])
 
 
 def _world_layout(state: BodyState, library: ShapeLibrary) -> tuple:

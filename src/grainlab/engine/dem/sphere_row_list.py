@@ -6,11 +6,16 @@ builds and keeps it)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from grainlab.engine.dem.neighbour_rows import member_rows_kernel
 from grainlab.engine.dem.soft_contact_kernels import body_rows, plain_blocks
+from grainlab.engine.dem.soft_stability import damped_limit, sphere_rows_rates
+from grainlab.engine.dem.soft_step_report import SoftStepReport
 from grainlab.engine.dem.substep_arrays import ROW_BLOCK, SphereRowArrays
+from grainlab.engine.dem.substep_loop import substeps
 from grainlab.engine.detect.narrow_phase import Contacts
 
 
@@ -25,6 +30,8 @@ class SphereRows:
              "adj_entry", "xi", "roll", "keys", "travel", "approach", "built_walls",
              "wall_normals", "built_cell")
     """The arrays that restore a list (checkpoints); the rest is recomputed by the kernels."""
+    size_words = "member radius"
+    """What :attr:`smallest_radius` is, in a diagnosis."""
 
     def __init__(self, contacts: Contacts | None, images=None, state=None, library=None,
                  bounds=None, friction=0.0):
@@ -89,6 +96,48 @@ class SphereRows:
                                self.torque_i, self.torque_j, self.gap, self.normal,
                                self.point, self.stiffness, self.rel_vel, self.approach,
                                self.partial, self.plain, self.springs)
+
+    @property
+    def smallest_radius(self) -> float:
+        """The smallest member radius of the rows [m] (inf for no row): an overlap is judged
+        against it."""
+        return float(np.min(self.rad_j)) if self.rad_j.size else math.inf
+
+    def advance(self, run, solver, n_steps: int, h: float) -> int:
+        """Up to ``n_steps`` sub-steps of ``h`` [s] (0: only the loads now) of the solver's
+        step ``run`` (:class:`~grainlab.engine.dem.soft_contact.SoftContactStep`'s) on these
+        rows (:func:`~grainlab.engine.dem.substep_loop.substeps`); returns those done."""
+        law = solver.law
+        return substeps(
+            n_steps, h, float(solver.skin), (law.code, law.params, law.rolling_friction),
+            law.local_damping, solver.gravity, self.arrays(), run.body_arrays(self.travel),
+            run.wall_face(self.built_wall_disp(run.bounds)),
+            run.cell_face(solver, self.built_cell), run.virial, run.stats, run.parallel)
+
+    def damped_substep(self, run, solver, horizon: float) -> float:
+        """The dashpots' bound [s] on the sub-step for these rows' contacts, each at its
+        overlap after ``horizon`` [s] of approach (:mod:`grainlab.engine.dem.soft_stability`)."""
+        bounds, f64, state = run.bounds, np.float64, run.state
+        return damped_limit(*sphere_rows_rates(
+            self, horizon, solver.law, run.inv_mass, run.inv_inertia, state.positions,
+            state.orientations, state.velocities, state.angular_velocities,
+            np.ascontiguousarray(bounds.wall_points, dtype=f64),
+            np.ascontiguousarray(bounds.wall_normals, dtype=f64), run.wall_disp,
+            run.wall_speed, run.cell_h, solver.carried_gradient @ run.cell_h))
+
+    def closed_points(self) -> tuple:
+        """The rows as contacts of :func:`~grainlab.engine.dem.soft_stability.
+        zigzag_sums_kernel`: (body_i, body_j, images, closed, points, normals, relative
+        velocities) of the last evaluation."""
+        return (self.body_i, self.body_j, self.images, self.gap < 0.0, self.point,
+                self.normal, self.rel_vel)
+
+    def report(self, run, macro: float) -> tuple[SoftStepReport, SoftStepReport]:
+        """The contacts closed at the end of the step, as a step report copied out only when
+        read (:class:`~grainlab.engine.dem.soft_step_report.SoftStepReport`; impulses = force
+        x ``macro`` [s]), and as the boundary reads them (the same object)."""
+        report = SoftStepReport(self, macro, float(run.stats[0]))
+        return report, report
 
     def set_friction(self, bounds, friction: float) -> None:
         """The Coulomb coefficients of the rows: ``friction`` between bodies, each wall's
