@@ -48,10 +48,12 @@ def test_a_written_sample_reads_back_as_itself(shape, suffix, tmp_path):
                                   made.library.kind[ids])
     assert read.description["shape"] == shape
     np.testing.assert_allclose(read.state.positions, made.state.positions, atol=1e-12 * scale)
-    np.testing.assert_allclose(read.library.volume, made.library.volume[ids], rtol=1e-12)
+    # a union of member spheres read back is integrated again in the file's frame: two
+    # quadratures agree to 1e-11 (geometry/sphere_aggregate.py), not to the last bits
+    np.testing.assert_allclose(read.library.volume, made.library.volume[ids], rtol=1e-11)
     np.testing.assert_allclose(read.library.principal_inertia,
                                made.library.principal_inertia[ids], rtol=1e-10)
-    np.testing.assert_allclose(read.state.masses, made.state.masses, rtol=1e-12)
+    np.testing.assert_allclose(read.state.masses, made.state.masses, rtol=1e-11)
     for mine, theirs in zip(world_geometry(read), world_geometry(made), strict=True):
         np.testing.assert_allclose(mine, theirs, atol=1e-12 * scale)
     assert np.array_equal(read.box.lower, made.box.lower)
