@@ -137,3 +137,22 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if "validate" in item.keywords:
             item.add_marker(skip)
+
+
+@pytest.fixture
+def register_shape_kind(monkeypatch):
+    """``register(kind)``: a :class:`~grainlab.engine.shape_kinds.ShapeKind` record added to
+    the registry for one test (:data:`~grainlab.engine.shape_kinds.SHAPE_KINDS`, the names
+    and the lookups by name and code, restored after it): what reads the registry when it
+    runs sees the kind, what copied it at import does not."""
+    from grainlab.engine import shape_kinds
+
+    def register(kind):
+        kinds = (*shape_kinds.SHAPE_KINDS, kind)
+        monkeypatch.setattr(shape_kinds, "SHAPE_KINDS", kinds)
+        monkeypatch.setattr(shape_kinds, "SHAPE_KIND_NAMES", tuple(k.name for k in kinds))
+        monkeypatch.setitem(shape_kinds._BY_NAME, kind.name, kind)
+        monkeypatch.setitem(shape_kinds._BY_CODE, kind.code, kind)
+        return kind
+
+    return register

@@ -159,10 +159,10 @@ def test_every_kind_has_a_sample_maker_and_a_drawer():
     assert tuple(SHAPE_KIND_DRAWERS) == SHAPE_KIND_NAMES
 
 
-def test_every_kind_has_a_compile_run_in_the_part_of_its_family():
-    from grainlab.cli.precompile import FAMILY_PARTS, PARTS, TINY_RUNS
+def test_every_family_has_a_compile_run_and_a_part():
+    from grainlab.cli.precompile import FAMILY_PARTS, FAMILY_TINY_RUNS, PARTS
 
-    assert tuple(TINY_RUNS) == SHAPE_KIND_NAMES
+    assert set(FAMILY_TINY_RUNS) == set(NARROW_PHASE_FAMILIES)
     assert set(FAMILY_PARTS) == set(NARROW_PHASE_FAMILIES)
     assert set(FAMILY_PARTS.values()) <= set(PARTS)
 
@@ -199,3 +199,20 @@ def test_the_cli_shape_help_lists_every_registered_shape():
 
     for name, maker in SAMPLE_SHAPES.items():
         assert f"{name} ({maker.description})" in SHAPE_HELP
+
+
+def test_a_library_takes_its_kind_of_the_right_family_only():
+    """from_aggregates and from_polyhedra write the kind they are given (aggregates and
+    polyhedra unless told); a kind of the other family is refused naming the field."""
+    pair = SphereAggregate.from_spheres(np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0]]),
+                                        np.array([0.4, 0.4]))
+    assert ShapeLibrary.from_aggregates([pair]).kind.tolist() == [AGGREGATE.code]
+    assert ShapeLibrary.from_aggregates([pair], SPHERE).kind.tolist() == [SPHERE.code]
+    assert ShapeLibrary.from_polyhedra([cube(1.0)]).kind.tolist() == [POLYHEDRON.code]
+    for make, shape, kind in ((ShapeLibrary.from_aggregates, pair, POLYHEDRON),
+                              (ShapeLibrary.from_polyhedra, cube(1.0), AGGREGATE)):
+        with pytest.raises(InputError) as error:
+            make([shape], kind)
+        assert error.value.field == "kind" and error.value.value == kind.name
+    with pytest.raises(InputError, match="kind"):  # a record not in the registry
+        ShapeLibrary.from_aggregates([pair], dataclasses.replace(AGGREGATE, code=99))

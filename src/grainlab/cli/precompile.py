@@ -4,14 +4,18 @@ grainlab's kernels are compiled by Numba on their first call and cached on disk 
 for every later process; on two cores the first discrete run spends one to two minutes
 compiling. This command runs tiny versions of every kind of work once, so that the compilation
 happens now, with a message, instead of inside a user's first test, and can be split over
-processes: ``--part discrete`` (contact dynamics of the sphere-based shape kinds, spheres
-and aggregates, the deposition of dense samples, sample measures, snapshots, microstructure
-analysis, ParaView export, the solvers of the plain contact problem),
-``--part polyhedra`` (the kinds of the polyhedron family: contact geometry and dynamics;
+processes: ``--part discrete`` (contact dynamics of every kind of the member-sphere family,
+spheres and aggregates, the deposition of dense samples, sample measures, snapshots,
+microstructure analysis, ParaView export, the solvers of the plain contact problem),
+``--part polyhedra`` (every kind of the polyhedron family: contact geometry and dynamics;
 :data:`FAMILY_PARTS`), ``--part theories`` (the regular-packing and micro-element
 models) and ``--part dem`` (the soft-contact solver, in a box of walls and in a periodic
 cell, spheres and polyhedra); ``--part all`` runs them in turn. Nothing is kept but the
 compiled code.
+
+Each registered shape kind (:data:`~grainlab.engine.shape_kinds.SHAPE_KINDS`) gets the tiny
+triaxial run of its narrow-phase family (:data:`FAMILY_TINY_RUNS`) in the part of its family
+(:data:`FAMILY_PARTS`): a new kind of an existing family is compiled without an entry here.
 """
 
 from __future__ import annotations
@@ -28,13 +32,12 @@ from rich.console import Console
 
 from grainlab.cli.errors import friendly_errors
 from grainlab.engine.shape_kinds import (
-    AGGREGATE,
     MEMBER_SPHERES,
     POLYHEDRON,
     POLYHEDRON_FEATURES,
-    SHAPE_KINDS,
     SPHERE,
     ShapeKind,
+    kinds_of_family,
 )
 from grainlab.errors import InputError
 
@@ -44,20 +47,20 @@ PARTS = ("discrete", "polyhedra", "theories", "dem")
 """The parts of the compilation (``--part``), each a set of tiny runs."""
 
 
-_SPHERE_BASED_RUN = {"sample": {"n_particles": 24, "seed": 1},
+FAMILY_TINY_RUNS: dict[str, dict[str, Any]] = {
+    MEMBER_SPHERES: {"sample": {"n_particles": 24, "seed": 1},
                      "solver": {"max_stage_steps": 400,
-                                "compaction": {"inertia_number": 0.05}}}
-
-TINY_RUNS: dict[str, dict[str, Any]] = {
-    SPHERE.name: _SPHERE_BASED_RUN,
-    AGGREGATE.name: _SPHERE_BASED_RUN,
-    POLYHEDRON.name: {"sample": {"n_particles": 8, "n_faces": 8, "templates": 2, "seed": 1},
-                      "solver": {"max_stage_steps": 200,
-                                 "compaction": {"inertia_number": 0.05,
-                                                "time_step_factor": 0.02}}},
+                                "compaction": {"inertia_number": 0.05}}},
+    POLYHEDRON_FEATURES: {"sample": {"n_particles": 8, "n_faces": 8, "templates": 2,
+                                     "seed": 1},
+                          "solver": {"max_stage_steps": 200,
+                                     "compaction": {"inertia_number": 0.05,
+                                                    "time_step_factor": 0.02}}},
 }
-"""The tiny triaxial run that compiles the kernels of each shape kind
-(:data:`~grainlab.engine.shape_kinds.SHAPE_KINDS`), as config updates of :func:`_tiny_config`."""
+"""The tiny triaxial run that compiles the kernels of every shape kind of each narrow-phase
+family (:data:`~grainlab.engine.shape_kinds.NARROW_PHASE_FAMILIES`), as config updates of
+:func:`_tiny_config` (a sample key the kind's maker does not take, such as ``n_faces``, is
+not used)."""
 
 FAMILY_PARTS = {MEMBER_SPHERES: "discrete", POLYHEDRON_FEATURES: "polyhedra"}
 """The part that compiles the kinds of each narrow-phase family."""
@@ -72,15 +75,17 @@ def _tiny_config(kind: ShapeKind, sweep: str = "serial"):
         "solver": {"sweep": sweep, "at_max_stage_steps": "next_stage",
                    "shear": {"inertia_number": 0.01}},
         "output": {"record_every": 5, "snapshot_every": 50, "checkpoint_every": 0},
-    }).with_updates(TINY_RUNS[kind.name])
+    }).with_updates(FAMILY_TINY_RUNS[kind.narrow_phase])
 
 
 def _kinds_of(part: str) -> tuple[ShapeKind, ...]:
-    return tuple(k for k in SHAPE_KINDS if FAMILY_PARTS[k.narrow_phase] == part)
+    """The registered kinds whose family's runs are in ``part``, in code order."""
+    return tuple(sorted((kind for family, where in FAMILY_PARTS.items() if where == part
+                         for kind in kinds_of_family(family)), key=lambda kind: kind.code))
 
 
 def _discrete_runs(folder: Path) -> None:
-    """Each sphere-based kind with the serial sweep, the first also with the coloured one;
+    """Each member-sphere kind with the serial sweep, the first also with the coloured one;
     then the analyses and the ParaView export of the first; the sample deposition."""
     from grainlab.analysis.snapshot_files import read_snapshots
     from grainlab.analysis.trajectory import TrajectoryAnalysis

@@ -29,16 +29,40 @@ Every shape of a :class:`~grainlab.engine.state.ShapeLibrary` carries an integer
 
 Lookups: :func:`shape_kind` (a name or a code; anything else is an
 :class:`~grainlab.errors.InputError` listing :data:`SHAPE_KIND_NAMES`), :data:`SHAPE_KINDS`
-(in code order), :func:`kinds_present`, :func:`family_mask`. The layers above keep their own
-tables keyed by the same names: how a loose sample of each kind is made
-(:data:`grainlab.prep.sample_shapes.SAMPLE_SHAPES`) and how each kind is drawn
+(in code order), :func:`kinds_present`, :func:`kinds_of_family`, :func:`family_mask`. Two
+layers above keep their own tables keyed by the same names: how a loose sample of each kind
+is made (:data:`grainlab.prep.sample_shapes.SAMPLE_SHAPES`) and how each kind is drawn
 (:data:`grainlab.report.shape_drawing.SHAPE_KIND_DRAWERS`); tests check that every
-registered kind has an entry in both.
+registered kind has an entry in both. Others follow a kind's family: the compile runs
+(:data:`grainlab.cli.precompile.FAMILY_TINY_RUNS` and ``FAMILY_PARTS``) and the particle
+files (:mod:`grainlab.prep.particle_files`: a kind's points are its member spheres or its
+vertices, and a particle reads back with its own code).
 
-A new convex shape (superquadrics, cylinders) touches seven files, two of them new:
+A new kind of an existing family (a shape of member spheres, such as a dimer of two
+spheres, or a polyhedron of a shape of its own) touches three files:
 
-1. this module: its :class:`ShapeKind` record (and a new family beside
-   :data:`POLYHEDRON_FEATURES`, since neither member spheres nor planar faces describe it);
+1. this module: its :class:`ShapeKind` record, in :data:`SHAPE_KINDS` with the next code;
+2. :mod:`grainlab.prep.sample_shapes`: its maker (radii -> library) in ``SAMPLE_SHAPES``;
+3. :mod:`grainlab.report.shape_drawing`: its drawer in ``SHAPE_KIND_DRAWERS`` (its
+   family's: member spheres or polyhedra);
+
+plus its tests (those that list every kind by name: the codes are stored in checkpoints and
+never renumbered). Six more when its maker takes parameters of its own (as ``n_faces`` for
+polyhedra), which the layers pass by name: the keywords of
+:func:`grainlab.prep.loose_sample.loose_sample` and of
+:mod:`grainlab.prep.inscribed_sample`, the key of ``[sample]`` in
+:mod:`grainlab.lab.run_config`, its passing in :func:`grainlab.lab.discrete_run.build_sample`,
+``SHAPE_KEYS`` in :mod:`grainlab.lab.option_scope` and the option in
+:mod:`grainlab.cli.run_options`. The CLI's ``--shape`` values and help, the config's allowed
+shapes, the time step, the gyroscopic term, the network's pair types, the compile runs and
+the particle files follow the registries without change.
+
+A new convex shape that neither member spheres nor planar faces describe (superquadrics,
+cylinders) needs a new family beside :data:`POLYHEDRON_FEATURES`, and touches nine files,
+two of them new:
+
+1. this module: its :class:`ShapeKind` record and its family in
+   :data:`NARROW_PHASE_FAMILIES`;
 2. ``geometry/<shape>.py`` (new): its mass properties (volume, principal inertia, body
    frame) and support function;
 3. :mod:`grainlab.engine.state`: the library arrays of its parameters, a ``from_<shapes>``
@@ -47,14 +71,11 @@ A new convex shape (superquadrics, cylinders) touches seven files, two of them n
 5. :mod:`grainlab.engine.detect.narrow_phase`: the launcher calling those kernels for the new
    family's pairs (the families' kernels take different arrays: no generic loop);
 6. :mod:`grainlab.prep.sample_shapes`: its maker (radii -> library);
-7. :mod:`grainlab.report.shape_drawing`: its drawer.
+7. :mod:`grainlab.report.shape_drawing`: its drawer;
+8. :mod:`grainlab.cli.precompile`: its family's tiny run and part;
+9. :mod:`grainlab.prep.particle_files`: the points that describe its particles in a file;
 
-Three more when its maker takes parameters of its own (as ``n_faces`` for polyhedra): the
-keyword of :func:`grainlab.prep.loose_sample.loose_sample`, the key of ``[sample]`` in
-:mod:`grainlab.lab.run_config` and the option in :mod:`grainlab.cli.run_options`. Ten in all;
-plus its tests. The CLI's ``--shape`` values and help, the config's allowed shapes, the time
-step, the gyroscopic term, the network's pair types and the compile runs follow the
-registries without change.
+and the six above when its maker takes parameters of its own; plus its tests.
 
 >>> shape_kind("polyhedron").code, shape_kind(0).plural
 (2, 'spheres')
@@ -186,13 +207,18 @@ def kinds_present(codes: Iterable[int] | np.ndarray, field: str = "kind"
     return tuple(shape_kind(int(c), field) for c in np.unique(np.asarray(codes, np.int64)))
 
 
+def kinds_of_family(family: str) -> tuple[ShapeKind, ...]:
+    """The registered kinds of the narrow-phase ``family`` (:data:`NARROW_PHASE_FAMILIES`),
+    in code order."""
+    if family not in NARROW_PHASE_FAMILIES:
+        raise InputError("family", family, "one of " + ", ".join(NARROW_PHASE_FAMILIES))
+    return tuple(k for k in SHAPE_KINDS if k.narrow_phase == family)
+
+
 def family_mask(codes: np.ndarray, family: str) -> np.ndarray:
     """(N,) bool: which of the kind codes ``codes`` (N,) belong to the narrow-phase
     ``family`` (:data:`NARROW_PHASE_FAMILIES`)."""
-    if family not in NARROW_PHASE_FAMILIES:
-        raise InputError("family", family, "one of " + ", ".join(NARROW_PHASE_FAMILIES))
-    members = [k.code for k in SHAPE_KINDS if k.narrow_phase == family]
-    return np.isin(np.asarray(codes), members)
+    return np.isin(np.asarray(codes), [k.code for k in kinds_of_family(family)])
 
 
 def library_time_step_length(library: ShapeLibrary) -> float:

@@ -55,10 +55,13 @@ from grainlab._numba_setup import kernel_input
 from grainlab.engine.quaternion import quat_to_matrices
 from grainlab.engine.shape_kinds import (
     AGGREGATE,
+    MEMBER_SPHERES,
     POLYHEDRON,
     POLYHEDRON_FEATURES,
     SPHERE,
+    ShapeKind,
     family_mask,
+    kinds_of_family,
     shape_kind,
 )
 from grainlab.errors import InputError
@@ -301,17 +304,20 @@ class ShapeLibrary:
         )
 
     @classmethod
-    def from_aggregates(cls, aggregates: list[SphereAggregate]) -> ShapeLibrary:
-        """One aggregate shape per :class:`SphereAggregate` (its body frame is kept)."""
+    def from_aggregates(cls, aggregates: list[SphereAggregate],
+                        kind: ShapeKind = AGGREGATE) -> ShapeLibrary:
+        """One shape of ``kind`` (a kind of the member-sphere family; aggregates unless told)
+        per :class:`SphereAggregate` (its body frame is kept)."""
         if len(aggregates) == 0:
             raise InputError("aggregates", aggregates, "a non-empty list of SphereAggregate")
+        _check_family("kind", kind, MEMBER_SPHERES)
         for k, agg in enumerate(aggregates):
             if not isinstance(agg, SphereAggregate):
                 raise InputError(f"aggregates[{k}]", type(agg).__name__, "a SphereAggregate")
         counts = np.array([agg.n_spheres for agg in aggregates], dtype=np.int64)
         starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
         return cls(
-            kind=np.full(len(aggregates), AGGREGATE.code), sphere_start=starts,
+            kind=np.full(len(aggregates), kind.code), sphere_start=starts,
             sphere_count=counts,
             sphere_offsets=np.concatenate([agg.centres for agg in aggregates]),
             sphere_radii=np.concatenate([agg.radii for agg in aggregates]),
@@ -321,11 +327,14 @@ class ShapeLibrary:
         )
 
     @classmethod
-    def from_polyhedra(cls, polyhedra: list[ConvexPolyhedron]) -> ShapeLibrary:
-        """One polyhedron shape per :class:`~grainlab.geometry.polyhedron.ConvexPolyhedron`
-        (its body frame, merged planar faces and edges of the solid are kept)."""
+    def from_polyhedra(cls, polyhedra: list[ConvexPolyhedron],
+                       kind: ShapeKind = POLYHEDRON) -> ShapeLibrary:
+        """One shape of ``kind`` (a kind of the polyhedron family; polyhedra unless told) per
+        :class:`~grainlab.geometry.polyhedron.ConvexPolyhedron` (its body frame, merged planar
+        faces and edges of the solid are kept)."""
         if len(polyhedra) == 0:
             raise InputError("polyhedra", polyhedra, "a non-empty list of ConvexPolyhedron")
+        _check_family("kind", kind, POLYHEDRON_FEATURES)
         for k, shape in enumerate(polyhedra):
             if not isinstance(shape, ConvexPolyhedron):
                 raise InputError(f"polyhedra[{k}]", type(shape).__name__,
@@ -341,7 +350,7 @@ class ShapeLibrary:
         np.cumsum(face_sizes, out=face_vertex_start[1:])
         neighbour_start, neighbours = _vertex_neighbours(edges, vertex_count)
         return cls(
-            kind=np.full(n, POLYHEDRON.code), sphere_start=np.zeros(n, dtype=np.int64),
+            kind=np.full(n, kind.code), sphere_start=np.zeros(n, dtype=np.int64),
             sphere_count=np.zeros(n, dtype=np.int64), sphere_offsets=np.zeros((0, 3)),
             sphere_radii=np.zeros(0), volume=np.array([p.volume for p in polyhedra]),
             principal_inertia=np.array([p.principal_moments for p in polyhedra]),
@@ -404,6 +413,15 @@ class ShapeLibrary:
         if not np.any(family_mask(self.kind, POLYHEDRON_FEATURES)):
             return 0
         return int(np.max(self.vertex_count + self.edge_count + self.face_count))
+
+
+def _check_family(field: str, kind: ShapeKind, family: str) -> None:
+    """An InputError naming ``field`` unless ``kind`` is a registered kind of ``family``."""
+    if not isinstance(kind, ShapeKind) or shape_kind(kind.code, field) != kind \
+            or kind.narrow_phase != family:
+        raise InputError(field, getattr(kind, "name", kind),
+                         "a registered shape kind of the narrow-phase family " + family + ": "
+                         + ", ".join(k.name for k in kinds_of_family(family)))
 
 
 def _starts(counts: np.ndarray) -> np.ndarray:

@@ -3,8 +3,8 @@
 A run's ``config.toml`` has four tables, ``[solver]`` with a sub-table per kind of stage;
 every key has a default, an unknown key is an error that names it::
 
-    [sample]   shape (a name of :data:`~grainlab.prep.sample_shapes.SAMPLE_SHAPES`:
-               "sphere" | "aggregate" | "polyhedron"), n_particles, d_min [m],
+    [sample]   shape (a name of :data:`~grainlab.prep.sample_shapes.SAMPLE_SHAPES`, such
+               as "sphere", "aggregate", "polyhedron"), n_particles, d_min [m],
                size_ratio, eta (aggregates), n_faces and templates (polyhedra), density
                [kg/m^3], packing_fraction (loose start), wall_friction, seed, boundary
                ("walls" | "periodic"), height_ratio (the start box's height / width),

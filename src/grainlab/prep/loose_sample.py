@@ -131,7 +131,7 @@ def loose_sample(
     Parameters
     ----------
     shape:
-        A name of :data:`~grainlab.prep.sample_shapes.SAMPLE_SHAPES`: ``"sphere"``,
+        A name of :data:`~grainlab.prep.sample_shapes.SAMPLE_SHAPES`, such as ``"sphere"``,
         ``"aggregate"`` (seed 003's tetrahedral aggregates of 4 spheres) or ``"polyhedron"``
         (seed 002's random convex polyhedra).
     n_particles:

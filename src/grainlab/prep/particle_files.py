@@ -2,20 +2,26 @@
 
 A particle file lists points, each of one particle (seeds 002/003 prepare their samples
 themselves; a user may bring a packing made elsewhere, e.g. exported from LMGC90 or YADE, or
-one grainlab wrote):
+one grainlab wrote). Each point names its particle's kind, a name of the registry
+:data:`~grainlab.engine.shape_kinds.SHAPE_KINDS`, whose narrow-phase family says what the
+points are:
 
 - a ``sphere``: one point, its centre, with its radius;
-- an ``aggregate`` (seed 003): one point per member sphere, its centre, with its radius;
-- a ``polyhedron`` (seed 002): one point per vertex (radius 0 or empty); the particle is the
-  convex hull of its vertices (qhull).
+- a kind of the member-sphere family (an ``aggregate``, seed 003): one point per member
+  sphere, its centre, with its radius;
+- a kind of the polyhedron family (a ``polyhedron``, seed 002): one point per vertex (radius
+  0 or empty); the particle is the convex hull of its vertices (qhull).
+
+A particle read back keeps its kind's code (a kind written is the kind read).
 
 grainlab finds each particle's centre of mass, principal axes and mass properties from this
 geometry (:meth:`~grainlab.geometry.polyhedron.ConvexPolyhedron.from_vertices`,
 :meth:`~grainlab.geometry.sphere_aggregate.SphereAggregate.from_spheres`): the body sits at
-its centre of mass, oriented by its principal axes, at rest. Spheres and aggregates may be
-mixed in one file; polyhedra may not be mixed with either (the engine's narrow phases do not
-pair them). The box of walls is the file's own (``lower`` and ``upper`` corners) or, when
-it gives none, the particles' extent (walls touching the outermost particles).
+its centre of mass, oriented by its principal axes, at rest. Kinds of one family may be
+mixed in one file (spheres and aggregates); kinds of the two families may not (polyhedra
+are not paired with sphere-based particles here). The box of walls is the file's own
+(``lower`` and ``upper`` corners) or, when it gives none, the particles' extent (walls
+touching the outermost particles).
 
 Two formats, by suffix:
 
@@ -51,7 +57,7 @@ from grainlab._validate import at_least
 from grainlab.engine.boundaries.wall_box import WallBox
 from grainlab.engine.discrete_sample import DiscreteSample
 from grainlab.engine.quaternion import quat_to_matrices
-from grainlab.engine.shape_kinds import AGGREGATE, POLYHEDRON, SPHERE
+from grainlab.engine.shape_kinds import POLYHEDRON_FEATURES, SPHERE, ShapeKind, shape_kind
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron import ConvexPolyhedron
@@ -59,9 +65,6 @@ from grainlab.geometry.sphere_aggregate import SphereAggregate
 
 CSV_COLUMNS = ("particle", "kind", "x", "y", "z", "radius")
 """The header of a particle CSV file (coordinates and radii in metres)."""
-
-KINDS = (SPHERE.name, AGGREGATE.name, POLYHEDRON.name)
-"""The particle kinds a file may hold."""
 
 BOX_ROWS = ("lower", "upper")
 """The kinds of the two optional rows that give the box corners."""
@@ -96,6 +99,7 @@ def write_particles(sample: DiscreteSample, path: str | Path) -> Path:
         raise InputError("sample.boundary", type(sample.boundary).__name__,
                          "a box of walls (a periodic cell has no corners to write)")
     particle, kind, points, radii = _world_points(sample.library, sample.state)
+    vertices = {name for name in set(kind) if not shape_kind(name).has_member_spheres}
     lower, upper = sample.boundary.lower, sample.boundary.upper
     if path.suffix == ".npz":
         np.savez(path, particle=particle, kind=np.array(kind), points=points, radii=radii,
@@ -106,7 +110,7 @@ def write_particles(sample: DiscreteSample, path: str | Path) -> Path:
         writer.writerow(CSV_COLUMNS)
         for p, k, x, r in zip(particle, kind, points, radii, strict=True):
             writer.writerow([int(p), k, *(repr(float(c)) for c in x),
-                             "" if k == POLYHEDRON.name else repr(float(r))])
+                             "" if k in vertices else repr(float(r))])
         for name, corner in zip(BOX_ROWS, (lower, upper), strict=True):
             writer.writerow([-1, name, *(repr(float(c)) for c in corner), ""])
     return path
@@ -216,18 +220,15 @@ def _sample(rows: _Rows, *, density: float, wall_friction: float, where: str
     congruent = _CongruentAggregates()
     for k in np.argsort(first):
         pid, mine = ids[k], by_particle[bounds[k]:bounds[k + 1]]
-        names = {rows.kind[i] for i in mine}
         label = f"{where}: particle {pid}"
-        if len(names) != 1 or next(iter(names)) not in KINDS:
-            raise InputError(f"{label} kind", ", ".join(sorted(names)),
-                             "one of " + ", ".join(KINDS) + " for all its rows")
-        kind = names.pop()
+        kind = _kind_of_rows({rows.kind[i] for i in mine}, label)
         shapes.append(_shape(kind, rows.points[mine], rows.radii[mine], label, congruent))
         kinds.append(kind)
-    if POLYHEDRON.name in kinds and set(kinds) != {POLYHEDRON.name}:
-        raise InputError(f"{where}: kind", ", ".join(sorted(set(kinds))),
-                         "polyhedra alone, or spheres and aggregates (polyhedra are not "
-                         "paired with sphere-based particles)")
+    families = {kind.narrow_phase for kind in kinds}
+    if len(families) > 1:
+        raise InputError(f"{where}: kind", ", ".join(sorted({k.name for k in kinds})),
+                         "kinds of one narrow-phase family: polyhedra alone, or spheres and "
+                         "aggregates (polyhedra are not paired with sphere-based particles)")
     library, positions, rotations = _library(shapes, kinds)
     lower, upper = _box(rows, library, where)
     orientations = Rotation.from_matrix(rotations).as_quat()[:, [3, 0, 1, 2]]  # w first
@@ -237,21 +238,31 @@ def _sample(rows: _Rows, *, density: float, wall_friction: float, where: str
     box = WallBox(lower, upper, friction=wall_friction)
     box.set_masses(float(np.sum(state.masses)))
     diameters = 2.0 * library.bounding_radius
-    shape = kinds[0] if len(set(kinds)) == 1 else "mixed"
+    shape = kinds[0].name if len(set(kinds)) == 1 else "mixed"
     description = {"shape": shape, "n_particles": len(shapes),
                    "d_min": float(diameters.min()), "d_max": float(diameters.max()),
                    "density": density, "preparation": "file"}
-    if shape == POLYHEDRON.name:
+    if families == {POLYHEDRON_FEATURES}:
         description["mean_angularity"] = float(np.mean([p.angularity for p in shapes]))
     return DiscreteSample(library, state, box, description)
 
 
-def _shape(kind: str, points: np.ndarray, radii: np.ndarray, label: str,
+def _kind_of_rows(names: set[str], label: str) -> ShapeKind:
+    """The registered kind named by every row of one particle (``names``, the names its
+    rows give); an InputError naming ``label``'s kind for none, several or an unknown one."""
+    try:
+        return shape_kind(next(iter(names)) if len(names) == 1 else None, f"{label} kind")
+    except InputError as error:
+        raise InputError(f"{label} kind", ", ".join(sorted(names)),
+                         f"{error.allowed}, one for all its rows") from None
+
+
+def _shape(kind: ShapeKind, points: np.ndarray, radii: np.ndarray, label: str,
            congruent: _CongruentAggregates):
-    """The shape of one particle from its world points: a sphere (centre, radius), an
-    aggregate (``congruent`` finds a copy of one already made) or a polyhedron (their body
-    frame, rotation and centre of mass)."""
-    if kind == POLYHEDRON.name:
+    """The shape of one particle of ``kind`` from its world points: a sphere (centre,
+    radius), member spheres (a :class:`SphereAggregate`; ``congruent`` finds a copy of one
+    already made) or a polyhedron (their body frame, rotation and centre of mass)."""
+    if not kind.has_member_spheres:
         if points.shape[0] < 4:
             raise InputError(f"{label} vertices", points.shape[0],
                              "at least 4 vertices, not all in one plane")
@@ -261,7 +272,7 @@ def _shape(kind: str, points: np.ndarray, radii: np.ndarray, label: str,
             raise InputError(f"{label} vertices", error.value, error.allowed) from None
     if np.any(radii <= 0.0):
         raise InputError(f"{label} radius", float(radii.min()), "positive radii in m")
-    if kind == SPHERE.name:
+    if kind == SPHERE:
         if points.shape[0] != 1:
             raise InputError(f"{label} rows", points.shape[0],
                              "one row (its centre and radius) for a sphere")
@@ -322,29 +333,28 @@ def _rotation_onto(centred: np.ndarray, points: np.ndarray, tolerance: float
     return turn
 
 
-def _library(shapes: list, kinds: list[str]) -> tuple[ShapeLibrary, np.ndarray, np.ndarray]:
-    """The library (one shape per particle, in file order), the centres of mass (N, 3) [m]
-    and the body-to-world rotations (N, 3, 3)."""
+def _library(shapes: list, kinds: list[ShapeKind]
+             ) -> tuple[ShapeLibrary, np.ndarray, np.ndarray]:
+    """The library (one shape per particle, in file order, each of its kind's code), the
+    centres of mass (N, 3) [m] and the body-to-world rotations (N, 3, 3)."""
     n = len(shapes)
     positions, rotations = np.empty((n, 3)), np.tile(np.eye(3), (n, 1, 1))
-    if kinds[0] == POLYHEDRON.name:
-        for k, shape in enumerate(shapes):
-            positions[k], rotations[k] = shape.centre_of_mass, shape.rotation
-        return ShapeLibrary.from_polyhedra(shapes), positions, rotations
     parts = []  # runs of consecutive particles of one kind, concatenated in order
     start = 0
     while start < n:
-        stop = start
-        while stop < n and kinds[stop] == kinds[start]:
+        stop, kind = start, kinds[start]
+        while stop < n and kinds[stop] == kind:
             stop += 1
         run = shapes[start:stop]
-        if kinds[start] == SPHERE.name:
+        if kind == SPHERE:
             positions[start:stop] = [centre for centre, _ in run]
             parts.append(ShapeLibrary.from_spheres(np.array([r for _, r in run])))
-        else:
-            for k, shape in enumerate(run, start=start):
-                positions[k], rotations[k] = shape.centre_of_mass, shape.rotation
-            parts.append(ShapeLibrary.from_aggregates(run))
+            start = stop
+            continue
+        for k, shape in enumerate(run, start=start):
+            positions[k], rotations[k] = shape.centre_of_mass, shape.rotation
+        parts.append(ShapeLibrary.from_aggregates(run, kind) if kind.has_member_spheres
+                     else ShapeLibrary.from_polyhedra(run, kind))
         start = stop
     library = parts[0]
     for part in parts[1:]:
@@ -387,19 +397,17 @@ def _world_points(library: ShapeLibrary, state: BodyState
     particle, kind, points, radii = [], [], [], []
     for b in range(state.n_bodies):
         s = int(state.shape_ids[b])
-        code = int(library.kind[s])
-        if code == POLYHEDRON.code:
+        shape = shape_kind(int(library.kind[s]), f"library.kind[{s}]")
+        if not shape.has_member_spheres:
             start, count = int(library.vertex_start[s]), int(library.vertex_count[s])
             local, r = library.vertices[start:start + count], np.zeros(count)
-            name = POLYHEDRON.name
         else:
             start, count = int(library.sphere_start[s]), int(library.sphere_count[s])
             local = library.sphere_offsets[start:start + count]
             r = library.sphere_radii[start:start + count]
-            name = SPHERE.name if code == SPHERE.code else AGGREGATE.name
         points.append(state.positions[b] + local @ rotations[b].T)
         radii.append(r)
         particle += [b] * count
-        kind += [name] * count
+        kind += [shape.name] * count
     return (np.array(particle, dtype=np.int64), kind, np.concatenate(points),
             np.concatenate(radii))
