@@ -11,6 +11,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from grainlab.engine.boundaries.periodic_boundary import PeriodicCell
 from grainlab.lab.discrete_test import DiscreteTest, DiscreteTestSettings
 from grainlab.lab.load_path import LoadPath, LoadStage, frame_rotation
 from grainlab.lab.presets import (
@@ -36,7 +37,7 @@ SETTINGS = DiscreteTestSettings(record_every=5,
 
 @pytest.fixture(scope="module")
 def compacted():
-    sample = loose_sample(n_particles=150, size_ratio=1.2, seed=4, boundary="periodic")
+    sample = loose_sample(n_particles=150, size_ratio=1.2, seed=4, boundary=PeriodicCell.around)
     test = DiscreteTest(sample, isotropic_compression(p_final=P, n_steps=1), SETTINGS)
     assert test.run()
     return sample

@@ -9,6 +9,7 @@ import inspect
 
 import pytest
 
+from grainlab.lab.boundary_registry import boundary_record
 from grainlab.lab.box_boundary import BoxBoundary
 from grainlab.lab.cell_boundary import CellBoundary
 from grainlab.lab.discrete_test import DiscreteTest, DiscreteTestSettings
@@ -45,7 +46,7 @@ def test_each_boundary_gives_the_loop_all_it_asks(kind):
     ("walls", "dem", BoxBoundary, set()),
 ])
 def test_a_checkpoint_keeps_the_progress_it_kept(boundary, method, kind, extra):
-    sample = loose_sample(n_particles=20, seed=1, boundary=boundary)
+    sample = loose_sample(n_particles=20, seed=1, boundary=boundary_record(boundary).around)
     test = DiscreteTest(sample, triaxial_compression(confining=1e4, axial_strain=0.01, n_steps=1),
                         DiscreteTestSettings(method=method))
     assert isinstance(test.boundary, kind)

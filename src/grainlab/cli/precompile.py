@@ -166,17 +166,21 @@ def _theory_runs(folder: Path) -> None:
 
 
 def _dem_runs(folder: Path) -> None:
-    """The soft-contact solver's kernels: a tiny triaxial test in a box of walls and one in
-    a periodic cell, one of polyhedra in a box (their own sub-steps), and the damping of
-    Hertz-Mindlin contacts."""
+    """The soft-contact solver's kernels: a tiny triaxial test in each boundary that has
+    kernels of its own (:attr:`~grainlab.lab.boundary_registry.BoundaryRecord.
+    compile_sample`: a box of walls, a periodic cell), one of polyhedra in a box (their own
+    sub-steps), and the damping of Hertz-Mindlin contacts."""
     from grainlab.contact.soft_contact_law import SoftContactLaw
+    from grainlab.lab.boundary_registry import BOUNDARIES
     from grainlab.lab.discrete_run import start_run
 
     SoftContactLaw.hertz_mindlin(1e9, restitution=0.5)
-    for boundary, sample in (("walls", {}),
-                             ("periodic", {"n_particles": 60, "size_ratio": 1.2})):
+    for boundary, record in BOUNDARIES.items():
+        if record.compile_sample is None:  # its kernels are another boundary's
+            continue
         config = _tiny_config(SPHERE).with_updates(
-            {"sample": {"boundary": boundary, **sample}, "solver": {"method": "dem"}})
+            {"sample": {"boundary": boundary, **record.compile_sample},
+             "solver": {"method": "dem"}})
         start_run(folder / boundary, config).run()
     config = _tiny_config(POLYHEDRON).with_updates({"solver": {"method": "dem"}})
     start_run(folder / POLYHEDRON.name, config).run()

@@ -24,6 +24,7 @@ from typing import Any, TypeVar
 
 import typer
 
+from grainlab.lab.boundary_registry import boundary_help, shearing_names
 from grainlab.lab.run_config import CHANGEABLE_STAGE_KEYS, PERIODIC_ONLY, TEST_KINDS, RunConfig
 from grainlab.prep.sample_shapes import SAMPLE_SHAPES
 
@@ -132,6 +133,13 @@ def config_default_text(key: str) -> str:
     return f"[default: {shown}]"
 
 
+BOUNDARY_HELP = boundary_help()
+"""The ``--boundary`` help: every registered boundary
+(:data:`~grainlab.lab.boundary_registry.BOUNDARIES`) with its words."""
+
+SHEARING_BOUNDARY = " or ".join(f"--boundary {name}" for name in shearing_names())
+"""The ``--boundary`` values the shearing tests need."""
+
 SHAPE_HELP = "Particle shape: " + "; ".join(
     f"{name} ({shape.description})" for name, shape in SAMPLE_SHAPES.items()) + "."
 """The ``--shape`` help: every shape a sample can be made of
@@ -156,10 +164,10 @@ PROGRESS_HELP = "Show a progress bar."
 
 RUN_OPTIONS: tuple[RunOption, ...] = (
     RunOption("kind", ("KIND",), "The lab test: " + ", ".join(TEST_KINDS) + ". "
-              + ", ".join(PERIODIC_ONLY) + " need --boundary periodic.", str, ("test",),
+              + ", ".join(PERIODIC_ONLY) + f" need {SHEARING_BOUNDARY}.", str, ("test",),
               default=..., argument=True),
     RunOption("kind", ("KIND",), "The lab test: " + ", ".join(TEST_KINDS) + " ("
-              + ", ".join(PERIODIC_ONLY) + " need --boundary periodic).", str, ("compare",),
+              + ", ".join(PERIODIC_ONLY) + f" need {SHEARING_BOUNDARY}).", str, ("compare",),
               default=..., argument=True),
     RunOption("kind", ("KIND",), "The lab test: triaxial, extension or oedometer (the tests "
               "the micro-element model follows along the vertical strain).", str, (THEORY,),
@@ -174,10 +182,7 @@ RUN_OPTIONS: tuple[RunOption, ...] = (
               "folder), theory.csv (both sides on one strain grid), theory-differences.csv, "
               "theory.png and model-LAW.csv.", Path, (THEORY,),
               default=Path("grainlab-theory")),
-    RunOption("boundary", ("--boundary",), "What holds the sample: walls (a box of six walls, "
-              "as the seeds) or periodic (a periodic deformable cell: no walls, every stress "
-              "and strain component controlled; needed to shear).", str, COMMANDS,
-              "sample.boundary"),
+    RunOption("boundary", ("--boundary",), BOUNDARY_HELP, str, COMMANDS, "sample.boundary"),
     RunOption("shape", ("--shape",), SHAPE_HELP, str, COMMANDS, "sample.shape"),
     RunOption("n", ("-n", "--n-particles"), "Number of particles.", int, COMMANDS,
               "sample.n_particles"),

@@ -1,5 +1,6 @@
 """The discrete sample a simulation advances: the static shape library, the changing body
-state and its boundary -- the wall box or the periodic cell (STYLE.md 1;
+state and its boundary -- the wall box, the periodic cell or any other
+:class:`~grainlab.engine.boundaries.boundary.Boundary` (STYLE.md 1;
 :mod:`grainlab.engine.boundaries.boundary`). :mod:`grainlab.prep` makes samples; the engine and the
 lab
 run them.
@@ -36,8 +37,9 @@ class DiscreteSample:
 
     @property
     def periodic(self) -> bool:
-        """Whether the sample fills a periodic cell."""
-        return not isinstance(self.boundary, WallBox)
+        """Whether the sample fills a periodic cell (its boundary says:
+        :attr:`~grainlab.engine.boundaries.boundary.Boundary.periodic`)."""
+        return bool(self.boundary.periodic)
 
     @property
     def mean_diameter(self) -> float:

@@ -109,8 +109,9 @@ class CellStage:
     oedometric: bool = False
 
     def to_dict(self) -> dict:
-        """Plain data: the lab stage's, with ``"boundary": "periodic"``."""
-        return {**self.stage.to_dict(), "boundary": "periodic"}
+        """Plain data: the lab stage's (the results' load path adds the boundary's name:
+        :meth:`~grainlab.lab.boundary_registry.BoundaryRecord.stage_data`)."""
+        return self.stage.to_dict()
 
     def progress_rate(self, max_rate: float) -> float:
         """d lambda / dt [1/s] of a strain-driven stage: the fastest generalised strain rate

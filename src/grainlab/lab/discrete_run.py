@@ -60,8 +60,8 @@ from grainlab.engine.sample_measures import PAIR_TYPE_NAMES
 from grainlab.engine.shape_kinds import kinds_present
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.errors import GrainlabError, InputError
+from grainlab.lab.boundary_registry import boundary_record, preparing_names, quoted
 from grainlab.lab.box_thickness import BOX_MIN_DIAMETERS
-from grainlab.lab.cell_thickness import refuse_thin_cell
 from grainlab.lab.discrete_test import DiscreteTest
 from grainlab.lab.run_checkpoint import (
     CHECKPOINT,
@@ -143,19 +143,23 @@ def build_sample(config: RunConfig) -> DiscreteSample:
     """The sample of ``config.sample``: loose, inscribed in a deposited sphere packing or in
     the spheres of a skeleton file, or read from a particle file (``sample.preparation``)."""
     s = config.sample
+    record = boundary_record(s.boundary)
     try:
         if s.preparation == "loose":
-            return loose_sample(shape=s.shape, n_particles=s.n_particles, d_min=s.d_min,
-                                size_ratio=s.size_ratio, eta=s.eta, n_faces=s.n_faces,
-                                templates=s.templates, density=s.density,
-                                packing_fraction=s.packing_fraction,
-                                aspect=(1.0, 1.0, s.height_ratio),
-                                wall_friction=s.wall_friction, seed=s.seed,
-                                boundary=s.boundary)
-        if s.boundary != "walls":
-            raise InputError("preparation", s.preparation,
-                             '"loose" with boundary = "periodic" (a deposition fills a box '
-                             'of walls on a floor; use boundary = "walls")')
+            sample = loose_sample(shape=s.shape, n_particles=s.n_particles, d_min=s.d_min,
+                                  size_ratio=s.size_ratio, eta=s.eta, n_faces=s.n_faces,
+                                  templates=s.templates, density=s.density,
+                                  packing_fraction=s.packing_fraction,
+                                  aspect=(1.0, 1.0, s.height_ratio),
+                                  wall_friction=s.wall_friction, seed=s.seed,
+                                  boundary=record.around)
+            record.describe(sample.description)
+            return sample
+        if s.preparation not in record.preparations:
+            raise InputError("preparation", s.preparation, (
+                f'{quoted(record.preparations)} with boundary = "{record.name}" (a '
+                'deposition fills a box of walls on a floor; use boundary = '
+                f'{quoted(preparing_names(s.preparation))})'))
         shapes = {"shape": s.shape, "eta": s.eta, "n_faces": s.n_faces,
                   "templates": s.templates, "density": s.density,
                   "wall_friction": s.wall_friction, "seed": s.seed}
@@ -278,7 +282,8 @@ class DiscreteRun:
         result = TestResult.create(
             table, specimen={"kind": "discrete sample", **test.sample.description},
             load_path={"name": test.path.name, "description": test.path.description,
-                       "stages": [s.to_dict() for s in test.stages]},
+                       "stages": [test.boundary_record.stage_data(s)
+                                  for s in test.stages]},
             parameters={"settings": test.settings.to_dict(),
                         "config": self.config.model_dump()},
             outcome=_plain(self.outcome.to_dict()),
@@ -328,7 +333,7 @@ class DiscreteRun:
                     "box": test.sample.boundary.to_arrays(),
                     "warm_start": test.solver.warm_start_arrays()},
             group_attrs={"state": {"density": test.sample.state.density},
-                         "box": {"kind": "periodic" if test.sample.periodic else "walls"}},
+                         "box": {"kind": test.boundary_record.checkpoint_kind}},
             attrs={"rng_state": json.dumps(test.solver.rng_state),
                    "progress": json.dumps(_plain(test.progress_arrays())),
                    "outcome": json.dumps(_plain(test.outcome)),
@@ -509,7 +514,9 @@ class DiscreteRun:
 
 
 def _walls(boundary):
-    """The walls to draw (None for a periodic cell)."""
+    """The walls to draw: a box of walls (a :class:`~grainlab.engine.boundaries.wall_box.
+    WallBox` or a box derived from it) as six faces; None for any other boundary (a
+    periodic cell has none)."""
     from grainlab.engine.boundaries.wall_box import WallBox
     from grainlab.report.vtk_export import BoxWalls
 
@@ -564,8 +571,7 @@ def _new_test(config: RunConfig) -> DiscreteTest:
     config.check_solver(kinds_present(sample.library.kind))  # the file's shapes
     test = test_for(sample, config)
     _refuse_flattening(test)
-    if sample.periodic:
-        refuse_thin_cell(test, config.sample)
+    test.boundary_record.refuse_start(test, config.sample)
     refuse_endless_run(test, config)
     return test
 
@@ -644,7 +650,8 @@ def resume_run(folder: str | Path, changes: list[str] | dict | None = None, *,
     changed = config.changes_on_resume(started)
     box = saved["box"]
     sample = DiscreteSample(saved["library"], saved["state"], box, saved["description"])
-    masses = None if sample.periodic else box.masses.copy()
+    # the test's walls take their masses when it is made: the saved ones are put back
+    masses = box.masses.copy() if hasattr(box, "set_masses") else None
     test = test_for(sample, config)
     if masses is not None:
         box.set_masses(masses)

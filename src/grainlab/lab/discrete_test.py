@@ -3,7 +3,8 @@ dynamics or soft-contact DEM; seeds 002/003).
 
 :class:`DiscreteTest` is one stage loop whatever the boundary: its boundary
 (:mod:`grainlab.lab.stage_boundary`: the box of walls, :class:`~grainlab.lab.box_boundary.
-BoxBoundary`, or the periodic cell, :class:`~grainlab.lab.cell_boundary.CellBoundary`) turns
+BoxBoundary`, or the periodic cell, :class:`~grainlab.lab.cell_boundary.CellBoundary`, as
+the record of the sample's boundary in :mod:`grainlab.lab.boundary_registry` says) turns
 the stages of a lab :class:`~grainlab.lab.load_path.LoadPath` into its controls and owns
 their strains, progress, ends and thickness checks; its solver is a record of
 :mod:`grainlab.lab.solver_registry`. The test runs them on a
@@ -102,9 +103,8 @@ from grainlab.engine.shape_kinds import kinds_present, library_time_step_length
 from grainlab.engine.simulation import Periodic, Simulation
 from grainlab.engine.state import ShapeLibrary
 from grainlab.errors import CellTooThin, InputError
-from grainlab.lab.box_boundary import BoxBoundary
+from grainlab.lab.boundary_registry import boundary_record_of
 from grainlab.lab.box_thickness import Flattening
-from grainlab.lab.cell_boundary import CellBoundary
 from grainlab.lab.discrete_test_settings import RECOVERY_SPEED_FRACTION, DiscreteTestSettings
 from grainlab.lab.load_path import LoadPath
 from grainlab.lab.run_outcome import (
@@ -179,7 +179,8 @@ class DiscreteTest:
         self.path = path
         self.settings = settings or DiscreteTestSettings()
         self.solver_record = solver_record(self.settings.method)
-        self.boundary: StageBoundary = (CellBoundary if sample.periodic else BoxBoundary)(self)
+        self.boundary_record = boundary_record_of(sample.boundary)
+        self.boundary: StageBoundary = self.boundary_record.stage_driver(self)
         self.stages = self.load_stages(path)
         self.reports_k0 = any(stage.oedometric for stage in self.stages)
         self.on_record = on_record

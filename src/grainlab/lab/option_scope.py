@@ -33,6 +33,7 @@ from __future__ import annotations
 from typing import Any
 
 from grainlab.errors import InputError
+from grainlab.lab.boundary_registry import boundary_record
 from grainlab.lab.solver_registry import NLGS_KEYS, solver_record
 from grainlab.prep.sample_shapes import SAMPLE_SHAPES
 
@@ -73,9 +74,10 @@ def _solver_reason(config: Any, key: str) -> str:
 
 def _boundary_reason(config: Any, key: str) -> str:
     """Why ``key`` does nothing with the config's boundary ("" when it acts)."""
-    if config.sample.boundary == "periodic" and key in WALLS_ONLY:
-        return ("it sets the walls of a box; --boundary periodic (sample.boundary = "
-                "'periodic') has none: the cell's own servo holds its stresses")
+    record = boundary_record(config.sample.boundary)
+    if record.wallless_words and key in WALLS_ONLY:
+        return (f"it sets the walls of a box; --boundary {record.name} (sample.boundary = "
+                f"'{record.name}') has none: {record.wallless_words}")
     if key == "solver.wall_mass_factor" and config.solver.wall_servo:
         return ("it sets the mass of walls with momentum, which solver.wall_servo = true "
                 "(the default: overdamped servo walls, no mass) does not use")
@@ -100,13 +102,9 @@ def _has_loading(config: Any) -> bool:
     """Whether the path of ``config`` has a stage with a strain-controlled axis that moves
     (the stages :data:`~grainlab.lab.stage_numerics.SHEAR`'s table sets); True for a path
     its boundary refuses (judged there)."""
-    from grainlab.lab.cell_stages import cell_stages
-    from grainlab.lab.wall_stages import wall_stages
-
     try:
         path = config.load_path()
-        stages = cell_stages(path, deformable=True) \
-            if config.sample.boundary == "periodic" else wall_stages(path)
+        stages = boundary_record(config.sample.boundary).stages(path, True)
     except InputError:
         return True
     return any(stage.moving_axes for stage in stages)

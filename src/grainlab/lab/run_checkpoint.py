@@ -30,10 +30,9 @@ from typing import Any
 
 import h5py
 
-from grainlab.engine.boundaries.periodic_boundary import PeriodicCell
-from grainlab.engine.boundaries.wall_box import WallBox
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import GrainlabError
+from grainlab.lab.boundary_registry import restore_boundary
 
 CHECKPOINT = "checkpoint.h5"
 PREVIOUS_CHECKPOINT = "checkpoint.prev.h5"
@@ -166,12 +165,12 @@ def _damage(error: BaseException) -> str:
 
 
 def _boundary(group) -> Any:
-    """The wall box or periodic cell saved in ``group`` (checkpoints before the periodic
-    cell hold a wall box)."""
+    """The boundary saved in ``group``, restored by the record of the kind it names
+    (:func:`~grainlab.lab.boundary_registry.restore_boundary`; checkpoints before the periodic
+    cell name none and hold a wall box)."""
     arrays = {k: v[()] for k, v in group.items()}
-    if group.attrs.get("kind", "walls") == "periodic":
-        return PeriodicCell.from_arrays(arrays)
-    return WallBox.from_arrays(arrays)
+    kind = group.attrs.get("kind")
+    return restore_boundary(None if kind is None else str(kind), arrays)
 
 
 def read_checkpoint(path: str | Path) -> dict[str, Any]:

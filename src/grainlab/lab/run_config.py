@@ -7,7 +7,8 @@ every key has a default, an unknown key is an error that names it::
                as "sphere", "aggregate", "polyhedron"), n_particles, d_min [m],
                size_ratio, eta (aggregates), n_faces and templates (polyhedra), density
                [kg/m^3], packing_fraction (loose start), wall_friction, seed, boundary
-               ("walls" | "periodic"), height_ratio (the start box's height / width),
+               (a name of :data:`~grainlab.lab.boundary_registry.BOUNDARY_NAMES`:
+               "walls" | "periodic"), height_ratio (the start box's height / width),
                preparation ("loose" | "deposition" | "file"), skeleton_file (for "file")
     [test]     kind (:data:`TEST_KINDS`), sigma0 [Pa], eps_q_max (triaxial, extension,
                true_triaxial), axial_strain and unload_strain (oedometer), b (true_triaxial),
@@ -82,6 +83,13 @@ from pydantic import (
 from grainlab._validate import MAX_SEED, read_toml
 from grainlab.engine.shape_kinds import SPHERE
 from grainlab.errors import InputError
+from grainlab.lab.boundary_registry import (
+    BOUNDARY_NAMES,
+    DEFAULT_BOUNDARY,
+    boundary_record,
+    quoted,
+    shearing_names,
+)
 from grainlab.lab.discrete_test import DiscreteTestSettings
 from grainlab.lab.load_path import LoadPath, LoadStage, StopCriterion
 from grainlab.lab.presets import (
@@ -105,7 +113,8 @@ TEST_KINDS = ("compaction", "triaxial", "extension", "oedometer", "true_triaxial
 (:meth:`RunConfig.load_path`)."""
 PERIODIC_ONLY = ("true_triaxial", "simple_shear", "circular", "cyclic_shear")
 """Tests that shear or control every principal stress: a periodic cell runs them, a box of
-walls (which moves only along its axes, one stress per axis) cannot."""
+walls (which moves only along its axes, one stress per axis) cannot (the boundaries that run
+them: :func:`~grainlab.lab.boundary_registry.shearing_names`)."""
 
 UNITS = {"sample.d_min": "m", "sample.density": "kg/m^3", "test.sigma0": "Pa",
          "solver.dt": "s", "solver.dem.normal_stiffness": "N/m",
@@ -196,7 +205,7 @@ class SampleConfig(_Section):
     packing_fraction: StrictFloat = Field(0.3, gt=0, le=0.35)
     wall_friction: StrictFloat = Field(0.0, ge=0)
     seed: StrictInt = Field(0, ge=0, le=MAX_SEED)
-    boundary: Literal["walls", "periodic"] = "walls"
+    boundary: Literal[BOUNDARY_NAMES] = DEFAULT_BOUNDARY
     height_ratio: StrictFloat = Field(1.0, ge=0.25, le=4.0)
     preparation: Literal["loose", "deposition", "file"] = "loose"
     skeleton_file: str = ""
@@ -467,10 +476,11 @@ class RunConfig(_Section):
         """The lab load path of the test (presets of :mod:`grainlab.lab.presets`), after an
         isotropic compaction to sigma0 (stage ``"compaction"``)."""
         t = self.test
-        if t.kind in PERIODIC_ONLY and self.sample.boundary != "periodic":
+        boundary = boundary_record(self.sample.boundary)
+        if t.kind in PERIODIC_ONLY and not boundary.shears:
             raise InputError("sample.boundary", self.sample.boundary,
-                             f'"periodic" for test.kind = {t.kind!r}: a box of walls moves '
-                             "only along its axes and cannot shear")
+                             f"{quoted(shearing_names())} for test.kind = {t.kind!r}: "
+                             f"{boundary.shear_refusal}")
         compaction = _renamed(isotropic_compression(p_final=t.sigma0, n_steps=1).stages,
                               "compaction")
         if t.kind == "compaction":

@@ -44,6 +44,7 @@ from grainlab.analysis.contact_network import ContactNetwork
 from grainlab.analysis.snapshot_files import read_snapshots
 from grainlab.contact.spring_contact import SpringContactLaw
 from grainlab.errors import InputError
+from grainlab.lab.boundary_registry import DEFAULT_BOUNDARY, boundary_record
 from grainlab.lab.load_path import LoadPath
 from grainlab.lab.run_config import RunConfig
 from grainlab.lab.run_path import element_path
@@ -143,14 +144,15 @@ def run_micro_element_model(result: TestResult, network: ContactNetwork,
     compaction) with the run's law (module docstring) and the reading ``distribution``
     (:data:`DISTRIBUTION_READINGS`); its stress is the snapshot's contact-force stress."""
     check_distributions([distribution], "distribution")
-    walls = "drop" if _boundary(result) == "periodic" else "balance"
+    walls = "drop" if boundary_record(_boundary(result)).periodic else "balance"
     structure = micro_elements_from_snapshot(network, periodic="keep", walls=walls)
     return MicroElementModel(structure, run_contact_law(result, network),
                              **DISTRIBUTION_READINGS[distribution])
 
 
 def _boundary(result: TestResult) -> str:
-    return str(_parameters(result)["config"].get("sample", {}).get("boundary", "walls"))
+    return str(_parameters(result)["config"].get("sample", {}).get("boundary",
+                                                                    DEFAULT_BOUNDARY))
 
 
 def first_loading_stage(path: LoadPath) -> str:

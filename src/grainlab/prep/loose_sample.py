@@ -29,11 +29,13 @@ importable from here).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from grainlab._validate import at_least
 from grainlab._validate import seed as check_seed
-from grainlab.engine.boundaries.periodic_boundary import PeriodicCell
+from grainlab.engine.boundaries.boundary import Boundary
 from grainlab.engine.boundaries.wall_box import WallBox
 from grainlab.engine.discrete_sample import DiscreteSample
 from grainlab.engine.shape_kinds import SPHERE
@@ -123,7 +125,8 @@ def loose_sample(
     size_ratio: float = 2.0, eta: float = 0.4, n_faces: int = 30, templates: int = 0,
     density: float = 2600.0,
     packing_fraction: float = 0.2, aspect: tuple[float, float, float] = (1.0, 1.0, 1.0),
-    wall_friction: float = 0.0, seed: int = 0, boundary: str = "walls",
+    wall_friction: float = 0.0, seed: int = 0,
+    boundary: Callable[[np.ndarray, float, float], Boundary] = WallBox.around,
 ) -> DiscreteSample:
     """A loose random sample in a box of fixed walls or in a periodic cell (module
     docstring).
@@ -153,10 +156,14 @@ def loose_sample(
     aspect:
         Box side ratios (x, y, z).
     boundary:
-        ``"walls"`` (a box of six fixed walls,
-        :class:`~grainlab.engine.boundaries.wall_box.WallBox`)
-        or ``"periodic"`` (a periodic cell of the same box,
-        :class:`~grainlab.engine.boundaries.periodic_boundary.PeriodicCell`).
+        What holds the sample: ``(side (3,) [m], wall_friction, particle mass [kg]) ->``
+        a :class:`~grainlab.engine.boundaries.boundary.Boundary` around the box [0, side],
+        the ``around`` of a boundary class: :meth:`WallBox.around
+        <grainlab.engine.boundaries.wall_box.WallBox.around>` (a box of six fixed walls,
+        the default) or :meth:`PeriodicCell.around
+        <grainlab.engine.boundaries.periodic_boundary.PeriodicCell.around>` (a periodic
+        cell of the same box). A run names it by ``sample.boundary``
+        (:mod:`grainlab.lab.boundary_registry`).
     wall_friction:
         Coulomb coefficient of the walls (seed 002: 0).
     seed:
@@ -193,16 +200,11 @@ def loose_sample(
     orientations = random_orientations(int(n_particles), rng) if maker.oriented else None
     state = BodyState.from_library(library, np.arange(int(n_particles)), positions, density,
                                    orientations)
-    box = WallBox(np.zeros(3), side, friction=at_least("wall_friction", wall_friction,
-                                                         strict=False))
-    box.set_masses(float(np.sum(state.masses)))
-    if boundary == "periodic":
-        # the centres lie at least a radius inside every face: no overlap across the faces
-        box = PeriodicCell(np.diag(side))
-    elif boundary != "walls":
-        raise InputError("boundary", boundary, '"walls" or "periodic"')
-    if boundary == "periodic":
-        description["boundary"] = boundary
+    friction = at_least("wall_friction", wall_friction, strict=False)
+    if not callable(boundary):
+        raise InputError("boundary", boundary, "the around() of a boundary class, "
+                         "(side, wall_friction, particle mass) -> boundary (WallBox.around)")
+    box = boundary(side, friction, float(np.sum(state.masses)))
     description.update({"n_particles": int(n_particles), "d_min": d_min,
                         "d_max": ratio * d_min, "density": density,
                         "initial_packing_fraction": phi, "seed": int(seed)})

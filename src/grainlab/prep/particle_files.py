@@ -95,9 +95,10 @@ def write_particles(sample: DiscreteSample, path: str | Path) -> Path:
     path = Path(path)
     if path.suffix not in (".csv", ".npz"):
         raise InputError("path", str(path), "a file name ending in .csv or .npz")
-    if not isinstance(sample.boundary, WallBox):
+    if not isinstance(sample.boundary, WallBox):  # the file keeps a box's two corners
         raise InputError("sample.boundary", type(sample.boundary).__name__,
-                         "a box of walls (a periodic cell has no corners to write)")
+                         "a box of walls (a WallBox or a box derived from it: the file keeps "
+                         "its corners, which a periodic cell or another boundary has not)")
     particle, kind, points, radii = _world_points(sample.library, sample.state)
     vertices = {name for name in set(kind) if not shape_kind(name).has_member_spheres}
     lower, upper = sample.boundary.lower, sample.boundary.upper

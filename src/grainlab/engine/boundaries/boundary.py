@@ -23,8 +23,11 @@ Each implements the :class:`Boundary` protocol, three calls per time step of a s
    the speeds and the cell rate the contact problem found, record the reactions.
 
 A solver never asks what kind of boundary it has: a new boundary implements the three calls
-(and ``volume``, ``speed`` and the checkpoint pair ``to_arrays`` / ``from_arrays``) and every
-solver runs with it.
+(and ``volume``, ``speed``, the checkpoint pair ``to_arrays`` / ``from_arrays``, the flag
+``periodic`` and, to be made around a loose sample, the class method ``around``) and every
+solver runs with it. Whoever needs to know more than the solver asks the boundary itself
+(``periodic``), never its class; the lab reads the rest (its name, its stage driver, what it
+allows) from its record in :mod:`grainlab.lab.boundary_registry`.
 """
 
 from __future__ import annotations
@@ -169,7 +172,17 @@ class DetectionPhases:
 
 
 class Boundary(Protocol):
-    """A boundary of a discrete sample (module docstring)."""
+    """A boundary of a discrete sample (module docstring).
+
+    Attributes
+    ----------
+    periodic:
+        Whether the sample fills a periodic cell (no walls: contacts reach through the
+        images of the bodies, the boundary has an ``image_matrix`` h [m] of the last step's
+        images) rather than a region closed by walls.
+    """
+
+    periodic: bool
 
     def constraints(self, dt: float, theta: float) -> BoundaryConstraints:
         """The step's boundary data (module docstring, call 1)."""
@@ -216,6 +229,8 @@ def detect_in_space(predicted: BodyState, library: ShapeLibrary, phases: Detecti
 class FixedPlanes:
     """Fixed planes through ``points`` (W, 3) [m] with unit ``normals`` (W, 3) into the bodies'
     region and Coulomb coefficient ``friction`` (>= 0); no planes: open space."""
+
+    periodic = False
 
     def __init__(self, points=None, normals=None, friction: float = 0.0) -> None:
         if points is None and normals is None:

@@ -103,6 +103,18 @@ class PeriodicCell:
         Re-map threshold (module docstring); inf: never re-map.
     """
 
+    periodic = True
+    """The sample fills the cell and its images
+    (:class:`~grainlab.engine.boundaries.boundary.Boundary`)."""
+
+    @classmethod
+    def around(cls, side, wall_friction: float = 0.0, particle_mass: float = 0.0
+               ) -> PeriodicCell:
+        """The cell diag(``side``) ((3,) [m]) a loose sample fills; its centres lie at least a
+        radius inside every face, so no pair overlaps across the faces. A cell has no walls:
+        ``wall_friction`` and ``particle_mass`` are not used."""
+        return cls(np.diag(np.asarray(side, dtype=np.float64)))
+
     def __init__(self, matrix, max_skew: float = MAX_SKEW) -> None:
         self.geometry = TriclinicCell(_matrix("cell matrix", matrix))
         self.rate = np.zeros((3, 3))

@@ -95,6 +95,9 @@ class WallBox:
         (:meth:`set_masses`) from the particles' mass.
     """
 
+    periodic = False
+    """A box of walls is not periodic (:class:`~grainlab.engine.boundaries.boundary.Boundary`)."""
+
     def __init__(self, lower: Sequence[float], upper: Sequence[float],
                  friction: float | Sequence[float] = 0.0,
                  wall_mass: float | Sequence[float] = 1.0) -> None:
@@ -112,6 +115,15 @@ class WallBox:
         self.masses = self._six("wall_mass", wall_mass, allow_zero=False)
         self.max_speeds = np.full(6, np.inf)
         self.servo = False
+
+    @classmethod
+    def around(cls, side, wall_friction: float, particle_mass: float) -> WallBox:
+        """The box [0, side] (``side`` (3,) [m]) around a loose sample: fixed walls of Coulomb
+        coefficient ``wall_friction``, each of mass ``particle_mass`` [kg] (the particles'
+        total) until a stage sets the masses of its stress-controlled walls."""
+        box = cls(np.zeros(3), side, friction=wall_friction)
+        box.set_masses(particle_mass)
+        return box
 
     @staticmethod
     def _six(name: str, value, allow_zero: bool) -> np.ndarray:
