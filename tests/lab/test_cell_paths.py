@@ -37,7 +37,8 @@ SETTINGS = DiscreteTestSettings(record_every=5,
 
 @pytest.fixture(scope="module")
 def compacted():
-    sample = loose_sample(n_particles=150, size_ratio=1.2, seed=4, boundary=PeriodicCell.around)
+    sample = loose_sample(n_particles=150, size_ratio=1.2, packing_fraction=0.3, seed=4,
+                          boundary=PeriodicCell.around)
     test = DiscreteTest(sample, isotropic_compression(p_final=P, n_steps=1), SETTINGS)
     assert test.run()
     return sample
