@@ -82,200 +82,180 @@ def _add_moment(torque, p, rx, ry, rz, fx, fy, fz, sign):
     torque[p, 2] += sign * (rx * fy - ry * fx)
 
 
-@njit
-def _pair_points(p, pairs, bodies, walls, cell, stats, scratch):
-    """The manifold of pair p (module docstring) at the current configuration, its
-    penetrating points compacted into the pair's slots (gap, normal, position, feature ids;
-    ``stats[0]`` grows to the deepest); also body j's image centre ``cj`` and speed ``rate``
-    into the scratch. Returns (points kept, sum of their depths [m], sum of their squares
-    [m^2])."""
-    pts, gps, nrm, ida, idb, n_out, cj, rate, wall_point, shifted_v, shifted_o = scratch
-    (shape_ids, face_start, face_count, face_vertex_start, face_vertices, edge_start,
-     edge_count, edges, edge_faces, vertex_start, vertex_count, vertex_neighbour_start,
-     vertex_neighbours) = pairs.library
-    body_vertex_start, world_vertices, body_face_start, world_normals, world_offsets = \
-        pairs.world
-    cos_tol, sin_tol, max_points = pairs.tolerances
-    positions, images = bodies.positions, pairs.images
-    i, j = pairs.body_i[p], pairs.body_j[p]
-    mx, my, mz = images[p, 0], images[p, 1], images[p, 2]
-    imaged = mx != 0.0 or my != 0.0 or mz != 0.0
-    for a in range(3):
-        cj[a] = positions[j, a] + cell.h[a, 0] * mx + cell.h[a, 1] * my + cell.h[a, 2] * mz
-        rate[a] = cell.rate[a, 0] * mx + cell.rate[a, 1] * my + cell.rate[a, 2] * mz
-    vb, nb, ob, fsb, eb, efb, nsb = _body_features(
-        j, shape_ids[j], body_vertex_start, world_vertices, body_face_start, world_normals,
-        world_offsets, face_start, face_count, face_vertex_start, edge_start, edge_count,
-        edges, edge_faces, vertex_start, vertex_count, vertex_neighbour_start)
-    if imaged:  # body j's image: vertices + h m, face offsets + n . h m
-        sx, sy, sz = cj[0] - positions[j, 0], cj[1] - positions[j, 1], cj[2] - positions[j, 2]
-        for v in range(vb.shape[0]):
-            shifted_v[v, 0] = vb[v, 0] + sx
-            shifted_v[v, 1] = vb[v, 1] + sy
-            shifted_v[v, 2] = vb[v, 2] + sz
-        for f in range(ob.shape[0]):
-            shifted_o[f] = ob[f] + nb[f, 0] * sx + nb[f, 1] * sy + nb[f, 2] * sz
-        vb = shifted_v[:vb.shape[0]]
-        ob = shifted_o[:ob.shape[0]]
-    count, kind = 0, 0
-    if i >= 0:
-        va, na, oa, fsa, ea, efa, nsa = _body_features(
-            i, shape_ids[i], body_vertex_start, world_vertices, body_face_start,
-            world_normals, world_offsets, face_start, face_count, face_vertex_start,
-            edge_start, edge_count, edges, edge_faces, vertex_start, vertex_count,
-            vertex_neighbour_start)
-        g, found = signed_distance(
-            va, na, oa, fsa, face_vertices, ea, efa, nsa, vertex_neighbours, positions[i],
-            vb, nb, ob, fsb, face_vertices, eb, efb, nsb, vertex_neighbours, cj, 0.0, n_out)
-        if found:
-            count, kind = pair_manifold(
-                va, na, oa, fsa, face_vertices, ea, efa, nsa, vertex_neighbours,
-                vb, nb, ob, fsb, face_vertices, eb, efb, nsb, vertex_neighbours,
-                g, n_out, 0.0, cos_tol, sin_tol, max_points, pts, gps, nrm, ida, idb)
-    else:
-        w = -1 - i
-        wall_n = walls.normals
-        for a in range(3):
-            wall_point[a] = walls.points[w, a] + walls.disp[w] * wall_n[w, a]
-        count, kind = wall_manifold(vb, nb, fsb, face_vertices, eb, nsb, vertex_neighbours,
-                                    wall_point, wall_n[w], 0.0, cos_tol, sin_tol,
-                                    max_points, pts, gps, idb)
-        for r in range(count):
-            nrm[r, 0], nrm[r, 1], nrm[r, 2] = wall_n[w, 0], wall_n[w, 1], wall_n[w, 2]
-            ida[r] = -1
-    # the penetrating points, compacted into the pair's slots
-    closed, total, squares = 0, 0.0, 0.0
-    for r in range(count):
-        depth = -gps[r]
-        if depth > 0.0:
-            pairs.point_gap[p, closed] = gps[r]
-            pairs.feature_i[p, closed], pairs.feature_j[p, closed] = ida[r], idb[r]
-            for a in range(3):
-                pairs.point_normal[p, closed, a] = nrm[r, a]
-                pairs.point_position[p, closed, a] = pts[r, a]
-            total += depth
-            squares += depth * depth
-            stats[0] = max(stats[0], depth)
-            closed += 1
-    pairs.n_points[p] = closed
-    pairs.pair_type[p] = kind
-    return closed, total, squares
-
-
-@njit
-def _pair_force(p, step, code, params, pairs, bodies, walls, closed, total, squares, cj,
-                rate):
-    """The force of pair p on its ``closed`` penetrating points (sum of their depths
-    ``total`` [m], of their squares ``squares`` [m^2]; body j's image centre ``cj``, image
-    speed ``rate``): each point's normal force, the pair's tangential spring at the mean
-    point about the mean normal, and each point's share of it (module docstring of
-    :mod:`grainlab.engine.dem.soft_polyhedra`)."""
-    i, j = pairs.body_i[p], pairs.body_j[p]
-    force, torque_i, torque_j = pairs.force, pairs.torque_i, pairs.torque_j
-    point_gap, point_normal, point_position = pairs.point_gap, pairs.point_normal, \
-        pairs.point_position
-    point_force, point_velocity, xi = pairs.point_force, pairs.point_velocity, pairs.xi
+@njit(cache=True)
+def polyhedron_forces_kernel(step, code, params, library, world, pairs, tolerances, xi,
+                             outputs, bodies, walls, cell, stats):
+    """Manifold and force of every pair p of the list (module docstring; the law of
+    :mod:`grainlab.engine.dem.soft_polyhedra`); ``step`` [s] is the time since the last
+    evaluation (0: the force of the current springs). ``library``: (shape_ids, face_start,
+    face_count, face_vertex_start, face_vertices, edge_start, edge_count, edges, edge_faces,
+    vertex_start, vertex_count, vertex_neighbour_start, vertex_neighbours); ``world`` as
+    :func:`world_boundaries_kernel`'s, filled. The tangential springs ``xi`` (P, 3) [N] are
+    updated; ``stats[0]`` grows to the deepest penetration [m] met. ``pairs``: (pair_i,
+    pair_j, images, mu, r_eff), ``tolerances``: (cos, sin of the angle tolerance, most points
+    kept), ``outputs``: the per-pair and per-point outputs (module docstring: force,
+    torque_i, torque_j, normal, point, stiffness, rel_vel, n_points, point_gap, point_normal,
+    point_position, point_force, point_velocity, feature_i, feature_j, pair_type); the
+    ``bodies`` (:class:`~grainlab.engine.dem.substep_arrays.BodyArrays`), the walls
+    (:class:`~grainlab.engine.boundaries.wall_box_face.WallFace`) and the cell
+    (:class:`~grainlab.engine.boundaries.periodic_cell_face.CellFace`) as they are now."""
+    pair_i, pair_j, images, mu, r_eff = pairs
+    cos_tol, sin_tol, max_points = tolerances
+    (force, torque_i, torque_j, normal, point, stiffness, rel_vel, n_points, point_gap,
+     point_normal, point_position, point_force, point_velocity, feature_i, feature_j,
+     pair_type) = outputs
     inv_mass, positions, velocities, spins = bodies.inv_mass, bodies.positions, \
         bodies.velocities, bodies.spins
-    wall_n, wall_speed = walls.normals, walls.speed
-    r_eff = pairs.r_eff[p]
-    row = 0 if i >= 0 else 1
-    m_eff = 1.0 / (inv_mass[i] + inv_mass[j]) if i >= 0 else 1.0 / inv_mass[j]
-    normal_sum = 0.0
-    bx, by, bz, nx, ny, nz = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    for r in range(closed):  # normal force of each point: its share of the law
-        depth = -point_gap[p, r]
-        share = depth / total
-        qx, qy, qz = point_position[p, r, 0], point_position[p, r, 1], point_position[p, r, 2]
-        ex, ey, ez = point_normal[p, r, 0], point_normal[p, r, 1], point_normal[p, r, 2]
-        ux, uy, uz = _velocity_at(i, j, qx, qy, qz, cj, rate, positions, velocities, spins,
-                                  wall_n, wall_speed)
-        point_velocity[p, r, 0], point_velocity[p, r, 1], point_velocity[p, r, 2] = \
-            ux, uy, uz
-        fne, _, _, c_n, _ = contact_law(code, params[row], depth, r_eff, m_eff)
-        f = max(0.0, share * (fne - c_n * (ux * ex + uy * ey + uz * ez)))
-        normal_sum += f
-        fx, fy, fz = f * ex, f * ey, f * ez
-        point_force[p, r, 0], point_force[p, r, 1], point_force[p, r, 2] = fx, fy, fz
-        force[p, 0] += fx
-        force[p, 1] += fy
-        force[p, 2] += fz
-        _add_moment(torque_j, p, qx - cj[0], qy - cj[1], qz - cj[2], fx, fy, fz, 1.0)
-        if i >= 0:
-            _add_moment(torque_i, p, qx - positions[i, 0], qy - positions[i, 1],
-                        qz - positions[i, 2], fx, fy, fz, -1.0)
-        bx, by, bz = bx + share * qx, by + share * qy, bz + share * qz
-        nx, ny, nz = nx + share * ex, ny + share * ey, nz + share * ez
-    length = math.sqrt(nx * nx + ny * ny + nz * nz)
-    nx, ny, nz = nx / length, ny / length, nz / length
-    pairs.normal[p, 0], pairs.normal[p, 1], pairs.normal[p, 2] = nx, ny, nz
-    pairs.point[p, 0], pairs.point[p, 1], pairs.point[p, 2] = bx, by, bz
-    # one tangential spring per pair at the mean point, about the mean normal
-    ux, uy, uz = _velocity_at(i, j, bx, by, bz, cj, rate, positions, velocities, spins,
-                              wall_n, wall_speed)
-    pairs.rel_vel[p, 0], pairs.rel_vel[p, 1], pairs.rel_vel[p, 2] = ux, uy, uz
-    un = ux * nx + uy * ny + uz * nz
-    utx, uty, utz = ux - un * nx, uy - un * ny, uz - un * nz
-    _, s_n, k_t, _, c_t = contact_law(code, params[row], squares / total, r_eff, m_eff)
-    pairs.stiffness[p] = s_n
-    spin_n = spins[j, 0] * nx + spins[j, 1] * ny + spins[j, 2] * nz
-    if i >= 0:
-        spin_n += spins[i, 0] * nx + spins[i, 1] * ny + spins[i, 2] * nz
-    ftx, fty, ftz, hx, hy, hz = mindlin_coulomb(step > 0.0, step, xi[p, 0], xi[p, 1],
-                                                xi[p, 2], nx, ny, nz, 0.5 * spin_n, utx,
-                                                uty, utz, k_t, c_t, pairs.mu[p] * normal_sum)
-    xi[p, 0], xi[p, 1], xi[p, 2] = hx, hy, hz
-    force[p, 0] += ftx
-    force[p, 1] += fty
-    force[p, 2] += ftz
-    _add_moment(torque_j, p, bx - cj[0], by - cj[1], bz - cj[2], ftx, fty, ftz, 1.0)
-    if i >= 0:
-        _add_moment(torque_i, p, bx - positions[i, 0], by - positions[i, 1],
-                    bz - positions[i, 2], ftx, fty, ftz, -1.0)
-    for r in range(closed):  # each point's share of the tangential force (report)
-        share = -point_gap[p, r] / total
-        point_force[p, r, 0] += share * ftx
-        point_force[p, r, 1] += share * fty
-        point_force[p, r, 2] += share * ftz
-
-
-@njit(cache=True)
-def polyhedron_forces_kernel(step, code, params, pairs, bodies, walls, cell, stats):
-    """Manifold and force of every pair p of the list ``pairs``
-    (:class:`~grainlab.engine.dem.substep_arrays.PolyhedronPairArrays`, its world frame
-    filled: :func:`world_boundaries_kernel`) for the ``bodies``
-    (:class:`~grainlab.engine.dem.substep_arrays.BodyArrays`), the walls
-    (:class:`~grainlab.engine.boundaries.wall_box_face.WallFace`) and the cell
-    (:class:`~grainlab.engine.boundaries.periodic_cell_face.CellFace`) as they are now, with
-    the law (``code``, ``params``) of :mod:`grainlab.engine.dem.soft_polyhedra`
-    (:func:`_pair_points`, :func:`_pair_force`); ``step`` [s] is the time since the last
-    evaluation (0: the force of the current springs). The tangential springs ``pairs.xi``
-    are updated; ``stats[0]`` grows to the deepest penetration [m] met. An open pair's
-    spring is released and its outputs are zero."""
-    library = pairs.library
-    face_count, vertex_count = library[2], library[10]
-    scratch = (np.empty((MAX_POINTS, 3)), np.empty(MAX_POINTS), np.empty((MAX_POINTS, 3)),
-               np.empty(MAX_POINTS, dtype=np.int64), np.empty(MAX_POINTS, dtype=np.int64),
-               np.empty(3), np.empty(3), np.empty(3), np.empty(3),
-               np.empty((max(1, int(vertex_count.max())), 3)),
-               np.empty(max(1, int(face_count.max()))))
-    cj, rate = scratch[6], scratch[7]
-    for p in range(pairs.body_j.shape[0]):
-        closed, total, squares = _pair_points(p, pairs, bodies, walls, cell, stats, scratch)
+    wall_p0, wall_n, wall_disp, wall_speed = walls.points, walls.normals, walls.disp, \
+        walls.speed
+    cell_h, cell_rate = cell.h, cell.rate
+    (shape_ids, face_start, face_count, face_vertex_start, face_vertices, edge_start,
+     edge_count, edges, edge_faces, vertex_start, vertex_count, vertex_neighbour_start,
+     vertex_neighbours) = library
+    body_vertex_start, world_vertices, body_face_start, world_normals, world_offsets = world
+    pts = np.empty((MAX_POINTS, 3))
+    gps = np.empty(MAX_POINTS)
+    nrm = np.empty((MAX_POINTS, 3))
+    ida = np.empty(MAX_POINTS, dtype=np.int64)
+    idb = np.empty(MAX_POINTS, dtype=np.int64)
+    n_out = np.empty(3)
+    cj = np.empty(3)
+    rate = np.empty(3)
+    wall_point = np.empty(3)
+    shifted_v = np.empty((max(1, int(vertex_count.max())), 3))
+    shifted_o = np.empty(max(1, int(face_count.max())))
+    for p in range(pair_j.shape[0]):
+        i, j = pair_i[p], pair_j[p]
+        mx, my, mz = images[p, 0], images[p, 1], images[p, 2]
+        imaged = mx != 0.0 or my != 0.0 or mz != 0.0
         for a in range(3):
-            pairs.force[p, a] = 0.0
-            pairs.torque_i[p, a] = 0.0
-            pairs.torque_j[p, a] = 0.0
-        if closed == 0:  # open: the spring is released
-            pairs.xi[p, 0], pairs.xi[p, 1], pairs.xi[p, 2] = 0.0, 0.0, 0.0
-            pairs.stiffness[p] = 0.0
+            cj[a] = positions[j, a] + cell_h[a, 0] * mx + cell_h[a, 1] * my + cell_h[a, 2] * mz
+            rate[a] = cell_rate[a, 0] * mx + cell_rate[a, 1] * my + cell_rate[a, 2] * mz
+        vb, nb, ob, fsb, eb, efb, nsb = _body_features(
+            j, shape_ids[j], body_vertex_start, world_vertices, body_face_start, world_normals,
+            world_offsets, face_start, face_count, face_vertex_start, edge_start, edge_count,
+            edges, edge_faces, vertex_start, vertex_count, vertex_neighbour_start)
+        if imaged:  # body j's image: vertices + h m, face offsets + n . h m
+            sx, sy, sz = cj[0] - positions[j, 0], cj[1] - positions[j, 1], cj[2] - positions[j, 2]
+            for v in range(vb.shape[0]):
+                shifted_v[v, 0] = vb[v, 0] + sx
+                shifted_v[v, 1] = vb[v, 1] + sy
+                shifted_v[v, 2] = vb[v, 2] + sz
+            for f in range(ob.shape[0]):
+                shifted_o[f] = ob[f] + nb[f, 0] * sx + nb[f, 1] * sy + nb[f, 2] * sz
+            vb = shifted_v[:vb.shape[0]]
+            ob = shifted_o[:ob.shape[0]]
+        count, kind = 0, 0
+        if i >= 0:
+            va, na, oa, fsa, ea, efa, nsa = _body_features(
+                i, shape_ids[i], body_vertex_start, world_vertices, body_face_start,
+                world_normals, world_offsets, face_start, face_count, face_vertex_start,
+                edge_start, edge_count, edges, edge_faces, vertex_start, vertex_count,
+                vertex_neighbour_start)
+            g, found = signed_distance(
+                va, na, oa, fsa, face_vertices, ea, efa, nsa, vertex_neighbours, positions[i],
+                vb, nb, ob, fsb, face_vertices, eb, efb, nsb, vertex_neighbours, cj, 0.0, n_out)
+            if found:
+                count, kind = pair_manifold(
+                    va, na, oa, fsa, face_vertices, ea, efa, nsa, vertex_neighbours,
+                    vb, nb, ob, fsb, face_vertices, eb, efb, nsb, vertex_neighbours,
+                    g, n_out, 0.0, cos_tol, sin_tol, max_points, pts, gps, nrm, ida, idb)
+        else:
+            w = -1 - i
             for a in range(3):
-                pairs.normal[p, a] = 0.0
-                pairs.point[p, a] = 0.0
-                pairs.rel_vel[p, a] = 0.0
+                wall_point[a] = wall_p0[w, a] + wall_disp[w] * wall_n[w, a]
+            count, kind = wall_manifold(vb, nb, fsb, face_vertices, eb, nsb, vertex_neighbours,
+                                        wall_point, wall_n[w], 0.0, cos_tol, sin_tol,
+                                        max_points, pts, gps, idb)
+            for r in range(count):
+                nrm[r, 0], nrm[r, 1], nrm[r, 2] = wall_n[w, 0], wall_n[w, 1], wall_n[w, 2]
+                ida[r] = -1
+        # the penetrating points, compacted into the pair's slots
+        closed, total, squares = 0, 0.0, 0.0
+        for r in range(count):
+            depth = -gps[r]
+            if depth > 0.0:
+                point_gap[p, closed] = gps[r]
+                feature_i[p, closed], feature_j[p, closed] = ida[r], idb[r]
+                for a in range(3):
+                    point_normal[p, closed, a] = nrm[r, a]
+                    point_position[p, closed, a] = pts[r, a]
+                total += depth
+                squares += depth * depth
+                stats[0] = max(stats[0], depth)
+                closed += 1
+        n_points[p] = closed
+        pair_type[p] = kind
+        for a in range(3):
+            force[p, a] = 0.0
+            torque_i[p, a] = 0.0
+            torque_j[p, a] = 0.0
+        if closed == 0:  # open: the spring is released
+            xi[p, 0], xi[p, 1], xi[p, 2] = 0.0, 0.0, 0.0
+            stiffness[p] = 0.0
+            for a in range(3):
+                normal[p, a] = 0.0
+                point[p, a] = 0.0
+                rel_vel[p, a] = 0.0
             continue
-        _pair_force(p, step, code, params, pairs, bodies, walls, closed, total, squares, cj,
-                    rate)
+        row = 0 if i >= 0 else 1
+        m_eff = 1.0 / (inv_mass[i] + inv_mass[j]) if i >= 0 else 1.0 / inv_mass[j]
+        normal_sum = 0.0
+        bx, by, bz, nx, ny, nz = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        for r in range(closed):  # normal force of each point: its share of the law
+            depth = -point_gap[p, r]
+            share = depth / total
+            qx, qy, qz = point_position[p, r, 0], point_position[p, r, 1], point_position[p, r, 2]
+            ex, ey, ez = point_normal[p, r, 0], point_normal[p, r, 1], point_normal[p, r, 2]
+            ux, uy, uz = _velocity_at(i, j, qx, qy, qz, cj, rate, positions, velocities, spins,
+                                      wall_n, wall_speed)
+            point_velocity[p, r, 0], point_velocity[p, r, 1], point_velocity[p, r, 2] = \
+                ux, uy, uz
+            fne, _, _, c_n, _ = contact_law(code, params[row], depth, r_eff[p], m_eff)
+            f = max(0.0, share * (fne - c_n * (ux * ex + uy * ey + uz * ez)))
+            normal_sum += f
+            fx, fy, fz = f * ex, f * ey, f * ez
+            point_force[p, r, 0], point_force[p, r, 1], point_force[p, r, 2] = fx, fy, fz
+            force[p, 0] += fx
+            force[p, 1] += fy
+            force[p, 2] += fz
+            _add_moment(torque_j, p, qx - cj[0], qy - cj[1], qz - cj[2], fx, fy, fz, 1.0)
+            if i >= 0:
+                _add_moment(torque_i, p, qx - positions[i, 0], qy - positions[i, 1],
+                            qz - positions[i, 2], fx, fy, fz, -1.0)
+            bx, by, bz = bx + share * qx, by + share * qy, bz + share * qz
+            nx, ny, nz = nx + share * ex, ny + share * ey, nz + share * ez
+        length = math.sqrt(nx * nx + ny * ny + nz * nz)
+        nx, ny, nz = nx / length, ny / length, nz / length
+        normal[p, 0], normal[p, 1], normal[p, 2] = nx, ny, nz
+        point[p, 0], point[p, 1], point[p, 2] = bx, by, bz
+        # one tangential spring per pair at the mean point, about the mean normal
+        ux, uy, uz = _velocity_at(i, j, bx, by, bz, cj, rate, positions, velocities, spins,
+                                  wall_n, wall_speed)
+        rel_vel[p, 0], rel_vel[p, 1], rel_vel[p, 2] = ux, uy, uz
+        un = ux * nx + uy * ny + uz * nz
+        utx, uty, utz = ux - un * nx, uy - un * ny, uz - un * nz
+        _, s_n, k_t, _, c_t = contact_law(code, params[row], squares / total, r_eff[p], m_eff)
+        stiffness[p] = s_n
+        spin_n = spins[j, 0] * nx + spins[j, 1] * ny + spins[j, 2] * nz
+        if i >= 0:
+            spin_n += spins[i, 0] * nx + spins[i, 1] * ny + spins[i, 2] * nz
+        ftx, fty, ftz, hx, hy, hz = mindlin_coulomb(step > 0.0, step, xi[p, 0], xi[p, 1],
+                                                    xi[p, 2], nx, ny, nz, 0.5 * spin_n, utx,
+                                                    uty, utz, k_t, c_t, mu[p] * normal_sum)
+        xi[p, 0], xi[p, 1], xi[p, 2] = hx, hy, hz
+        force[p, 0] += ftx
+        force[p, 1] += fty
+        force[p, 2] += ftz
+        _add_moment(torque_j, p, bx - cj[0], by - cj[1], bz - cj[2], ftx, fty, ftz, 1.0)
+        if i >= 0:
+            _add_moment(torque_i, p, bx - positions[i, 0], by - positions[i, 1],
+                        bz - positions[i, 2], ftx, fty, ftz, -1.0)
+        for r in range(closed):  # each point's share of the tangential force (report)
+            share = -point_gap[p, r] / total
+            point_force[p, r, 0] += share * ftx
+            point_force[p, r, 1] += share * fty
+            point_force[p, r, 2] += share * ftz
 
 
 @register_force_pass(PolyhedronPairArrays, allocates=True)
@@ -290,7 +270,13 @@ def polyhedron_force_pass(parallel, step, record, law, pairs, bodies, walls, cel
     parameters, rolling coefficient, 0 with polyhedra)."""
     code, params, _ = law
     world_boundaries_kernel(bodies.positions, bodies.orientations, pairs.shapes, pairs.world)
-    polyhedron_forces_kernel(step, code, params, pairs, bodies, walls, cell, stats)
+    outputs = (pairs.force, pairs.torque_i, pairs.torque_j, pairs.normal, pairs.point,
+               pairs.stiffness, pairs.rel_vel, pairs.n_points, pairs.point_gap,
+               pairs.point_normal, pairs.point_position, pairs.point_force,
+               pairs.point_velocity, pairs.feature_i, pairs.feature_j, pairs.pair_type)
+    polyhedron_forces_kernel(step, code, params, pairs.library, pairs.world,
+                             (pairs.body_i, pairs.body_j, pairs.images, pairs.mu, pairs.r_eff),
+                             pairs.tolerances, pairs.xi, outputs, bodies, walls, cell, stats)
     wall_loads_kernel(pairs.wall_rows, pairs.body_i, walls.normals, pairs.force,
                       pairs.stiffness, walls.force, walls.stiffness)
     virial_kernel(pairs.body_i, pairs.body_j, pairs.images, pairs.force, bodies.positions,
