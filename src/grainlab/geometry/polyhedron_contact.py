@@ -101,7 +101,7 @@ _HUGE = 1e300
 # --------------------------------------------------------------------------------------------
 
 
-@njit(inline="always")
+@njit
 def _support(vertices, nstart, nbrs, dx, dy, dz, start):
     """Index of the vertex maximising d . v, by hill climbing from ``start`` on the
     vertex-neighbour graph (exact on a convex polyhedron)."""
@@ -118,12 +118,12 @@ def _support(vertices, nstart, nbrs, dx, dy, dz, start):
     return best, value
 
 
-@njit(inline="always")
+@njit
 def _cross(ax, ay, az, bx, by, bz):
     return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
 
 
-@njit(inline="always")
+@njit
 def _seg_seg(p, i0, i1, q, j0, j1):
     """Closest points of segments [p[i0], p[i1]] and [q[j0], q[j1]] (rows of (n, 3) arrays):
     the link vector from the first to the second (lx, ly, lz) (scalar code)."""
@@ -150,7 +150,7 @@ def _seg_seg(p, i0, i1, q, j0, j1):
     return t * d2x - s * d1x - rx, t * d2y - s * d1y - ry, t * d2z - s * d1z - rz
 
 
-@njit(inline="always")
+@njit
 def _inside_face(x, vertices, fstart, fverts, f, normal):
     """Whether the projection of x along ``normal`` falls inside face f (CCW about normal)."""
     k0, k1 = fstart[f], fstart[f + 1]
@@ -167,7 +167,7 @@ def _inside_face(x, vertices, fstart, fverts, f, normal):
     return True
 
 
-@njit(inline="always")
+@njit
 def _find_edge(edges, u, v):
     a, b = min(u, v), max(u, v)
     for e in range(edges.shape[0]):
@@ -208,7 +208,7 @@ def supporting_feature(vertices, normals, nstart, nbrs, edges, dx, dy, dz, cos_t
 # --------------------------------------------------------------------------------------------
 
 
-@njit(inline="always")
+@njit
 def _inradius(normals, offsets, c):
     """Distance [m] from c to the nearest face plane, min_f (O_f - n_f . c) (> 0 when c is
     inside); every unit n then has min_x n . x <= n . c - r over the body."""
@@ -219,7 +219,7 @@ def _inradius(normals, offsets, c):
     return r
 
 
-@njit(inline="always")
+@njit
 def _circumradius(vertices, c):
     """Largest distance [m] from c to a vertex."""
     r2 = 0.0
@@ -229,7 +229,7 @@ def _circumradius(vertices, c):
     return math.sqrt(r2)
 
 
-@njit(inline="always")
+@njit
 def _best_bound_face(normals, offsets, c, r):
     """Face f of largest bound n_f . c - O_f - r on its axis value s (c, r: centre and
     inradius of the other body): the face most likely to give the largest s."""
@@ -241,7 +241,7 @@ def _best_bound_face(normals, offsets, c, r):
     return best_f
 
 
-@njit(inline="always")
+@njit
 def _faces_reaching(proj, fstart, fverts, level, above, out):
     """Writes into ``out`` the faces with a vertex projection ``proj`` (n_v,) >= ``level``
     (``above``) or <= ``level`` (not ``above``), in increasing order; returns their number."""
@@ -256,7 +256,7 @@ def _faces_reaching(proj, fstart, fverts, level, above, out):
     return count
 
 
-@njit(inline="always")
+@njit
 def _project(vertices, dx, dy, dz):
     """Projections (n_v,) of the vertices on (dx, dy, dz)."""
     proj = np.empty(vertices.shape[0])

@@ -118,7 +118,7 @@ EDGE_NORMAL_COS = 0.5
 """... and that normal lies within 60 degrees of the pair's normal; else the pair's normal."""
 
 
-@njit(inline="always")
+@njit
 def _reduce(points, gaps, count, tol, max_points):
     """Indices (MAX_POINTS,) of at most ``max_points`` (3 to MAX_POINTS) of ``count``
     points: the deepest, the farthest from it, the one giving the largest triangle, the one
@@ -204,7 +204,7 @@ def _reduce(points, gaps, count, tol, max_points):
     return idx, kept
 
 
-@njit(inline="always")
+@njit
 def _line_entry(x, dx, dy, dz, normals, offsets, faces, n_faces):
     """Entry parameter t >= -inf of the line x + t d into the polyhedron (half-spaces
     n . y <= O of the faces ``faces[:n_faces]``) and the face it enters through;
@@ -225,7 +225,7 @@ def _line_entry(x, dx, dy, dz, normals, offsets, faces, n_faces):
     return t_in, face, face >= 0 and t_in <= t_out + 1e-12 * (abs(t_in) + 1.0)
 
 
-@njit(inline="always")
+@njit
 def _vertex_constraint(x, t, f, sign, nx, ny, nz, vertices, normals, offsets, edges,
                        edge_faces, faces, n_faces, tie):
     """Gap [m], unit normal (from A to B) and feature id (module docstring) of the other
@@ -285,7 +285,7 @@ def _vertex_constraint(x, t, f, sign, nx, ny, nz, vertices, normals, offsets, ed
         n_v + n_e + f
 
 
-@njit(inline="always")
+@njit
 def _edge_boxes(vertices, edges, kept, n_kept, proj, nx, ny, nz, upper, grow, boxes):
     """Columns (min, max) along t1, (min, max) along t2 (t1, t2, n orthonormal), widened by
     ``grow``, and the highest (``upper``) or lowest end along n of the edges
@@ -308,7 +308,7 @@ def _edge_boxes(vertices, edges, kept, n_kept, proj, nx, ny, nz, upper, grow, bo
         boxes[4, i] = max(proj[p], proj[q]) if upper else min(proj[p], proj[q])
 
 
-@njit(inline="always")
+@njit
 def _near_edges(box_a, i, box_b, n_b, reach, out):
     """Writes into ``out`` the edges j of B (increasing) whose box (``box_b``, widened)
     overlaps that of edge i of A and whose lowest end is within ``reach`` above the highest
@@ -324,7 +324,7 @@ def _near_edges(box_a, i, box_b, n_b, reach, out):
     return m
 
 
-@njit(inline="always")
+@njit
 def _upper_edge(normals, edge_faces, e, dx, dy, dz):
     """Whether edge e borders a face whose normal has a positive component along d."""
     for k in range(2):
@@ -573,7 +573,7 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     return kept, kind
 
 
-@njit(inline="always")
+@njit
 def _code(kind, index, n_vertices, n_edges):
     if kind == _VERTEX:
         return index
@@ -582,7 +582,7 @@ def _code(kind, index, n_vertices, n_edges):
     return n_vertices + n_edges + index
 
 
-@njit(inline="always")
+@njit
 def _type_of(kind_a, kind_b, ea, eb, fa, fb, va, vb, sin_tol):
     """Pair type from the supporting features: ff, fe (face-edge or parallel edges), ee, fv."""
     if kind_a == _FACE and kind_b == _FACE:

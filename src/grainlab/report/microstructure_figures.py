@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from grainlab.analysis.angular_distributions import AngularDistributions
 from grainlab.analysis.contact_network import ContactNetwork
@@ -27,16 +28,24 @@ _FRAMES = (("contact_frame", "contact frame (n, t)"), ("branch_frame", "branch f
 def _polar_panel(ax, theta: np.ndarray, values: np.ndarray, fit: np.ndarray,
                  errors: np.ndarray | None = None) -> None:
     """One polar diagram: data (|values|, with error bars when given) unfolded by symmetry
-    over the full circle, the compression axis vertical, and the harmonic fit as a line."""
-    for sign in (1, -1):
-        for shift in (0.0, np.pi):
-            angle = np.pi / 2 - sign * theta + shift
-            if errors is None:
-                ax.plot(angle, np.abs(values), "o", ms=2.5, color="tab:blue")
-            else:
-                ax.errorbar(angle, np.abs(values), yerr=np.nan_to_num(errors), fmt="o", ms=2.5,
-                            color="tab:blue", elinewidth=0.8, capsize=1.5)
-            ax.plot(angle, np.abs(fit), "-", lw=1.0, color="tab:red")
+    over the full circle, the compression axis vertical, and the harmonic fit as a line.
+
+    The four mirror copies are drawn as one artist each for the data and for the fit (the fit's
+    copies apart by NaN gaps), error bars without caps, the grid every 45 degrees and three
+    radial ticks: a panel of separate copies with capped bars took twice as long to draw."""
+    copies = [np.pi / 2 - sign * theta + shift for sign in (1, -1) for shift in (0.0, np.pi)]
+    angles, data = np.concatenate(copies), np.tile(np.abs(values), len(copies))
+    if errors is None:
+        ax.plot(angles, data, "o", ms=2.5, color="tab:blue")
+    else:
+        ax.errorbar(angles, data, yerr=np.tile(np.nan_to_num(errors), len(copies)), fmt="o",
+                    ms=2.5, color="tab:blue", elinewidth=0.8, capsize=0)
+    gap = np.array([np.nan])
+    ax.plot(np.concatenate([part for copy in copies for part in (gap, copy)][1:]),
+            np.concatenate([part for _ in copies for part in (gap, np.abs(fit))][1:]),
+            "-", lw=1.0, color="tab:red")
+    ax.set_xticks(np.radians(np.arange(0.0, 360.0, 45.0)))
+    ax.yaxis.set_major_locator(MaxNLocator(3))
     ax.set_xticklabels([])
     ax.tick_params(labelsize="x-small")
 
