@@ -135,14 +135,9 @@ def polyhedron_forces_kernel(step, code, params, library, world, pairs, toleranc
             j, shape_ids[j], body_vertex_start, world_vertices, body_face_start, world_normals,
             world_offsets, face_start, face_count, face_vertex_start, edge_start, edge_count,
             edges, edge_faces, vertex_start, vertex_count, vertex_neighbour_start)
-        if imaged:  # body j's image: vertices + h m, face offsets + n . h m
-            sx, sy, sz = cj[0] - positions[j, 0], cj[1] - positions[j, 1], cj[2] - positions[j, 2]
-            for v in range(vb.shape[0]):
-                shifted_v[v, 0] = vb[v, 0] + sx
-                shifted_v[v, 1] = vb[v, 1] + sy
-                shifted_v[v, 2] = vb[v, 2] + sz
-            for f in range(ob.shape[0]):
-                shifted_o[f] = ob[f] + nb[f, 0] * sx + nb[f, 1] * sy + nb[f, 2] * sz
+        if imaged:  # body j's image
+            _shift_image(vb, nb, ob, cj[0] - positions[j, 0], cj[1] - positions[j, 1],
+                         cj[2] - positions[j, 2], shifted_v, shifted_o)
             vb = shifted_v[:vb.shape[0]]
             ob = shifted_o[:ob.shape[0]]
         count, kind = 0, 0
@@ -170,92 +165,160 @@ def polyhedron_forces_kernel(step, code, params, library, world, pairs, toleranc
             for r in range(count):
                 nrm[r, 0], nrm[r, 1], nrm[r, 2] = wall_n[w, 0], wall_n[w, 1], wall_n[w, 2]
                 ida[r] = -1
-        # the penetrating points, compacted into the pair's slots
-        closed, total, squares = 0, 0.0, 0.0
-        for r in range(count):
-            depth = -gps[r]
-            if depth > 0.0:
-                point_gap[p, closed] = gps[r]
-                feature_i[p, closed], feature_j[p, closed] = ida[r], idb[r]
-                for a in range(3):
-                    point_normal[p, closed, a] = nrm[r, a]
-                    point_position[p, closed, a] = pts[r, a]
-                total += depth
-                squares += depth * depth
-                stats[0] = max(stats[0], depth)
-                closed += 1
+        closed, total, squares = _closed_points(
+            p, count, pts, gps, nrm, ida, idb, point_gap, point_normal, point_position,
+            feature_i, feature_j, stats)
         n_points[p] = closed
         pair_type[p] = kind
-        for a in range(3):
-            force[p, a] = 0.0
-            torque_i[p, a] = 0.0
-            torque_j[p, a] = 0.0
         if closed == 0:  # open: the spring is released
-            xi[p, 0], xi[p, 1], xi[p, 2] = 0.0, 0.0, 0.0
-            stiffness[p] = 0.0
-            for a in range(3):
-                normal[p, a] = 0.0
-                point[p, a] = 0.0
-                rel_vel[p, a] = 0.0
+            _release(p, xi, stiffness, force, torque_i, torque_j, normal, point, rel_vel)
             continue
         row = 0 if i >= 0 else 1
         m_eff = 1.0 / (inv_mass[i] + inv_mass[j]) if i >= 0 else 1.0 / inv_mass[j]
-        normal_sum = 0.0
-        bx, by, bz, nx, ny, nz = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-        for r in range(closed):  # normal force of each point: its share of the law
-            depth = -point_gap[p, r]
-            share = depth / total
-            qx, qy, qz = point_position[p, r, 0], point_position[p, r, 1], point_position[p, r, 2]
-            ex, ey, ez = point_normal[p, r, 0], point_normal[p, r, 1], point_normal[p, r, 2]
-            ux, uy, uz = _velocity_at(i, j, qx, qy, qz, cj, rate, positions, velocities, spins,
-                                      wall_n, wall_speed)
-            point_velocity[p, r, 0], point_velocity[p, r, 1], point_velocity[p, r, 2] = \
-                ux, uy, uz
-            fne, _, _, c_n, _ = contact_law(code, params[row], depth, r_eff[p], m_eff)
-            f = max(0.0, share * (fne - c_n * (ux * ex + uy * ey + uz * ez)))
-            normal_sum += f
-            fx, fy, fz = f * ex, f * ey, f * ez
-            point_force[p, r, 0], point_force[p, r, 1], point_force[p, r, 2] = fx, fy, fz
-            force[p, 0] += fx
-            force[p, 1] += fy
-            force[p, 2] += fz
-            _add_moment(torque_j, p, qx - cj[0], qy - cj[1], qz - cj[2], fx, fy, fz, 1.0)
-            if i >= 0:
-                _add_moment(torque_i, p, qx - positions[i, 0], qy - positions[i, 1],
-                            qz - positions[i, 2], fx, fy, fz, -1.0)
-            bx, by, bz = bx + share * qx, by + share * qy, bz + share * qz
-            nx, ny, nz = nx + share * ex, ny + share * ey, nz + share * ez
-        length = math.sqrt(nx * nx + ny * ny + nz * nz)
-        nx, ny, nz = nx / length, ny / length, nz / length
-        normal[p, 0], normal[p, 1], normal[p, 2] = nx, ny, nz
-        point[p, 0], point[p, 1], point[p, 2] = bx, by, bz
-        # one tangential spring per pair at the mean point, about the mean normal
-        ux, uy, uz = _velocity_at(i, j, bx, by, bz, cj, rate, positions, velocities, spins,
+        normal_sum = _normal_forces(
+            p, i, j, closed, total, code, params[row], r_eff[p], m_eff, cj, rate, positions,
+            velocities, spins, wall_n, wall_speed, point_gap, point_normal, point_position,
+            point_velocity, point_force, force, torque_i, torque_j, normal, point)
+        _tangential_force(p, i, j, step, closed, total, squares, code, params[row], r_eff[p],
+                          m_eff, mu[p] * normal_sum, cj, rate, positions, velocities, spins,
+                          wall_n, wall_speed, xi, point_gap, point_force, force, torque_i,
+                          torque_j, normal, point, rel_vel, stiffness)
+
+
+# The per-pair stages of the force kernel after its geometry: compiled functions without
+# Numba's runtime (they allocate nothing), so that a call costs no reference counts on the
+# arrays it is handed (the kernel itself allocates through the geometry and keeps the runtime)
+@njit(inline="always")
+def _shift_image(vb, nb, ob, sx, sy, sz, shifted_v, shifted_o):
+    """A polyhedron's image shifted by (sx, sy, sz) = h m [m]: its vertices ``vb`` plus the
+    shift into ``shifted_v``, its face offsets ``ob`` plus n . h m into ``shifted_o``."""
+    for v in range(vb.shape[0]):
+        shifted_v[v, 0] = vb[v, 0] + sx
+        shifted_v[v, 1] = vb[v, 1] + sy
+        shifted_v[v, 2] = vb[v, 2] + sz
+    for f in range(ob.shape[0]):
+        shifted_o[f] = ob[f] + nb[f, 0] * sx + nb[f, 1] * sy + nb[f, 2] * sz
+
+
+@njit(inline="always")
+def _closed_points(p, count, pts, gps, nrm, ida, idb, point_gap, point_normal, point_position,
+                   feature_i, feature_j, stats):
+    """The penetrating points of pair p's manifold (``count`` points of gap ``gps`` [m],
+    position ``pts``, normal ``nrm``, features ``ida``, ``idb``) compacted into its slots;
+    ``stats[0]`` grows to the deepest penetration [m]. Returns (closed points, the sum of
+    their depths [m], the sum of their squares [m^2])."""
+    closed, total, squares = 0, 0.0, 0.0
+    for r in range(count):
+        depth = -gps[r]
+        if depth > 0.0:
+            point_gap[p, closed] = gps[r]
+            feature_i[p, closed], feature_j[p, closed] = ida[r], idb[r]
+            for a in range(3):
+                point_normal[p, closed, a] = nrm[r, a]
+                point_position[p, closed, a] = pts[r, a]
+            total += depth
+            squares += depth * depth
+            stats[0] = max(stats[0], depth)
+            closed += 1
+    return closed, total, squares
+
+
+@njit(inline="always")
+def _release(p, xi, stiffness, force, torque_i, torque_j, normal, point, rel_vel):
+    """An open pair p: no force, no moment, its spring released."""
+    xi[p, 0], xi[p, 1], xi[p, 2] = 0.0, 0.0, 0.0
+    stiffness[p] = 0.0
+    for a in range(3):
+        force[p, a] = 0.0
+        torque_i[p, a] = 0.0
+        torque_j[p, a] = 0.0
+        normal[p, a] = 0.0
+        point[p, a] = 0.0
+        rel_vel[p, a] = 0.0
+
+
+@njit(inline="always")
+def _normal_forces(p, i, j, closed, total, code, params, r_eff, m_eff, cj, rate, positions,
+                   velocities, spins, wall_n, wall_speed, point_gap, point_normal,
+                   point_position, point_velocity, point_force, force, torque_i, torque_j,
+                   normal, point):
+    """The normal force of each of pair p's ``closed`` points, its share depth / ``total``
+    of the law's elastic force at the point's depth less the dashpot on the point's normal
+    velocity (never pulling); the pair's force and moments start from their sum. The pair's
+    normal and point are the shares' means. Returns the sum of the normal forces [N]."""
+    for a in range(3):
+        force[p, a] = 0.0
+        torque_i[p, a] = 0.0
+        torque_j[p, a] = 0.0
+    normal_sum = 0.0
+    bx, by, bz, nx, ny, nz = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    for r in range(closed):
+        depth = -point_gap[p, r]
+        share = depth / total
+        qx, qy, qz = point_position[p, r, 0], point_position[p, r, 1], point_position[p, r, 2]
+        ex, ey, ez = point_normal[p, r, 0], point_normal[p, r, 1], point_normal[p, r, 2]
+        ux, uy, uz = _velocity_at(i, j, qx, qy, qz, cj, rate, positions, velocities, spins,
                                   wall_n, wall_speed)
-        rel_vel[p, 0], rel_vel[p, 1], rel_vel[p, 2] = ux, uy, uz
-        un = ux * nx + uy * ny + uz * nz
-        utx, uty, utz = ux - un * nx, uy - un * ny, uz - un * nz
-        _, s_n, k_t, _, c_t = contact_law(code, params[row], squares / total, r_eff[p], m_eff)
-        stiffness[p] = s_n
-        spin_n = spins[j, 0] * nx + spins[j, 1] * ny + spins[j, 2] * nz
+        point_velocity[p, r, 0], point_velocity[p, r, 1], point_velocity[p, r, 2] = \
+            ux, uy, uz
+        fne, _, _, c_n, _ = contact_law(code, params, depth, r_eff, m_eff)
+        f = max(0.0, share * (fne - c_n * (ux * ex + uy * ey + uz * ez)))
+        normal_sum += f
+        fx, fy, fz = f * ex, f * ey, f * ez
+        point_force[p, r, 0], point_force[p, r, 1], point_force[p, r, 2] = fx, fy, fz
+        force[p, 0] += fx
+        force[p, 1] += fy
+        force[p, 2] += fz
+        _add_moment(torque_j, p, qx - cj[0], qy - cj[1], qz - cj[2], fx, fy, fz, 1.0)
         if i >= 0:
-            spin_n += spins[i, 0] * nx + spins[i, 1] * ny + spins[i, 2] * nz
-        ftx, fty, ftz, hx, hy, hz = mindlin_coulomb(step > 0.0, step, xi[p, 0], xi[p, 1],
-                                                    xi[p, 2], nx, ny, nz, 0.5 * spin_n, utx,
-                                                    uty, utz, k_t, c_t, mu[p] * normal_sum)
-        xi[p, 0], xi[p, 1], xi[p, 2] = hx, hy, hz
-        force[p, 0] += ftx
-        force[p, 1] += fty
-        force[p, 2] += ftz
-        _add_moment(torque_j, p, bx - cj[0], by - cj[1], bz - cj[2], ftx, fty, ftz, 1.0)
-        if i >= 0:
-            _add_moment(torque_i, p, bx - positions[i, 0], by - positions[i, 1],
-                        bz - positions[i, 2], ftx, fty, ftz, -1.0)
-        for r in range(closed):  # each point's share of the tangential force (report)
-            share = -point_gap[p, r] / total
-            point_force[p, r, 0] += share * ftx
-            point_force[p, r, 1] += share * fty
-            point_force[p, r, 2] += share * ftz
+            _add_moment(torque_i, p, qx - positions[i, 0], qy - positions[i, 1],
+                        qz - positions[i, 2], fx, fy, fz, -1.0)
+        bx, by, bz = bx + share * qx, by + share * qy, bz + share * qz
+        nx, ny, nz = nx + share * ex, ny + share * ey, nz + share * ez
+    length = math.sqrt(nx * nx + ny * ny + nz * nz)
+    normal[p, 0], normal[p, 1], normal[p, 2] = nx / length, ny / length, nz / length
+    point[p, 0], point[p, 1], point[p, 2] = bx, by, bz
+    return normal_sum
+
+
+@njit(inline="always")
+def _tangential_force(p, i, j, step, closed, total, squares, code, params, r_eff, m_eff,
+                      limit, cj, rate, positions, velocities, spins, wall_n, wall_speed, xi,
+                      point_gap, point_force, force, torque_i, torque_j, normal, point,
+                      rel_vel, stiffness):
+    """Pair p's one tangential spring at its mean point about its mean normal (the
+    Mindlin-Coulomb spring of :func:`~grainlab.contact.tangential_spring.mindlin_coulomb`,
+    capped at ``limit`` = mu times the normal force [N], stiffness at the root mean square
+    depth), added to the pair's force and moments and shared over its ``closed`` points as
+    their depths (report); the pair's normal stiffness S_n [N/m] written."""
+    nx, ny, nz = normal[p, 0], normal[p, 1], normal[p, 2]
+    bx, by, bz = point[p, 0], point[p, 1], point[p, 2]
+    ux, uy, uz = _velocity_at(i, j, bx, by, bz, cj, rate, positions, velocities, spins,
+                              wall_n, wall_speed)
+    rel_vel[p, 0], rel_vel[p, 1], rel_vel[p, 2] = ux, uy, uz
+    un = ux * nx + uy * ny + uz * nz
+    utx, uty, utz = ux - un * nx, uy - un * ny, uz - un * nz
+    _, s_n, k_t, _, c_t = contact_law(code, params, squares / total, r_eff, m_eff)
+    stiffness[p] = s_n
+    spin_n = spins[j, 0] * nx + spins[j, 1] * ny + spins[j, 2] * nz
+    if i >= 0:
+        spin_n += spins[i, 0] * nx + spins[i, 1] * ny + spins[i, 2] * nz
+    ftx, fty, ftz, hx, hy, hz = mindlin_coulomb(step > 0.0, step, xi[p, 0], xi[p, 1],
+                                                xi[p, 2], nx, ny, nz, 0.5 * spin_n, utx,
+                                                uty, utz, k_t, c_t, limit)
+    xi[p, 0], xi[p, 1], xi[p, 2] = hx, hy, hz
+    force[p, 0] += ftx
+    force[p, 1] += fty
+    force[p, 2] += ftz
+    _add_moment(torque_j, p, bx - cj[0], by - cj[1], bz - cj[2], ftx, fty, ftz, 1.0)
+    if i >= 0:
+        _add_moment(torque_i, p, bx - positions[i, 0], by - positions[i, 1],
+                    bz - positions[i, 2], ftx, fty, ftz, -1.0)
+    for r in range(closed):  # each point's share of the tangential force (report)
+        share = -point_gap[p, r] / total
+        point_force[p, r, 0] += share * ftx
+        point_force[p, r, 1] += share * fty
+        point_force[p, r, 2] += share * ftz
 
 
 @register_force_pass(PolyhedronPairArrays, allocates=True)
