@@ -13,6 +13,7 @@ from typing import get_args
 
 import pytest
 
+from grainlab.cli.run_options import option_named, options_of
 from grainlab.contact.soft_contact_law import SoftContactLaw
 from grainlab.engine.convergence import EXPLICIT_COLUMNS, Convergence, convergence_columns
 from grainlab.engine.dem.soft_contact import SoftContactStep
@@ -103,6 +104,15 @@ def test_options_of_one_solver_are_refused_with_the_other():
     assert list(inert_settings(cd, nlgs + soft)) == soft
     assert list(inert_settings(dem, nlgs + soft)) == nlgs
     assert "does not use" in inert_settings(dem, ["solver.sweep"])["solver.sweep"]
+
+
+def test_the_solver_option_offers_every_registered_solver():
+    help_text = option_named("compaction", "solver").help
+    for name, record in solver_registry.SOLVERS.items():
+        assert f"{name} ({record.help})" in help_text
+    soft = {option.typed for option in options_of("compaction")
+            if option.key and option.key.startswith("solver.dem.")}
+    assert soft == {"--law", "--kappa", "--young-modulus", "--restitution"}
 
 
 def test_a_solver_in_words():

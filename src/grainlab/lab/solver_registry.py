@@ -143,6 +143,9 @@ class SolverRecord:
     def __post_init__(self) -> None:
         if (self.settings_key is None) != (self.settings_type is None):
             raise TypeError(f"solver {self.name!r}: settings_key and settings_type go together")
+        if self.rolling_families is not None and not (self.settings_key and self.rolling_key):
+            raise TypeError(f"solver {self.name!r}: rolling_families needs the rolling_key "
+                            "of its own settings")
 
     # -- the lab's use of the engine solver --------------------------------------------------
     def set_stage(self, solver, numerics, recovery_speed: float) -> None:
