@@ -69,6 +69,7 @@ def what_the_run_reads(config) -> dict:
     method, periodic = config.solver.method, config.sample.boundary == "periodic"
     stages = cell_stages(path, deformable=method == "dem") if periodic else wall_stages(path)
     settings = asdict(config.settings())
+    settings.update(settings.pop("solver_settings"))  # each solver's own under its key
     if not any(stage.moving_axes for stage in stages):
         settings.pop("shear")  # no loading stage
     if method == "dem":

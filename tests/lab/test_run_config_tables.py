@@ -17,8 +17,12 @@ from grainlab.lab.run_config import (
     CompactionConfig,
     RunConfig,
     ShearConfig,
+    SolverConfig,
+    unit_of,
 )
+from grainlab.lab.setting_bounds import setting_fields
 from grainlab.lab.soft_contact_settings import SoftContactSettings
+from grainlab.lab.solver_registry import own_settings_records
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR, StageNumerics
 from grainlab.lab.wall_stages import QuasiStaticCriteria
 
@@ -44,6 +48,27 @@ def test_a_stage_tables_bounds_name_the_key(key, value, allowed):
         RunConfig.model_validate({"solver": {"shear": {key: value}}})
     assert caught.value.field == f"solver.shear.{key}"
     assert allowed in caught.value.allowed
+
+
+@pytest.mark.parametrize("record", own_settings_records(), ids=lambda r: r.name)
+def test_a_solvers_table_has_a_key_per_field_of_its_settings(record):
+    """``[solver.<settings_key>]`` is made from the solver's settings dataclass: its keys,
+    defaults and units are the fields', and a value outside a field's bounds is refused
+    naming the key."""
+    table = SolverConfig.model_fields[record.settings_key].annotation
+    declared = setting_fields(record.settings_type)
+    assert list(table.model_fields) == [s.name for s in declared]
+    assert table().frozen() == record.settings_type()
+    for setting in declared:
+        key = f"solver.{record.settings_key}.{setting.name}"
+        assert unit_of(key) == setting.bounds.unit
+        for bound, value in setting.bounds.limits().items():
+            refused = value if bound in ("gt", "lt") else value - 1.0 if bound == "ge" \
+                else value + 1.0
+            with pytest.raises(InputError) as caught:
+                RunConfig.model_validate({"solver": {record.settings_key: {
+                    setting.name: float(refused)}}})
+            assert caught.value.field == key
 
 
 def test_settings_read_every_field_from_the_config():

@@ -89,6 +89,25 @@ def test_the_table_holds_each_runs_measures_and_cost(triaxial_pair):
     assert table.loc["compaction_p", "unit"] == "Pa" and table.loc["wall_time", "unit"] == "s"
 
 
+def test_the_pair_names_the_columns_and_the_reference(triaxial_pair):
+    """The pair compared is a parameter (the registry's COMPARED by default): its first
+    solver is the reference the differences are taken from, the columns named after both."""
+    cd, dem = triaxial_pair
+    assert SolverComparison().pair == ("cd", "dem")
+    reverse = SolverComparison(pair=("dem", "cd")).compute({"cd": cd, "dem": dem})
+    table = rows(reverse)
+    assert list(table.columns[-2:]) == ["cd_minus_dem", "cd_over_dem"]
+    assert table.loc["wall_time", "cd_over_dem"] == 4.0
+    assert table.loc["steps", "cd_minus_dem"] == -400
+    assert math.isnan(table.loc["as_asked", "cd_over_dem"])
+    with pytest.raises(InputError, match=r"runs\['cd'\] sample\.seed.*as in the dem run"):
+        other = run_result("cd", "triaxial", cd.table, cost=RunCost(5.0, 800), seed=2)
+        SolverComparison(pair=("dem", "cd")).compute({"cd": other, "dem": dem})
+    for pair in (("cd", "cd"), ("cd", "lattice"), ("cd",)):
+        with pytest.raises(InputError, match="pair"):
+            SolverComparison(pair=pair)
+
+
 def test_an_oedometer_is_compared_at_the_end_of_each_stage():
     table = pd.DataFrame({
         "stage": ["compaction", "loading", "loading", "unloading"],

@@ -1,26 +1,39 @@
 """The solver registry (grainlab.lab.solver_registry): the config's solver names are the
 registry's; what the lab pushes into a solver and keeps in checkpoints follows its record; an
 explicit step carries no convergence record, an iterative one does, and only steps that
-really end unconverged count as such (grainlab.engine.simulation)."""
+really end unconverged count as such (grainlab.engine.simulation); a solver with settings of
+its own (registered here by a fixture) gets its config table from its settings dataclass,
+validated by the bounds its fields declare, and its settings reach the solver it builds."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import get_args
 
 import pytest
 
+from grainlab.cli.run_options import option_named, options_of
 from grainlab.contact.soft_contact_law import SoftContactLaw
 from grainlab.engine.convergence import EXPLICIT_COLUMNS, Convergence, convergence_columns
 from grainlab.engine.dem.soft_contact import SoftContactStep
 from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
-from grainlab.lab.discrete_test import DiscreteTestSettings
+from grainlab.lab import run_config, solver_registry
+from grainlab.lab.discrete_test import DiscreteTest, DiscreteTestSettings
 from grainlab.lab.option_scope import inert_settings
 from grainlab.lab.run_config import RunConfig, SolverConfig
-from grainlab.lab.solver_registry import SOLVER_NAMES, solver_label, solver_record
+from grainlab.lab.setting_bounds import bounded
+from grainlab.lab.soft_contact_settings import SoftContactSettings
+from grainlab.lab.solver_registry import (
+    SOLVER_NAMES,
+    SolverRecord,
+    solver_label,
+    solver_record,
+)
 from grainlab.lab.stage_numerics import SHEAR
+from grainlab.prep.loose_sample import loose_sample
 
 
 def test_the_config_offers_the_registered_solvers_and_refuses_others():
@@ -93,6 +106,15 @@ def test_options_of_one_solver_are_refused_with_the_other():
     assert "does not use" in inert_settings(dem, ["solver.sweep"])["solver.sweep"]
 
 
+def test_the_solver_option_offers_every_registered_solver():
+    help_text = option_named("compaction", "solver").help
+    for name, record in solver_registry.SOLVERS.items():
+        assert f"{name} ({record.help})" in help_text
+    soft = {option.typed for option in options_of("compaction")
+            if option.key and option.key.startswith("solver.dem.")}
+    assert soft == {"--law", "--kappa", "--young-modulus", "--restitution"}
+
+
 def test_a_solver_in_words():
     assert solver_label({"method": "cd"}) == "contact dynamics (cd)"
     assert solver_label({"method": "dem", "dem": {"law": "linear", "kappa": 1e3}}) == \
@@ -102,3 +124,91 @@ def test_a_solver_in_words():
     assert solver_record("cd").substeps(ContactDynamicsStep(dt=1e-5)) is None
     assert math.isnan(solver_record("cd").row_fields(ContactDynamicsStep(dt=1e-5))[
         "velocity_zigzag"])
+
+
+@dataclass(frozen=True)
+class SpringSettings:
+    """The settings of a test solver: linear springs of a given stiffness."""
+
+    normal_stiffness: float = bounded(2e5, gt=0, unit="N/m")
+    restitution: float = bounded(0.5, gt=0, le=1)
+    rigid_walls: bool = bounded(False)
+
+
+def _build_springs(settings, sample, confining, gyroscopic):
+    own = settings.springs
+    law = SoftContactLaw.linear(own.normal_stiffness, restitution=own.restitution,
+                                rigid_walls=own.rigid_walls)
+    return SoftContactStep(law, dt=settings.dt or 1.0,
+                           friction=settings.compaction.friction), law
+
+
+SPRINGS = SolverRecord(
+    name="springs", title="fixed springs", words="fixed springs", build=_build_springs,
+    settings_key="springs", settings_type=SpringSettings, deformable=True,
+    explicit_substeps=True, own_keys=("solver.springs.",),
+    keys_words="the fixed springs (--solver springs)", runs_words="solver.method = 'springs'")
+
+
+@pytest.fixture
+def springs_registered(monkeypatch):
+    """The registry with the solver ``springs`` added, and the config models remade from it
+    (they are made from the registry when :mod:`grainlab.lab.run_config` is imported)."""
+    monkeypatch.setitem(solver_registry.SOLVERS, SPRINGS.name, SPRINGS)
+    solver, run = run_config.with_registered_solvers()
+    monkeypatch.setattr(run_config, "SolverConfig", solver)
+    monkeypatch.setattr(run_config, "RunConfig", run)
+    return run
+
+
+def test_a_registered_solver_gets_a_table_made_from_its_settings(springs_registered):
+    config = springs_registered.model_validate(
+        {"solver": {"method": "springs", "springs": {"normal_stiffness": 3e5,
+                                                     "rigid_walls": True}}})
+    settings = config.settings()
+    assert settings.springs == SpringSettings(normal_stiffness=3e5, rigid_walls=True)
+    assert settings.dem == SoftContactSettings()  # the other solver's defaults
+    assert springs_registered().settings().springs == SpringSettings()
+    again = config.with_updates({"solver": {"springs": {"restitution": 0.8}}})
+    assert again.settings().springs.restitution == 0.8
+    assert again.settings().springs.normal_stiffness == 3e5
+
+
+@pytest.mark.parametrize(("key", "value", "allowed"), [
+    ("normal_stiffness", 0.0, "> 0 (in N/m)"), ("normal_stiffness", True, "not numbers"),
+    ("restitution", 1.5, "in (0, 1]"), ("rigid_walls", 1, "true or false"),
+    ("stiffness", 1e5, "no such key"),
+])
+def test_a_registered_solvers_table_refuses_what_its_fields_do_not_allow(
+        springs_registered, key, value, allowed):
+    with pytest.raises(InputError) as caught:
+        springs_registered.model_validate({"solver": {"springs": {key: value}}})
+    assert caught.value.field == f"solver.springs.{key}"
+    assert allowed in caught.value.allowed
+
+
+def test_a_registered_solvers_settings_reach_the_solver_it_builds(springs_registered):
+    config = springs_registered.model_validate(
+        {"sample": {"n_particles": 20}, "test": {"kind": "compaction"},
+         "solver": {"method": "springs", "springs": {"normal_stiffness": 3e5,
+                                                     "restitution": 0.7}}})
+    test = DiscreteTest(loose_sample(n_particles=20, seed=1), config.load_path(),
+                        config.settings())
+    assert test.solver_record is SPRINGS and isinstance(test.solver, SoftContactStep)
+    assert test.solver.law.normal_stiffness == 3e5
+    assert test.solver.law.restitution == pytest.approx(0.7)
+    # its keys act with it only; those of the soft-contact law do not
+    assert list(inert_settings(config, ["solver.springs.restitution", "solver.dem.kappa"])) \
+        == ["solver.dem.kappa"]
+    dem = config.with_updates({"solver": {"method": "dem"}})
+    assert list(inert_settings(dem, ["solver.springs.restitution"])) \
+        == ["solver.springs.restitution"]
+
+
+def test_run_settings_refuse_settings_of_no_solver_or_of_the_wrong_type():
+    with pytest.raises(InputError, match=r"solver_settings\['lattice'\]"):
+        DiscreteTestSettings(solver_settings={"lattice": SoftContactSettings()})
+    with pytest.raises(InputError, match=r"solver_settings\['dem'\].*SoftContactSettings"):
+        DiscreteTestSettings(solver_settings={"dem": {"kappa": 1e3}})
+    given = DiscreteTestSettings(solver_settings={"dem": SoftContactSettings(kappa=1e3)})
+    assert given.dem.kappa == 1e3 and given.to_dict()["dem"]["kappa"] == 1e3

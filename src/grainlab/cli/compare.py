@@ -23,6 +23,7 @@ from grainlab.cli.run_input import Given, as_typed, command_config, refuse_inert
 from grainlab.cli.run_options import takes_options
 from grainlab.errors import InputError
 from grainlab.lab.run_config import TEST_KINDS
+from grainlab.lab.solver_registry import COMPARED, solver_record
 from grainlab.prep.sample_shapes import particles_text
 
 COMPARE_KINDS = TEST_KINDS
@@ -39,16 +40,24 @@ def _shown(value: float, unit: str) -> str:
     return f"{value:.4g}"
 
 
-def comparison_table(table) -> Table:
-    """The comparison as a rich table: quantity (unit), CD, DEM, DEM - CD, DEM / CD."""
-    shown = Table(title="contact dynamics (cd) and soft-contact DEM (dem)", title_justify="left")
-    for name in ("quantity", "cd", "dem", "dem - cd", "dem / cd"):
+def comparison_table(table, pair: tuple[str, str] = COMPARED) -> Table:
+    """The comparison as a rich table: quantity (unit), each solver of ``pair`` (reference,
+    other), other - reference, other / reference."""
+    from grainlab.lab.solver_comparison import difference_columns
+
+    reference, other = pair
+    minus, over = difference_columns(pair)
+    shown = Table(title=" and ".join(f"{solver_record(m).title} ({m})" for m in pair),
+                  title_justify="left")
+    for name in ("quantity", reference, other, f"{other} - {reference}",
+                 f"{other} / {reference}"):
         shown.add_column(name, justify="left" if name == "quantity" else "right")
-    for row in table.itertuples(index=False):
-        unit = "" if row.unit == "-" else f" [{row.unit}]"
-        shown.add_row(escape(f"{row.meaning}{unit}"), _shown(row.cd, row.unit),
-                      _shown(row.dem, row.unit), _shown(row.dem_minus_cd, row.unit),
-                      "-" if not math.isfinite(row.dem_over_cd) else f"{row.dem_over_cd:.3g}")
+    for row in table.to_dict("records"):
+        unit = "" if row["unit"] == "-" else f" [{row['unit']}]"
+        ratio = row[over]
+        shown.add_row(escape(f"{row['meaning']}{unit}"), _shown(row[reference], row["unit"]),
+                      _shown(row[other], row["unit"]), _shown(row[minus], row["unit"]),
+                      "-" if not math.isfinite(ratio) else f"{ratio:.3g}")
     return shown
 
 
@@ -81,9 +90,9 @@ def compare_command(**options: Any) -> None:
         raise InputError("KIND", kind, "one of " + ", ".join(COMPARE_KINDS))
     if options["solver"] is not None:
         raise InputError("--solver", options["solver"], (
-            "no --solver: compare runs the test with both solvers, cd into OUT/cd and dem "
-            "into OUT/dem (the DEM's law and stiffness: --law, --kappa, --young-modulus, "
-            "--restitution)"))
+            "no --solver: compare runs the test with both solvers, "
+            + " and ".join(f"{m} into OUT/{m}" for m in SOLVERS)
+            + " (each solver's own settings: its options and [solver.KEY] table)"))
     output_folder("--out", out)
     asked, given = command_config(kind, config, options, "compare")
     configs = solver_configs(asked)
@@ -95,10 +104,10 @@ def compare_command(**options: Any) -> None:
     except InputError as error:
         raise as_typed(error, given, config) from None
     sample = asked.sample
+    where = ", ".join(f"{solver_record(m).title} in {out / m}" for m in SOLVERS)
     console.print(f"comparison folder [bold]{out}[/] ({sample.n_particles} "
-                  f"{particles_text(sample.model_dump())}, {kind}): contact dynamics in "
-                  f"{out / 'cd'}, soft-contact DEM in {out / 'dem'}; Ctrl-C checkpoints, the "
-                  "same command again goes on")
+                  f"{particles_text(sample.model_dump())}, {kind}): {where}; Ctrl-C "
+                  "checkpoints, the same command again goes on")
     has_result = _run_both(configs, given, options)
     if not all(has_result.values()):
         failed = " and ".join(m for m, done in has_result.items() if not done)
@@ -124,8 +133,8 @@ def compare_command(**options: Any) -> None:
 
 def _run_both(configs: dict[str, Any], given: Given, options: dict[str, Any]
               ) -> dict[str, bool]:
-    """Run (start, resume or reuse) the test with each solver into OUT/cd and OUT/dem (both
-    checked already); whether each has a result (False: it blew up)."""
+    """Run (start, resume or reuse) the test with each solver of the pair into OUT/<solver>
+    (both checked already); whether each has a result (False: it blew up)."""
     from grainlab.lab.discrete_run import DiscreteRun
     from grainlab.lab.run_outcome import RunCost, RunOutcome
     from grainlab.lab.solver_comparison import SOLVER_NAMES, SOLVERS, open_solver_run

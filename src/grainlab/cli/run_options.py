@@ -26,6 +26,7 @@ import typer
 
 from grainlab.lab.boundary_registry import boundary_help, shearing_names
 from grainlab.lab.run_config import CHANGEABLE_STAGE_KEYS, PERIODIC_ONLY, TEST_KINDS, RunConfig
+from grainlab.lab.solver_registry import solver_help, solver_options
 from grainlab.prep.sample_shapes import SAMPLE_SHAPES
 
 F = TypeVar("F", bound=Callable)
@@ -139,6 +140,10 @@ BOUNDARY_HELP = boundary_help()
 
 SHEARING_BOUNDARY = " or ".join(f"--boundary {name}" for name in shearing_names())
 """The ``--boundary`` values the shearing tests need."""
+
+SOLVER_HELP = solver_help()
+"""The ``--solver`` help: every registered solver
+(:data:`~grainlab.lab.solver_registry.SOLVERS`) with what it is."""
 
 SHAPE_HELP = "Particle shape: " + "; ".join(
     f"{name} ({shape.description})" for name, shape in SAMPLE_SHAPES.items()) + "."
@@ -267,21 +272,11 @@ RUN_OPTIONS: tuple[RunOption, ...] = (
               "output.checkpoint_every"),
     RunOption("vtk_every", ("--vtk-every",), "Steps between ParaView frames (0: none).", int,
               COMMANDS, "output.vtk_every"),
-    RunOption("solver", ("--solver",), "The solver: cd (contact dynamics: rigid grains, "
-              "implicit) or dem (soft-contact DEM: elastic contacts, explicit).", str,
-              ONE_RUN, "solver.method"),
+    RunOption("solver", ("--solver",), SOLVER_HELP, str, ONE_RUN, "solver.method"),
     RunOption("solver", ("--solver",), "Refused: compare runs both solvers.", str,
               ("compare",), hidden=True),
-    RunOption("law", ("--law",), "dem: contact law, linear (spring-dashpot, Cundall & "
-              "Strack) or hertz_mindlin.", str, COMMANDS, "solver.dem.law"),
-    RunOption("kappa", ("--kappa",), "dem: stiffness number kappa = k_n / (SIGMA0 <d>) "
-              "(linear) or (E / ((1 - nu^2) SIGMA0))^(2/3) (Hertz); >= 1e4 for quasi-rigid "
-              "grains.", float, COMMANDS, "solver.dem.kappa"),
-    RunOption("young_modulus", ("--young-modulus",), "dem, hertz_mindlin: the grains' "
-              "Young's modulus E [Pa] (0: from --kappa).", float, COMMANDS,
-              "solver.dem.young_modulus"),
-    RunOption("restitution", ("--restitution",), "dem: coefficient of restitution of a "
-              "normal impact, in (0, 1].", float, COMMANDS, "solver.dem.restitution"),
+    *(RunOption(option.name, option.flags, option.help, option.type, COMMANDS, option.key)
+      for option in solver_options()),
     RunOption("preparation", ("--preparation",), "How the sample is made: loose (particles "
               "at random in a loose box, compacted), deposition (a dense sphere packing built "
               "layer by layer, each sphere the circumscribed sphere of a particle, as Azéma, "

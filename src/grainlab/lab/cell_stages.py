@@ -42,6 +42,7 @@ import numpy as np
 from grainlab.errors import InputError
 from grainlab.lab.element_test import ControlFrame
 from grainlab.lab.load_path import LoadPath, LoadStage, StopCriterion
+from grainlab.lab.solver_registry import deformable_words
 from grainlab.lab.specimen import voigt_labels
 
 
@@ -184,7 +185,7 @@ def cell_stages(path: LoadPath, deformable: bool = False) -> list[CellStage]:
                 f"at least one stress-controlled component ({labels}): a packing of rigid "
                 "grains cannot follow a strain imposed on every component (an oedometer, a "
                 "shear at constant height) without a stress that grows without bound; that "
-                "needs deformable contacts (solver.method = 'dem', --solver dem), or run it in the "
+                f"needs deformable contacts ({deformable_words()}), or run it in the "
                 "wall box")
         stages.append(CellStage(stage, oedometric=_oedometric(cell_stage)))
     return stages

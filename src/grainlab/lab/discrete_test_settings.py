@@ -5,6 +5,10 @@ criteria); their roles are those of :mod:`grainlab.lab.discrete_test`.
 
 >>> DiscreteTestSettings().numerics_for(strain_controlled=True) == SHEAR
 True
+>>> from grainlab.lab.soft_contact_settings import SoftContactSettings
+>>> settings = DiscreteTestSettings(solver_settings={"dem": SoftContactSettings(kappa=1e3)})
+>>> settings.dem.kappa, settings.solver_settings["dem"].law
+(1000.0, 'linear')
 """
 
 from __future__ import annotations
@@ -17,8 +21,12 @@ import numpy as np
 from grainlab._validate import at_least
 from grainlab.engine.nscd.contact_dynamics import WARM_START_EXTRAPOLATION
 from grainlab.errors import InputError
-from grainlab.lab.soft_contact_settings import SoftContactSettings
-from grainlab.lab.solver_registry import DEFAULT_SOLVER, solver_record
+from grainlab.lab.solver_registry import (
+    DEFAULT_SOLVER,
+    default_solver_settings,
+    solver_record,
+    solver_settings,
+)
 from grainlab.lab.stage_numerics import (
     COMPACTION,
     SHEAR,
@@ -84,10 +92,13 @@ class DiscreteTestSettings:
         (``tolerance``, ``max_iterations``, ``overlap_recovery``, ``theta``, ``sweep``)
         serve an iterative solver only (:attr:`~grainlab.lab.solver_registry.SolverRecord.
         iterative`).
-    dem:
-        The soft-contact law (:class:`~grainlab.lab.soft_contact_settings.
-        SoftContactSettings`), its stiffness number taken at the first stage's confining
-        stress.
+    solver_settings:
+        The settings of each solver that has its own, by its ``settings_key``
+        (:class:`~grainlab.lab.solver_registry.SolverRecord`; those left out take their
+        defaults), e.g. ``"dem"``: the soft-contact law
+        (:class:`~grainlab.lab.soft_contact_settings.SoftContactSettings`), its stiffness
+        number taken at the first stage's confining stress. Each is read as an attribute
+        too: ``settings.dem``.
     """
 
     compaction: StageNumerics = COMPACTION
@@ -105,15 +116,14 @@ class DiscreteTestSettings:
     quasi_static: QuasiStaticCriteria = field(default_factory=QuasiStaticCriteria)
     seed: int = 0
     method: str = DEFAULT_SOLVER
-    dem: SoftContactSettings = field(default_factory=SoftContactSettings)
+    solver_settings: dict[str, Any] = field(default_factory=default_solver_settings)
 
     def __post_init__(self) -> None:
         for kind in STAGE_KINDS:
             if not isinstance(getattr(self, kind), StageNumerics):
                 raise InputError(kind, getattr(self, kind), "a StageNumerics")
         solver_record(self.method)  # a registered solver
-        if not isinstance(self.dem, SoftContactSettings):
-            raise InputError("dem", self.dem, "a SoftContactSettings")
+        object.__setattr__(self, "solver_settings", solver_settings(self.solver_settings))
         at_least("wall_mass_factor", self.wall_mass_factor)
         if self.dt is not None:
             at_least("dt", self.dt)
@@ -126,13 +136,22 @@ class DiscreteTestSettings:
                     or value < low:
                 raise InputError(name, value, f"an integer >= {low}")
 
+    def __getattr__(self, name: str) -> Any:
+        """A solver's own settings by its ``settings_key`` (``settings.dem``)."""
+        own = self.__dict__.get("solver_settings", {})
+        if name in own:
+            return own[name]
+        raise AttributeError(f"{type(self).__name__} has no field or solver settings {name!r}")
+
     def numerics_for(self, strain_controlled: bool) -> StageNumerics:
         """The numerics of a stage with (True) or without a strain-controlled axis
         (:func:`~grainlab.lab.stage_numerics.stage_kind`)."""
         return getattr(self, stage_kind(strain_controlled))
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain data (each kind of stage's numerics a nested dict)."""
+        """Plain data (each kind of stage's numerics a nested dict, each solver's own
+        settings under its ``settings_key``)."""
         data = asdict(self)
         data["quasi_static"] = self.quasi_static.to_dict()
+        data.update(data.pop("solver_settings"))
         return data

@@ -34,7 +34,7 @@ from typing import Any
 
 from grainlab.errors import InputError
 from grainlab.lab.boundary_registry import boundary_record
-from grainlab.lab.solver_registry import NLGS_KEYS, solver_record
+from grainlab.lab.solver_registry import NLGS_KEYS, solver_record, wall_keys
 from grainlab.prep.sample_shapes import SAMPLE_SHAPES
 
 CD_ONLY = NLGS_KEYS
@@ -42,8 +42,9 @@ CD_ONLY = NLGS_KEYS
 :mod:`grainlab.lab.solver_registry`)."""
 
 WALLS_ONLY = ("solver.wall_servo", "solver.wall_mass_factor", "sample.wall_friction",
-              "solver.dem.rigid_walls")
-"""The keys only a box of walls reads."""
+              *wall_keys())
+"""The keys only a box of walls reads (a solver's own among them: its record's
+``wall_keys``)."""
 
 TEST_TARGETS = {
     "test.eps_q_max": ("triaxial", "extension", "true_triaxial"),

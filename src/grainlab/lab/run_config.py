@@ -69,7 +69,6 @@ from typing import Annotated, Any, ClassVar, Literal, get_args, get_origin
 
 import tomli_w
 from pydantic import (
-    BaseModel,
     ConfigDict,
     Field,
     StrictBool,
@@ -90,6 +89,7 @@ from grainlab.lab.boundary_registry import (
     quoted,
     shearing_names,
 )
+from grainlab.lab.config_section import ConfigSection, settings_table, units
 from grainlab.lab.discrete_test import DiscreteTestSettings
 from grainlab.lab.load_path import LoadPath, LoadStage, StopCriterion
 from grainlab.lab.presets import (
@@ -101,8 +101,7 @@ from grainlab.lab.presets import (
     triaxial_extension,
     true_triaxial,
 )
-from grainlab.lab.soft_contact_settings import SoftContactSettings
-from grainlab.lab.solver_registry import SOLVER_NAMES, solver_record
+from grainlab.lab.solver_registry import SOLVERS, own_settings_records, solver_record
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR, STAGE_KINDS, StageNumerics
 from grainlab.lab.wall_stages import QuasiStaticCriteria
 from grainlab.prep.sample_shapes import MAX_FACES, sample_shape
@@ -117,9 +116,21 @@ walls (which moves only along its axes, one stress per axis) cannot (the boundar
 them: :func:`~grainlab.lab.boundary_registry.shearing_names`)."""
 
 UNITS = {"sample.d_min": "m", "sample.density": "kg/m^3", "test.sigma0": "Pa",
-         "solver.dt": "s", "solver.dem.normal_stiffness": "N/m",
-         "solver.dem.young_modulus": "Pa"}
-"""Units of the keys that carry one (the others are dimensionless or counts)."""
+         "solver.dt": "s"}
+"""Units of the keys that carry one, but for the solvers' own keys (:func:`unit_of`); the
+others are dimensionless or counts."""
+
+
+def unit_of(key: str) -> str:
+    """The unit of the config key ``key`` ("" for none): :data:`UNITS`, or the one its
+    solver's settings field declares (``"solver.dem.young_modulus"``: ``"Pa"``)."""
+    if key in UNITS:
+        return UNITS[key]
+    for record in own_settings_records():
+        own = units(record.settings_type, f"solver.{record.settings_key}.")
+        if key in own:
+            return own[key]
+    return ""
 
 _FACES_NOTE = ("even: n_f = 2 n_v - 4; Table I of Azéma, Radjaï & Dubois 2013: 8, 20, 30, "
                "46, 96, 176, 596")
@@ -161,23 +172,10 @@ EARLIER_SOLVER_KEYS = {
 without overlap recovery then), and the key of ``[solver]`` each is now."""
 
 _RUN_WIDE = DiscreteTestSettings()
-_DEM = SoftContactSettings()
 _SETTLED = QuasiStaticCriteria()
 """The defaults of the run-wide settings (one place: :class:`DiscreteTestSettings`)."""
 
-class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
-    frozen_as: ClassVar[type | None] = None
-    """The frozen settings object a table stands for (None: a table read by key)."""
-
-    def frozen(self) -> Any:
-        """This table as its frozen settings object (:attr:`frozen_as`, built from its keys)."""
-        if self.frozen_as is None:
-            raise TypeError(f"{type(self).__name__} stands for no settings object")
-        return self.frozen_as(**self.model_dump())
-
-
-class SampleConfig(_Section):
+class SampleConfig(ConfigSection):
     """Particles of a sample: ``preparation`` "loose" (a loose random sample,
     :func:`grainlab.prep.loose_sample.loose_sample`), "deposition" (the particles inscribed in
     a dense deposited sphere packing, seeds 002/003 §II,
@@ -226,7 +224,7 @@ class SampleConfig(_Section):
         return value
 
 
-class QuasiStaticConfig(_Section):
+class QuasiStaticConfig(ConfigSection):
     """``[test.quasi_static]``: when a stage without a strain-controlled axis (the
     compaction) has settled (:class:`~grainlab.lab.wall_stages.QuasiStaticCriteria`: the
     stresses within ``stress_tolerance`` of their targets, the unbalanced force ratio and the
@@ -248,7 +246,7 @@ class QuasiStaticConfig(_Section):
         return self.frozen()
 
 
-class TestConfig(_Section):
+class TestConfig(ConfigSection):
     """The lab test: isotropic compaction to sigma0, then (triaxial) compression at constant
     lateral stress sigma0 to eps_q_max, (extension) the same with the axial strain reversed,
     (oedometer) 1-D compression by axial_strain and optional unloading by unload_strain,
@@ -295,7 +293,7 @@ STAGE_KEY_TYPES: dict[str, Any] = {
 :class:`~grainlab.lab.stage_numerics.StageNumerics` (the tables are made from its fields)."""
 
 
-class _StageSection(_Section):
+class _StageSection(ConfigSection):
     frozen_as: ClassVar[type] = StageNumerics
 
     def numerics(self) -> StageNumerics:
@@ -329,36 +327,12 @@ ShearConfig = _stage_table(
     ":data:`~grainlab.lab.stage_numerics.SHEAR`).")
 
 
-class DemConfig(_Section):
-    """``[solver.dem]``: the soft-contact law of ``method = "dem"``
-    (:class:`~grainlab.lab.soft_contact_settings.SoftContactSettings`: its stiffness by
-    kappa at sigma0 unless ``normal_stiffness`` or ``young_modulus`` is given)."""
+class _RunWideSolver(ConfigSection):
+    """The keys of ``[solver]`` every solver has: the run-wide keys and a table per kind of
+    stage (:func:`solver_config` sets the solvers ``method`` takes and adds their own
+    tables)."""
 
-    law: Literal["linear", "hertz_mindlin"] = _DEM.law
-    kappa: StrictFloat = Field(_DEM.kappa, gt=0)
-    normal_stiffness: StrictFloat = Field(_DEM.normal_stiffness, ge=0)
-    young_modulus: StrictFloat = Field(_DEM.young_modulus, ge=0)
-    poisson_ratio: StrictFloat = Field(_DEM.poisson_ratio, gt=-1, lt=0.5)
-    stiffness_ratio: StrictFloat = Field(_DEM.stiffness_ratio, gt=0)
-    restitution: StrictFloat = Field(_DEM.restitution, gt=0, le=1)
-    rolling_friction: StrictFloat = Field(_DEM.rolling_friction, ge=0)
-    local_damping: StrictFloat = Field(_DEM.local_damping, ge=0, lt=1)
-    time_step_fraction: StrictFloat = Field(_DEM.time_step_fraction, gt=0, le=1)
-    rigid_walls: StrictBool = _DEM.rigid_walls
-
-    frozen_as: ClassVar[type] = SoftContactSettings
-
-    def settings(self) -> SoftContactSettings:
-        """The :class:`~grainlab.lab.soft_contact_settings.SoftContactSettings` of this
-        table."""
-        return self.frozen()
-
-
-class SolverConfig(_Section):
-    """Numerical settings (:class:`grainlab.lab.discrete_test.DiscreteTestSettings`): the
-    run-wide keys, a table per kind of stage and the soft-contact law."""
-
-    method: Literal[SOLVER_NAMES] = _RUN_WIDE.method
+    method: str = _RUN_WIDE.method
     dt: StrictFloat = Field(0.0, ge=0)
     theta: StrictFloat = Field(_RUN_WIDE.theta, ge=0.5, le=1.0)
     sweep: Literal["coloured", "serial"] = _RUN_WIDE.sweep
@@ -370,10 +344,41 @@ class SolverConfig(_Section):
     seed: StrictInt = Field(_RUN_WIDE.seed, ge=0, le=MAX_SEED)
     compaction: CompactionConfig = Field(default_factory=CompactionConfig)
     shear: ShearConfig = Field(default_factory=ShearConfig)
-    dem: DemConfig = Field(default_factory=DemConfig)
+
+    @property
+    def solver_settings(self) -> dict[str, Any]:
+        """The solvers' own tables as their frozen settings, by ``settings_key``
+        (:attr:`~grainlab.lab.discrete_test_settings.DiscreteTestSettings.solver_settings`)."""
+        return {record.settings_key: getattr(self, record.settings_key).frozen()
+                for record in own_settings_records()}
 
 
-class OutputConfig(_Section):
+def solver_config() -> type[ConfigSection]:
+    """The model of ``[solver]`` for the solvers registered now
+    (:data:`~grainlab.lab.solver_registry.SOLVERS`): ``method`` (one of their names, the
+    first the default), the run-wide keys and stage tables, and a table
+    ``[solver.<settings_key>]`` per solver with settings of its own, made from their
+    dataclass (:func:`~grainlab.lab.config_section.settings_table`)."""
+    tables = {}
+    for record in own_settings_records():
+        table = settings_table(
+            f"{record.settings_key.title()}Config", record.settings_type,
+            f"``[solver.{record.settings_key}]``: the settings of ``method = "
+            f"\"{record.name}\"``, {record.title} "
+            f"(:class:`{record.settings_type.__module__}.{record.settings_type.__name__}`).")
+        tables[record.settings_key] = (table, Field(default_factory=table))
+    return create_model(
+        "SolverConfig", __base__=_RunWideSolver, __module__=__name__,
+        __doc__="Numerical settings (:class:`grainlab.lab.discrete_test.DiscreteTestSettings`): "
+                "the solver, the run-wide keys, a table per kind of stage and one per solver "
+                "with settings of its own.",
+        method=(Literal[tuple(SOLVERS)], _RUN_WIDE.method), **tables)
+
+
+SolverConfig = solver_config()
+
+
+class OutputConfig(ConfigSection):
     """How often (in steps) to record, snapshot, checkpoint, export VTK and store the
     contact problem of a step (0: never). Contact networks are snapshotted by default (every
     500 steps: some 30 over a 1000-sphere triaxial test to eps_q = 0.5), so that ``grainlab
@@ -389,7 +394,7 @@ class OutputConfig(_Section):
     problems_every: StrictInt = Field(0, ge=0)
 
 
-class RunConfig(_Section):
+class RunConfig(ConfigSection):
     """The whole input of a run."""
 
     sample: SampleConfig = Field(default_factory=SampleConfig)
@@ -493,14 +498,19 @@ class RunConfig(_Section):
     def check_solver(self, kinds=None) -> None:
         """Refuse a sample the solver cannot run, before anything is built (the kinds of
         ``sample.shape``) or once a file gave the particles (``kinds``, their shape kinds):
-        the soft-contact solver (``method = "dem"``) gives polyhedra no rolling resistance
-        (an :class:`InputError` naming ``solver.dem.rolling_friction``: their faces resist
-        rolling)."""
-        rolling = self.solver.dem.rolling_friction
-        families = solver_record(self.solver.method).rolling_families
+        a solver whose rolling resistance acts on some families of grains only
+        (:attr:`~grainlab.lab.solver_registry.SolverRecord.rolling_families`; the
+        soft-contact solver gives polyhedra none: their faces resist rolling) refuses it
+        on the others, an :class:`InputError` naming its key
+        (``solver.dem.rolling_friction``)."""
+        record = solver_record(self.solver.method)
+        if record.rolling_families is None:
+            return
+        key = f"solver.{record.settings_key}.{record.rolling_key}"
+        rolling = getattr(getattr(self.solver, record.settings_key), record.rolling_key)
         for kind in kinds or (sample_shape(self.sample.shape).kind,):
-            if families is not None and kind.narrow_phase not in families and rolling > 0.0:
-                raise InputError("solver.dem.rolling_friction", rolling, (
+            if kind.narrow_phase not in record.rolling_families and rolling > 0.0:
+                raise InputError(key, rolling, (
                     f"0 with {kind.plural} and solver.method = '{self.solver.method}' "
                     "(rolling resistance is a model for spheres and aggregates; the faces "
                     "of polyhedra resist rolling)"))
@@ -508,28 +518,39 @@ class RunConfig(_Section):
     def settings(self) -> DiscreteTestSettings:
         """The discrete test's numerical settings: each field of
         :class:`~grainlab.lab.discrete_test.DiscreteTestSettings` from the key of its name
-        (:data:`SETTINGS_TABLES`), a table as its frozen settings object; ``solver.dt = 0``
-        is None (automatic)."""
+        (:data:`SETTINGS_TABLES`), a table as its frozen settings object, the solvers' own
+        tables as ``solver_settings``; ``solver.dt = 0`` is None (automatic)."""
         values = {}
         for name, table in SETTINGS_TABLES.items():
             value = getattr(getattr(self, table), name)
-            values[name] = value.frozen() if isinstance(value, _Section) else value
+            values[name] = value.frozen() if isinstance(value, ConfigSection) else value
         values["dt"] = values["dt"] or None
         return DiscreteTestSettings(**values)
 
 
 def _settings_tables() -> dict[str, str]:
     """``{field of DiscreteTestSettings: the table of RunConfig holding its key}``, looked for
-    in [solver], then [output], then [test]; a field without a key is left out (it keeps its
-    default)."""
+    in [solver], then [output], then [test] (a key, or a property such as
+    ``solver_settings``); a field without a key is left out (it keeps its default)."""
     tables = {"solver": SolverConfig, "output": OutputConfig, "test": TestConfig}
     found = {}
     for field in fields(DiscreteTestSettings):
         for table, model in tables.items():
-            if field.name in model.model_fields:
+            if field.name in model.model_fields \
+                    or isinstance(getattr(model, field.name, None), property):
                 found[field.name] = table
                 break
     return found
+
+
+def with_registered_solvers() -> tuple[type[ConfigSection], type[RunConfig]]:
+    """``(SolverConfig, RunConfig)`` remade for the solvers registered now: a solver added to
+    :data:`~grainlab.lab.solver_registry.SOLVERS` after this module was imported (a test's)
+    has its ``method`` and table in them."""
+    solver = solver_config()
+    return solver, create_model("RunConfig", __base__=RunConfig, __module__=__name__,
+                                __doc__=RunConfig.__doc__,
+                                solver=(solver, Field(default_factory=solver)))
 
 
 SETTINGS_TABLES = _settings_tables()
@@ -696,7 +717,7 @@ def _input_error(error: ValidationError) -> InputError:
     info = _field_info(first["loc"])
     if info is None:
         return InputError(field, first.get("input"), first["msg"].lower())
-    allowed = _allowed_text(info, UNITS.get(field, ""), field)
+    allowed = _allowed_text(info, unit_of(field), field)
     if isinstance(first.get("input"), bool) and info.annotation is not bool:
         allowed += " (true and false are not numbers)"
     return InputError(field, first.get("input"), allowed)

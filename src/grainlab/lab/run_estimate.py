@@ -36,7 +36,7 @@ import numpy as np
 
 from grainlab.errors import InputError
 from grainlab.lab.cell_thickness import CELL_PACKING_ESTIMATE
-from grainlab.lab.solver_registry import solver_record, stiffness_setting
+from grainlab.lab.solver_registry import solver_record
 
 MAX_SUBSTEPS = 5e7
 """Most sub-steps a soft-contact run may be estimated at: 200 times the 1000-sphere triaxial
@@ -95,13 +95,15 @@ def refuse_endless_run(test: Any, config: Any) -> None:
     ``test`` built, not run) too long to run (module docstring); nothing when it is not."""
     state = test.sample.state
     total = simulated_time(config, test.sample.mean_diameter, float(state.density))
-    if solver_record(config.solver.method).explicit_substeps:
+    record = solver_record(config.solver.method)
+    if record.explicit_substeps:
         dt = substep(test)
         substeps = total / dt
         work = substeps * state.n_bodies
         if substeps <= MAX_SUBSTEPS and work <= MAX_PARTICLE_SUBSTEPS:
             return
-        key, value = stiffness_setting(config.solver.dem)
+        key, value = ("solver.method", config.solver.method) \
+            if record.stiffness_key is None else record.stiffness_key(config.solver)
         raise InputError(key, value, (
             f"a stiffness the run can reach its end with: the estimate is at least "
             f"{substeps:.3g} sub-steps of {dt:.3g} s over {total:.3g} s of loading for "

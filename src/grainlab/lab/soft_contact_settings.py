@@ -23,11 +23,15 @@ from typing import Any
 from grainlab._validate import at_least, positive
 from grainlab.contact.soft_contact_law import LAW_NAMES, SoftContactLaw
 from grainlab.errors import InputError
+from grainlab.lab.setting_bounds import bounded
 
 
 @dataclass(frozen=True)
 class SoftContactSettings:
     """How the soft-contact solver models the contacts (module docstring).
+
+    Each field carries what it allows (:func:`~grainlab.lab.setting_bounds.bounded`): the
+    ``[solver.dem]`` table of a run's config is made from them.
 
     Attributes
     ----------
@@ -44,17 +48,17 @@ class SoftContactSettings:
         As :class:`~grainlab.contact.soft_contact_law.SoftContactLaw`.
     """
 
-    law: str = "linear"
-    kappa: float = 1e4
-    normal_stiffness: float = 0.0
-    young_modulus: float = 0.0
-    poisson_ratio: float = 0.25
-    stiffness_ratio: float = 0.5
-    restitution: float = 0.5
-    rolling_friction: float = 0.0
-    local_damping: float = 0.0
-    time_step_fraction: float = 0.2
-    rigid_walls: bool = False
+    law: str = bounded("linear", choices=LAW_NAMES)
+    kappa: float = bounded(1e4, gt=0)
+    normal_stiffness: float = bounded(0.0, ge=0, unit="N/m")
+    young_modulus: float = bounded(0.0, ge=0, unit="Pa")
+    poisson_ratio: float = bounded(0.25, gt=-1, lt=0.5)
+    stiffness_ratio: float = bounded(0.5, gt=0)
+    restitution: float = bounded(0.5, gt=0, le=1)
+    rolling_friction: float = bounded(0.0, ge=0)
+    local_damping: float = bounded(0.0, ge=0, lt=1)
+    time_step_fraction: float = bounded(0.2, gt=0, le=1)
+    rigid_walls: bool = bounded(False)
 
     def __post_init__(self) -> None:
         if self.law not in LAW_NAMES:

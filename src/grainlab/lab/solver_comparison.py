@@ -1,9 +1,11 @@
-"""One lab test run with both discrete solvers on the same specimen, and the two runs side by
+"""One lab test run with two discrete solvers on the same specimen, and the two runs side by
 side (ARCHITECTURE.md, "One laboratory": comparisons work on the test-result format only).
 
-A comparison is a folder holding two ordinary run folders (:mod:`grainlab.lab.discrete_run`),
-``cd/`` (contact dynamics: rigid grains, implicit) and ``dem/`` (soft-contact DEM: elastic
-contacts, explicit), whose configs differ only in ``[solver] method``
+The pair is :data:`~grainlab.lab.solver_registry.COMPARED` unless told otherwise (``pair``),
+the reference first. A comparison is a folder holding two ordinary run folders
+(:mod:`grainlab.lab.discrete_run`), one per solver, named after it: by default ``cd/``
+(contact dynamics: rigid grains, implicit) and ``dem/`` (soft-contact DEM: elastic contacts,
+explicit), whose configs differ only in ``[solver] method``
 (:func:`solver_configs`): the same ``[sample]`` (seed included, hence the same loose
 particles), the same preparation, load path, numerics of the stages and output. The
 ``[solver.dem]`` keys act on the DEM run only; the keys of the contact-dynamics solve
@@ -21,7 +23,9 @@ hand (``grainlab resume DIR/dem --set solver.max_stage_steps=400000``) is reused
 
 :class:`SolverComparison` reads the two results (or run folders) and tabulates, per solver,
 the measures of :func:`run_measures` (the numbers each run's summary prints) and the cost
-(:class:`~grainlab.lab.run_outcome.RunCost`), with DEM - CD and DEM / CD per row.
+(:class:`~grainlab.lab.run_outcome.RunCost`), with the second minus the first and the
+second over the first per row (:func:`difference_columns`: ``dem_minus_cd``,
+``dem_over_cd``).
 
 >>> configs = solver_configs(RunConfig.model_validate({"sample": {"n_particles": 40}}))
 >>> {method: config.solver.method for method, config in configs.items()}
@@ -63,9 +67,9 @@ from grainlab.lab.run_config import (
 from grainlab.lab.run_outcome import RunCost, RunOutcome
 from grainlab.result.test_result import TestResult, read_test_result
 
-SOLVERS = solver_registry.SOLVER_NAMES
-"""The two solvers compared, the reference (contact dynamics) first; also the names of the
-run folders."""
+SOLVERS = solver_registry.COMPARED
+"""The two solvers compared by default, the reference first; also the names of the run
+folders."""
 
 SOLVER_NAMES = {name: record.title for name, record in solver_registry.SOLVERS.items()}
 
@@ -90,10 +94,31 @@ class Measure:
     unit: str = "-"
 
 
-def solver_configs(config: RunConfig) -> dict[str, RunConfig]:
-    """``config`` once per solver of :data:`SOLVERS`, with only ``[solver] method`` set."""
+def solver_configs(config: RunConfig, pair: tuple[str, str] = SOLVERS
+                   ) -> dict[str, RunConfig]:
+    """``config`` once per solver of ``pair``, with only ``[solver] method`` set."""
     return {method: config.with_updates({"solver": {"method": method}})
-            for method in SOLVERS}
+            for method in _checked_pair(pair)}
+
+
+def _checked_pair(pair: tuple[str, str]) -> tuple[str, str]:
+    """``pair`` if it is two registered solvers, else an :class:`InputError` naming it."""
+    if not isinstance(pair, tuple) or len(pair) != 2 or pair[0] == pair[1] \
+            or any(name not in solver_registry.SOLVERS for name in pair):
+        raise InputError("pair", pair, "two different solvers of "
+                         + ", ".join(repr(m) for m in solver_registry.SOLVERS))
+    return pair
+
+
+def difference_columns(pair: tuple[str, str] = SOLVERS) -> tuple[str, str]:
+    """The columns of the comparison's differences for ``pair`` = (reference, other):
+    ``("dem_minus_cd", "dem_over_cd")`` for the default pair.
+
+    >>> difference_columns(("cd", "dem"))
+    ('dem_minus_cd', 'dem_over_cd')
+    """
+    reference, other = pair
+    return f"{other}_minus_{reference}", f"{other}_over_{reference}"
 
 
 def run_state(folder: str | Path) -> str:
@@ -251,29 +276,37 @@ def _cost_values(result: TestResult) -> list[float]:
 
 class SolverComparison(Compute):
     """The two runs of one test side by side (module docstring; the compute-object pattern:
-    :meth:`compute`, then the properties).
+    :meth:`compute`, then the properties); ``pair`` (reference, other) the solvers compared
+    (default :data:`SOLVERS`).
 
     :attr:`table` has one row per measure (:func:`run_measures`, then wall time, steps,
-    sub-steps and the verdict) and the columns ``quantity``, ``meaning``, ``unit``, ``cd``,
-    ``dem``, ``dem_minus_cd`` and ``dem_over_cd`` (NaN where the quantity has no value for a
-    solver, e.g. contact dynamics' sub-steps, or for the verdict).
+    sub-steps and the verdict) and the columns ``quantity``, ``meaning``, ``unit``, one per
+    solver of the pair (``cd``, ``dem``), and the other minus and over the reference
+    (:func:`difference_columns`: ``dem_minus_cd`` and ``dem_over_cd``; NaN where the
+    quantity has no value for a solver, e.g. contact dynamics' sub-steps, or for the
+    verdict).
     """
 
+    def __init__(self, pair: tuple[str, str] = SOLVERS) -> None:
+        super().__init__()
+        self.pair = _checked_pair(pair)
+
     def compute(self, runs: Mapping[str, str | Path | TestResult]) -> SolverComparison:
-        """Compare ``runs`` = ``{"cd": ..., "dem": ...}``, each a run folder, a results file
-        or a :class:`~grainlab.result.test_result.TestResult`: runs of the same test on the
-        same sample (the ``[sample]`` and ``[test]`` of their configs equal), each with the
-        solver it is named after. Returns self."""
-        if not isinstance(runs, Mapping) or set(runs) != set(SOLVERS):
+        """Compare ``runs`` = ``{"cd": ..., "dem": ...}`` (a key per solver of the pair),
+        each a run folder, a results file or a :class:`~grainlab.result.test_result.
+        TestResult`: runs of the same test on the same sample (the ``[sample]`` and
+        ``[test]`` of their configs equal), each with the solver it is named after. Returns
+        self."""
+        if not isinstance(runs, Mapping) or set(runs) != set(self.pair):
             shown = sorted(runs) if isinstance(runs, Mapping) else type(runs).__name__
             raise InputError("runs", shown, "a mapping with the keys "
-                             + " and ".join(repr(m) for m in SOLVERS))
-        results = {method: read_run_result(runs[method]) for method in SOLVERS}
-        _check_same_test(results)
+                             + " and ".join(repr(m) for m in self.pair))
+        results = {method: read_run_result(runs[method]) for method in self.pair}
+        _check_same_test(results, self.pair)
         self._results = {}
         self._store(results=results,
-                    kind=run_config(results["cd"])["test"].get("kind", ""),
-                    table=_comparison_table(results))
+                    kind=run_config(results[self.pair[0]])["test"].get("kind", ""),
+                    table=_comparison_table(results, self.pair))
         return self
 
     @property
@@ -292,41 +325,45 @@ class SolverComparison(Compute):
         return self._get("table")
 
 
-def _check_same_test(results: dict[str, TestResult]) -> None:
+def _check_same_test(results: dict[str, TestResult], pair: tuple[str, str]) -> None:
     configs = {method: run_config(result) for method, result in results.items()}
     for method, config in configs.items():
         solver = config.get("solver", {}).get("method", solver_registry.DEFAULT_SOLVER)
         if solver != method:
             raise InputError(f"runs[{method!r}]", solver, f"a run with solver.method = "
                              f"{method!r}")
+    reference, other = pair
     for section in ("sample", "test"):
-        cd, dem = (flat_keys(configs[m].get(section, {}), f"{section}.") for m in SOLVERS)
-        for key in sorted(set(cd) | set(dem)):
-            if cd.get(key) != dem.get(key):
-                raise InputError(f"runs['dem'] {key}", dem.get(key), (
-                    f"{cd.get(key)!r} as in the cd run: the two runs must be the same test on "
-                    "the same sample ([sample] and [test] of their configs equal)"))
+        first, second = (flat_keys(configs[m].get(section, {}), f"{section}.") for m in pair)
+        for key in sorted(set(first) | set(second)):
+            if first.get(key) != second.get(key):
+                raise InputError(f"runs[{other!r}] {key}", second.get(key), (
+                    f"{first.get(key)!r} as in the {reference} run: the two runs must be the "
+                    "same test on the same sample ([sample] and [test] of their configs "
+                    "equal)"))
 
 
-def _comparison_table(results: dict[str, TestResult]) -> pd.DataFrame:
+def _comparison_table(results: dict[str, TestResult], pair: tuple[str, str]
+                      ) -> pd.DataFrame:
+    reference, other = pair
     measured = {method: run_measures(result) for method, result in results.items()}
-    names = dict.fromkeys(m for method in SOLVERS for m, _ in measured[method])
-    values = {method: {m.name: v for m, v in measured[method]} for method in SOLVERS}
-    rows = [(m, values["cd"].get(m.name, math.nan), values["dem"].get(m.name, math.nan))
+    names = dict.fromkeys(m for method in pair for m, _ in measured[method])
+    values = {method: {m.name: v for m, v in measured[method]} for method in pair}
+    rows = [(m, values[reference].get(m.name, math.nan), values[other].get(m.name, math.nan))
             for m in names]
     costs = {method: _cost_values(result) for method, result in results.items()}
-    rows += [(m, c, d) for m, c, d in zip(COST_MEASURES, costs["cd"], costs["dem"],
+    rows += [(m, a, b) for m, a, b in zip(COST_MEASURES, costs[reference], costs[other],
                                            strict=True)]
     table = pd.DataFrame({
         "quantity": [m.name for m, _, _ in rows], "meaning": [m.meaning for m, _, _ in rows],
         "unit": [m.unit for m, _, _ in rows],
-        "cd": np.array([c for _, c, _ in rows], dtype=float),
-        "dem": np.array([d for _, _, d in rows], dtype=float)})
+        reference: np.array([a for _, a, _ in rows], dtype=float),
+        other: np.array([b for _, _, b in rows], dtype=float)})
+    minus, over = difference_columns(pair)
     with np.errstate(divide="ignore", invalid="ignore"):
-        table["dem_minus_cd"] = table["dem"] - table["cd"]
-        table["dem_over_cd"] = np.where(table["cd"] != 0.0, table["dem"] / table["cd"],
-                                        math.nan)
+        table[minus] = table[other] - table[reference]
+        table[over] = np.where(table[reference] != 0.0, table[other] / table[reference],
+                               math.nan)
     verdict = table["quantity"] == "as_asked"
-    table.loc[verdict, ["dem_minus_cd", "dem_over_cd"]] = math.nan
+    table.loc[verdict, [minus, over]] = math.nan
     return table
-

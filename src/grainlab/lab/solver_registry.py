@@ -17,18 +17,26 @@ options and its report know of a solver is read from its record, never from its 
   cell_stages`).
 
 A new solver is one more record: its builder, its settings, its stage settings and
-checkpoint fields, the columns it writes and the config keys only it reads.
+checkpoint fields, the columns it writes and the config keys only it reads. A solver with
+settings of its own names their frozen dataclass (``settings_type``, each field declaring
+its bounds: :func:`~grainlab.lab.setting_bounds.bounded`) and their key (``settings_key``):
+the config's ``[solver.<settings_key>]`` table is made from the dataclass
+(:mod:`grainlab.lab.run_config`), and the run's settings hold them under that key
+(:attr:`~grainlab.lab.discrete_test_settings.DiscreteTestSettings.solver_settings`).
+``grainlab compare`` runs the pair :data:`COMPARED`.
 
 >>> solver_record("dem").iterative, solver_record("cd").iterative
 (False, True)
 >>> SOLVER_NAMES
 ('cd', 'dem')
+>>> sorted(default_solver_settings())
+['dem']
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -43,6 +51,19 @@ STAGE_KEYS = ("compaction", "shear")
 
 
 @dataclass(frozen=True)
+class SolverOption:
+    """A command-line option of the run commands that sets a key of a solver's own table:
+    the command's parameter ``name``, its ``flags``, its ``help``, the value's ``type`` and
+    the config ``key`` it sets (the commands add the key's default to the help)."""
+
+    name: str
+    flags: tuple[str, ...]
+    help: str
+    type: type
+    key: str
+
+
+@dataclass(frozen=True)
 class SolverRecord:
     """One solver of a discrete test (module docstring).
 
@@ -50,9 +71,13 @@ class SolverRecord:
     ----------
     name, title, words:
         ``solver.method``'s value, its name and its words in a report.
+    help:
+        What it is, in the ``--solver`` option's help (:func:`solver_help`).
     settings_key, settings_type:
-        The field of :class:`~grainlab.lab.discrete_test.DiscreteTestSettings` (and table
-        of ``[solver]``) that holds its own settings, and their type (None: it reads only
+        The key of its own settings in
+        :attr:`~grainlab.lab.discrete_test_settings.DiscreteTestSettings.solver_settings`
+        (and its table ``[solver.<settings_key>]``), and their frozen dataclass, each field
+        with its bounds (:func:`~grainlab.lab.setting_bounds.bounded`; None: it reads only
         the run-wide and stage settings).
     build:
         ``(settings, sample, confining, gyroscopic) -> (solver, contact law or None)``:
@@ -80,15 +105,24 @@ class SolverRecord:
         settings ("" when it acts).
     label:
         ``(solver table of a config, plain data) -> str``: its settings in words.
-    rolling_families:
+    rolling_families, rolling_key:
         The narrow-phase families (:mod:`grainlab.engine.shape_kinds`) whose grains its
-        rolling resistance (``solver.dem.rolling_friction``) applies to; None: it has none.
+        rolling resistance (the key ``rolling_key`` of its own table, e.g.
+        ``solver.dem.rolling_friction``) applies to; None: it has none.
+    wall_keys:
+        Keys of its own that only a box of walls reads.
+    options:
+        The command-line options that set keys of its own table (:class:`SolverOption`).
+    stiffness_key:
+        ``(solver table of a config) -> (key, value)``: the key that sets its stable
+        sub-step (named when a run's estimate is too long; None: ``solver.method``).
     """
 
     name: str
     title: str
     words: str
     build: Callable[..., tuple[Any, Any]]
+    help: str = ""
     settings_key: str | None = None
     settings_type: type | None = None
     iterative: bool = False
@@ -101,6 +135,17 @@ class SolverRecord:
     setting_reason: Callable[[Any, str], str] = field(default=lambda config, key: "")
     label: Callable[[dict], str] | None = None
     rolling_families: tuple[str, ...] | None = None
+    rolling_key: str = ""
+    wall_keys: tuple[str, ...] = ()
+    options: tuple[SolverOption, ...] = ()
+    stiffness_key: Callable[[Any], tuple[str, float]] | None = None
+
+    def __post_init__(self) -> None:
+        if (self.settings_key is None) != (self.settings_type is None):
+            raise TypeError(f"solver {self.name!r}: settings_key and settings_type go together")
+        if self.rolling_families is not None and not (self.settings_key and self.rolling_key):
+            raise TypeError(f"solver {self.name!r}: rolling_families needs the rolling_key "
+                            "of its own settings")
 
     # -- the lab's use of the engine solver --------------------------------------------------
     def set_stage(self, solver, numerics, recovery_speed: float) -> None:
@@ -187,7 +232,8 @@ the contact problems its steps write."""
 
 CONTACT_DYNAMICS = SolverRecord(
     name="cd", title="contact dynamics", words="contact dynamics (rigid grains)",
-    build=_build_contact_dynamics, iterative=True, grows_step=True, own_keys=NLGS_KEYS,
+    build=_build_contact_dynamics, help="contact dynamics: rigid grains, implicit",
+    iterative=True, grows_step=True, own_keys=NLGS_KEYS,
     keys_words="the contact-dynamics solver (NLGS sweeps)",
     runs_words=("solver.method = 'cd' (the default solver, contact dynamics: rigid grains, "
                 "no stiffness, damping or restitution)"))
@@ -239,15 +285,33 @@ def _soft_contact_label(table: dict) -> str:
     return f"{law}, {stiffness}"
 
 
+SOFT_CONTACT_OPTIONS = (
+    SolverOption("law", ("--law",), "dem: contact law, linear (spring-dashpot, Cundall & "
+                 "Strack) or hertz_mindlin.", str, "solver.dem.law"),
+    SolverOption("kappa", ("--kappa",), "dem: stiffness number kappa = k_n / (SIGMA0 <d>) "
+                 "(linear) or (E / ((1 - nu^2) SIGMA0))^(2/3) (Hertz); >= 1e4 for "
+                 "quasi-rigid grains.", float, "solver.dem.kappa"),
+    SolverOption("young_modulus", ("--young-modulus",), "dem, hertz_mindlin: the grains' "
+                 "Young's modulus E [Pa] (0: from --kappa).", float,
+                 "solver.dem.young_modulus"),
+    SolverOption("restitution", ("--restitution",), "dem: coefficient of restitution of a "
+                 "normal impact, in (0, 1].", float, "solver.dem.restitution"),
+)
+"""The command-line options of the soft-contact law."""
+
 SOFT_CONTACT = SolverRecord(
     name="dem", title="soft-contact DEM", words="soft-contact DEM",
-    build=_build_soft_contact, settings_key="dem", settings_type=SoftContactSettings,
+    build=_build_soft_contact, help="soft-contact DEM: elastic contacts, explicit",
+    settings_key="dem", settings_type=SoftContactSettings,
     deformable=True, explicit_substeps=True, own_keys=("solver.dem.",),
     keys_words="the soft-contact law of solver.method = 'dem' (--solver dem)",
     runs_words=("solver.method = 'dem' (--solver dem, soft contacts, explicit: no sweeps, "
                 "tolerance or iteration cap)"),
     setting_reason=_soft_law_reason, label=_soft_contact_label,
-    rolling_families=(MEMBER_SPHERES,))
+    rolling_families=(MEMBER_SPHERES,), rolling_key="rolling_friction",
+    options=SOFT_CONTACT_OPTIONS,
+    wall_keys=("solver.dem.rigid_walls",),
+    stiffness_key=lambda table: stiffness_setting(table.dem))
 
 
 SOLVERS: dict[str, SolverRecord] = {r.name: r for r in (CONTACT_DYNAMICS, SOFT_CONTACT)}
@@ -258,13 +322,69 @@ SOLVER_NAMES = tuple(SOLVERS)
 
 DEFAULT_SOLVER = SOLVER_NAMES[0]
 
+COMPARED = ("cd", "dem")
+"""The pair ``grainlab compare`` runs on one sample, the reference first
+(:mod:`grainlab.lab.solver_comparison`; its columns ``dem_minus_cd``, ``dem_over_cd``)."""
+
 
 def solver_record(name: str) -> SolverRecord:
     """The record of ``solver.method = name``; an :class:`InputError` naming the allowed
     ones otherwise."""
     if name not in SOLVERS:
-        raise InputError("method", name, " or ".join(f'"{m}"' for m in SOLVER_NAMES))
+        raise InputError("method", name, " or ".join(f'"{m}"' for m in SOLVERS))
     return SOLVERS[name]
+
+
+def own_settings_records() -> tuple[SolverRecord, ...]:
+    """The solvers with settings of their own (a ``settings_key``), in the registry's order."""
+    return tuple(r for r in SOLVERS.values() if r.settings_key is not None)
+
+
+def default_solver_settings() -> dict[str, Any]:
+    """``{settings_key: default settings}`` of every solver with settings of its own."""
+    return {r.settings_key: r.settings_type() for r in own_settings_records()}
+
+
+def solver_settings(given: Any) -> dict[str, Any]:
+    """``given`` (a mapping ``{settings_key: settings}``) checked and completed with the
+    defaults of the solvers it leaves out; an :class:`InputError` naming
+    ``solver_settings[key]`` for a key no solver has or a value not of its type."""
+    if not isinstance(given, Mapping):
+        raise InputError("solver_settings", given, "a mapping {settings_key: settings}")
+    records = {r.settings_key: r for r in own_settings_records()}
+    out = default_solver_settings()
+    for key, value in given.items():
+        if key not in records:
+            raise InputError(f"solver_settings[{key!r}]", value, "a key of "
+                             + " or ".join(repr(k) for k in records))
+        if not isinstance(value, records[key].settings_type):
+            raise InputError(f"solver_settings[{key!r}]", value,
+                             f"a {records[key].settings_type.__name__}")
+        out[key] = value
+    return out
+
+
+def solver_help() -> str:
+    """The ``--solver`` option's help: every registered solver with what it is."""
+    return "The solver: " + "; ".join(f"{name} ({record.help or record.title})"
+                                      for name, record in SOLVERS.items()) + "."
+
+
+def solver_options() -> tuple[SolverOption, ...]:
+    """The command-line options of every solver's own settings, in the registry's order."""
+    return tuple(option for record in SOLVERS.values() for option in record.options)
+
+
+def deformable_words() -> str:
+    """The solvers whose grains deform, as a message names them:
+    ``"solver.method = 'dem', --solver dem"``."""
+    return " or ".join(f"solver.method = '{r.name}', --solver {r.name}"
+                       for r in SOLVERS.values() if r.deformable)
+
+
+def wall_keys() -> tuple[str, ...]:
+    """The keys of the solvers' own tables that only a box of walls reads."""
+    return tuple(key for record in SOLVERS.values() for key in record.wall_keys)
 
 
 def solver_label(table: dict) -> str:

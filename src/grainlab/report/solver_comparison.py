@@ -15,7 +15,8 @@ from collections.abc import Mapping
 import pandas as pd
 from matplotlib.figure import Figure
 
-from grainlab.lab.solver_comparison import SOLVERS, SolverComparison, solver_label
+from grainlab.lab.solver_comparison import SolverComparison, solver_label
+from grainlab.lab.solver_registry import solver_record
 from grainlab.report.curves import new_figure_axes
 from grainlab.report.run_curves import LABELS, run_title, shear_from_its_start
 from grainlab.result.columns import unit_of
@@ -63,7 +64,7 @@ def solver_comparison_figure(
     results = comparison.results
     x, columns = PANELS.get(comparison.kind, SHEAR_PANELS)
     figure, axes = new_figure_axes(1, len(columns), figsize=(13.0, 4.0))
-    for method, colour in zip(SOLVERS, ("C0", "C3"), strict=True):
+    for method, colour in zip(comparison.pair, ("C0", "C3"), strict=True):
         rows = _curve_rows(results[method].table, comparison.kind, x)
         for ax, column in zip(axes, columns, strict=True):
             if x in rows.columns and column in rows.columns:
@@ -75,7 +76,7 @@ def solver_comparison_figure(
         ax.grid(alpha=0.3)
     if axes[0].lines:
         axes[0].legend(fontsize="small")
-    figure.suptitle(f"{run_title(results['cd'])}: contact dynamics and soft-contact DEM",
-                    fontsize="medium")
+    titles = " and ".join(solver_record(m).title for m in comparison.pair)
+    figure.suptitle(f"{run_title(results[comparison.pair[0]])}: {titles}", fontsize="medium")
     figure.set_layout_engine("tight")
     return figure
