@@ -1,10 +1,11 @@
 """Test-suite options: ``--validate`` runs the slow validation runs (STYLE.md 11).
 
 With pytest-xdist workers (``make test`` runs ``-n auto``), the kernels are first compiled
-once, split over three processes (``grainlab compile --part ...``), before the workers start:
-each worker would otherwise compile every kernel it meets for itself, and compilation is most
-of a cold run (measured: 550 s cold against 235 s with the cache warm, two workers, two
-cores). ``GRAINLAB_NO_PRECOMPILE=1`` skips it.
+once, split over three processes (``grainlab compile --part ...``), before the workers get
+their first test (they start and collect meanwhile): each worker would otherwise compile every
+kernel it meets for itself, and compilation is most of a cold run (measured: 550 s cold
+against 235 s with the cache warm, two workers, two cores). ``GRAINLAB_NO_PRECOMPILE=1``
+skips it.
 """
 
 from __future__ import annotations
@@ -59,19 +60,34 @@ has cached by the time the dem part is done, where the two processes otherwise c
 at the same time; and the dem part compiles the polyhedra's narrow phase for it."""
 
 
+_PRECOMPILING: list[tuple[str, subprocess.Popen]] = []
+"""The compile processes started in :func:`pytest_configure`, awaited before the first test
+is handed out (:func:`pytest_runtestloop`)."""
+
+
 def pytest_configure(config):
     workers = getattr(config.option, "numprocesses", None)
     if not workers or os.environ.get("PYTEST_XDIST_WORKER") is not None \
             or os.environ.get("GRAINLAB_NO_PRECOMPILE") == "1":
         return
-    processes = [subprocess.Popen([sys.executable, "-m", "grainlab.cli.main", "compile",
-                                   "--part", part], stdout=subprocess.DEVNULL,
-                                  stderr=subprocess.PIPE, text=True)
-                 for part in PRECOMPILE_PARTS]
-    for part, process in zip(PRECOMPILE_PARTS, processes, strict=True):
+    _PRECOMPILING.extend(
+        (part, subprocess.Popen([sys.executable, "-m", "grainlab.cli.main", "compile",
+                                 "--part", part], stdout=subprocess.DEVNULL,
+                                stderr=subprocess.PIPE, text=True))
+        for part in PRECOMPILE_PARTS)
+
+
+@pytest.hookimpl(hookwrapper=True, tryfirst=True)
+def pytest_runtestloop(session):
+    """Wait for the compile processes before any test runs. The workers start and collect
+    meanwhile (each imports every test module, some 15 s of a core, taken while the last
+    compile process runs alone); they get their first test once the kernels are cached."""
+    while _PRECOMPILING:
+        part, process = _PRECOMPILING.pop(0)
         _, errors = process.communicate()
         if process.returncode != 0:  # the tests compile what they need themselves
             print(f"grainlab compile --part {part} failed:\n{errors}", file=sys.stderr)
+    yield
 
 
 PERTURBED_FOLDERS = ("lab", "cli", "report", "study", "test_readme.py", "test_examples.py")
