@@ -255,8 +255,10 @@ def test_a_dem_stage_whose_sub_steps_were_unstable_is_not_as_asked(zigzag, stabl
     assert (problems == []) is stable
     if not stable:
         assert "not driven by the load" in problems[0]
-        assert "time_step_fraction" in problems[0]
+        assert "time_step_fraction" in problems[0]  # the solver record's advice
         assert "UNSTABLE" in stage.words()
+        stored = {k: v for k, v in stage.to_dict().items() if k != "stability_advice"}
+        assert "shorten the solver's sub-step" in type(stage).from_dict(stored).problems()[0]
         assert RunOutcome(stages=(stage,), finished=True, steps=100).status == "not as asked"
     assert type(stage).from_dict(stage.to_dict()) == stage
     cd = stage_outcome(record, rows, SimpleNamespace(

@@ -154,6 +154,9 @@ class StageOutcome:
     zigzag:
         Soft-contact DEM stages: the median velocity zigzag of the stage's records past its
         first tenth (module docstring; NaN where not judged).
+    stability_advice:
+        What to change when the zigzag says the explicit scheme is unstable (the solver's
+        :attr:`~grainlab.lab.solver_registry.SolverRecord.stability_advice`).
     """
 
     name: str
@@ -174,6 +177,7 @@ class StageOutcome:
     end_step: int = -1
     capped_share_limit: float = 1.0
     zigzag: float = math.nan
+    stability_advice: str = ""
 
     @property
     def capped_share(self) -> float:
@@ -234,8 +238,8 @@ class StageOutcome:
             out.append(f"stage {self.name}: kinetic energy made by the time steps, not driven "
                        f"by the load: the contacts' velocities flip from one sub-step to the "
                        f"next (median zigzag {self.zigzag:.3g} > {ZIGZAG_LIMIT:g}), an unstable "
-                       "explicit scheme whose results are not those of the material; lower "
-                       "solver.dem.time_step_fraction or raise solver.dem.restitution")
+                       "explicit scheme whose results are not those of the material; "
+                       + (self.stability_advice or "shorten the solver's sub-step"))
         if self.solid is False:
             out.append(f"stage {self.name}: the sample lost its contact network (median z "
                        f"{_fmt(self.z_median)} < {MIN_COORDINATION:g}): a granular gas, not a "
@@ -528,4 +532,5 @@ def stage_outcome(record: dict[str, Any], rows: list[dict[str, Any]], settings,
         values["unsettled"] = _unsettled(rows[-1], settings.quasi_static, normal)
     if solver.explicit_substeps:
         values["zigzag"] = _zigzag(rows)
+        values["stability_advice"] = solver.stability_advice
     return StageOutcome(**values)

@@ -96,6 +96,9 @@ class SolverRecord:
         Whether it cuts each step into stable sub-steps: the stage's step is taken in whole
         sub-steps, its cost counted and estimated in sub-steps, the sub-steps' zigzag
         written (``velocity_zigzag``) and judged.
+    stability_advice:
+        What to change when its sub-steps zigzag (an unstable explicit scheme), in config
+        keys (:mod:`grainlab.lab.run_outcome`).
     own_keys:
         Config keys only it reads (a key ending in ``.``: every key under it).
     keys_words, runs_words:
@@ -129,6 +132,7 @@ class SolverRecord:
     grows_step: bool = False
     deformable: bool = False
     explicit_substeps: bool = False
+    stability_advice: str = ""
     own_keys: tuple[str, ...] = ()
     keys_words: str = ""
     runs_words: str = ""
@@ -304,6 +308,7 @@ SOFT_CONTACT = SolverRecord(
     build=_build_soft_contact, help="soft-contact DEM: elastic contacts, explicit",
     settings_key="dem", settings_type=SoftContactSettings,
     deformable=True, explicit_substeps=True, own_keys=("solver.dem.",),
+    stability_advice="lower solver.dem.time_step_fraction or raise solver.dem.restitution",
     keys_words="the soft-contact law of solver.method = 'dem' (--solver dem)",
     runs_words=("solver.method = 'dem' (--solver dem, soft contacts, explicit: no sweeps, "
                 "tolerance or iteration cap)"),
