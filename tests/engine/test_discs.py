@@ -24,8 +24,8 @@ from grainlab.contact.soft_contact_law import SoftContactLaw
 from grainlab.engine.boundaries.boundary import FixedPlanes
 from grainlab.engine.boundaries.periodic_boundary import PeriodicCell
 from grainlab.engine.boundaries.wall_box import WallBox
-from grainlab.engine.detect.periodic_detection import PeriodicDetection
 from grainlab.engine.dem.soft_contact import SoftContactStep
+from grainlab.engine.detect.periodic_detection import PeriodicDetection
 from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
 from grainlab.engine.planar import planar_drift
 from grainlab.engine.shape_kinds import DISC
@@ -216,9 +216,9 @@ def hexagonal_cell(d, columns=4, rows=3):
     ``columns`` x ``rows`` two-disc cells (each d x sqrt(3) d), just touching."""
     a = math.sqrt(3.0) * d
     base = np.array([[0.0, 0.0], [0.5 * d, 0.5 * a]])
-    centres = np.concatenate([base + [i * d, j * a] for i in range(columns)
-                              for j in range(rows)])
-    return centres + [0.25 * d, 0.25 * a], np.array([columns * d, rows * a])
+    shifts = np.array([[i * d, j * a] for i in range(columns) for j in range(rows)])
+    centres = (shifts[:, None, :] + base[None]).reshape(-1, 2)
+    return centres + np.array([0.25 * d, 0.25 * a]), np.array([columns * d, rows * a])
 
 
 @pytest.mark.parametrize("strain", [(1e-4, 1e-4), (1e-4, 0.4e-4), (0.3e-4, 1e-4)])

@@ -53,8 +53,9 @@ def test_every_kind_has_every_field(kind):
 
 
 def test_names_and_codes_are_unique_and_in_code_order():
-    assert SHAPE_KIND_NAMES == ("sphere", "aggregate", "polyhedron")
-    assert [k.code for k in SHAPE_KINDS] == [0, 1, 2]  # stored in checkpoints: never renumber
+    assert SHAPE_KIND_NAMES == ("sphere", "aggregate", "polyhedron", "disc")
+    assert [k.code for k in SHAPE_KINDS] == [0, 1, 2, 3]  # in checkpoints: never renumber
+    assert [k.dimension for k in SHAPE_KINDS] == [3, 3, 3, 2]
     assert len({k.name for k in SHAPE_KINDS}) == len({k.code for k in SHAPE_KINDS}) \
         == len(SHAPE_KINDS)
 
@@ -79,10 +80,11 @@ def test_what_each_kind_says_today():
     """Polyhedra go through the feature kernels, shorten the step to their own speeds and
     type pairs by features; spheres and aggregates share the member-sphere geometry."""
     assert [k.narrow_phase for k in SHAPE_KINDS] == [MEMBER_SPHERES, MEMBER_SPHERES,
-                                                     POLYHEDRON_FEATURES]
-    assert [k.spins_fast for k in SHAPE_KINDS] == [False, False, True]
-    assert [k.pair_typing for k in SHAPE_KINDS] == [None, "member_classes", "feature_types"]
-    assert [k.plural for k in SHAPE_KINDS] == ["spheres", "aggregates", "polyhedra"]
+                                                     POLYHEDRON_FEATURES, MEMBER_SPHERES]
+    assert [k.spins_fast for k in SHAPE_KINDS] == [False, False, True, False]
+    assert [k.pair_typing for k in SHAPE_KINDS] == [None, "member_classes", "feature_types",
+                                                    None]
+    assert [k.plural for k in SHAPE_KINDS] == ["spheres", "aggregates", "polyhedra", "discs"]
 
 
 def test_a_record_with_an_unknown_family_is_refused():
@@ -170,8 +172,11 @@ def test_every_family_has_a_compile_run_and_a_part():
 def test_the_config_allows_the_registered_shapes_and_names_them():
     from grainlab.lab.run_config import RunConfig
 
-    for name in SHAPE_KIND_NAMES:
+    for name in SHAPE_KIND_NAMES[:3]:
         assert RunConfig.model_validate({"sample": {"shape": name}}).sample.shape == name
+    with pytest.raises(InputError, match=r"discs \(2D\) run in the engine only") as error:
+        RunConfig.model_validate({"sample": {"shape": "disc"}})  # the lab's paths are 3D
+    assert error.value.field == "sample.shape"
     for bad in ("cube", 2, None):
         with pytest.raises(InputError) as error:
             RunConfig.model_validate({"sample": {"shape": bad}})
@@ -198,7 +203,7 @@ def test_the_cli_shape_help_lists_every_registered_shape():
     from grainlab.prep.sample_shapes import SAMPLE_SHAPES
 
     for name, maker in SAMPLE_SHAPES.items():
-        assert f"{name} ({maker.description})" in SHAPE_HELP
+        assert (f"{name} ({maker.description})" in SHAPE_HELP) == (maker.kind.dimension == 3)
 
 
 def test_a_library_takes_its_kind_of_the_right_family_only():

@@ -1,6 +1,7 @@
 """The discrete lab across its whole matrix: every solver (contact dynamics ``cd``, soft-contact
 DEM ``dem``) x boundary (wall box ``walls``, periodic cell ``periodic``) x particle shape (every
-kind of the shape registry: spheres, sphere aggregates, convex polyhedra) runs a short triaxial
+3D kind of the shape registry: spheres, sphere aggregates, convex polyhedra; discs, 2D, run in
+the engine only, tests/engine/test_discs.py, as the lab's paths drive three axes) runs a short triaxial
 test -- an isotropic compaction to sigma0, then a compression at constant lateral stress --
 through the run-folder API a user calls (:class:`~grainlab.lab.run_config.RunConfig`,
 :func:`~grainlab.lab.discrete_run.start_run`, :func:`~grainlab.lab.discrete_run.resume_run`,
@@ -39,7 +40,7 @@ import pandas as pd
 import pytest
 
 from grainlab.analysis.snapshot_files import read_snapshots
-from grainlab.engine.shape_kinds import SHAPE_KIND_NAMES
+from grainlab.engine.shape_kinds import SHAPE_KINDS
 from grainlab.errors import InputError
 from grainlab.lab.discrete_run import (
     CHECKPOINT,
@@ -58,7 +59,7 @@ from grainlab.result.test_result import TestResult
 SOLVERS = ("cd", "dem")
 BOUNDARIES = ("walls", "periodic")
 CASES = [(solver, boundary, shape) for solver in SOLVERS for boundary in BOUNDARIES
-         for shape in SHAPE_KIND_NAMES]
+         for shape in (kind.name for kind in SHAPE_KINDS if kind.dimension == 3)]
 
 SIGMA0 = 1e4
 """Confining stress [Pa]."""

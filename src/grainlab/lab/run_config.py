@@ -104,7 +104,7 @@ from grainlab.lab.presets import (
 from grainlab.lab.solver_registry import SOLVERS, own_settings_records, solver_record
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR, STAGE_KINDS, StageNumerics
 from grainlab.lab.wall_stages import QuasiStaticCriteria
-from grainlab.prep.sample_shapes import MAX_FACES, sample_shape
+from grainlab.prep.sample_shapes import MAX_FACES, SAMPLE_SHAPES, sample_shape
 
 TEST_KINDS = ("compaction", "triaxial", "extension", "oedometer", "true_triaxial",
               "simple_shear", "circular", "cyclic_shear")
@@ -213,8 +213,21 @@ class SampleConfig(ConfigSection):
     @classmethod
     def _registered_shape(cls, value: Any) -> str:
         """A shape a loose sample can be made of (the kinds of
-        :data:`~grainlab.prep.sample_shapes.SAMPLE_SHAPES`)."""
-        return sample_shape(value).kind.name
+        :data:`~grainlab.prep.sample_shapes.SAMPLE_SHAPES`) and the lab's load paths can
+        drive: 3D kinds (discs run in the engine, :mod:`grainlab.engine.planar`; the lab's
+        paths are written for three axes)."""
+        lab_shapes = [name for name, shape in SAMPLE_SHAPES.items()
+                      if shape.kind.dimension == 3]
+        allowed = "one of " + ", ".join(repr(name) for name in lab_shapes)
+        if value in SAMPLE_SHAPES and value not in lab_shapes:
+            kind = SAMPLE_SHAPES[value].kind
+            raise InputError("sample.shape", value, f"{allowed} (the lab's load paths drive "
+                             f"three axes; {kind.plural} ({kind.dimension}D) run in the "
+                             "engine only)")
+        if not isinstance(value, str) or value not in lab_shapes:
+            raise InputError("sample.shape", value, allowed)
+        kind = sample_shape(value).kind
+        return kind.name
 
     @field_validator("n_faces")
     @classmethod
