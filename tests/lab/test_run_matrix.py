@@ -1,8 +1,8 @@
 """The discrete lab across its whole matrix: every solver (contact dynamics ``cd``, soft-contact
 DEM ``dem``) x boundary (wall box ``walls``, periodic cell ``periodic``) x particle shape (every
 3D kind of the shape registry: spheres, sphere aggregates, convex polyhedra; discs, 2D, run in
-the engine only, tests/engine/test_discs.py, as the lab's paths drive three axes) runs a short triaxial
-test -- an isotropic compaction to sigma0, then a compression at constant lateral stress --
+the engine only, tests/engine/test_discs.py, as the lab's paths drive three axes) runs a short
+triaxial test -- an isotropic compaction to sigma0, then a compression at constant lateral stress --
 through the run-folder API a user calls (:class:`~grainlab.lab.run_config.RunConfig`,
 :func:`~grainlab.lab.discrete_run.start_run`, :func:`~grainlab.lab.discrete_run.resume_run`,
 :func:`~grainlab.lab.discrete_run.export_checkpoint_vtk`), and on every case:
