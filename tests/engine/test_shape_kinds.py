@@ -172,16 +172,13 @@ def test_every_family_has_a_compile_run_and_a_part():
 def test_the_config_allows_the_registered_shapes_and_names_them():
     from grainlab.lab.run_config import RunConfig
 
-    for name in SHAPE_KIND_NAMES[:3]:
+    for name in SHAPE_KIND_NAMES:
         assert RunConfig.model_validate({"sample": {"shape": name}}).sample.shape == name
-    with pytest.raises(InputError, match=r"discs \(2D\) run in the engine only") as error:
-        RunConfig.model_validate({"sample": {"shape": "disc"}})  # the lab's paths are 3D
-    assert error.value.field == "sample.shape"
     for bad in ("cube", 2, None):
         with pytest.raises(InputError) as error:
             RunConfig.model_validate({"sample": {"shape": bad}})
         assert error.value.field == "sample.shape"
-        assert error.value.allowed == "one of 'sphere', 'aggregate', 'polyhedron'"
+        assert error.value.allowed == "one of 'sphere', 'aggregate', 'polyhedron', 'disc'"
 
 
 def test_a_hypothetical_kind_registered_for_samples_reaches_the_config(monkeypatch):
@@ -203,7 +200,7 @@ def test_the_cli_shape_help_lists_every_registered_shape():
     from grainlab.prep.sample_shapes import SAMPLE_SHAPES
 
     for name, maker in SAMPLE_SHAPES.items():
-        assert (f"{name} ({maker.description})" in SHAPE_HELP) == (maker.kind.dimension == 3)
+        assert f"{name} ({maker.description})" in SHAPE_HELP
 
 
 def test_a_library_takes_its_kind_of_the_right_family_only():

@@ -81,7 +81,7 @@ def _tiny_config(kind: ShapeKind, sweep: str = "serial"):
 def _kinds_of(part: str) -> tuple[ShapeKind, ...]:
     """The registered 3D kinds whose family's runs are in ``part``, in code order (a 2D
     kind, discs, goes through its family's kernels with the same types: the spheres' runs
-    compile it; the lab does not run it)."""
+    compile them)."""
     return tuple(sorted((kind for family, where in FAMILY_PARTS.items() if where == part
                          for kind in kinds_of_family(family) if kind.dimension == 3),
                         key=lambda kind: kind.code))

@@ -146,11 +146,9 @@ SOLVER_HELP = solver_help()
 (:data:`~grainlab.lab.solver_registry.SOLVERS`) with what it is."""
 
 SHAPE_HELP = "Particle shape: " + "; ".join(
-    f"{name} ({shape.description})" for name, shape in SAMPLE_SHAPES.items()
-    if shape.kind.dimension == 3) + "."
-"""The ``--shape`` help: every 3D shape a sample can be made of
-(:data:`~grainlab.prep.sample_shapes.SAMPLE_SHAPES`), with what its particles are (the lab's
-paths drive three axes; discs run in the engine only)."""
+    f"{name} ({shape.description})" for name, shape in SAMPLE_SHAPES.items()) + "."
+"""The ``--shape`` help: every shape a sample can be made of
+(:data:`~grainlab.prep.sample_shapes.SAMPLE_SHAPES`), with what its particles are."""
 
 _TOLERANCE_TEXT = ("Convergence tolerance of the contact solver (NLGS, see --sweep) [-] {}: "
                    "the relative change of the contact forces between two sweeps, and the "

@@ -287,7 +287,7 @@ class DiscreteRun:
             parameters={"settings": test.settings.to_dict(),
                         "config": self.config.model_dump()},
             outcome=_plain(self.outcome.to_dict()),
-            dimension=3, title=f"{test.path.name} on a discrete sample")
+            dimension=test.path.dimension, title=f"{test.path.name} on a discrete sample")
         result.metadata["cost"] = _plain(self.cost.to_dict())
         return result
 
@@ -766,10 +766,13 @@ def export_checkpoint_vtk(folder: str | Path, out: str | Path | None = None) -> 
         net = read_snapshot(snapshots, own - 1)
         if net.state.get("step", step) == step:
             first = net.pair_particles[net.point_pairs, 0]
-            start = net.positions[first]
+            lift = _lifted(net.dimension, state.positions, library.thickness)
+            start = lift(net.positions[first])
             polyhedra = net.pair_types is not None and net.type_names == PAIR_TYPE_NAMES
-            contacts = ContactLines(start=start, end=start + net.pair_branches[net.point_pairs],
-                                    force=net.point_forces, normal=net.point_normals,
+            branch = lift(net.pair_branches[net.point_pairs], plane=0.0)
+            contacts = ContactLines(start=start, end=start + branch,
+                                    force=lift(net.point_forces, plane=0.0, scale=True),
+                                    normal=lift(net.point_normals, plane=0.0),
                                     sliding=net.point_sliding,
                                     contact_type=net.pair_types[net.point_pairs] if polyhedra
                                     else None)
@@ -780,6 +783,19 @@ def export_checkpoint_vtk(folder: str | Path, out: str | Path | None = None) -> 
                             walls=_walls(box), velocities=state.velocities,
                             angular_velocities=state.angular_velocities)
     return sorted(files.values())
+
+
+def _lifted(dimension: int, positions: np.ndarray, thickness: float | None):
+    """``lift(vectors, plane=None, scale=False)``: a snapshot's vectors in 3D for ParaView;
+    a 2D network's (:mod:`grainlab.engine.planar`) get the sample's plane (or ``plane``) as
+    their z, and forces per unit thickness (``scale``) their thickness back [N]."""
+    def lift(vectors: np.ndarray, plane: float | None = None, scale: bool = False):
+        if dimension == 3:
+            return vectors
+        z = float(positions[0, 2]) if plane is None and positions.shape[0] else plane or 0.0
+        out = np.column_stack([vectors, np.full(vectors.shape[0], z)])
+        return out * thickness if scale else out
+    return lift
 
 
 def _run_folder(folder: str | Path) -> Path:
