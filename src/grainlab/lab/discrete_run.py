@@ -56,7 +56,6 @@ import pandas as pd
 
 from grainlab.analysis.snapshot_files import append_snapshot
 from grainlab.engine.discrete_sample import DiscreteSample
-from grainlab.engine.sample_measures import PAIR_TYPE_NAMES
 from grainlab.engine.shape_kinds import kinds_present
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.errors import GrainlabError, InputError
@@ -765,17 +764,9 @@ def export_checkpoint_vtk(folder: str | Path, out: str | Path | None = None) -> 
     if own:
         net = read_snapshot(snapshots, own - 1)
         if net.state.get("step", step) == step:
-            first = net.pair_particles[net.point_pairs, 0]
-            lift = _lifted(net.dimension, state.positions, library.thickness)
-            start = lift(net.positions[first])
-            polyhedra = net.pair_types is not None and net.type_names == PAIR_TYPE_NAMES
-            branch = lift(net.pair_branches[net.point_pairs], plane=0.0)
-            contacts = ContactLines(start=start, end=start + branch,
-                                    force=lift(net.point_forces, plane=0.0, scale=True),
-                                    normal=lift(net.point_normals, plane=0.0),
-                                    sliding=net.point_sliding,
-                                    contact_type=net.pair_types[net.point_pairs] if polyhedra
-                                    else None)
+            contacts = ContactLines.from_network(
+                net, float(state.positions[0, 2]) if state.n_bodies else 0.0,
+                library.thickness)
     out = Path(out) if out is not None else folder / "vtk-checkpoint"
     files = write_vtk_frame(out, 0, float(progress["time"]), positions=state.positions,
                             orientations=state.orientations, shape_ids=state.shape_ids,
@@ -783,19 +774,6 @@ def export_checkpoint_vtk(folder: str | Path, out: str | Path | None = None) -> 
                             walls=_walls(box), velocities=state.velocities,
                             angular_velocities=state.angular_velocities)
     return sorted(files.values())
-
-
-def _lifted(dimension: int, positions: np.ndarray, thickness: float | None):
-    """``lift(vectors, plane=None, scale=False)``: a snapshot's vectors in 3D for ParaView;
-    a 2D network's (:mod:`grainlab.engine.planar`) get the sample's plane (or ``plane``) as
-    their z, and forces per unit thickness (``scale``) their thickness back [N]."""
-    def lift(vectors: np.ndarray, plane: float | None = None, scale: bool = False):
-        if dimension == 3:
-            return vectors
-        z = float(positions[0, 2]) if plane is None and positions.shape[0] else plane or 0.0
-        out = np.column_stack([vectors, np.full(vectors.shape[0], z)])
-        return out * thickness if scale else out
-    return lift
 
 
 def _run_folder(folder: str | Path) -> Path:
