@@ -118,7 +118,7 @@ def test_the_scan_finds_upward_imports_wherever_they_sit(tmp_path, code, target)
 
 ENGINE = SOURCE / "engine"
 
-ENGINE_BODIES = ("state", "shape_kinds", "quaternion", "gyroscopic", "body_order")
+ENGINE_BODIES = ("state", "shape_kinds", "quaternion", "gyroscopic", "body_order", "planar")
 """The engine's top-level body modules: they import no engine sub-package."""
 
 ENGINE_RANKS = {"bodies": 0, "detect": 1, "boundaries": 2, "run": 3, "nscd": 4, "dem": 4}

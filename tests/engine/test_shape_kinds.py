@@ -53,8 +53,9 @@ def test_every_kind_has_every_field(kind):
 
 
 def test_names_and_codes_are_unique_and_in_code_order():
-    assert SHAPE_KIND_NAMES == ("sphere", "aggregate", "polyhedron")
-    assert [k.code for k in SHAPE_KINDS] == [0, 1, 2]  # stored in checkpoints: never renumber
+    assert SHAPE_KIND_NAMES == ("sphere", "aggregate", "polyhedron", "disc")
+    assert [k.code for k in SHAPE_KINDS] == [0, 1, 2, 3]  # in checkpoints: never renumber
+    assert [k.dimension for k in SHAPE_KINDS] == [3, 3, 3, 2]
     assert len({k.name for k in SHAPE_KINDS}) == len({k.code for k in SHAPE_KINDS}) \
         == len(SHAPE_KINDS)
 
@@ -79,10 +80,11 @@ def test_what_each_kind_says_today():
     """Polyhedra go through the feature kernels, shorten the step to their own speeds and
     type pairs by features; spheres and aggregates share the member-sphere geometry."""
     assert [k.narrow_phase for k in SHAPE_KINDS] == [MEMBER_SPHERES, MEMBER_SPHERES,
-                                                     POLYHEDRON_FEATURES]
-    assert [k.spins_fast for k in SHAPE_KINDS] == [False, False, True]
-    assert [k.pair_typing for k in SHAPE_KINDS] == [None, "member_classes", "feature_types"]
-    assert [k.plural for k in SHAPE_KINDS] == ["spheres", "aggregates", "polyhedra"]
+                                                     POLYHEDRON_FEATURES, MEMBER_SPHERES]
+    assert [k.spins_fast for k in SHAPE_KINDS] == [False, False, True, False]
+    assert [k.pair_typing for k in SHAPE_KINDS] == [None, "member_classes", "feature_types",
+                                                    None]
+    assert [k.plural for k in SHAPE_KINDS] == ["spheres", "aggregates", "polyhedra", "discs"]
 
 
 def test_a_record_with_an_unknown_family_is_refused():
@@ -176,7 +178,7 @@ def test_the_config_allows_the_registered_shapes_and_names_them():
         with pytest.raises(InputError) as error:
             RunConfig.model_validate({"sample": {"shape": bad}})
         assert error.value.field == "sample.shape"
-        assert error.value.allowed == "one of 'sphere', 'aggregate', 'polyhedron'"
+        assert error.value.allowed == "one of 'sphere', 'aggregate', 'polyhedron', 'disc'"
 
 
 def test_a_hypothetical_kind_registered_for_samples_reaches_the_config(monkeypatch):

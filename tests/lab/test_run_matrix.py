@@ -1,7 +1,8 @@
 """The discrete lab across its whole matrix: every solver (contact dynamics ``cd``, soft-contact
 DEM ``dem``) x boundary (wall box ``walls``, periodic cell ``periodic``) x particle shape (every
-kind of the shape registry: spheres, sphere aggregates, convex polyhedra) runs a short triaxial
-test -- an isotropic compaction to sigma0, then a compression at constant lateral stress --
+kind of the shape registry: spheres, sphere aggregates, convex polyhedra, and discs, whose 2D
+test is a biaxial one with the vertical axis y) runs a short triaxial test -- an isotropic
+compaction to sigma0, then a compression at constant lateral stress --
 through the run-folder API a user calls (:class:`~grainlab.lab.run_config.RunConfig`,
 :func:`~grainlab.lab.discrete_run.start_run`, :func:`~grainlab.lab.discrete_run.resume_run`,
 :func:`~grainlab.lab.discrete_run.export_checkpoint_vtk`), and on every case:
@@ -67,8 +68,8 @@ KAPPA = 1e3
 FRICTION = 0.4
 """Interparticle friction of the shear [-] (the compaction is frictionless)."""
 PARTICLES = {("walls", "sphere"): 30, ("walls", "aggregate"): 30, ("walls", "polyhedron"): 12,
-             ("periodic", "sphere"): 110, ("periodic", "aggregate"): 160,
-             ("periodic", "polyhedron"): 60}
+             ("walls", "disc"): 30, ("periodic", "sphere"): 110, ("periodic", "aggregate"): 160,
+             ("periodic", "polyhedron"): 60, ("periodic", "disc"): 60}
 """Particles of each boundary and shape: a box holds a few across; a periodic cell at least
 about four interaction ranges across once compacted (its detection stops a compaction that
 leaves it narrower than three ranges plus alert distances: 80 spheres of size ratio 1.2 stop
@@ -83,7 +84,10 @@ interaction ranges plus alert distances must fit across the cell. Soft grains ta
 COMPACTION_STEPS = 80
 """The compaction's step budget [-]: it ends settled (looser criteria than a real run's) or
 there, and the shear starts; soft polyhedra take 250 (their own spin shortens the step),
-rigid ones 100, aggregates in a cell 200 (the loosest start: a packing fraction of 0.18)."""
+rigid ones 100, aggregates in a cell 200 (the loosest start: a packing fraction of 0.18),
+discs 800 (a 2D box of as many grains is about twice as wide: the step, d_min over the walls'
+speed eps_dot L, is half as long for the same strain; rigid discs in a cell settle in about
+700)."""
 
 
 def compaction_numerics(solver: str, boundary: str, shape: str) -> tuple[dict, int]:
@@ -98,6 +102,8 @@ def compaction_numerics(solver: str, boundary: str, shape: str) -> tuple[dict, i
         inertia, budget = (0.3, 250) if solver == "dem" else (0.1, 100)
     if (boundary, shape) == ("periodic", "aggregate"):
         budget = 200
+    if shape == "disc":  # a 2D box of as many grains is wider: its walls' step is shorter
+        budget = 800
     return {"inertia_number": inertia, "time_step_factor": step, "overlap_recovery": 0.5}, \
         budget
 
@@ -139,6 +145,8 @@ def matrix_config(solver: str, boundary: str, shape: str) -> RunConfig:
         sample.update(n_faces=30, templates=2, packing_fraction=0.25)
     if shape == "aggregate":
         sample.update(eta=0.2)
+    if shape == "disc":  # discs compact to an area fraction near 0.8: start less loose
+        sample.update(packing_fraction=0.35)
     compaction, budget = compaction_numerics(solver, boundary, shape)
     settings = {"method": solver, "sweep": "serial", "max_stage_steps": budget,
                 "at_max_stage_steps": "next_stage", "compaction": compaction,

@@ -12,7 +12,7 @@ from grainlab.prep.loose_sample import loose_sample
 from grainlab.prep.sample_shapes import SAMPLE_SHAPES, particles_text, sample_shape
 
 PARAMETERS = {"sphere": {}, "aggregate": {"eta": 0.4},
-              "polyhedron": {"n_faces": 8, "templates": 1}}
+              "polyhedron": {"n_faces": 8, "templates": 1}, "disc": {}}
 
 
 @pytest.mark.parametrize("kind", SHAPE_KINDS, ids=lambda k: k.name)
@@ -36,7 +36,7 @@ def test_a_maker_takes_exactly_its_keywords():
 
 def test_only_spheres_are_placed_without_orientations():
     assert {name: s.oriented for name, s in SAMPLE_SHAPES.items()} == {
-        "sphere": False, "aggregate": True, "polyhedron": True}
+        "sphere": False, "aggregate": True, "polyhedron": True, "disc": False}
     assert loose_sample(n_particles=5, seed=1).state.orientations[:, 0].tolist() == [1.0] * 5
 
 
@@ -44,7 +44,7 @@ def test_unknown_shapes_are_refused_naming_the_makers():
     with pytest.raises(InputError) as error:
         loose_sample(shape="cube", n_particles=5)
     assert error.value.field == "shape"
-    assert error.value.allowed == "one of 'sphere', 'aggregate', 'polyhedron'"
+    assert error.value.allowed == "one of 'sphere', 'aggregate', 'polyhedron', 'disc'"
 
 
 @pytest.mark.parametrize(("specimen", "text"), [

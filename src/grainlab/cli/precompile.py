@@ -79,9 +79,12 @@ def _tiny_config(kind: ShapeKind, sweep: str = "serial"):
 
 
 def _kinds_of(part: str) -> tuple[ShapeKind, ...]:
-    """The registered kinds whose family's runs are in ``part``, in code order."""
+    """The registered 3D kinds whose family's runs are in ``part``, in code order (a 2D
+    kind, discs, goes through its family's kernels with the same types: the spheres' runs
+    compile them)."""
     return tuple(sorted((kind for family, where in FAMILY_PARTS.items() if where == part
-                         for kind in kinds_of_family(family)), key=lambda kind: kind.code))
+                         for kind in kinds_of_family(family) if kind.dimension == 3),
+                        key=lambda kind: kind.code))
 
 
 def _discrete_runs(folder: Path) -> None:

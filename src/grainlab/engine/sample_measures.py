@@ -21,13 +21,19 @@ their q/p as q_over_trace = q_over_3 / p, sin_phi = (sigma_1 - sigma_3)/(sigma_1
 with eps_1 >= eps_3 the largest and smallest of the
 three. Mechanical coordination z_m = 2 (C_pp + C_pw) / N_m: force-carrying contacts between
 particles (C_pp) and with walls (C_pw), over the N_m particles left after removing rattlers
-(fewer than 4 such contacts for frictionless particles, d + 1 = 4; fewer than 2 with
-friction), repeatedly. A wall contact is one constraint on its particle like a particle
+(fewer than d + 1 such contacts for frictionless particles, 4 in 3D and 3 in 2D; fewer than
+2 with friction), repeatedly. A wall contact is one constraint on its particle like a particle
 contact, so it counts twice, as the wall were a particle: the isostatic count of rigid
 frictionless spheres (3 translations each) is C_pp + C_pw = 3 N_m (+ one per stress-controlled
 wall), i.e. z_m = 6. Counting the wall contacts once, (2 C_pp + C_pw) / N_m, gives
 6 - C_pw / N_m, ~5.3-5.5 in a box of 10 diameters.
 Inertia number I = max_a |d eps_a/dt| <d> sqrt(rho / p) with the walls' strain rates.
+
+A 2D sample (discs, :mod:`grainlab.engine.planar`) measures in its plane: the columns of the
+in-plane stress and strain, sigma_xx, sigma_yy, sigma_xy, eps_xx, eps_yy (gamma_xy in a
+cell), with the 2D invariants of :mod:`grainlab.result.invariants` (p = (sigma_1 +
+sigma_3)/2; the stresses are those of discs of the sample's thickness), and its core is
+the particles at least <d> from the four side walls.
 
 The contact network (analysis layer) keeps the particle-particle contacts that carry a force
 (P_n > 0; the solver also sees open contacts within the alert distance): pairs grouped
@@ -109,13 +115,22 @@ def log_strains(initial_lengths, lengths) -> np.ndarray:
     return np.array([math.log(value) for value in ratio.ravel()]).reshape(ratio.shape)
 
 
-def box_strains(initial_lengths: np.ndarray, lengths: np.ndarray) -> dict[str, float]:
+NORMAL_LABELS = ("xx", "yy", "zz")
+"""The normal components' labels, by axis."""
+COMPONENTS = {3: (("xx", (0, 0)), ("yy", (1, 1)), ("zz", (2, 2)), ("yz", (1, 2)),
+                  ("xz", (0, 2)), ("xy", (0, 1))),
+              2: (("xx", (0, 0)), ("yy", (1, 1)), ("xy", (0, 1)))}
+"""The columns' labels and tensor indices of each dimension's components (Voigt order)."""
+
+
+def box_strains(initial_lengths: np.ndarray, lengths: np.ndarray, dimension: int = 3
+                ) -> dict[str, float]:
     """The strain columns of a box of ``lengths`` (3,) [m] from ``initial_lengths`` (3,) [m]
-    (module docstring): logarithmic eps_xx, eps_yy, eps_zz, eps_vol and eps_q [-], known from
-    the walls alone (stage ends are checked on them after every step)."""
-    strains = log_strains(initial_lengths, lengths)
+    (module docstring): logarithmic eps_xx, eps_yy, eps_zz (not in 2D), eps_vol and eps_q
+    [-], known from the walls alone (stage ends are checked on them after every step)."""
+    strains = log_strains(initial_lengths, lengths)[:dimension]
     row = {f"eps_{label}": float(value)
-           for label, value in zip(("xx", "yy", "zz"), strains, strict=True)}
+           for label, value in zip(NORMAL_LABELS, strains, strict=False)}
     row.update(strain_invariants(np.diag(strains)))
     return row
 
@@ -271,16 +286,34 @@ def _contact_network(report: StepReport, state: BodyState, library: ShapeLibrary
         type_names = CONTACT_CLASS_NAMES
     walls = {} if box is None else {**wall_contacts(report, dt), "box_lower": box[0],
                                     "box_upper": box[1]}
+    arrays = {"positions": state.positions.copy(), "volumes": library.volume[state.shape_ids],
+              "volume": volume, "pair_branches": branches, "point_positions": points,
+              "point_normals": normals, "point_forces": forces, **walls}
+    if library.dimension == 2:
+        arrays = _in_plane(arrays, library.thickness)
     network = ContactNetwork(
-        positions=state.positions.copy(), volumes=library.volume[state.shape_ids],
-        volume=volume, pair_particles=pairs, pair_branches=branches,
-        point_pairs=point_pairs.reshape(-1), point_positions=points,
-        point_normals=normals, point_forces=forces, pair_types=pair_types,
+        pair_particles=pairs, point_pairs=point_pairs.reshape(-1), pair_types=pair_types,
         type_names=type_names, type_points=type_points, friction_coefficient=friction,
-        point_sliding=sliding,
-        state=dict(extra_state or {}), **walls,
-    )
+        point_sliding=sliding, state=dict(extra_state or {}), **arrays)
     return network, int(inner.shape[0])
+
+
+def _in_plane(arrays: dict[str, Any], thickness: float) -> dict[str, Any]:
+    """A 2D sample's network arrays in its plane (:mod:`grainlab.engine.planar`): vectors
+    by their x and y, the particles' areas and the box's (volumes / t [m^2]), the forces per
+    unit thickness (/ t [N/m]), so that (1/A) sum f (x) l is the stress [Pa], as the
+    micro-element model's 2D structures hold them."""
+    out = {}
+    for name, value in arrays.items():
+        if name in ("volume", "volumes"):
+            out[name] = value / thickness
+        elif name in ("point_forces", "wall_forces"):
+            out[name] = np.ascontiguousarray(value[:, :2]) / thickness
+        elif name == "wall_particles":
+            out[name] = value
+        else:
+            out[name] = np.ascontiguousarray(np.asarray(value)[..., :2])
+    return out
 
 
 def polyhedron_connectivity(network: ContactNetwork, connectivity: Connectivity,
@@ -347,28 +380,27 @@ def sample_measures(report: StepReport, state: BodyState, library: ShapeLibrary,
                     ) -> tuple[dict[str, float], ContactNetwork]:
     """One results row (stresses, strains, packing, coordination, inertia number, solver
     figures) and the contact network it was computed from."""
-    volume = box.volume
+    volume, dimension = box.volume, library.dimension
     stress = contact_stress(report, state, volume, dt)
-    wall = box.wall_stress
     extra = {f"wall_sigma_{label}": float(value)
-             for label, value in zip(("xx", "yy", "zz"), wall, strict=True)}
-    strains = box_strains(initial_lengths, box.lengths)
+             for label, value in zip(NORMAL_LABELS[:dimension], box.wall_stress, strict=False)}
+    strains = box_strains(initial_lengths, box.lengths, dimension)
     rate = float(np.max(np.abs(box.speeds[0::2] + box.speeds[1::2]) / box.lengths))
     return _measures(report, state, library, volume, stress, extra, strains, rate, dt,
-                     friction, core=(box.lower, box.upper))
+                     friction, core=(box.lower[:dimension], box.upper[:dimension]))
 
 
-def cell_strains(strain: np.ndarray) -> dict[str, float]:
+def cell_strains(strain: np.ndarray, dimension: int = 3) -> dict[str, float]:
     """The strain columns of a periodic cell from its natural strain (3, 3) [-]
     (:attr:`~grainlab.engine.boundaries.periodic_boundary.PeriodicCell.strain`, compression
     positive):
     normal components, engineering shears gamma = 2 eps_ab, eps_vol and eps_q [-] (for a
-    box-shaped cell the same as :func:`box_strains`)."""
+    box-shaped cell the same as :func:`box_strains`); in 2D those of the plane."""
     e = 0.5 * (np.asarray(strain, dtype=np.float64) + np.asarray(strain, dtype=np.float64).T)
-    row = {f"eps_{label}": float(e[a, a]) for a, label in enumerate(("xx", "yy", "zz"))}
-    for label, (a, b) in (("yz", (1, 2)), ("xz", (0, 2)), ("xy", (0, 1))):
-        row[f"gamma_{label}"] = float(2.0 * e[a, b])
-    row.update(strain_invariants(e))
+    row = {}
+    for label, (a, b) in COMPONENTS[dimension]:
+        row[f"eps_{label}" if a == b else f"gamma_{label}"] = float(e[a, b] * (1 + (a != b)))
+    row.update(strain_invariants(e[:dimension, :dimension]))
     return row
 
 
@@ -407,12 +439,12 @@ def cell_measures(report: StepReport, state: BodyState, library: ShapeLibrary, c
     largest eigenvalue magnitude of the symmetric velocity gradient); every particle is core
     (no walls)."""
     stress = cell_stress(report, state, cell.matrix, cell.rate, dt, cell.image_matrix)
-    strains = cell_strains(cell.strain)
+    dimension = library.dimension
+    strains = cell_strains(cell.strain, dimension)
     gradient = cell.gradient
     rate = float(np.max(np.abs(np.linalg.eigvalsh(0.5 * (gradient + gradient.T)))))
-    extra = {f"cell_sigma_{label}": float(cell.boundary_stress[a, b]) for label, (a, b) in
-             zip(("xx", "yy", "zz", "yz", "xz", "xy"),
-                 ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)), strict=True)}
+    extra = {f"cell_sigma_{label}": float(cell.boundary_stress[a, b])
+             for label, (a, b) in COMPONENTS[dimension]}
     return _measures(report, state, library, cell.volume, stress, extra, strains, rate, dt,
                      friction, core=None, cell_matrix=cell.image_matrix)
 
@@ -421,11 +453,11 @@ def _measures(report, state, library, volume, stress, extra, strains, rate, dt, 
               core, cell_matrix=None) -> tuple[dict[str, float], ContactNetwork]:
     """The row shared by the wall box and the periodic cell."""
     row: dict[str, float] = {}
-    for label, (i, j) in zip(("xx", "yy", "zz", "yz", "xz", "xy"),
-                             ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)), strict=True):
+    dimension = library.dimension
+    for label, (i, j) in COMPONENTS[dimension]:
         row[f"sigma_{label}"] = float(stress[i, j])
     row.update(extra)
-    row.update(stress_invariants(stress))
+    row.update(stress_invariants(stress[:dimension, :dimension]))
     row.update(strains)
     mean_d = float(2.0 * np.mean(library.bounding_radius[state.shape_ids]))
     p = row["p"]
@@ -447,7 +479,7 @@ def _measures(report, state, library, volume, stress, extra, strains, rate, dt, 
     else:
         row["z_core"], row["z_c_core"] = row["z"], row["z_c"]
     row["z_mechanical"] = mechanical_coordination(report, state.n_bodies,
-                                                  4 if friction == 0.0 else 2)
+                                                  dimension + 1 if friction == 0.0 else 2)
     row["n_contacts"] = float(report.n_contacts)
     row.update(convergence_columns(report.convergence))
     row["max_overlap_over_d"] = report.max_overlap / mean_d

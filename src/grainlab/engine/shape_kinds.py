@@ -21,6 +21,9 @@ Every shape of a :class:`~grainlab.engine.state.ShapeLibrary` carries an integer
 - ``spins_fast``: True where the particles' own speeds shorten the time step and the
   gyroscopic term of free rotation is integrated (polyhedra: a flat face landing on an edge
   spins them up within a step); spheres and aggregates keep the step of the walls' speed;
+- ``dimension``: 3, or 2 for a kind that moves in a plane (discs: the plane z = const, two
+  translations and one rotation about z; :mod:`grainlab.engine.planar`). A library holds kinds
+  of one dimension only;
 - ``time_step_length(library, shapes)``: the length d_min [m] that scales the automatic time
   step, over the library's shapes ``shapes`` (K,) of the kind: the smallest member-sphere
   diameter 2 min r, or for polyhedra the smallest inscribed diameter 2 min_f (n_f . v_f)
@@ -80,7 +83,9 @@ and the six above when its maker takes parameters of its own; plus its tests.
 >>> shape_kind("polyhedron").code, shape_kind(0).plural
 (2, 'spheres')
 >>> SHAPE_KIND_NAMES
-('sphere', 'aggregate', 'polyhedron')
+('sphere', 'aggregate', 'polyhedron', 'disc')
+>>> shape_kind("disc").dimension
+2
 """
 
 from __future__ import annotations
@@ -143,8 +148,11 @@ class ShapeKind:
     pair_typing: str | None
     spins_fast: bool
     time_step_length: Callable[[ShapeLibrary, np.ndarray], float]
+    dimension: int = 3
 
     def __post_init__(self) -> None:
+        if self.dimension not in (2, 3):
+            raise InputError(f"{self.name}.dimension", self.dimension, "2 or 3")
         if self.narrow_phase not in NARROW_PHASE_FAMILIES:
             raise InputError(f"{self.name}.narrow_phase", self.narrow_phase,
                              "one of " + ", ".join(NARROW_PHASE_FAMILIES))
@@ -174,7 +182,13 @@ POLYHEDRON = ShapeKind(
     narrow_phase=POLYHEDRON_FEATURES, pair_typing=FEATURE_TYPES, spins_fast=True,
     time_step_length=inscribed_diameter)
 
-SHAPE_KINDS: tuple[ShapeKind, ...] = (SPHERE, AGGREGATE, POLYHEDRON)
+DISC = ShapeKind(
+    name="disc", code=3, plural="discs",
+    description="a disc: a cylinder of the sample's thickness seen end-on, moving in a plane",
+    narrow_phase=MEMBER_SPHERES, pair_typing=None, spins_fast=False,
+    time_step_length=member_sphere_diameter, dimension=2)
+
+SHAPE_KINDS: tuple[ShapeKind, ...] = (SPHERE, AGGREGATE, POLYHEDRON, DISC)
 """Every registered kind, in code order."""
 SHAPE_KIND_NAMES = tuple(kind.name for kind in SHAPE_KINDS)
 """Names of the registered kinds (config and CLI values)."""

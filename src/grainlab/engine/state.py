@@ -52,9 +52,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from grainlab._numba_setup import kernel_input
+from grainlab.engine.planar import check_planar
 from grainlab.engine.quaternion import quat_to_matrices
 from grainlab.engine.shape_kinds import (
     AGGREGATE,
+    DISC,
     MEMBER_SPHERES,
     POLYHEDRON,
     POLYHEDRON_FEATURES,
@@ -62,6 +64,7 @@ from grainlab.engine.shape_kinds import (
     ShapeKind,
     family_mask,
     kinds_of_family,
+    kinds_present,
     shape_kind,
 )
 from grainlab.errors import InputError
@@ -186,6 +189,20 @@ class ShapeLibrary:
                 raise InputError(f"sphere_start[{s}]/sphere_count[{s}]", (start, count),
                                  f"a non-empty range of rows inside 0 .. {n_members - 1}")
         self._validate_polyhedra()
+        self._validate_dimension()
+
+    def _validate_dimension(self) -> None:
+        """Kinds of one dimension only; discs of one thickness (relative 1e-12)."""
+        kinds = kinds_present(self.kind, "kind")
+        if len({kind.dimension for kind in kinds}) > 1:
+            raise InputError("kind", [kind.name for kind in kinds],
+                             "shapes of one dimension: discs (2D) are not mixed with 3D shapes")
+        if kinds and kinds[0].dimension == 2:
+            r = self.sphere_radii[self.sphere_start]
+            t = self.volume / (np.pi * r * r)
+            if np.ptp(t) > 1e-12 * np.max(t):
+                raise InputError("volume", f"thicknesses {np.min(t):g}..{np.max(t):g} m",
+                                 "discs of one thickness (volume = pi r^2 t)")
 
     def _fill_polyhedron_defaults(self) -> None:
         """Empty polyhedron arrays (count 0 for every shape) where none were given."""
@@ -302,6 +319,41 @@ class ShapeLibrary:
             sphere_count=np.ones(n, dtype=np.int64), sphere_offsets=np.zeros((n, 3)),
             sphere_radii=r, volume=volume, principal_inertia=inertia, bounding_radius=r,
         )
+
+    @classmethod
+    def from_discs(cls, radii, thickness: float) -> ShapeLibrary:
+        """One disc shape per radius (S,) [m], each a cylinder of length ``thickness`` t [m]
+        (> 0) seen end-on (:mod:`grainlab.engine.planar`): volume pi r^2 t [m^3] and the
+        cylinder's moment about its axis, r^2/2 per unit mass, on all three principal axes
+        (isotropic: no gyroscopic coupling; a disc turns about z only)."""
+        library = cls.from_spheres(radii)
+        t = float(thickness) if isinstance(thickness, int | float | np.floating) \
+            and not isinstance(thickness, bool) else float("nan")
+        if not (np.isfinite(t) and t > 0.0):
+            raise InputError("thickness", thickness, "a finite disc thickness > 0 in m")
+        r = library.sphere_radii
+        volume = np.pi * r * r * t
+        return cls(
+            kind=np.full(r.shape[0], DISC.code), sphere_start=library.sphere_start,
+            sphere_count=library.sphere_count, sphere_offsets=library.sphere_offsets,
+            sphere_radii=r, volume=volume,
+            principal_inertia=np.repeat((0.5 * volume * r * r)[:, None], 3, axis=1),
+            bounding_radius=r,
+        )
+
+    @property
+    def dimension(self) -> int:
+        """3, or 2 when the shapes are discs (:mod:`grainlab.engine.planar`)."""
+        dimensions = {kind.dimension for kind in kinds_present(self.kind, "kind")}
+        return dimensions.pop() if len(dimensions) == 1 else 3
+
+    @property
+    def thickness(self) -> float | None:
+        """The discs' common thickness t = V / (pi r^2) [m] of a 2D library; None in 3D."""
+        if self.dimension != 2:
+            return None
+        r = self.sphere_radii[self.sphere_start]
+        return float(np.mean(self.volume / (np.pi * r * r)))
 
     @classmethod
     def from_aggregates(cls, aggregates: list[SphereAggregate],
@@ -511,13 +563,17 @@ class BodyState:
         n = ids.shape[0]
         if orientations is None:
             orientations = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
-        return cls(
+        state = cls(
             positions=np.array(positions, dtype=np.float64),
             orientations=np.array(orientations, dtype=np.float64),
             velocities=np.zeros((n, 3)), angular_velocities=np.zeros((n, 3)),
             masses=rho * library.volume[ids], inertias=rho * library.principal_inertia[ids],
             shape_ids=ids, density=rho,
         )
+        if library.dimension == 2:
+            check_planar(state.positions, state.orientations, state.velocities,
+                         state.angular_velocities)
+        return state
 
     def validate(self) -> None:
         """Check shapes, finite values, positive masses/inertias and unit quaternions."""

@@ -125,10 +125,11 @@ class BoundaryRecord:
         """The kind a checkpoint records for it: its name."""
         return self.name
 
-    def around(self, side, wall_friction: float, particle_mass: float):
+    def around(self, side, wall_friction: float, particle_mass: float, planar: bool = False):
         """Its engine boundary around the box [0, ``side``] [m] of a loose sample, walls (if
-        any) of Coulomb coefficient ``wall_friction``, of mass ``particle_mass`` [kg]."""
-        return self.engine_class.around(side, wall_friction, particle_mass)
+        any) of Coulomb coefficient ``wall_friction``, of mass ``particle_mass`` [kg];
+        ``planar``: a 2D sample's (:mod:`grainlab.engine.planar`)."""
+        return self.engine_class.around(side, wall_friction, particle_mass, planar=planar)
 
     def restore(self, arrays: dict):
         """Its engine boundary from a checkpoint's arrays (``to_arrays``)."""

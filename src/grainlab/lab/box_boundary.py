@@ -199,7 +199,8 @@ class BoxBoundary:
         """The strain columns (:data:`STRAIN_COLUMNS`) of the box now, or of a box of
         ``lengths`` (3,) [m], from the reference box."""
         return box_strains(self.reference_lengths,
-                           self.box.lengths if lengths is None else lengths)
+                           self.box.lengths if lengths is None else lengths,
+                           self.test.sample.library.dimension)
 
     def box_limits(self, reference: np.ndarray) -> np.ndarray:
         """(3,) smallest edges [m] allowed for a consolidated box of edges ``reference``."""

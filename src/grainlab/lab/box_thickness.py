@@ -41,6 +41,10 @@ CONSOLIDATED_PACKING_ESTIMATE = 0.5
 flatten it for certain are refused before the run; each stage checks the real box when it
 starts."""
 
+CONSOLIDATED_AREA_ESTIMATE = 0.7
+"""The same for a 2D sample's area fraction (discs: 0.55 at the random placement's jamming,
+about 0.82 for a dense packing); the box of a 2D sample shrinks in its plane only."""
+
 
 def box_limits(largest_diameter: float, reference: np.ndarray) -> np.ndarray:
     """(3,) smallest edges [m] allowed for a consolidated box of edges ``reference`` [m]
@@ -143,9 +147,11 @@ def predicted_flattening(stages, lengths: np.ndarray, reference: np.ndarray,
     out = []
     for stage in stages:
         if not stage.moving_axes:
+            d = stage.dimension
             phi = solid_volume / float(np.prod(lengths))
-            if phi < CONSOLIDATED_PACKING_ESTIMATE:
-                lengths = lengths * (phi / CONSOLIDATED_PACKING_ESTIMATE) ** (1.0 / 3.0)
+            estimate = CONSOLIDATED_PACKING_ESTIMATE if d == 3 else CONSOLIDATED_AREA_ESTIMATE
+            if phi < estimate:
+                lengths[:d] = lengths[:d] * (phi / estimate) ** (1.0 / d)
             reference = lengths.copy()
             continue
         out += stage_flattening(stage, lengths, reference, largest_diameter, n_particles)

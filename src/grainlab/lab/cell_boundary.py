@@ -35,7 +35,7 @@ import numpy as np
 
 from grainlab.engine.sample_measures import cell_measures, cell_strains
 from grainlab.lab.cell_stages import CellStage, cell_stages
-from grainlab.lab.specimen import tensor_to_voigt
+from grainlab.lab.specimen import tensor_to_voigt, voigt_labels
 from grainlab.lab.stage_boundary import SHORTEST_CUT, TARGET_MARGIN, THIN_BOX
 from grainlab.lab.wall_stages import AXES
 
@@ -93,7 +93,7 @@ class CellBoundary:
         rows = self.test.rows
         if not rows:
             return stage.conjugate(self.cell.boundary_stress, progress)
-        row = rows[-1]
+        row = {"sigma_xz": 0.0, "sigma_yz": 0.0, "sigma_zz": 0.0, **rows[-1]}  # 2D: in plane
         sigma = np.array([[row["sigma_xx"], row["sigma_xy"], row["sigma_xz"]],
                           [row["sigma_xy"], row["sigma_yy"], row["sigma_yz"]],
                           [row["sigma_xz"], row["sigma_yz"], row["sigma_zz"]]])
@@ -166,7 +166,8 @@ class CellBoundary:
         generalised components, e = B^-T eps, projected on the stage's strain direction (the
         cell moves its first half step at the previous step's rate, theta scheme, so this
         is what it did, not what it was asked)."""
-        strain = tensor_to_voigt(self.cell.step_strain, engineering_shear=True)
+        d = stage.stage.dimension  # 2D: the in-plane block
+        strain = tensor_to_voigt(self.cell.step_strain[:d, :d], engineering_shear=True)
         generalised = np.linalg.inv(stage.control(self.progress)).T @ strain
         direction = stage.strain_per_step
         return float(generalised @ direction / (direction @ direction))
@@ -193,7 +194,7 @@ class CellBoundary:
     # -- stage ends -----------------------------------------------------------------------
     def strains(self) -> dict[str, float]:
         """The strain columns of the cell now (natural strains, from the reference cell)."""
-        return cell_strains(self.cell.strain)
+        return cell_strains(self.cell.strain, self.test.sample.library.dimension)
 
     def target_end(self, stage: CellStage) -> str:
         """"strain reached" at the end of a strain-driven stage, "stress path done" at the
@@ -214,7 +215,7 @@ class CellBoundary:
         d_max = self.test.largest_diameter
         alert = self.test.solver.alert or 0.0
         limit = THIN_CELL_MARGIN * 3.0 * (d_max + alert)
-        widths = self.cell.widths
+        widths = self.cell.widths[:self.test.sample.library.dimension]  # 2D: in its plane
         axis = int(np.argmin(widths))
         if widths[axis] >= limit:
             return ""
@@ -232,7 +233,9 @@ class CellBoundary:
         criteria = self.test.settings.quasi_static
         if not self._targets_met():
             return False
-        cell_p = (row["cell_sigma_xx"] + row["cell_sigma_yy"] + row["cell_sigma_zz"]) / 3.0
+        normal = [row[c] for c in ("cell_sigma_xx", "cell_sigma_yy", "cell_sigma_zz")
+                  if c in row]  # 2D: the in-plane two
+        cell_p = sum(normal) / len(normal)
         if not cell_p > 0 or abs(row["p"] - cell_p) > criteria.stress_tolerance * cell_p:
             return False
         return (row["unbalanced_force_ratio"] <= criteria.unbalanced_force
@@ -262,7 +265,7 @@ class CellBoundary:
             return {}
         if load.component_basis is not None:
             return generalised_targets(stage)
-        return {AXES[a] * 2: float(load.values[a]) for a in range(3)
+        return {AXES[a] * 2: float(load.values[a]) for a in range(load.dimension)
                 if load.control[a] == "stress" and load.values[a] > 0.0}
 
     def predicted_flattening(self, stages: list[CellStage], started: bool) -> list:
@@ -297,7 +300,7 @@ class CellBoundary:
         self.stage_start_stress = np.asarray(data["stage_start_stress"], dtype=float)
 
 
-_VOIGT_COLUMNS = tuple(f"cell_sigma_{a}" for a in ("xx", "yy", "zz", "yz", "xz", "xy"))
+_VOIGT_COLUMNS = {d: tuple(f"cell_sigma_{a}" for a in voigt_labels(d)) for d in (2, 3)}
 
 
 def generalised_targets(stage: CellStage) -> dict[str, Any]:
@@ -307,7 +310,8 @@ def generalised_targets(stage: CellStage) -> dict[str, Any]:
     target (components held at 0, the deviator's direction of a true triaxial test, are
     judged against it); empty when every target is 0."""
     b = stage.control(0.0)
-    targets = stage.targets(np.zeros(6), float(stage.n_steps))
+    dimension = stage.stage.dimension
+    targets = stage.targets(np.zeros(stage.stage.n_components), float(stage.n_steps))
     held = np.flatnonzero(stage.stress_controlled)
     scale = float(np.max(np.abs(targets[held]))) if held.size else 0.0
     if not scale > 0.0:
@@ -315,7 +319,8 @@ def generalised_targets(stage: CellStage) -> dict[str, Any]:
 
     def component(i: int):
         def value(row: dict[str, Any]) -> float:
-            voigt = np.array([row.get(c, np.nan) for c in _VOIGT_COLUMNS], dtype=float)
+            voigt = np.array([row.get(c, np.nan) for c in _VOIGT_COLUMNS[dimension]],
+                             dtype=float)
             return float(b[i] @ voigt)
         return value
 

@@ -48,8 +48,11 @@ from grainlab.lab.specimen import voigt_labels
 
 def velocity_gradient(strain_rate: np.ndarray) -> np.ndarray:
     """L (3, 3) [1/s] of a Voigt strain rate (6,) [1/s] (compression positive, engineering
-    shears): upper triangular, symmetric part = -strain rate (module docstring)."""
+    shears): upper triangular, symmetric part = -strain rate (module docstring); a 2D one
+    (3,) (xx, yy, xy) gives the in-plane block, with no z row or column (a planar cell)."""
     e = [float(v) for v in np.asarray(strain_rate, dtype=np.float64)]
+    if len(e) == 3:
+        e = [e[0], e[1], 0.0, 0.0, 0.0, e[2]]
     xy, xz, yz = 0.5 * e[5], 0.5 * e[4], 0.5 * e[3]  # the tensor's halves, added back
     return -np.array([[e[0] + 0.0, xy + xy, xz + xz],
                       [0.0, e[1] + 0.0, yz + yz],
@@ -79,7 +82,7 @@ class CellStage:
 
     @property
     def stress_controlled(self) -> np.ndarray:
-        """(6,) bool."""
+        """(6,) bool ((3,) in 2D: xx, yy, xy)."""
         return self.stage.stress_controlled
 
     @property
@@ -148,7 +151,7 @@ class CellStage:
         return self._frame.matrix(progress)
 
     def _directions(self, b: np.ndarray) -> np.ndarray:
-        unit = np.eye(6)[self.stress_controlled]
+        unit = np.eye(self.stage.n_components)[self.stress_controlled]
         return np.array([velocity_gradient(b.T @ e) for e in unit]).reshape(-1, 3, 3)
 
     def gradients(self, progress: float, rate: float) -> tuple[np.ndarray, np.ndarray]:
@@ -161,25 +164,25 @@ class CellStage:
         return velocity_gradient(b.T @ (rate * self.strain_per_step)), directions
 
     def conjugate(self, stress: np.ndarray, progress: float) -> np.ndarray:
-        """(6,) generalised stress c = B sigma [Pa] of a (3, 3) stress tensor."""
+        """(6,) generalised stress c = B sigma [Pa] of a (3, 3) stress tensor ((3,) of its
+        in-plane block in 2D)."""
         s = np.asarray(stress)
-        voigt = np.array([s[0, 0], s[1, 1], s[2, 2], s[1, 2], s[0, 2], s[0, 1]])
+        voigt = np.array([s[0, 0], s[1, 1], s[2, 2], s[1, 2], s[0, 2], s[0, 1]]) \
+            if self.stage.dimension == 3 else np.array([s[0, 0], s[1, 1], s[0, 1]])
         return self.control(progress) @ voigt
 
 
 def cell_stages(path: LoadPath, deformable: bool = False) -> list[CellStage]:
-    """The stages of a 3D ``path`` for a periodic cell; for rigid grains (``deformable``
-    False: contact dynamics) refuses a stage whose every component is strain-controlled and
-    that compresses or shears (module docstring); deformable contacts (soft-contact DEM)
-    follow it."""
-    if path.dimension != 3:
-        raise InputError("load path dimension", path.dimension, "3 for a periodic cell")
+    """The stages of a ``path`` for a periodic cell (a 2D path: a planar cell's in-plane
+    components); for rigid grains (``deformable`` False: contact dynamics) refuses a stage
+    whose every component is strain-controlled and that compresses or shears (module
+    docstring); deformable contacts (soft-contact DEM) follow it."""
     stages = []
     for stage in path.stages:
         cell_stage = CellStage(stage)
         if not deformable and not np.any(stage.stress_controlled) \
                 and cell_stage.strain_driven:
-            labels = ", ".join(voigt_labels(3))
+            labels = ", ".join(voigt_labels(path.dimension))
             raise InputError(
                 f"stage {stage.name!r}: control", stage.control,
                 f"at least one stress-controlled component ({labels}): a packing of rigid "
@@ -193,7 +196,8 @@ def cell_stages(path: LoadPath, deformable: bool = False) -> list[CellStage]:
 
 def _oedometric(stage: CellStage) -> bool:
     """Whether ``stage`` is a one-dimensional compression: every component strain-controlled,
-    only eps_zz moving (its rows then carry K0)."""
+    only the vertical strain moving (eps_zz; eps_yy in 2D; its rows then carry K0)."""
     moving = stage.strain_per_step != 0.0
-    return (not np.any(stage.stress_controlled) and bool(moving[2])
-            and not np.any(np.delete(moving, 2)))
+    vertical = stage.stage.dimension - 1
+    return (not np.any(stage.stress_controlled) and bool(moving[vertical])
+            and not np.any(np.delete(moving, vertical)))

@@ -37,41 +37,47 @@ CELL_PACKING_ESTIMATE = 0.55
 checked before it starts: on the low side (frictionless spheres settle at 0.62-0.64 with no
 walls to loosen them; the random loose packing of frictional spheres is near 0.55)."""
 
+CELL_AREA_ESTIMATE = 0.75
+"""The area fraction [-] a planar cell of discs is assumed to reach in its compaction, on the
+low side as above (a dense random packing of discs: about 0.82)."""
 CELL_MIN_DIAMETERS = 3.0
 """Smallest width of the cell across a pair of faces, in largest particle diameters (three
 interaction ranges 2 r_max, the alert distance left out: the module docstring)."""
 
 
-def compacted_widths(widths: np.ndarray, solid_volume: float, packing: float
-                     ) -> np.ndarray:
-    """(3,) widths [m] across the faces of a cell of ``widths`` [m] holding ``solid_volume``
-    [m^3] of particles once compacted isotropically to the packing fraction ``packing`` [-]
-    (unchanged if it is denser already)."""
+def compacted_widths(widths: np.ndarray, solid_volume: float, packing: float,
+                     dimension: int = 3) -> np.ndarray:
+    """(d,) widths [m] across the faces of a cell of ``widths`` (3,) [m] holding
+    ``solid_volume`` [m^3] of particles once compacted isotropically to the packing fraction
+    ``packing`` [-] (unchanged if it is denser already); a planar cell (``dimension`` 2)
+    shrinks in its plane (the area fraction ``packing``)."""
     widths = np.asarray(widths, dtype=float)
     volume = float(np.prod(widths))  # the volume of a cell of these widths, not sheared
-    scale = (solid_volume / (packing * volume)) ** (1.0 / 3.0)
-    return widths * min(scale, 1.0)
+    scale = (solid_volume / (packing * volume)) ** (1.0 / dimension)
+    return widths[:dimension] * min(scale, 1.0)
 
 
-def particles_needed(n_particles: int, width: float, limit: float) -> int:
+def particles_needed(n_particles: int, width: float, limit: float, dimension: int = 3) -> int:
     """The particles a cell of the same shape and particle sizes needs to keep ``width`` [m]
     above ``limit`` [m] (module docstring)."""
-    return math.ceil(n_particles * (limit / width) ** 3)
+    return math.ceil(n_particles * (limit / width) ** dimension)
 
 
 def thin_cell_after_compaction(widths: np.ndarray, solid_volume: float,
-                               largest_diameter: float, n_particles: int) -> str:
+                               largest_diameter: float, n_particles: int,
+                               dimension: int = 3) -> str:
     """Why a cell of ``widths`` [m] with ``n_particles`` of ``solid_volume`` [m^3] and
     largest diameter ``largest_diameter`` [m] gets too thin in its compaction, in words;
     "" when it need not (module docstring)."""
-    end = compacted_widths(widths, solid_volume, CELL_PACKING_ESTIMATE)
+    packing = CELL_PACKING_ESTIMATE if dimension == 3 else CELL_AREA_ESTIMATE
+    end = compacted_widths(widths, solid_volume, packing, dimension)
     limit = CELL_MIN_DIAMETERS * largest_diameter
     axis = int(np.argmin(end))
     if end[axis] >= limit:
         return ""
-    needed = particles_needed(n_particles, float(end[axis]), limit)
+    needed = particles_needed(n_particles, float(end[axis]), limit, dimension)
     return (f"at least about {needed} for this cell: {n_particles} particles compacted to a "
-            f"packing fraction of {CELL_PACKING_ESTIMATE:g} leave the periodic cell "
+            f"packing fraction of {packing:g} leave the periodic cell "
             f"{end[axis] * 1e3:.3g} mm across its faces along axis {axis}, "
             f"{end[axis] / largest_diameter:.2f} largest particle diameters, below the "
             f"{limit * 1e3:.3g} mm ({CELL_MIN_DIAMETERS:g} diameters) the contact detection "
@@ -87,7 +93,8 @@ def refuse_thin_cell(test, sample_config) -> None:
     state, library = test.sample.state, test.sample.library
     why = thin_cell_after_compaction(test.sample.boundary.widths,
                                      float(np.sum(library.volume[state.shape_ids])),
-                                     test.largest_diameter, state.n_bodies)
+                                     test.largest_diameter, state.n_bodies,
+                                     library.dimension)
     if not why:
         return
     s = sample_config

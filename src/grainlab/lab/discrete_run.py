@@ -56,7 +56,6 @@ import pandas as pd
 
 from grainlab.analysis.snapshot_files import append_snapshot
 from grainlab.engine.discrete_sample import DiscreteSample
-from grainlab.engine.sample_measures import PAIR_TYPE_NAMES
 from grainlab.engine.shape_kinds import kinds_present
 from grainlab.engine.simulation import SimulationBlowUp
 from grainlab.errors import GrainlabError, InputError
@@ -287,7 +286,7 @@ class DiscreteRun:
             parameters={"settings": test.settings.to_dict(),
                         "config": self.config.model_dump()},
             outcome=_plain(self.outcome.to_dict()),
-            dimension=3, title=f"{test.path.name} on a discrete sample")
+            dimension=test.path.dimension, title=f"{test.path.name} on a discrete sample")
         result.metadata["cost"] = _plain(self.cost.to_dict())
         return result
 
@@ -765,14 +764,9 @@ def export_checkpoint_vtk(folder: str | Path, out: str | Path | None = None) -> 
     if own:
         net = read_snapshot(snapshots, own - 1)
         if net.state.get("step", step) == step:
-            first = net.pair_particles[net.point_pairs, 0]
-            start = net.positions[first]
-            polyhedra = net.pair_types is not None and net.type_names == PAIR_TYPE_NAMES
-            contacts = ContactLines(start=start, end=start + net.pair_branches[net.point_pairs],
-                                    force=net.point_forces, normal=net.point_normals,
-                                    sliding=net.point_sliding,
-                                    contact_type=net.pair_types[net.point_pairs] if polyhedra
-                                    else None)
+            contacts = ContactLines.from_network(
+                net, float(state.positions[0, 2]) if state.n_bodies else 0.0,
+                library.thickness)
     out = Path(out) if out is not None else folder / "vtk-checkpoint"
     files = write_vtk_frame(out, 0, float(progress["time"]), positions=state.positions,
                             orientations=state.orientations, shape_ids=state.shape_ids,

@@ -87,8 +87,8 @@ Columns besides :mod:`grainlab.engine.sample_measures`: ``stage``, ``step``, ``t
 soft-contact solver's :attr:`~grainlab.engine.dem.soft_contact.SoftContactStep.velocity_zigzag`,
 NaN without sub-steps: the run's outcome reads it, :mod:`grainlab.lab.run_outcome`),
 ``friction``, and in tests with a one-dimensional stage (:attr:`~grainlab.lab.wall_stages.
-WallStage.oedometric`) ``K0`` = (sigma_xx + sigma_yy) / (2 sigma_zz) [-] of the contact
-stresses.
+WallStage.oedometric`) ``K0`` = (sigma_xx + sigma_yy) / (2 sigma_zz) [-] (2D: sigma_xx /
+sigma_yy) of the contact stresses.
 """
 
 from __future__ import annotations
@@ -682,8 +682,10 @@ class _Recorder:
 
 
 def _k0(row: dict[str, float]) -> float:
-    """K0 = (sigma_xx + sigma_yy) / (2 sigma_zz) [-] of a row's contact stresses (NaN unless
-    sigma_zz > 0)."""
-    vertical = row["sigma_zz"]
-    return 0.5 * (row["sigma_xx"] + row["sigma_yy"]) / vertical if vertical > 0.0 \
-        else math.nan
+    """K0 = (sigma_xx + sigma_yy) / (2 sigma_zz) [-] of a row's contact stresses; in 2D (no
+    sigma_zz) sigma_xx / sigma_yy (NaN unless the vertical stress is > 0)."""
+    if "sigma_zz" not in row:
+        vertical, lateral = row["sigma_yy"], row["sigma_xx"]
+    else:
+        vertical, lateral = row["sigma_zz"], 0.5 * (row["sigma_xx"] + row["sigma_yy"])
+    return lateral / vertical if vertical > 0.0 else math.nan

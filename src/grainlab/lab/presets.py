@@ -113,26 +113,30 @@ def oedometer(
 
 
 def _triaxial(name: str, confining: float, axial_strain: float, n_steps: int, drained: bool,
-              consolidation_steps: int, sign: float) -> LoadPath:
+              consolidation_steps: int, sign: float, dimension: int = 3) -> LoadPath:
     confining = _positive("confining", confining, "Pa")
     axial_strain = _positive("axial_strain", axial_strain)
     n = _integer("n_steps", n_steps, 1)
     m = _integer("consolidation_steps", consolidation_steps, 0)
+    dim = _dimension("dimension", dimension)
     if not isinstance(drained, bool):
         raise InputError("drained", drained, "True or False")
     d_axial = sign * axial_strain / n
-    shears = {c: 0.0 for c in _shears(3)}
+    shears = {c: 0.0 for c in _shears(dim)}
+    vertical, laterals = _vertical(dim), _laterals(dim)
     if drained:
         shear = LoadStage.from_components(
-            "shear", n, 3, strain={"zz": d_axial, **shears},
-            stress={"xx": confining, "yy": confining}, stress_mode="target")
+            "shear", n, dim, strain={vertical: d_axial, **shears},
+            stress={c: confining for c in laterals}, stress_mode="target")
     else:
         shear = LoadStage.from_components(
-            "shear", n, 3,
-            strain={"zz": d_axial, "xx": -d_axial / 2, "yy": -d_axial / 2, **shears})
-    stages = ([_isotropic_stage("consolidation", confining, m, 3)] if m else []) + [shear]
-    return LoadPath(name, 3, tuple(stages),
-                    f"confining {confining:g} Pa, axial (z) strain {sign * axial_strain:g}, "
+            "shear", n, dim,
+            strain={vertical: d_axial, **{c: -d_axial / len(laterals) for c in laterals},
+                    **shears})
+    stages = ([_isotropic_stage("consolidation", confining, m, dim)] if m else []) + [shear]
+    return LoadPath(name, dim, tuple(stages),
+                    f"confining {confining:g} Pa, axial ({vertical[0]}) strain "
+                    f"{sign * axial_strain:g}, "
                     + ("drained" if drained else "undrained (isochoric)"))
 
 
@@ -143,8 +147,10 @@ def triaxial_compression(
     n_steps: int,
     drained: bool = True,
     consolidation_steps: int = 10,
+    dimension: int = 3,
 ) -> LoadPath:
-    """Conventional triaxial compression (3D; axis z).
+    """Conventional triaxial compression (3D; axis z), or biaxial compression in 2D (axis y,
+    sigma_xx held; undrained: eps_xx = -eps_yy).
 
     Stage ``"consolidation"`` (skipped when ``consolidation_steps=0``): isotropic to
     ``confining`` [Pa]. Stage ``"shear"``: eps_zz increases by ``axial_strain`` [-] in
@@ -156,7 +162,7 @@ def triaxial_compression(
       excess pore pressure is u = confining - sigma_xx.
     """
     return _triaxial("triaxial_compression", confining, axial_strain, n_steps, drained,
-                     consolidation_steps, 1.0)
+                     consolidation_steps, 1.0, dimension)
 
 
 def triaxial_extension(
@@ -166,15 +172,16 @@ def triaxial_extension(
     n_steps: int,
     drained: bool = True,
     consolidation_steps: int = 10,
+    dimension: int = 3,
 ) -> LoadPath:
-    """Triaxial extension by reduced axial stress (3D; axis z).
+    """Triaxial extension by reduced axial stress (3D; axis z; biaxial in 2D, axis y).
 
     As :func:`triaxial_compression` but eps_zz *decreases* by ``axial_strain`` [-] (given
     positive) while the lateral stresses stay at ``confining``: sigma_zz becomes the minor
     principal stress (b = 1). Undrained: eps_xx = eps_yy = -eps_zz/2.
     """
     return _triaxial("triaxial_extension", confining, axial_strain, n_steps, drained,
-                     consolidation_steps, -1.0)
+                     consolidation_steps, -1.0, dimension)
 
 
 def true_triaxial_direction(b: float) -> np.ndarray:

@@ -213,8 +213,9 @@ class SampleConfig(ConfigSection):
     @classmethod
     def _registered_shape(cls, value: Any) -> str:
         """A shape a loose sample can be made of (the kinds of
-        :data:`~grainlab.prep.sample_shapes.SAMPLE_SHAPES`)."""
-        return sample_shape(value).kind.name
+        :data:`~grainlab.prep.sample_shapes.SAMPLE_SHAPES`; discs make a 2D sample)."""
+        kind = sample_shape(value).kind
+        return kind.name
 
     @field_validator("n_faces")
     @classmethod
@@ -486,14 +487,20 @@ class RunConfig(ConfigSection):
             raise InputError("sample.boundary", self.sample.boundary,
                              f"{quoted(shearing_names())} for test.kind = {t.kind!r}: "
                              f"{boundary.shear_refusal}")
-        compaction = _renamed(isotropic_compression(p_final=t.sigma0, n_steps=1).stages,
-                              "compaction")
+        dimension = self.dimension
+        compaction = _renamed(isotropic_compression(p_final=t.sigma0, n_steps=1,
+                                                    dimension=dimension).stages, "compaction")
         if t.kind == "compaction":
-            return LoadPath("isotropic_compaction", 3, compaction,
+            return LoadPath("isotropic_compaction", dimension, compaction,
                             f"isotropic compaction to {t.sigma0:g} Pa")
-        stages, name, what = _test_stages(t)
-        return LoadPath(name, 3, (*compaction, *stages),
+        stages, name, what = _test_stages(t, dimension)
+        return LoadPath(name, dimension, (*compaction, *stages),
                         f"isotropic compaction to {t.sigma0:g} Pa, then {what}")
+
+    @property
+    def dimension(self) -> int:
+        """3, or 2 for a sample of discs (:mod:`grainlab.engine.planar`): the load path's."""
+        return sample_shape(self.sample.shape).kind.dimension
 
     def check_solver(self, kinds=None) -> None:
         """Refuse a sample the solver cannot run, before anything is built (the kinds of
@@ -656,21 +663,37 @@ def _until_eps_q(stage, eps_q_max: float):
     return type(stage)(**{**stage.__dict__, "stop": stop})
 
 
-def _test_stages(t: TestConfig) -> tuple[tuple, str, str]:
-    """The stages after the compaction, the path's name and what they do, in words."""
+PLANAR_KINDS = ("compaction", "triaxial", "extension", "oedometer", "simple_shear")
+"""The test kinds a 2D sample (discs) runs: biaxial compression and extension, the 1D
+compression and the simple shear of the plane."""
+
+
+def _test_stages(t: TestConfig, dimension: int = 3) -> tuple[tuple, str, str]:
+    """The stages after the compaction, the path's name and what they do, in words (a 2D
+    sample: the kinds of :data:`PLANAR_KINDS`, vertical axis y)."""
+    if dimension == 2 and t.kind not in PLANAR_KINDS:
+        raise InputError("test.kind", t.kind, "one of " + ", ".join(PLANAR_KINDS)
+                         + " with discs (a 2D sample)")
     if t.kind in ("triaxial", "extension"):
         preset = triaxial_compression if t.kind == "triaxial" else triaxial_extension
         stage = preset(confining=t.sigma0, axial_strain=t.eps_q_max, n_steps=1,
-                       consolidation_steps=0).stages[0]
+                       consolidation_steps=0, dimension=dimension).stages[0]
         name = "triaxial_compression" if t.kind == "triaxial" else "triaxial_extension"
+        test = "triaxial" if dimension == 3 else "biaxial"
         return ((_until_eps_q(stage, t.eps_q_max),), name,
-                f"triaxial {'compression' if t.kind == 'triaxial' else 'extension'} at "
+                f"{test} {'compression' if t.kind == 'triaxial' else 'extension'} at "
                 f"lateral stress {t.sigma0:g} Pa to eps_q = {t.eps_q_max:g}")
     if t.kind == "oedometer":
         path = oedometer(strain_final=t.axial_strain, n_steps=1,
-                         unload_strain=t.unload_strain or None)
+                         unload_strain=t.unload_strain or None, dimension=dimension)
         return (path.stages, "oedometer", f"1-D compression by {t.axial_strain:g}"
                 + (f", unloading by {t.unload_strain:g}" if t.unload_strain else ""))
+    if t.kind == "simple_shear" and dimension == 2:
+        stage = LoadStage.from_components(
+            "shear", 1, 2, strain={"xx": 0.0, "xy": t.gamma_max}, stress={"yy": t.sigma0},
+            stress_mode="target")
+        return ((stage,), "simple_shear",
+                f"simple shear gamma_xy to {t.gamma_max:g} at sigma_yy = {t.sigma0:g} Pa")
     if t.kind == "true_triaxial":
         # the strain along the deviator direction goes beyond eps_q_max; eps_q ends it
         stage = true_triaxial(p=t.sigma0, b=t.b, n_steps=1, strain=2.0 * t.eps_q_max,

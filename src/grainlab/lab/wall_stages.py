@@ -40,6 +40,7 @@ from dataclasses import dataclass
 from grainlab._validate import in_range
 from grainlab.errors import InputError
 from grainlab.lab.load_path import LoadPath, StopCriterion
+from grainlab.lab.specimen import voigt_labels
 
 AXES = ("x", "y", "z")
 
@@ -93,7 +94,8 @@ class QuasiStaticCriteria:
             wall = row[f"wall_sigma_{AXES[axis] * 2}"]
             if abs(wall - target) > self.stress_tolerance * target:
                 return False
-        wall_p = (row["wall_sigma_xx"] + row["wall_sigma_yy"] + row["wall_sigma_zz"]) / 3.0
+        walls = [row[f"wall_sigma_{a * 2}"] for a in AXES if f"wall_sigma_{a * 2}" in row]
+        wall_p = sum(walls) / len(walls)  # the walls' mean stress (2D: the side walls')
         if not wall_p > 0 or abs(row["p"] - wall_p) > self.stress_tolerance * wall_p:
             return False
         return (row["unbalanced_force_ratio"] <= self.unbalanced_force
@@ -122,12 +124,15 @@ class WallStage:
         total logarithmic strain of the stage [-] (``"strain"``), 0 (``"fixed"``).
     stop:
         Extra stop criteria on recorded columns.
+    dimension:
+        The path's: 3, or 2 for a 2D sample's box (its z walls fixed, its vertical axis y).
     """
 
     name: str
     modes: tuple[str, str, str]
     targets: tuple[float, float, float]
     stop: tuple[StopCriterion, ...] = ()
+    dimension: int = 3
 
     @property
     def moving_axes(self) -> tuple[int, ...]:
@@ -136,9 +141,10 @@ class WallStage:
 
     @property
     def oedometric(self) -> bool:
-        """One-dimensional compression or extension: z strain-controlled, x and y fixed
-        (K0 = (sigma_xx + sigma_yy) / (2 sigma_zz) is reported)."""
-        return self.modes == ("fixed", "fixed", "strain")
+        """One-dimensional compression or extension: the vertical axis (z; y in 2D)
+        strain-controlled, the others fixed (K0 = sigma_h / sigma_v is reported)."""
+        return self.modes == (("fixed", "fixed", "strain") if self.dimension == 3 else
+                              ("fixed", "strain", "fixed"))
 
     @property
     def stress_axes(self) -> tuple[int, ...]:
@@ -148,13 +154,14 @@ class WallStage:
     def to_dict(self) -> dict:
         """Plain data."""
         return {"name": self.name, "modes": list(self.modes), "targets": list(self.targets),
-                "stop": [c.to_dict() for c in self.stop]}
+                "stop": [c.to_dict() for c in self.stop], "dimension": self.dimension}
 
 
 def wall_stages(path: LoadPath) -> list[WallStage]:
-    """The :class:`WallStage` list of a 3D ``path`` (module docstring)."""
-    if path.dimension != 3:
-        raise InputError("load path dimension", path.dimension, "3 for a box of walls")
+    """The :class:`WallStage` list of a ``path`` (module docstring); a 2D path drives the x
+    and y walls of a planar box (:mod:`grainlab.engine.planar`), its z walls fixed."""
+    dimension = path.dimension
+    labels = voigt_labels(dimension)
     stages: list[WallStage] = []
     held = [math.nan, math.nan, math.nan]
     for stage in path.stages:
@@ -164,15 +171,14 @@ def wall_stages(path: LoadPath) -> list[WallStage]:
                              "no rotation of the control frame on a box of walls")
         if stage.component_basis is not None:
             raise InputError(f"{where}: component_basis", "given",
-                             "None on a box of walls (controls along x, y, z only)")
-        for i in (3, 4, 5):
+                             "None on a box of walls (controls along its axes only)")
+        for i in range(dimension, len(labels)):
             if stage.values[i] != 0.0:
-                label = ("yz", "xz", "xy")[i - 3]
-                raise InputError(f"{where}: {label}", (stage.control[i], stage.values[i]),
+                raise InputError(f"{where}: {labels[i]}", (stage.control[i], stage.values[i]),
                                  "strain or stress controlled at 0: a box of walls does not "
                                  "shear")
         modes, targets = [], []
-        for a in range(3):
+        for a in range(dimension):
             value = stage.values[a]
             if stage.control[a] == "strain":
                 if value == 0.0:
@@ -192,5 +198,8 @@ def wall_stages(path: LoadPath) -> list[WallStage]:
                                      "'target', or 'increment' with 0 (hold) on a wall box")
                 modes.append("stress")
                 targets.append(held[a])
-        stages.append(WallStage(stage.name, tuple(modes), tuple(targets), tuple(stage.stop)))
+        modes += ["fixed"] * (3 - dimension)  # a planar box's z walls
+        targets += [0.0] * (3 - dimension)
+        stages.append(WallStage(stage.name, tuple(modes), tuple(targets), tuple(stage.stop),
+                                dimension))
     return stages

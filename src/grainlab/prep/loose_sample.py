@@ -29,6 +29,7 @@ importable from here).
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable
 
 import numpy as np
@@ -76,48 +77,53 @@ def random_orientations(n: int, rng: np.random.Generator) -> np.ndarray:
 def random_sequential_placement(radii: np.ndarray, side: np.ndarray,
                                 rng: np.random.Generator, max_trials: int = 20000
                                 ) -> np.ndarray:
-    """Centres (n, 3) [m] of spheres of ``radii`` (n,) [m] placed one by one, largest first,
-    at uniformly random positions inside the box [0, side] (3,) without overlapping the box or
-    each other; raises :class:`InputError` when one cannot be placed in ``max_trials``."""
-    n = radii.shape[0]
+    """Centres (n, D) [m] of spheres (discs) of ``radii`` (n,) [m] placed one by one, largest
+    first, at uniformly random positions inside the box [0, side] ((D,), D = 3 or 2) without
+    overlapping the box or each other; raises :class:`InputError` when one cannot be placed
+    in ``max_trials``."""
+    n, dimension = radii.shape[0], side.shape[0]
     order = np.argsort(-radii, kind="stable")
     cell = 2.0 * float(radii.max())
     shape = np.maximum(1, np.floor(side / cell).astype(int))
     cell_size = side / shape
-    grid: dict[tuple[int, int, int], list[int]] = {}
-    centres = np.zeros((n, 3))
+    grid: dict[tuple[int, ...], list[int]] = {}
+    around = [np.array(offset) for offset in itertools.product((-1, 0, 1), repeat=dimension)]
+    centres = np.zeros((n, dimension))
     for k in order:
         r = radii[k]
-        lo, hi = np.full(3, r), side - r
+        lo, hi = np.full(dimension, r), side - r
         if np.any(hi < lo):
             raise InputError("box", side.tolist(), f"room for a particle of radius {r:g} m")
         for _ in range(max_trials):
-            x = lo + rng.random(3) * (hi - lo)
+            x = lo + rng.random(dimension) * (hi - lo)
             c = np.minimum((x / cell_size).astype(int), shape - 1)
-            free = True
-            for dx in (-1, 0, 1):
-                for dy in (-1, 0, 1):
-                    for dz in (-1, 0, 1):
-                        for other in grid.get((c[0] + dx, c[1] + dy, c[2] + dz), ()):
-                            d = centres[other] - x
-                            if d @ d < (r + radii[other]) ** 2:
-                                free = False
-                                break
-                        if not free:
-                            break
-                    if not free:
-                        break
-                if not free:
-                    break
+            free = not any(
+                float((centres[other] - x) @ (centres[other] - x)) < (r + radii[other]) ** 2
+                for offset in around for other in grid.get(tuple(int(v) for v in c + offset), ()))
             if free:
                 centres[k] = x
-                grid.setdefault((int(c[0]), int(c[1]), int(c[2])), []).append(int(k))
+                grid.setdefault(tuple(int(v) for v in c), []).append(int(k))
                 break
         else:
             raise InputError("packing_fraction", "too high",
                              f"a looser initial packing: particle {int(k)} found no room in "
                              f"{max_trials} trials")
     return centres
+
+
+def _box_side(bounding: np.ndarray, phi: float, ratio: np.ndarray, thickness: float | None
+              ) -> np.ndarray:
+    """(3,) sides [m] of the box whose bounding spheres (discs of ``thickness`` [m]: their
+    areas over the box's x-y area) fill ``phi``, at the side ratios ``ratio``; a 2D box is
+    as deep as the discs are thick (:mod:`grainlab.engine.planar`)."""
+    floor = 2.0 * bounding.max() * 1.01
+    if thickness is not None:
+        area = float(np.sum(np.pi * bounding**2)) / phi
+        plane = ratio[:2] * (area / float(np.prod(ratio[:2]))) ** 0.5
+        return np.append(np.maximum(plane, floor), thickness)
+    volume = float(np.sum(4.0 / 3.0 * np.pi * bounding**3)) / phi
+    side = ratio * (volume / float(np.prod(ratio))) ** (1.0 / 3.0)
+    return np.maximum(side, floor)
 
 
 def loose_sample(
@@ -186,11 +192,9 @@ def loose_sample(
     library, description = maker.make_library(
         radii, rng, **{key: shape_parameters[key] for key in maker.parameters})
     bounding = library.bounding_radius
-    volume = float(np.sum(4.0 / 3.0 * np.pi * bounding**3)) / phi
-    side = shape_ratio * (volume / float(np.prod(shape_ratio))) ** (1.0 / 3.0)
-    side = np.maximum(side, 2.0 * bounding.max() * 1.01)
+    side = _box_side(bounding, phi, shape_ratio, library.thickness)
     try:
-        positions = random_sequential_placement(bounding, side, rng)
+        positions = random_sequential_placement(bounding, side[:library.dimension], rng)
     except InputError:
         # few particles: the box is barely wider than the largest, the walls leave no room
         raise InputError("n_particles", n_particles,
@@ -198,13 +202,16 @@ def loose_sample(
                          f"another size ratio (now {ratio:g}): random placement found no "
                          f"room for all {int(n_particles)} in so small a box") from None
     orientations = random_orientations(int(n_particles), rng) if maker.oriented else None
+    if library.dimension == 2:  # discs in the box's mid-plane
+        positions = np.column_stack([positions, np.full(positions.shape[0], 0.5 * side[2])])
     state = BodyState.from_library(library, np.arange(int(n_particles)), positions, density,
                                    orientations)
     friction = at_least("wall_friction", wall_friction, strict=False)
     if not callable(boundary):
         raise InputError("boundary", boundary, "the around() of a boundary class, "
                          "(side, wall_friction, particle mass) -> boundary (WallBox.around)")
-    box = boundary(side, friction, float(np.sum(state.masses)))
+    box = boundary(side, friction, float(np.sum(state.masses)), **(
+        {"planar": True} if library.dimension == 2 else {}))
     description.update({"n_particles": int(n_particles), "d_min": d_min,
                         "d_max": ratio * d_min, "density": density,
                         "initial_packing_fraction": phi, "seed": int(seed)})

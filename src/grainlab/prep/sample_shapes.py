@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from grainlab._validate import at_least
-from grainlab.engine.shape_kinds import AGGREGATE, POLYHEDRON, SPHERE, ShapeKind
+from grainlab.engine.shape_kinds import AGGREGATE, DISC, POLYHEDRON, SPHERE, ShapeKind
 from grainlab.engine.state import ShapeLibrary
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron import ConvexPolyhedron, from_vertices, random_polyhedron
@@ -121,6 +121,15 @@ def sphere_sample(radii: np.ndarray, rng: np.random.Generator
                   ) -> tuple[ShapeLibrary, dict[str, Any]]:
     """One sphere per radius [m] (``rng`` unused)."""
     return ShapeLibrary.from_spheres(radii), {"shape": SPHERE.name}
+
+
+def disc_sample(radii: np.ndarray, rng: np.random.Generator
+                ) -> tuple[ShapeLibrary, dict[str, Any]]:
+    """One disc per radius [m], all of the thickness t = their mean diameter [m] (a disc as
+    thick as it is wide; :mod:`grainlab.engine.planar`); ``rng`` unused."""
+    thickness = 2.0 * float(np.mean(radii))
+    return ShapeLibrary.from_discs(radii, thickness), {"shape": DISC.name,
+                                                       "thickness": thickness}
 
 
 def aggregate_sample(radii: np.ndarray, rng: np.random.Generator, *, eta: float
@@ -209,6 +218,10 @@ SAMPLE_SHAPES: dict[str, SampleShape] = {
         kind=POLYHEDRON, description="random convex polyhedra, Azéma, Radjaï & Dubois 2013",
         parameters=("n_faces", "templates"), oriented=True, make=polyhedron_sample,
         particles_text=_polyhedra_text),
+    DISC.name: SampleShape(
+        kind=DISC, description="discs moving in a plane (2D), as thick as their mean "
+        "diameter", parameters=(), oriented=False, make=disc_sample,
+        particles_text=_plural(DISC)),
 }
 """How a sample of each shape kind is made, keyed by the kind's name, in the registry's
 order."""

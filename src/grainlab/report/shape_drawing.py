@@ -36,7 +36,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from grainlab.engine.shape_kinds import AGGREGATE, POLYHEDRON, SPHERE, kinds_present
+from grainlab.engine.shape_kinds import AGGREGATE, DISC, POLYHEDRON, SPHERE, kinds_present
 from grainlab.engine.state import ShapeLibrary
 from grainlab.errors import InputError
 
@@ -293,6 +293,7 @@ SHAPE_KIND_DRAWERS: dict[str, ShapeKindDrawer] = {
     SPHERE.name: MEMBER_SPHERES,
     AGGREGATE.name: MEMBER_SPHERES,
     POLYHEDRON.name: POLYHEDRA,
+    DISC.name: MEMBER_SPHERES,
 }
 """Drawer of each shape kind, by the name of its
 :class:`~grainlab.engine.shape_kinds.ShapeKind`; add an entry for a new kind."""

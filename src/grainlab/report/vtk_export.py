@@ -359,6 +359,28 @@ class ContactLines:
         return int(self.start.shape[0])
 
     @classmethod
+    def from_network(cls, net, plane_z: float = 0.0, thickness: float | None = None
+                     ) -> ContactLines:
+        """Contacts of a snapshot's :class:`~grainlab.analysis.contact_network.
+        ContactNetwork`: one line per network point, from the centre of its pair's first
+        particle along the pair's branch. A 2D network (discs, :mod:`grainlab.engine.planar`)
+        is drawn in its plane z = ``plane_z`` [m], its forces per unit thickness times the
+        discs' ``thickness`` [m] (forces per disc [N], as a 3D run's)."""
+        from grainlab.engine.sample_measures import PAIR_TYPE_NAMES
+
+        def lift(vectors: np.ndarray, z: float = 0.0) -> np.ndarray:
+            if net.dimension == 3:
+                return vectors
+            return np.column_stack([vectors, np.full(vectors.shape[0], z)])
+
+        start = lift(net.positions[net.pair_particles[net.point_pairs, 0]], plane_z)
+        force = lift(net.point_forces) * (1.0 if net.dimension == 3 else thickness)
+        polyhedra = net.pair_types is not None and net.type_names == PAIR_TYPE_NAMES
+        return cls(start=start, end=start + lift(net.pair_branches[net.point_pairs]),
+                   force=force, normal=lift(net.point_normals), sliding=net.point_sliding,
+                   contact_type=net.pair_types[net.point_pairs] if polyhedra else None)
+
+    @classmethod
     def from_step_report(cls, report: StepReport, positions, dt: float,
                          friction: float | np.ndarray | None = None,
                          cell_matrix=None) -> ContactLines:

@@ -58,6 +58,11 @@ gradient F = h remap^-1 h_0^-1 stays continuous. The strains a test records are 
 strains, the step strains summed (``strain``): what a stage controls, and the logarithmic
 strain of F on coaxial paths.
 
+A **planar** cell holds a 2D sample of discs (:mod:`grainlab.engine.planar`): its third
+column is (0, 0, t), t the discs' thickness, so that its volume is the area times t; it is
+periodic in x and y only (the detection's ``planar``), and its velocity gradients (prescribed
+and stress-controlled) have no z row or column: the cell deforms in its plane.
+
 >>> import numpy as np
 >>> cell = PeriodicCell(np.diag([1.0, 2.0, 4.0]))
 >>> round(cell.volume, 12), cell.widths.tolist()
@@ -92,6 +97,18 @@ def _matrix(name: str, value, shape=(3, 3)) -> np.ndarray:
     return array
 
 
+def _check_in_plane(name: str, matrix: np.ndarray, diagonal: bool = False) -> None:
+    """An InputError naming ``name`` unless the z row and column of ``matrix`` (3, 3) are
+    zero (``diagonal``: but for its zz entry, > 0)."""
+    row, column = matrix[2, :2], matrix[:2, 2]
+    z = matrix[2, 2]
+    if np.any(row != 0.0) or np.any(column != 0.0) or (z <= 0.0 if diagonal else z != 0.0):
+        raise InputError(name, matrix.tolist(),
+                         "no z row or column in a planar cell (a 2D sample deforms in its "
+                         "plane)" + ("; its zz entry the discs' thickness > 0" if diagonal
+                                     else ""))
+
+
 class PeriodicCell:
     """A periodic deformable cell (module docstring).
 
@@ -101,6 +118,8 @@ class PeriodicCell:
         Cell h (3, 3) [m], columns the cell vectors, det > 0.
     max_skew:
         Re-map threshold (module docstring); inf: never re-map.
+    planar:
+        A 2D sample's cell (module docstring).
     """
 
     periodic = True
@@ -108,15 +127,20 @@ class PeriodicCell:
     (:class:`~grainlab.engine.boundaries.boundary.Boundary`)."""
 
     @classmethod
-    def around(cls, side, wall_friction: float = 0.0, particle_mass: float = 0.0
-               ) -> PeriodicCell:
+    def around(cls, side, wall_friction: float = 0.0, particle_mass: float = 0.0,
+               planar: bool = False) -> PeriodicCell:
         """The cell diag(``side``) ((3,) [m]) a loose sample fills; its centres lie at least a
         radius inside every face, so no pair overlaps across the faces. A cell has no walls:
-        ``wall_friction`` and ``particle_mass`` are not used."""
-        return cls(np.diag(np.asarray(side, dtype=np.float64)))
+        ``wall_friction`` and ``particle_mass`` are not used; ``planar``: a 2D sample's cell
+        (``side[2]`` the discs' thickness)."""
+        return cls(np.diag(np.asarray(side, dtype=np.float64)), planar=planar)
 
-    def __init__(self, matrix, max_skew: float = MAX_SKEW) -> None:
-        self.geometry = TriclinicCell(_matrix("cell matrix", matrix))
+    def __init__(self, matrix, max_skew: float = MAX_SKEW, planar: bool = False) -> None:
+        self.planar = bool(planar)
+        h = _matrix("cell matrix", matrix)
+        if self.planar:
+            _check_in_plane("cell matrix", h, diagonal=True)
+        self.geometry = TriclinicCell(h)
         self.rate = np.zeros((3, 3))
         self.carried = np.zeros((3, 3))
         self.remap = np.eye(3)
@@ -189,6 +213,10 @@ class PeriodicCell:
         fixed = _matrix("fixed_gradient", fixed_gradient)
         directions = np.zeros((0, 3, 3)) if gradients is None else \
             np.array(gradients, dtype=np.float64).reshape(-1, 3, 3)
+        if self.planar:
+            _check_in_plane("fixed_gradient", fixed)
+            for d, direction in enumerate(directions):
+                _check_in_plane(f"gradients[{d}]", direction)
         goals = np.zeros(0) if targets is None else \
             np.array(targets, dtype=np.float64).reshape(-1)
         if goals.shape[0] != directions.shape[0] or not np.all(np.isfinite(directions)) \
@@ -248,7 +276,7 @@ class PeriodicCell:
         """Contacts through every face, edge and corner of the cell at the detection
         configuration (:class:`~grainlab.engine.detect.periodic_detection.PeriodicDetection`)."""
         if self._detection is None or self._detection.alert != phases.alert:
-            self._detection = PeriodicDetection(alert=phases.alert)
+            self._detection = PeriodicDetection(alert=phases.alert, planar=self.planar)
         found = self._detection.detect(predicted, library,
                                        TriclinicCell(constraints.cell_matrix),
                                        sphere_rows=phases.sphere_rows)
@@ -323,12 +351,14 @@ class PeriodicCell:
             "boundary_stress": self.boundary_stress.copy(),
             "n_remaps": np.array(self.n_remaps), "step_strain": self.step_strain.copy(),
             "strain": self.strain.copy(), "image_matrix": self.image_matrix.copy(),
+            "planar": np.array(int(self.planar)),
         }
 
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray]) -> PeriodicCell:
         """Inverse of :meth:`to_arrays`."""
-        cell = cls(arrays["matrix"], max_skew=float(arrays["max_skew"]))
+        cell = cls(arrays["matrix"], max_skew=float(arrays["max_skew"]),
+                   planar=bool(int(arrays.get("planar", 0))))
         servo = np.asarray(arrays["servo"], dtype=np.float64)
         cell.set_control(arrays["fixed_gradient"], arrays["gradients"], arrays["targets"],
                          float(servo[0]), float(servo[1]), float(servo[2]))

@@ -20,6 +20,11 @@ s_w n_w. Controls:
   out by a stress spike kept flying out after the particles stopped pushing, and a rigid
   sample behind it unloaded completely (docs/polyhedra.md).
 
+A **planar** box holds a 2D sample of discs (:mod:`grainlab.engine.planar`): its z extent is
+the discs' thickness t, so that its volume and the areas of its four side walls (L t) give
+stresses in Pa, and its two z walls are out of reach (their planes lie :data:`PLANAR_REACH`
+box lengths beyond the faces, where no disc meets them) and stay fixed.
+
 The reaction R_w [N] of a wall is the normal force the particles exert on it over the last
 step (sum of the normal impulses of its contacts / h), compression positive; the wall stress
 on axis a is the mean of its two walls' R_w / A_w.
@@ -51,6 +56,8 @@ SERVO_GAIN = 20.0
 """Outward speed of a servo wall, in units of its speed limit, per unit relative overpressure
 (R_w - F_w) / F_w: a lateral wall following a dilating sample at 0.4 s_max sits 2 % above
 its stress."""
+PLANAR_REACH = 1.0e3
+"""How far (in box lengths) the z walls of a planar box lie beyond its faces."""
 _AXIS = np.array([0, 0, 1, 1, 2, 2])
 _SIGN = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0])
 
@@ -93,6 +100,8 @@ class WallBox:
     wall_mass:
         Mass m_w [kg] of the stress-controlled walls (one value or six), > 0; may be set later
         (:meth:`set_masses`) from the particles' mass.
+    planar:
+        A box of a 2D sample (module docstring): the z walls out of reach and fixed.
     """
 
     periodic = False
@@ -100,7 +109,7 @@ class WallBox:
 
     def __init__(self, lower: Sequence[float], upper: Sequence[float],
                  friction: float | Sequence[float] = 0.0,
-                 wall_mass: float | Sequence[float] = 1.0) -> None:
+                 wall_mass: float | Sequence[float] = 1.0, planar: bool = False) -> None:
         lo = np.asarray(lower, dtype=np.float64)
         hi = np.asarray(upper, dtype=np.float64)
         if lo.shape != (3,) or not np.isfinite(lo).all():
@@ -115,13 +124,16 @@ class WallBox:
         self.masses = self._six("wall_mass", wall_mass, allow_zero=False)
         self.max_speeds = np.full(6, np.inf)
         self.servo = False
+        self.planar = bool(planar)
 
     @classmethod
-    def around(cls, side, wall_friction: float, particle_mass: float) -> WallBox:
+    def around(cls, side, wall_friction: float, particle_mass: float,
+               planar: bool = False) -> WallBox:
         """The box [0, side] (``side`` (3,) [m]) around a loose sample: fixed walls of Coulomb
         coefficient ``wall_friction``, each of mass ``particle_mass`` [kg] (the particles'
-        total) until a stage sets the masses of its stress-controlled walls."""
-        box = cls(np.zeros(3), side, friction=wall_friction)
+        total) until a stage sets the masses of its stress-controlled walls; ``planar``: a
+        2D sample's box (``side[2]`` the discs' thickness)."""
+        box = cls(np.zeros(3), side, friction=wall_friction, planar=planar)
         box.set_masses(particle_mass)
         return box
 
@@ -175,6 +187,8 @@ class WallBox:
         """Points (6, 3) [m] and normals (6, 3) of the planes after moving them for
         ``advance`` [s] at their current speeds."""
         coordinates = self.coordinates + advance * self.speeds * _SIGN
+        if self.planar:  # the z walls out of reach
+            coordinates[4:] -= PLANAR_REACH * float(np.max(self.lengths)) * _SIGN[4:]
         centre = 0.5 * (self.coordinates[0::2] + self.coordinates[1::2])
         points = np.tile(centre, (6, 1))
         points[np.arange(6), _AXIS] = coordinates
@@ -185,6 +199,9 @@ class WallBox:
         """Drive ``wall`` (a name of :data:`WALL_NAMES`) by ``mode`` with ``value``."""
         control = WallControl(mode, value)
         w = wall_index(wall)
+        if self.planar and _AXIS[w] == 2 and mode != "fixed":
+            raise InputError("wall", wall, "x-, x+, y- or y+: the z walls of a planar box "
+                             "(a 2D sample) stay fixed")
         self.controls[w] = control
         if mode == "fixed":
             self.speeds[w] = 0.0
@@ -312,14 +329,15 @@ class WallBox:
             "masses": self.masses.copy(), "max_speeds": self.max_speeds.copy(),
             "control_modes": np.array([WALL_CONTROLS.index(c.mode) for c in self.controls]),
             "control_values": np.array([c.value for c in self.controls]),
-            "servo": np.array(int(self.servo)),
+            "servo": np.array(int(self.servo)), "planar": np.array(int(self.planar)),
         }
 
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray]) -> WallBox:
         """Inverse of :meth:`to_arrays`."""
         c = np.asarray(arrays["coordinates"], dtype=np.float64)
-        box = cls(c[0::2], c[1::2], friction=arrays["friction"], wall_mass=arrays["masses"])
+        box = cls(c[0::2], c[1::2], friction=arrays["friction"], wall_mass=arrays["masses"],
+                  planar=bool(int(arrays.get("planar", 0))))
         box.coordinates[:] = c
         box.speeds[:] = arrays["speeds"]
         box.reactions[:] = arrays["reactions"]

@@ -50,6 +50,11 @@ are more than 2 R_cut apart, so no pair touches through two images at once, no b
 its own image, and only the images {-1, 0, 1}^3 of wrapped bodies can be within reach. A
 cell sheared far loses width: re-map it with :meth:`TriclinicCell.reduced` first.
 
+**Planar** (a 2D sample of discs, :mod:`grainlab.engine.planar`): the cell is periodic in x
+and y only. Its third column is (0, 0, t), t the discs' thickness, which may be thinner than
+a disc: no body is wrapped along z, no ghost has an image along z (m_z = 0), and only the
+widths across the x and y faces are held to 3 R_cut. The plain spheres' road is not taken.
+
 :func:`periodic_contacts_slow` is the slow twin: every pair, 125 images each, two bodies at a
 time.
 
@@ -128,13 +133,14 @@ def _checked(state, library, cell) -> None:
         raise InputError("cell", type(cell).__name__, "a TriclinicCell")
 
 
-def checked_cutoff(cell: TriclinicCell, bounding_radii: np.ndarray, alert: float) -> float:
+def checked_cutoff(cell: TriclinicCell, bounding_radii: np.ndarray, alert: float,
+                   planar: bool = False) -> float:
     """R_cut = 2 r_max + alert [m], or :class:`~grainlab.errors.CellTooThin` (an
-    :class:`InputError` naming "periodic cell width") when a width of ``cell`` is below
-    3 R_cut (module docstring)."""
+    :class:`InputError` naming "periodic cell width") when a width of ``cell`` (of a
+    ``planar`` cell: across its x and y faces) is below 3 R_cut (module docstring)."""
     r_max = float(np.max(bounding_radii)) if bounding_radii.size else 0.0
     cutoff = 2.0 * r_max + alert
-    widths = cell.widths
+    widths = cell.widths[:2] if planar else cell.widths
     if widths.min() < 3.0 * cutoff:
         axis = int(np.argmin(widths))
         raise CellTooThin(
@@ -146,11 +152,11 @@ def checked_cutoff(cell: TriclinicCell, bounding_radii: np.ndarray, alert: float
     return cutoff
 
 
-def ghost_layer(cell: TriclinicCell, fractional, cutoff: float
+def ghost_layer(cell: TriclinicCell, fractional, cutoff: float, planar: bool = False
                 ) -> tuple[np.ndarray, np.ndarray]:
     """Ghosts of bodies at wrapped ``fractional`` coordinates (N, 3) (in [0, 1)): every image
     m in :data:`GHOST_IMAGES` with s + m in [-delta_a, 1 + delta_a] on every axis,
-    delta_a = ``cutoff`` / w_a (module docstring, step 2).
+    delta_a = ``cutoff`` / w_a (module docstring, step 2); ``planar``: m_z = 0 only.
 
     Returns ``(body, image)``: the body (G,) int64 and image vector (G, 3) int64 of each
     ghost, by body then image.
@@ -161,6 +167,8 @@ def ghost_layer(cell: TriclinicCell, fractional, cutoff: float
     allowed = np.stack([s >= 1.0 - delta, np.ones_like(s, dtype=bool), s <= delta], axis=2)
     keep = (allowed[:, 0, GHOST_IMAGES[:, 0] + 1] & allowed[:, 1, GHOST_IMAGES[:, 1] + 1]
             & allowed[:, 2, GHOST_IMAGES[:, 2] + 1])
+    if planar:
+        keep &= GHOST_IMAGES[None, :, 2] == 0
     body, which = np.nonzero(keep)
     return body.astype(np.int64), GHOST_IMAGES[which]
 
@@ -185,7 +193,8 @@ class PeriodicDetection:
 
     def __init__(self, alert: float, capacity: int = 1024,
                  angle_tolerance: float = ANGLE_TOLERANCE,
-                 max_points: int = DEFAULT_MAX_POINTS) -> None:
+                 max_points: int = DEFAULT_MAX_POINTS, planar: bool = False) -> None:
+        self.planar = bool(planar)
         self.narrow_phase = NarrowPhase(alert, capacity=capacity,
                                         angle_tolerance=angle_tolerance,
                                         max_points=max_points)
@@ -203,10 +212,10 @@ class PeriodicDetection:
         _checked(state, library, cell)
         n_bodies = state.n_bodies
         bounding = library.bounding_radius[state.shape_ids]
-        cutoff = checked_cutoff(cell, bounding, self.alert)
+        cutoff = checked_cutoff(cell, bounding, self.alert, self.planar)
         if n_bodies == 0:
             return _empty_contacts()
-        if sphere_rows and plain_spheres(library):  # one compiled cell list, same contacts
+        if sphere_rows and plain_spheres(library) and not self.planar:  # one cell list
             bins = bins_per_axis(cell.widths, cutoff, n_bodies)
             contacts, images = periodic_sphere_contacts(
                 state.positions, bounding, cell.matrix, cell.inverse, bins,
@@ -215,8 +224,10 @@ class PeriodicDetection:
         h = cell.matrix
         s = cell.fractional(state.positions)
         counts = np.floor(s).astype(np.int64)
+        if self.planar:
+            counts[:, 2] = 0
         wrapped = state.positions - counts @ h.T
-        ghost_body, ghost_image = ghost_layer(cell, s - counts, cutoff)
+        ghost_body, ghost_image = ghost_layer(cell, s - counts, cutoff, self.planar)
         source = np.concatenate([np.arange(n_bodies, dtype=np.int64), ghost_body])
         image_of = np.concatenate([np.zeros((n_bodies, 3), dtype=np.int64), ghost_image])
         positions = np.concatenate([wrapped, wrapped[ghost_body] + ghost_image @ h.T])
