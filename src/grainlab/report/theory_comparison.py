@@ -23,8 +23,8 @@ PANELS = {"oedometer": ("K0", "sigma_v")}
 SHEAR_PANELS = ("q_over_p", "eps_vol")
 
 LABELS = {
-    "eps_axial": r"vertical strain $\varepsilon_{zz}$ ($\varepsilon_{yy}$ in 2D) from the end "
-                 "of compaction (compression > 0) [-]",
+    "eps_axial": r"vertical strain from the compaction's end, $\varepsilon_{zz}$ "
+                 r"(2D: $\varepsilon_{yy}$) [-]",
     "q_over_p": r"$q/p = (\sigma_1 - \sigma_3)/p$ [-]",
     "eps_vol": r"$\varepsilon_{vol}$ (compression > 0) [-]",
     "K0": r"$K_0 = \sigma_h / \sigma_v$ [-]",
