@@ -15,7 +15,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from grainlab.lab.solver_registry import solver_record
+from grainlab.lab.solver_registry import DEFAULT_SOLVER, solver_record
 from grainlab.result.columns import in_dimension
 from grainlab.result.test_result import TestResult
 
@@ -86,8 +86,8 @@ def oedometer_summary(result: TestResult) -> list[str]:
                      f"{asked['unload_strain']:g}) to {eps} {end[eps]:.6g} in "
                      f"{steps.get('unloading', '?')} steps; at the end of unloading {sigma} "
                      f"{end[sigma]:.4g} Pa, K0 {end['K0']:.4f}")
-    method = result.metadata["parameters"]["config"].get("solver", {}).get("method")
-    if not solver_record(method).deformable:
+    solver = result.metadata["parameters"]["config"].get("solver", {})
+    if not solver_record(solver.get("method", DEFAULT_SOLVER)).deformable:
         lines.append(f"note: {RIGID_OEDOMETER}")
     return lines
 
