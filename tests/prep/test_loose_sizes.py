@@ -51,3 +51,14 @@ def test_the_fine_fraction_does_nothing_without_two_sizes():
     assert "sample.fine_fraction" in inert_settings(config, ["sample.fine_fraction"])
     binary = RunConfig.model_validate({"sample": {"sizes": "binary", "fine_fraction": 0.3}})
     assert not inert_settings(binary, ["sample.fine_fraction"])
+
+
+def test_the_cli_takes_two_sizes_and_refuses_a_fine_fraction_alone():
+    from grainlab.cli.run_input import asked_config
+
+    binary = asked_config("triaxial", None, {"n": 60, "sizes": "binary",
+                                             "fine_fraction": 0.3})[0]
+    assert (binary.sample.sizes, binary.sample.fine_fraction) == ("binary", 0.3)
+    with pytest.raises(InputError) as error:
+        asked_config("triaxial", None, {"n": 60, "fine_fraction": 0.3})
+    assert error.value.field == "--fine-fraction" and "does nothing" in error.value.allowed
