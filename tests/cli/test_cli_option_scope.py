@@ -38,8 +38,10 @@ VALUES = {
 }
 """A value other than the default of each option walked."""
 
-NOT_WALKED = {"preparation", "skeleton_file", "particle_file"}
-"""How the sample is made (files and deposition, which build_sample checks)."""
+NOT_WALKED = {"preparation", "skeleton_file", "particle_file", "sizes", "fine_fraction"}
+"""How the sample is made (files and deposition, which build_sample checks), and its two sizes
+(half the walk's 20 particles large do not fit a loose box: tests/prep/test_loose_sizes.py
+walks them on 60)."""
 
 _OPTIONS = {option.name: (option.typed, option.key) for option in options_of("test")
             if option.key is not None}

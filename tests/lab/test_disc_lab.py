@@ -12,6 +12,8 @@ import pytest
 from grainlab.errors import InputError
 from grainlab.lab.discrete_run import start_run
 from grainlab.lab.run_config import RunConfig
+from grainlab.report.element_test_figures import oedometer_stages_figure
+from grainlab.report.run_summary import run_summary
 
 SIGMA0 = 1e4
 
@@ -43,7 +45,8 @@ def test_a_disc_sample_runs_a_2d_path_with_the_planes_columns():
 def test_a_1d_compression_of_discs_reports_k0_as_the_lateral_over_the_vertical_stress(
         tmp_path):
     run = start_run(tmp_path / "run", disc_config("oedometer", axial_strain=0.005))
-    table = run.run().table
+    result = run.run()
+    table = result.table
     assert "sigma_zz" not in table.columns and "eps_zz" not in table.columns
     assert {"sigma_xx", "sigma_yy", "sigma_xy", "eps_xx", "eps_yy"} <= set(table.columns)
     loading = table[table["stage"] == "loading"]
@@ -61,6 +64,12 @@ def test_a_1d_compression_of_discs_reports_k0_as_the_lateral_over_the_vertical_s
                                rtol=1e-9)
     state = run.test.sample.state
     assert np.all(state.positions[:, 2] == state.positions[0, 2])  # in its plane
+    # the summary and the figure read the vertical axis y; soft grains: no rigid-grain note
+    lines = run_summary(result)
+    assert any(line.startswith("loading: to eps_yy 0.005") for line in lines), lines
+    assert not any(line.startswith("note: rigid grains") for line in lines)
+    figure = oedometer_stages_figure(result)
+    assert figure.axes[1].get_ylabel() == "sigma_yy [kPa]"
 
 
 @pytest.mark.parametrize("kind", ["true_triaxial", "circular", "cyclic_shear"])

@@ -109,7 +109,7 @@ def compaction_numerics(solver: str, boundary: str, shape: str) -> tuple[dict, i
 
 
 LONG_CASES = {("dem", "walls", "polyhedron"), ("cd", "periodic", "aggregate"),
-              ("dem", "periodic", "aggregate")}
+              ("dem", "periodic", "aggregate"), ("cd", "periodic", "disc")}
 """Cases of tens of seconds (``pytest.mark.long``)."""
 THIN_CELL_CASES = {(solver, "periodic", "polyhedron") for solver in SOLVERS}
 """Cases the lab refuses at the matrix's size (:data:`PARTICLES`): a periodic cell of

@@ -138,7 +138,7 @@ def _curves(side, stages, eps, q_over_p, eps_vol):
     n = len(eps)
     return pd.DataFrame({"side": side, "stage": stages, "eps_axial": eps, "eps_q": eps,
                          "q_over_p": q_over_p, "eps_vol": eps_vol, "K0": np.ones(n),
-                         "sigma_zz": np.ones(n), "p": np.ones(n)})
+                         "sigma_v": np.ones(n), "p": np.ones(n)})
 
 
 def test_a_model_on_the_runs_grid_is_interpolated_linearly_and_cut_where_it_stopped():
@@ -198,3 +198,42 @@ def test_what_the_model_cannot_do_is_refused_by_name(tmp_path):
     result = runner.invoke(app, ["theory-vs-sim", "triaxial", "--restitution", "0.3",
                                  "--out", str(tmp_path / "never")])
     assert result.exit_code == 2 and "--restitution" in result.output, result.output
+
+
+DISC_TRIAXIAL = ["theory-vs-sim", "triaxial", "--shape", "disc", "--boundary", "periodic",
+                 "-n", "60", "--size-ratio", "1.5", "--eps-q", "0.02", "--sigma0", "1e5",
+                 "--mu", "0.4", "--inertia", "0.01", "--record-every", "2", "--seed", "2",
+                 "--distribution", "homogeneous", "--model-steps", "40", "--no-progress"]
+"""60 rigid discs in a planar periodic cell: a biaxial test and the 2D model of its packing."""
+
+
+@pytest.mark.long
+def test_a_run_of_discs_and_its_2d_model_start_from_the_same_stress(tmp_path):
+    """The 2D side: the snapshot's network lies in the plane (areas, forces per unit
+    thickness), the model's springs are the run's per unit thickness (k / t), and the model
+    starts from the run's in-plane stress to round-off (a periodic cell: no wall)."""
+    out = tmp_path / "discs"
+    done = runner.invoke(app, [*DISC_TRIAXIAL, "--out", str(out)])
+    assert done.exit_code == 0, done.output
+    result = read_run_result(out / "run")
+    network = compaction_snapshot(out / "run" / "snapshots.h5")
+    assert network.dimension == 2
+    end = result.table[result.table["stage"] == "compaction"].iloc[-1]
+    run_stress = np.array([[end["sigma_xx"], end["sigma_xy"]],
+                           [end["sigma_xy"], end["sigma_yy"]]])
+    snapshot = 0.5 * (stress_from_network(network) + stress_from_network(network).T)
+    # the cell's row adds the particles' kinetic stress (1/V) sum m v' (x) v', at most
+    # 2 E_k / V, to the contacts' (the snapshot's)
+    thickness = result.metadata["specimen"]["thickness"]
+    kinetic = 2.0 * end["kinetic_energy"] / (network.volume * thickness)
+    assert np.max(np.abs(snapshot - run_stress)) <= kinetic + 1e-12 * end["p"]
+    law = run_contact_law(result, network)
+    areas = np.asarray(network.volumes)
+    d_mean = float(np.mean(np.sqrt(4.0 * areas / np.pi)))
+    assert law.normal_stiffness == pytest.approx(1e4 * 1e5 * d_mean / thickness, rel=1e-12)
+    model = run_micro_element_model(result, network, "homogeneous")
+    np.testing.assert_allclose(model.stress_tensor(), stress_from_network(network), rtol=0,
+                               atol=1e-9 * end["p"])  # the full tensor: the skew part too
+    curves = pd.read_csv(out / "theory.csv")
+    assert {"sigma_v", "K0", "q_over_p"} <= set(curves.columns)
+    assert set(curves["side"]) == {SIMULATION, "homogeneous"}

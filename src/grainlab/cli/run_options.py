@@ -194,7 +194,14 @@ RUN_OPTIONS: tuple[RunOption, ...] = (
     RunOption("d_min", ("--d-min",), "Smallest particle diameter (of the circumscribed "
               "sphere) [m].", float, COMMANDS, "sample.d_min"),
     RunOption("size_ratio", ("--size-ratio",), "d_max/d_min, >= 1; diameters uniform by "
-              "volume in between.", float, COMMANDS, "sample.size_ratio"),
+              "volume in between (or two sizes: --sizes binary).", float, COMMANDS,
+              "sample.size_ratio"),
+    RunOption("sizes", ("--sizes",), "uniform_volume (diameters uniform by volume in "
+              "[d_min, d_max]) or binary (two sizes, d_min and d_max, a number fraction "
+              "--fine-fraction of d_min).", str, COMMANDS, "sample.sizes"),
+    RunOption("fine_fraction", ("--fine-fraction",), "Number fraction of the particles of "
+              "d_min with --sizes binary, in (0, 1).", float, COMMANDS,
+              "sample.fine_fraction"),
     RunOption("eta", ("--eta",), "Non-convexity (R - R')/R of the aggregates, 0 to 0.828 "
               "(R: circumscribed radius, R': inscribed radius).", float, COMMANDS,
               "sample.eta"),

@@ -151,6 +151,7 @@ def build_sample(config: RunConfig) -> DiscreteSample:
                                   packing_fraction=s.packing_fraction,
                                   aspect=(1.0, 1.0, s.height_ratio),
                                   wall_friction=s.wall_friction, seed=s.seed,
+                                  sizes=s.sizes, fine_fraction=s.fine_fraction,
                                   boundary=record.around)
             record.describe(sample.description)
             return sample

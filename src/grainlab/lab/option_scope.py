@@ -60,7 +60,8 @@ SHAPE_KEYS = {"sample.eta": "eta", "sample.n_faces": "n_faces",
 """The shape parameters' keys (:data:`~grainlab.prep.sample_shapes.SAMPLE_SHAPES`)."""
 
 FROM_SKELETON = ("sample.n_particles", "sample.d_min", "sample.size_ratio",
-                 "sample.height_ratio", "sample.packing_fraction")
+                 "sample.height_ratio", "sample.packing_fraction", "sample.sizes",
+                 "sample.fine_fraction")
 """The keys a skeleton file gives (the particles' number, sizes and box)."""
 
 FROM_PARTICLE_FILE = (*FROM_SKELETON, "sample.shape", "sample.seed", *SHAPE_KEYS)
@@ -120,6 +121,11 @@ def _sample_reason(config: Any, key: str) -> str:
     if s.preparation == "file" and s.skeleton_file and key in FROM_SKELETON:
         return ("the skeleton file (sample.skeleton_file, --skeleton-file) gives the "
                 "particles' number, sizes and box")
+    if key in ("sample.sizes", "sample.fine_fraction") and s.preparation == "deposition":
+        return ("a deposition draws its sizes uniform by volume: two sizes (sample.sizes = "
+                "'binary') are for a loose sample (sample.preparation = 'loose')")
+    if key == "sample.fine_fraction" and s.sizes != "binary":
+        return "it is the fine share of two sizes (sample.sizes = 'binary', --sizes binary)"
     parameters = SAMPLE_SHAPES[s.shape].parameters if s.shape in SAMPLE_SHAPES else ()
     if key in SHAPE_KEYS and SHAPE_KEYS[key] not in parameters:
         return (f"it is a parameter of {_shape_of(SHAPE_KEYS[key])} particles, not of "

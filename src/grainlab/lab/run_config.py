@@ -5,7 +5,8 @@ every key has a default, an unknown key is an error that names it::
 
     [sample]   shape (a name of :data:`~grainlab.prep.sample_shapes.SAMPLE_SHAPES`, such
                as "sphere", "aggregate", "polyhedron"), n_particles, d_min [m],
-               size_ratio, eta (aggregates), n_faces and templates (polyhedra), density
+               size_ratio, sizes and fine_fraction (uniform by volume, or two sizes), eta
+               (aggregates), n_faces and templates (polyhedra), density
                [kg/m^3], packing_fraction (loose start), wall_friction, seed, boundary
                (a name of :data:`~grainlab.lab.boundary_registry.BOUNDARY_NAMES`:
                "walls" | "periodic"), height_ratio (the start box's height / width),
@@ -104,6 +105,7 @@ from grainlab.lab.presets import (
 from grainlab.lab.solver_registry import SOLVERS, own_settings_records, solver_record
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR, STAGE_KINDS, StageNumerics
 from grainlab.lab.wall_stages import QuasiStaticCriteria
+from grainlab.prep.loose_sample import SIZE_DISTRIBUTIONS
 from grainlab.prep.sample_shapes import MAX_FACES, sample_shape
 
 TEST_KINDS = ("compaction", "triaxial", "extension", "oedometer", "true_triaxial",
@@ -196,6 +198,8 @@ class SampleConfig(ConfigSection):
     n_particles: StrictInt = Field(1000, ge=1)
     d_min: StrictFloat = Field(1e-3, gt=0)
     size_ratio: StrictFloat = Field(2.0, ge=1)
+    sizes: Literal[SIZE_DISTRIBUTIONS] = "uniform_volume"
+    fine_fraction: StrictFloat = Field(0.5, gt=0, lt=1)
     eta: StrictFloat = Field(0.4, ge=0, le=0.828)
     n_faces: StrictInt = Field(30, ge=8, le=MAX_FACES, description=_FACES_NOTE)
     templates: StrictInt = Field(0, ge=0)

@@ -118,9 +118,20 @@ def mean_diameter(network: ContactNetwork) -> float:
                                                   network.dimension)))
 
 
+def _disc_thickness(result: TestResult) -> float:
+    """The thickness t [m] of a 2D run's discs (its specimen's ``thickness``)."""
+    t = result.metadata.get("specimen", {}).get("thickness")
+    if not isinstance(t, int | float) or not t > 0.0:
+        raise InputError("specimen.thickness", t, "the discs' thickness > 0 m of a 2D run "
+                         "(a sample of discs records it)")
+    return float(t)
+
+
 def run_contact_law(result: TestResult, network: ContactNetwork) -> SpringContactLaw:
     """The model's contact law for a run (module docstring): the run's springs (or those the
-    DEM would give it) and the friction of its loading."""
+    DEM would give it) and the friction of its loading; a 2D run's springs per unit
+    thickness, k / t [N/m^2] (its network's forces are per unit thickness:
+    :mod:`grainlab.engine.planar`)."""
     parameters = _parameters(result)
     settings = parameters["settings"]
     sigma0 = float(parameters["config"]["test"]["sigma0"])
@@ -129,9 +140,14 @@ def run_contact_law(result: TestResult, network: ContactNetwork) -> SpringContac
                                   if k in SoftContactSettings.__dataclass_fields__})
     law = soft.law_at(sigma0, mean_diameter(network))
     friction = math.atan(float(settings["shear"]["friction"]))
+    per_thickness = _disc_thickness(result) if network.dimension == 2 else 1.0
     if law.model == "linear":
-        return SpringContactLaw(friction_angle=friction, normal_stiffness=law.normal_stiffness,
-                                shear_stiffness=law.stiffness_ratio * law.normal_stiffness)
+        k_n = law.normal_stiffness / per_thickness
+        return SpringContactLaw(friction_angle=friction, normal_stiffness=k_n,
+                                shear_stiffness=law.stiffness_ratio * k_n)
+    if network.dimension == 2:
+        raise InputError("solver.dem.law", law.model, "linear for the model of a run of "
+                         "discs (2D): the model's 2D springs are linear, per unit thickness")
     nu = law.poisson_ratio
     return SpringContactLaw(friction_angle=friction,
                             shear_modulus=law.young_modulus / (2.0 * (1.0 + nu)),

@@ -8,9 +8,11 @@ and driven by the run's recorded load path from the first stage after the compac
 (:func:`~grainlab.lab.run_micro_element.model_path`), once per distribution law asked.
 
 Both sides are tabulated with the same columns (:data:`CURVE_COLUMNS`): ``eps_axial``, the
-vertical strain eps_zz counted from the end of the compaction (compression > 0); ``eps_q``
-(eps_1 - eps_3); ``q_over_p`` = (sigma_1 - sigma_3) / p, p = trace/3; ``eps_vol`` (trace of
-the strain, compression > 0); ``K0`` = (sigma_xx + sigma_yy) / (2 sigma_zz). Each stage is
+vertical strain (eps_zz; eps_yy of a 2D run of discs) counted from the end of the compaction
+(compression > 0); ``eps_q`` (eps_1 - eps_3); ``q_over_p`` = (sigma_1 - sigma_3) / p,
+p = trace/3 (2D: trace/2); ``eps_vol`` (trace of the strain, compression > 0); ``K0`` =
+(sigma_xx + sigma_yy) / (2 sigma_zz) (2D: sigma_xx / sigma_yy); ``sigma_v`` the vertical
+stress (sigma_zz; 2D: sigma_yy). Each stage is
 on the simulation's grid: the vertical strains of the run's rows in that stage, inside the
 range the model reached in it, the model's values interpolated linearly in eps_axial (the
 vertical strain is monotonic within a stage of the tests compared: :data:`THEORY_KINDS`).
@@ -20,7 +22,7 @@ Row 0 of each side is the state at the end of the compaction (stage ``"initial"`
 distribution law the peak q/p, the q/p and eps_vol at the largest strain both reached, and
 the dilatancy rate -d eps_vol / d|eps_axial| (> 0 dilating) fitted over the last
 :data:`DILATANCY_SHARE` of that strain range (triaxial, extension); for an oedometer K0
-and sigma_zz at the end of each stage; the mean stress p at the start (the model's is the
+and sigma_v at the end of each stage; the mean stress p at the start (the model's is the
 snapshot's contact-force stress, the run's its boundary's); and, each side over its own
 rows (a model that stops early, or a run recorded sparsely, leaves little on the common
 grid), the strain each reached and its peak q/p.
@@ -56,8 +58,8 @@ SIMULATION = "simulation"
 """The ``side`` of the run's rows (a model's side is its distribution law)."""
 
 CURVE_COLUMNS = ("side", "stage", "eps_axial", "eps_q", "q_over_p", "eps_vol", "K0",
-                 "sigma_zz", "p")
-"""The columns of :attr:`TheoryComparison.curves` (module docstring; sigma_zz and p in Pa)."""
+                 "sigma_v", "p")
+"""The columns of :attr:`TheoryComparison.curves` (module docstring; sigma_v and p in Pa)."""
 
 DILATANCY_SHARE = 0.3
 """The dilatancy rate is fitted over the last 30 % of the common strain range."""
@@ -80,17 +82,20 @@ def check_theory_kind(kind: str, field: str = "KIND") -> str:
 def _curves(table: pd.DataFrame, side: str) -> pd.DataFrame:
     """The columns of :data:`CURVE_COLUMNS` of a results table whose first row is the state
     the path starts from and whose strains are counted from it."""
-    szz = table["sigma_zz"].to_numpy(dtype=float)
+    planar = "sigma_zz" not in table.columns  # a 2D run's: vertical axis y
+    vertical = "yy" if planar else "zz"
+    sigma_v = table[f"sigma_{vertical}"].to_numpy(dtype=float)
+    lateral = table["sigma_xx"].to_numpy(dtype=float) if planar else 0.5 * (
+        table["sigma_xx"].to_numpy(dtype=float) + table["sigma_yy"].to_numpy(dtype=float))
     with np.errstate(divide="ignore", invalid="ignore"):
-        k0 = 0.5 * (table["sigma_xx"].to_numpy(dtype=float)
-                    + table["sigma_yy"].to_numpy(dtype=float)) / szz
+        k0 = lateral / sigma_v
         p = table["p"].to_numpy(dtype=float)
         ratio = table["q"].to_numpy(dtype=float) / p
     return pd.DataFrame({
         "side": side, "stage": table["stage"].astype(str).to_numpy(),
-        "eps_axial": table["eps_zz"].to_numpy(dtype=float),
+        "eps_axial": table[f"eps_{vertical}"].to_numpy(dtype=float),
         "eps_q": table["eps_q"].to_numpy(dtype=float), "q_over_p": ratio,
-        "eps_vol": table["eps_vol"].to_numpy(dtype=float), "K0": k0, "sigma_zz": szz,
+        "eps_vol": table["eps_vol"].to_numpy(dtype=float), "K0": k0, "sigma_v": sigma_v,
         "p": p})
 
 
@@ -266,19 +271,20 @@ def _measures(kind: str, curves: pd.DataFrame) -> list[tuple[str, str, float]]:
     if kind == "oedometer":
         for stage in dict.fromkeys(loading["stage"]):
             last = loading[loading["stage"] == stage].iloc[-1]
-            out += [(f"{stage}_eps_axial", f"eps_zz at the end of {stage} (common grid)",
-                     float(last["eps_axial"])),
+            out += [(f"{stage}_eps_axial", f"vertical strain at the end of {stage} "
+                     "(common grid)", float(last["eps_axial"])),
                     (f"{stage}_K0", f"K0 at the end of {stage}", float(last["K0"])),
-                    (f"{stage}_sigma_zz", f"sigma_zz at the end of {stage} [Pa]",
-                     float(last["sigma_zz"]))]
+                    (f"{stage}_sigma_v", f"vertical stress at the end of {stage} [Pa]",
+                     float(last["sigma_v"]))]
         return out
     return [
         *out,
         ("peak_q_over_p", "peak q/p", float(np.nanmax(loading["q_over_p"]))),
-        ("end_eps_axial", "largest |eps_zz| both reached", float(end["eps_axial"])),
-        ("end_q_over_p", "q/p at the largest |eps_zz| both reached", float(end["q_over_p"])),
+        ("end_eps_axial", "largest vertical |strain| both reached", float(end["eps_axial"])),
+        ("end_q_over_p", "q/p at the largest vertical |strain| both reached",
+         float(end["q_over_p"])),
         ("end_eps_vol", "eps_vol there (compression > 0)", float(end["eps_vol"])),
-        ("dilatancy", f"dilatancy rate -d eps_vol / d|eps_zz| over the last "
+        ("dilatancy", f"dilatancy rate -d eps_vol / d|eps_axial| over the last "
                       f"{100 * DILATANCY_SHARE:g} %", _dilatancy(loading)),
     ]
 
@@ -288,7 +294,7 @@ def _whole_path(curves: pd.DataFrame) -> list[tuple[str, str, float]]:
     loading = curves[curves["stage"] != INITIAL]
     if not len(loading):
         return []
-    return [("reached_eps_axial", "eps_zz at the end of its own path (each side)",
+    return [("reached_eps_axial", "vertical strain at the end of its own path (each side)",
              float(loading["eps_axial"].iloc[-1])),
             ("own_peak_q_over_p", "peak q/p over its own path (each side)",
              float(np.nanmax(loading["q_over_p"])))]

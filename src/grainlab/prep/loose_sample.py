@@ -9,6 +9,10 @@ its distribution function is
 
     d = (d_min^-2 - u (d_min^-2 - d_max^-2))^(-1/2)                        [m]
 
+Or two sizes (``sizes="binary"``): a number fraction ``fine_fraction`` of the particles (the
+nearest whole number) of diameter d_min, the rest of d_max = size_ratio d_min, in random order
+(seed 001 ch. 3: 13 discs of radius 0.105 mm and 12 of 0.21 mm, a fraction 0.52 of fine ones).
+
 Placement: random sequential addition of the particles' bounding spheres, largest first, in a
 cube sized so that the bounding spheres fill ``packing_fraction`` of it (a loose gas, 0.2 by
 default; random sequential addition jams near 0.38), with a cell grid so that each trial
@@ -64,6 +68,21 @@ def diameters_uniform_by_volume(n: int, d_min: float, d_max: float,
     docstring); d_max = d_min gives a monodisperse set."""
     u = rng.random(n)
     return (d_min**-2 - u * (d_min**-2 - d_max**-2)) ** -0.5
+
+
+SIZE_DISTRIBUTIONS = ("uniform_volume", "binary")
+"""The sizes a loose sample can take (module docstring)."""
+
+
+def binary_diameters(n: int, d_min: float, d_max: float, fine_fraction: float,
+                     rng: np.random.Generator) -> np.ndarray:
+    """``n`` diameters [m]: round(``fine_fraction`` n) of ``d_min``, the rest of ``d_max``,
+    in random order (module docstring)."""
+    if isinstance(fine_fraction, bool) or not isinstance(fine_fraction, int | float) \
+            or not 0.0 < fine_fraction < 1.0:
+        raise InputError("fine_fraction", fine_fraction, "a number fraction in (0, 1)")
+    fine = round(fine_fraction * n)
+    return rng.permutation(np.concatenate([np.full(fine, d_min), np.full(n - fine, d_max)]))
 
 
 def random_orientations(n: int, rng: np.random.Generator) -> np.ndarray:
@@ -131,7 +150,8 @@ def loose_sample(
     size_ratio: float = 2.0, eta: float = 0.4, n_faces: int = 30, templates: int = 0,
     density: float = 2600.0,
     packing_fraction: float = 0.2, aspect: tuple[float, float, float] = (1.0, 1.0, 1.0),
-    wall_friction: float = 0.0, seed: int = 0,
+    wall_friction: float = 0.0, seed: int = 0, sizes: str = "uniform_volume",
+    fine_fraction: float = 0.5,
     boundary: Callable[[np.ndarray, float, float], Boundary] = WallBox.around,
 ) -> DiscreteSample:
     """A loose random sample in a box of fixed walls or in a periodic cell (module
@@ -149,6 +169,9 @@ def loose_sample(
         Smallest diameter [m] of the particles' bounding (circumscribed) spheres and
         d_max / d_min (>= 1);
         sizes uniform by volume (seed 002: 2; seed 003: 3).
+    sizes, fine_fraction:
+        ``"uniform_volume"`` (the above), or ``"binary"``: a number fraction
+        ``fine_fraction`` in (0, 1) of d_min, the rest of d_max (module docstring).
     eta:
         Non-convexity (R - R')/R of the aggregates, in [0, 0.828] (aggregates only).
     n_faces:
@@ -187,7 +210,11 @@ def loose_sample(
             or np.any(shape_ratio <= 0.0):
         raise InputError("aspect", aspect, "three positive box side ratios")
     rng = np.random.default_rng(check_seed("seed", seed))
-    radii = 0.5 * diameters_uniform_by_volume(int(n_particles), d_min, ratio * d_min, rng)
+    if sizes not in SIZE_DISTRIBUTIONS:
+        raise InputError("sizes", sizes, "one of " + ", ".join(SIZE_DISTRIBUTIONS))
+    radii = 0.5 * (diameters_uniform_by_volume(int(n_particles), d_min, ratio * d_min, rng)
+                   if sizes == "uniform_volume" else
+                   binary_diameters(int(n_particles), d_min, ratio * d_min, fine_fraction, rng))
     shape_parameters = {"eta": eta, "n_faces": n_faces, "templates": templates}
     library, description = maker.make_library(
         radii, rng, **{key: shape_parameters[key] for key in maker.parameters})
@@ -214,5 +241,7 @@ def loose_sample(
         {"planar": True} if library.dimension == 2 else {}))
     description.update({"n_particles": int(n_particles), "d_min": d_min,
                         "d_max": ratio * d_min, "density": density,
+                        **({"sizes": sizes, "fine_fraction": float(fine_fraction)}
+                           if sizes == "binary" else {}),
                         "initial_packing_fraction": phi, "seed": int(seed)})
     return DiscreteSample(library, state, box, description)

@@ -190,7 +190,8 @@ def k0_figure(results: TestResult | Sequence[TestResult],
 def oedometer_stages_figure(result: TestResult, skip: Sequence[str] = ("compaction",)
                             ) -> Figure:
     """K0 = (sigma_xx + sigma_yy)/(2 sigma_zz) (:func:`~grainlab.lab.derived.k0_series`) and
-    sigma_zz against eps_zz of a 3D one-dimensional compression in stages, one line per stage
+    sigma_zz against eps_zz of a one-dimensional compression in stages (2D: K0 =
+    sigma_xx / sigma_yy and sigma_yy against eps_yy), one line per stage
     labelled by its name (``loading``, ``unloading``), each starting at the last row of the
     stage before so that the curves join. Stages named in ``skip`` are left out: the
     compaction of a discrete run, whose strains are from the initial box while those of the
@@ -205,11 +206,13 @@ def oedometer_stages_figure(result: TestResult, skip: Sequence[str] = ("compacti
     ['loading', 'unloading']
     """
     table = result.table
-    _need(table, ("stage", "eps_zz", "sigma_xx", "sigma_yy", "sigma_zz"),
+    planar = not _is_3d(table)  # 2D: vertical axis y, K0 = sigma_xx / sigma_yy
+    eps, sigma_v = ("eps_yy", "sigma_yy") if planar else ("eps_zz", "sigma_zz")
+    _need(table, ("stage", eps, "sigma_xx", "sigma_yy") + (() if planar else ("sigma_zz",)),
           "oedometer_stages_figure")
     k0 = k0_series(table)["K0"].to_numpy(dtype=float)
-    strain = 100.0 * table["eps_zz"].to_numpy(dtype=float)
-    sigma = 1e-3 * table["sigma_zz"].to_numpy(dtype=float)
+    strain = 100.0 * table[eps].to_numpy(dtype=float)
+    sigma = 1e-3 * table[sigma_v].to_numpy(dtype=float)
     stages = table["stage"].astype(str).to_numpy()
     figure, (ax_k, ax_s) = new_figure_axes(1, 2, figsize=(10, 3.8))
     previous, skipped = None, None
@@ -226,10 +229,11 @@ def oedometer_stages_figure(result: TestResult, skip: Sequence[str] = ("compacti
         ax_k.plot(x, k, marker=".", ms=4, label=name)
         ax_s.plot(x, y, marker=".", ms=4, label=name)
         previous = rows[-1]
-    ax_k.set_ylabel("K0 = (sigma_xx + sigma_yy) / (2 sigma_zz)")
-    ax_s.set_ylabel("sigma_zz [kPa]")
+    ax_k.set_ylabel("K0 = sigma_xx / sigma_yy" if planar else
+                    "K0 = (sigma_xx + sigma_yy) / (2 sigma_zz)")
+    ax_s.set_ylabel(f"{sigma_v} [kPa]")
     for ax in (ax_k, ax_s):
-        ax.set_xlabel("vertical strain eps_zz [%]")
+        ax.set_xlabel(f"vertical strain {eps} [%]")
         _finish(ax)
         _legend(ax)
     figure.suptitle(str(result.metadata.get("title") or "one-dimensional compression"),

@@ -15,13 +15,15 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from grainlab.lab.solver_registry import DEFAULT_SOLVER, solver_record
+from grainlab.result.columns import in_dimension
 from grainlab.result.test_result import TestResult
 
 RIGID_OEDOMETER = (
     "rigid grains: the sample cannot compress beyond rearrangement, so the oedometer is "
-    "degenerate: sigma_zz comes from the overlaps the solver leaves and from the loading "
-    "rate, and K0 is not an elastic K0 (until deformable contacts exist)")
-"""What the summary of an oedometer run says about its meaning."""
+    "degenerate: the vertical stress comes from the overlaps the solver leaves and from the "
+    "loading rate, and K0 is not an elastic K0 (deformable contacts: --solver dem)")
+"""What the summary of an oedometer run on rigid grains says about its meaning."""
 
 
 def asked_test(result: TestResult) -> dict[str, Any]:
@@ -64,25 +66,29 @@ def type_fractions(row) -> str:
 
 
 def oedometer_summary(result: TestResult) -> list[str]:
-    """Loading and unloading: strains reached against those asked, sigma_zz [Pa] and K0 at
-    the end of each, and what they mean on rigid grains."""
+    """Loading and unloading: strains reached against those asked, the vertical stress
+    (sigma_zz; sigma_yy in 2D) [Pa] and K0 at the end of each, and what they mean on rigid
+    grains."""
     table, asked = result.table, asked_test(result)
     steps = {s["name"]: s["steps"] for s in result.metadata["outcome"]["stages"]}
     loading = table[table["stage"] == "loading"]
     unloading = table[table["stage"] == "unloading"]
+    eps, sigma = (in_dimension(c, table.columns) for c in ("eps_zz", "sigma_zz"))
     lines = []
     if len(loading):
         end = loading.iloc[-1]
-        lines.append(f"loading: to eps_zz {end['eps_zz']:.6g} (asked "
+        lines.append(f"loading: to {eps} {end[eps]:.6g} (asked "
                      f"{asked['axial_strain']:g}) in {steps.get('loading', '?')} steps; at the "
-                     f"end of loading sigma_zz {end['sigma_zz']:.4g} Pa, K0 {end['K0']:.4f}")
+                     f"end of loading {sigma} {end[sigma]:.4g} Pa, K0 {end['K0']:.4f}")
     if len(unloading) and len(loading):
         end, top = unloading.iloc[-1], loading.iloc[-1]
-        lines.append(f"unloading: by {top['eps_zz'] - end['eps_zz']:.6g} (asked "
-                     f"{asked['unload_strain']:g}) to eps_zz {end['eps_zz']:.6g} in "
-                     f"{steps.get('unloading', '?')} steps; at the end of unloading sigma_zz "
-                     f"{end['sigma_zz']:.4g} Pa, K0 {end['K0']:.4f}")
-    lines.append(f"note: {RIGID_OEDOMETER}")
+        lines.append(f"unloading: by {top[eps] - end[eps]:.6g} (asked "
+                     f"{asked['unload_strain']:g}) to {eps} {end[eps]:.6g} in "
+                     f"{steps.get('unloading', '?')} steps; at the end of unloading {sigma} "
+                     f"{end[sigma]:.4g} Pa, K0 {end['K0']:.4f}")
+    solver = result.metadata["parameters"]["config"].get("solver", {})
+    if not solver_record(solver.get("method", DEFAULT_SOLVER)).deformable:
+        lines.append(f"note: {RIGID_OEDOMETER}")
     return lines
 
 

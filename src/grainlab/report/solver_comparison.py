@@ -19,7 +19,7 @@ from grainlab.lab.solver_comparison import SolverComparison, solver_label
 from grainlab.lab.solver_registry import solver_record
 from grainlab.report.curves import new_figure_axes
 from grainlab.report.run_curves import LABELS, run_title, shear_from_its_start
-from grainlab.result.columns import unit_of
+from grainlab.result.columns import in_dimension, unit_of
 from grainlab.result.test_result import TestResult
 
 PANELS: dict[str, tuple[str, tuple[str, str, str]]] = {
@@ -34,6 +34,9 @@ extension, true_triaxial) draw :data:`SHEAR_PANELS`."""
 SHEAR_PANELS = ("eps_q", ("q_over_trace", "eps_vol", "z"))
 
 COMPARISON_LABELS = {**LABELS, "z": "coordination number z", "sigma_zz": r"$\sigma_{zz}$",
+                     "sigma_yy": r"$\sigma_{yy}$",
+                     "eps_yy": r"$\varepsilon_{yy}$ (compression > 0)",
+                     "gamma_xy": r"$\gamma_{xy}$",
                      "K0": r"$K_0 = (\sigma_{xx} + \sigma_{yy}) / (2\sigma_{zz})$",
                      "eps_zz": r"$\varepsilon_{zz}$ (compression > 0)",
                      "gamma_xz": r"$\gamma_{xz}$", "time": "time"}
@@ -63,6 +66,8 @@ def solver_comparison_figure(
         comparison = SolverComparison().compute(comparison)
     results = comparison.results
     x, columns = PANELS.get(comparison.kind, SHEAR_PANELS)
+    names = results[comparison.pair[0]].table.columns  # a 2D run's: vertical y
+    x, columns = in_dimension(x, names), tuple(in_dimension(c, names) for c in columns)
     figure, axes = new_figure_axes(1, len(columns), figsize=(13.0, 4.0))
     for method, colour in zip(comparison.pair, ("C0", "C3"), strict=True):
         rows = _curve_rows(results[method].table, comparison.kind, x)

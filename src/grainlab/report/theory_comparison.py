@@ -1,8 +1,9 @@
 """The overlay of a discrete run and the micro-element models of its packing
 (``theory.png``): the simulation in black, one colour per distribution law, on the same axes.
 
-Triaxial and extension: q/p and eps_vol against the vertical strain eps_zz (from the end of
-the compaction, compression > 0). Oedometer: K0 and sigma_zz against eps_zz. Each side is
+Triaxial and extension: q/p and eps_vol against the vertical strain (eps_zz; eps_yy of a 2D
+run of discs; from the end of the compaction, compression > 0). Oedometer: K0 and the
+vertical stress against the vertical strain. Each side is
 drawn on its own rows (:attr:`~grainlab.lab.theory_comparison.TheoryComparison.own_curves`:
 the run's records, the model's steps, so that a model that stops before the run's first
 record still shows); the numbers on the common grid are the table's. The run stated in the
@@ -17,16 +18,17 @@ from grainlab.lab.theory_comparison import SIMULATION, TheoryComparison
 from grainlab.report.curves import new_figure_axes
 from grainlab.report.run_curves import run_title
 
-PANELS = {"oedometer": ("K0", "sigma_zz")}
+PANELS = {"oedometer": ("K0", "sigma_v")}
 """Per test kind the y columns drawn against eps_axial; the others draw :data:`SHEAR_PANELS`."""
 SHEAR_PANELS = ("q_over_p", "eps_vol")
 
 LABELS = {
-    "eps_axial": r"$\varepsilon_{zz}$ from the end of compaction (compression > 0) [-]",
+    "eps_axial": r"vertical strain from the compaction's end, $\varepsilon_{zz}$ "
+                 r"(2D: $\varepsilon_{yy}$) [-]",
     "q_over_p": r"$q/p = (\sigma_1 - \sigma_3)/p$ [-]",
     "eps_vol": r"$\varepsilon_{vol}$ (compression > 0) [-]",
-    "K0": r"$K_0 = (\sigma_{xx} + \sigma_{yy}) / (2\sigma_{zz})$ [-]",
-    "sigma_zz": r"$\sigma_{zz}$ [Pa]",
+    "K0": r"$K_0 = \sigma_h / \sigma_v$ [-]",
+    "sigma_v": r"vertical stress $\sigma_{zz}$ ($\sigma_{yy}$ in 2D) [Pa]",
 }
 
 

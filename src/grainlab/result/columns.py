@@ -146,3 +146,19 @@ def unit_of(column: str) -> str:
     """Unit of a standard column, or ``""`` for a column grainlab does not know."""
     entry = COLUMNS.get(column)
     return entry.unit if entry is not None else ""
+
+
+PLANAR_NAMES = {"eps_zz": "eps_yy", "sigma_zz": "sigma_yy", "wall_sigma_zz": "wall_sigma_yy",
+                "gamma_xz": "gamma_xy", "sigma_xz": "sigma_xy"}
+"""The 2D column of a 3D one that a vertical or a shear in the vertical plane names (the
+vertical axis is z in 3D, y in 2D)."""
+
+
+def in_dimension(column: str, columns) -> str:
+    """``column`` as a table of ``columns`` names it: a 3D vertical or shear column becomes
+    its 2D one (:data:`PLANAR_NAMES`) in a 2D table (no ``sigma_zz``).
+
+    >>> in_dimension("eps_zz", ["sigma_xx", "sigma_yy", "eps_yy"])
+    'eps_yy'
+    """
+    return PLANAR_NAMES.get(column, column) if "sigma_zz" not in columns else column
