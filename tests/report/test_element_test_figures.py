@@ -184,3 +184,15 @@ def test_oedometer_stages_figure_draws_k0_and_sigma_zz_by_stage():
     np.testing.assert_allclose(unloading.get_xdata(), [0.2, 0.15, 0.1])
     np.testing.assert_allclose(unloading.get_ydata(), [0.5, 0.75, 0.75])
     np.testing.assert_allclose(ax_s.lines[1].get_ydata(), [60.0, 30.0, 20.0])  # kPa
+
+
+def test_a_discrete_simple_shear_is_drawn_from_zero_strain():
+    """The row the shear starts from (the compaction's last) counts its strains from the
+    initial cell; the shear's from its end: drawn at gamma = 0, not at the compaction's
+    drift."""
+    rows = {"stage": ["compaction", "shear", "shear"], "gamma_xy": [0.09, 0.01, 0.02],
+            "sigma_xx": [1e4, 1e4, 1e4], "sigma_yy": [1e4, 1e4, 1e4],
+            "sigma_xy": [0.0, 2e3, 3e3], "eps_xx": [0.1, 0.0, 0.0], "eps_yy": [0.1, 0.0, 0.0]}
+    result = TestResult.create(pd.DataFrame(rows), specimen={}, load_path={}, dimension=2)
+    figure = simple_shear_figure(result)
+    np.testing.assert_allclose(figure.axes[0].lines[0].get_xdata(), [0.0, 1.0, 2.0])

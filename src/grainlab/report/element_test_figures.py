@@ -474,6 +474,8 @@ def simple_shear_figure(result: TestResult) -> Figure:
     angles = principal_angles(table)[rows]
     part = table[rows]
     gamma = 100.0 * part[f"gamma_{shear}"].to_numpy(dtype=float)
+    if "stage" in part and len(part) and str(part["stage"].iloc[0]) != "shear":
+        gamma[0] = 0.0  # the state the shear starts from: its strains count from there
     figure, axes = new_figure_axes(2, 2, figsize=(10, 8))
     (ax_t, ax_2), (ax_k, ax_a) = axes
     ratio = angles["tau_over_sigma_v"].to_numpy(dtype=float)
