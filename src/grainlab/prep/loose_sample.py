@@ -93,6 +93,11 @@ def random_orientations(n: int, rng: np.random.Generator) -> np.ndarray:
     return q
 
 
+def _overlaps(separation: np.ndarray, contact: float) -> bool:
+    """Whether centres ``separation`` [m] apart are closer than ``contact`` [m]."""
+    return float(separation @ separation) < contact * contact
+
+
 def random_sequential_placement(radii: np.ndarray, side: np.ndarray,
                                 rng: np.random.Generator, max_trials: int = 20000
                                 ) -> np.ndarray:
@@ -117,7 +122,7 @@ def random_sequential_placement(radii: np.ndarray, side: np.ndarray,
             x = lo + rng.random(dimension) * (hi - lo)
             c = np.minimum((x / cell_size).astype(int), shape - 1)
             free = not any(
-                float((centres[other] - x) @ (centres[other] - x)) < (r + radii[other]) ** 2
+                _overlaps(centres[other] - x, r + radii[other])
                 for offset in around for other in grid.get(tuple(int(v) for v in c + offset), ()))
             if free:
                 centres[k] = x
