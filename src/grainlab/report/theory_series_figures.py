@@ -1,0 +1,108 @@
+"""The figures of a theory-vs-simulation series (:mod:`grainlab.lab.theory_series`), in the
+manner of seed 001's Figs. 3.3–3.6: the discrete run solid, each distribution law of the
+model in its own line style, every seed drawn (the first seed bold, the others thin).
+
+* :func:`k0_figure` (Fig. 3.3): K0 = sigma_h / sigma_v against the vertical strain in
+  one-dimensional compression, one colour per phi_mu, one panel per side (the run, then
+  each law), the report's end values marked on the right edge.
+* :func:`biaxial_figure` (Figs. 3.4, 3.5; Fig. 3.6 with several sigma0): the report's
+  q/p = (sigma_v - sigma_h) / (sigma_v + sigma_h) and the volumetric strain against the
+  vertical strain, one colour per side, one figure per k_s/k_n (line width per sigma0 when
+  there are several).
+"""
+
+from __future__ import annotations
+
+import pandas as pd
+from matplotlib.figure import Figure
+
+from grainlab.lab.theory_comparison import SIMULATION
+from grainlab.lab.theory_series import REPORT_K0
+from grainlab.report.curves import new_figure_axes
+
+STYLES = ("--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)))
+"""Line styles of the models, in the order of their laws."""
+
+VERTICAL = r"vertical strain from the compaction's end, $\varepsilon_{yy}$ [-]"
+
+
+def _sides(curves: pd.DataFrame) -> list[str]:
+    sides = list(dict.fromkeys(curves["side"]))
+    return [SIMULATION, *[s for s in sides if s != SIMULATION]] if SIMULATION in sides \
+        else sides
+
+
+def _label(side: str) -> str:
+    return "discrete run (DEM)" if side == SIMULATION else f"model, {side}"
+
+
+def k0_figure(curves: pd.DataFrame) -> Figure:
+    """Fig. 3.3 of the series' oedometer curves (module docstring)."""
+    oedometer = curves[curves["test"] == "oedometer"]
+    sides = _sides(oedometer)
+    figure, axes = new_figure_axes(1, len(sides), figsize=(4.2 * len(sides), 3.8))
+    angles = sorted(set(oedometer["phi_mu"]))
+    first_seed = min(oedometer["seed"])
+    for ax, side in zip(axes, sides, strict=True):
+        for colour, angle in enumerate(angles):
+            rows = oedometer[(oedometer["side"] == side) & (oedometer["phi_mu"] == angle)]
+            for seed in dict.fromkeys(rows["seed"]):
+                part = rows[rows["seed"] == seed]
+                first = seed == first_seed
+                ax.plot(part["eps_axial"], part["K0"], color=f"C{colour}",
+                        ls="-" if side == SIMULATION else STYLES[0],
+                        lw=1.5 if first else 0.6, alpha=1.0 if first else 0.5,
+                        label=f"phi_mu {angle:g} deg" if first else None)
+            report = REPORT_K0[SIMULATION if side == SIMULATION else "model"].get(angle)
+            if report is not None:
+                ax.plot([1.0], [report], transform=ax.get_yaxis_transform(), marker="<",
+                        color=f"C{colour}", ms=8, clip_on=False)
+        ax.set_title(_label(side), fontsize="medium")
+        ax.set_xlabel(VERTICAL)
+        ax.set_ylim(0.0, 1.1)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel(r"$K_0 = \sigma_{xx} / \sigma_{yy}$ [-]  (triangles: the report)")
+    axes[0].legend(fontsize="small")
+    figure.suptitle(f"one-dimensional compression, {len(set(oedometer['seed']))} packing(s) "
+                    "(the first bold)", fontsize="medium")
+    figure.set_layout_engine("tight")
+    return figure
+
+
+def biaxial_figure(curves: pd.DataFrame, stiffness_ratio: float) -> Figure:
+    """Fig. 3.4/3.5 (3.6 with several sigma0) of the series' biaxial curves at one k_s/k_n
+    (module docstring)."""
+    biaxial = curves[(curves["test"] == "biaxial") &
+                     (curves["stiffness_ratio"] == stiffness_ratio)]
+    figure, axes = new_figure_axes(1, 2, figsize=(10.4, 4.0))
+    pressures = sorted(set(biaxial["sigma0"]))
+    first_seed = min(biaxial["seed"])
+    for index, side in enumerate(_sides(biaxial)):
+        colour = "k" if side == SIMULATION else f"C{index - 1}"
+        style = "-" if side == SIMULATION else STYLES[(index - 1) % len(STYLES)]
+        for level, sigma0 in enumerate(pressures):
+            rows = biaxial[(biaxial["side"] == side) & (biaxial["sigma0"] == sigma0)]
+            for seed in dict.fromkeys(rows["seed"]):
+                part = rows[rows["seed"] == seed]
+                first = seed == first_seed
+                width = (1.5 if first else 0.6) * (1.0 + 0.6 * level)
+                label = None
+                if first:
+                    label = _label(side) + (f", sigma0 {sigma0 / 1e3:g} kPa"
+                                            if len(pressures) > 1 else "")
+                axes[0].plot(part["eps_axial"], 0.5 * part["q_over_p"], color=colour,
+                             ls=style, lw=width, alpha=1.0 if first else 0.5, label=label)
+                axes[1].plot(part["eps_axial"], part["eps_vol"], color=colour, ls=style,
+                             lw=width, alpha=1.0 if first else 0.5)
+    axes[0].set_ylabel(r"$q/p = (\sigma_v - \sigma_h) / (\sigma_v + \sigma_h)$ [-]")
+    axes[1].set_ylabel(r"$\varepsilon_{vol}$ (compression > 0) [-]")
+    for ax in axes:
+        ax.set_xlabel(VERTICAL)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize="small")
+    angles = ", ".join(f"{a:g}" for a in sorted(set(biaxial["phi_mu"])))
+    figure.suptitle(f"biaxial compression, k_s/k_n = {stiffness_ratio:g}, phi_mu = {angles} "
+                    f"deg, {len(set(biaxial['seed']))} packing(s) (the first bold)",
+                    fontsize="medium")
+    figure.set_layout_engine("tight")
+    return figure
