@@ -174,8 +174,9 @@ RUN_OPTIONS: tuple[RunOption, ...] = (
     RunOption("kind", ("KIND",), "The lab test: " + ", ".join(TEST_KINDS) + " ("
               + ", ".join(PERIODIC_ONLY) + f" need {SHEARING_BOUNDARY}).", str, ("compare",),
               default=..., argument=True),
-    RunOption("kind", ("KIND",), "The lab test: triaxial, extension or oedometer (the tests "
-              "the micro-element model follows along the vertical strain).", str, (THEORY,),
+    RunOption("kind", ("KIND",), "The lab test: triaxial, extension, oedometer, true_triaxial "
+              "or cubical (the tests the micro-element model follows along the vertical "
+              "strain).", str, (THEORY,),
               default=..., argument=True),
     RunOption("out", ("--out", "-o"), "Run folder (config.toml, results.csv, snapshots.h5, "
               "checkpoint.h5, run.log, figures).", Path, RUN_COMMANDS,
@@ -233,8 +234,9 @@ RUN_OPTIONS: tuple[RunOption, ...] = (
               ("oedometer", *SEVERAL_KINDS), "test.axial_strain"),
     RunOption("unload_strain", ("--unload-strain",), "Vertical strain of unloading [-] (0: "
               "no unloading).", float, ("oedometer", *SEVERAL_KINDS), "test.unload_strain"),
-    RunOption("b", ("--b",), "true_triaxial: b = (sigma_2 - sigma_3) / (sigma_1 - sigma_3), "
-              "held with p = SIGMA0 (z major, x intermediate, y minor).", float, ANY_KIND,
+    RunOption("b", ("--b",), "true_triaxial, cubical: b = (sigma_2 - sigma_3) / (sigma_1 - "
+              "sigma_3), held with p = SIGMA0 (true_triaxial) or sigma_3 = SIGMA0 (cubical); z "
+              "major, x intermediate, y minor.", float, SEVERAL_KINDS,
               "test.b"),
     RunOption("gamma", ("--gamma",), "simple_shear: the shear strain gamma_xz at which the "
               "test ends [-].", float, ANY_KIND, "test.gamma_max"),

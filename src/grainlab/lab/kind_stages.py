@@ -10,6 +10,7 @@ from grainlab.errors import InputError
 from grainlab.lab.load_path import LoadStage, StopCriterion
 from grainlab.lab.presets import (
     circular_octahedral,
+    cubical_constant_sigma3,
     cyclic_shear,
     oedometer,
     triaxial_compression,
@@ -62,6 +63,14 @@ def kind_stages(t: Any, dimension: int = 3) -> tuple[tuple, str, str]:
                               consolidation_steps=0).stages[0]
         return ((until_eps_q(stage, t.eps_q_max),), "true_triaxial",
                 f"true triaxial at p = {t.sigma0:g} Pa and b = {t.b:g} to eps_q = "
+                f"{t.eps_q_max:g}")
+    if t.kind == "cubical":
+        # the driven strain (b eps_xx + eps_zz)/sqrt(1 + b^2) goes beyond eps_q_max
+        stage = cubical_constant_sigma3(confining=t.sigma0, b=t.b, n_steps=1,
+                                        strain=2.0 * t.eps_q_max,
+                                        consolidation_steps=0).stages[0]
+        return ((until_eps_q(stage, t.eps_q_max),), "cubical_constant_sigma3",
+                f"cubical test at sigma_3 = {t.sigma0:g} Pa and b = {t.b:g} to eps_q = "
                 f"{t.eps_q_max:g}")
     if t.kind == "simple_shear":
         stage = LoadStage.from_components(

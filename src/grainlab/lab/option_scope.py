@@ -47,9 +47,9 @@ WALLS_ONLY = ("solver.wall_servo", "solver.wall_mass_factor", "sample.wall_frict
 ``wall_keys``)."""
 
 TEST_TARGETS = {
-    "test.eps_q_max": ("triaxial", "extension", "true_triaxial"),
+    "test.eps_q_max": ("triaxial", "extension", "true_triaxial", "cubical"),
     "test.axial_strain": ("oedometer",), "test.unload_strain": ("oedometer",),
-    "test.b": ("true_triaxial",), "test.gamma_max": ("simple_shear",),
+    "test.b": ("true_triaxial", "cubical"), "test.gamma_max": ("simple_shear",),
     "test.q_ratio": ("circular",), "test.circle_points": ("circular",),
     "test.amplitude": ("cyclic_shear",), "test.n_cycles": ("cyclic_shear",),
 }

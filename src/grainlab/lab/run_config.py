@@ -12,7 +12,8 @@ every key has a default, an unknown key is an error that names it::
                "walls" | "periodic"), height_ratio (the start box's height / width),
                preparation ("loose" | "deposition" | "file"), skeleton_file (for "file")
     [test]     kind (:data:`TEST_KINDS`), sigma0 [Pa], eps_q_max (triaxial, extension,
-               true_triaxial), axial_strain and unload_strain (oedometer), b (true_triaxial),
+               true_triaxial, cubical), axial_strain and unload_strain (oedometer), b (true_triaxial,
+               cubical),
                gamma_max (simple_shear), q_ratio and circle_points (circular),
                amplitude and n_cycles (cyclic_shear)
     [test.quasi_static]   stress_tolerance, unbalanced_force, kinetic_energy: when a
@@ -101,11 +102,11 @@ from grainlab.lab.wall_stages import QuasiStaticCriteria
 from grainlab.prep.loose_sample import SIZE_DISTRIBUTIONS
 from grainlab.prep.sample_shapes import MAX_FACES, sample_shape
 
-TEST_KINDS = ("compaction", "triaxial", "extension", "oedometer", "true_triaxial",
+TEST_KINDS = ("compaction", "triaxial", "extension", "oedometer", "true_triaxial", "cubical",
               "simple_shear", "circular", "cyclic_shear")
 """The lab tests of a discrete run: every one starts with an isotropic compaction to sigma0
 (:meth:`RunConfig.load_path`)."""
-PERIODIC_ONLY = ("true_triaxial", "simple_shear", "circular", "cyclic_shear")
+PERIODIC_ONLY = ("true_triaxial", "cubical", "simple_shear", "circular", "cyclic_shear")
 """Tests that shear or control every principal stress: a periodic cell runs them, a box of
 walls (which moves only along its axes, one stress per axis) cannot (the boundaries that run
 them: :func:`~grainlab.lab.boundary_registry.shearing_names`)."""
@@ -248,14 +249,15 @@ class TestConfig(ConfigSection):
     """The lab test: isotropic compaction to sigma0, then (triaxial) compression at constant
     lateral stress sigma0 to eps_q_max, (extension) the same with the axial strain reversed,
     (oedometer) 1-D compression by axial_strain and optional unloading by unload_strain,
-    (true_triaxial) constant p = sigma0 and constant b to eps_q_max, (simple_shear) gamma_xz
+    (true_triaxial) constant p = sigma0 and constant b to eps_q_max, (cubical) constant
+    sigma_3 = sigma0 and constant b to eps_q_max (Lade & Duncan's cubical test), (simple_shear) gamma_xz
     to gamma_max with sigma_zz held at sigma0 and eps_xx = eps_yy = 0, (circular) a full
     turn on the octahedral plane at p = sigma0 and q = q_ratio sigma0 (circle_points
     targets), (cyclic_shear) n_cycles of gamma_xz between +-amplitude with sigma_zz held."""
 
     __test__ = False
 
-    kind: Literal["compaction", "triaxial", "extension", "oedometer", "true_triaxial",
+    kind: Literal["compaction", "triaxial", "extension", "oedometer", "true_triaxial", "cubical",
                   "simple_shear", "circular", "cyclic_shear"] = "triaxial"
     sigma0: StrictFloat = Field(1e4, gt=0)
     eps_q_max: StrictFloat = Field(0.5, gt=0, le=2.0)

@@ -61,7 +61,7 @@ def loading_strain(test: Any) -> float:
     """The strain [-] the loading stages of the ``[test]`` table travel (0 for a compaction
     and for the stress-driven circular path)."""
     travel = {"triaxial": test.eps_q_max, "extension": test.eps_q_max,
-              "true_triaxial": 2.0 * test.eps_q_max,
+              "true_triaxial": 2.0 * test.eps_q_max, "cubical": 2.0 * test.eps_q_max,
               "oedometer": test.axial_strain + test.unload_strain,
               "simple_shear": test.gamma_max,
               "cyclic_shear": 4.0 * test.amplitude * test.n_cycles}

@@ -12,7 +12,9 @@ vertical strain (eps_zz; eps_yy of a 2D run of discs) counted from the end of th
 (compression > 0); ``eps_q`` (eps_1 - eps_3); ``q_over_p`` = (sigma_1 - sigma_3) / p,
 p = trace/3 (2D: trace/2); ``eps_vol`` (trace of the strain, compression > 0); ``K0`` =
 (sigma_xx + sigma_yy) / (2 sigma_zz) (2D: sigma_xx / sigma_yy); ``sigma_v`` the vertical
-stress (sigma_zz; 2D: sigma_yy). Each stage is
+stress (sigma_zz; 2D: sigma_yy); ``phi_mob`` the mobilised friction angle
+asin((sigma_1 - sigma_3) / (sigma_1 + sigma_3)) [deg], which compares tests of any b (the
+cubical paths). Each stage is
 on the simulation's grid: the vertical strains of the run's rows in that stage, inside the
 range the model reached in it, the model's values interpolated linearly in eps_axial (the
 vertical strain is monotonic within a stage of the tests compared: :data:`THEORY_KINDS`).
@@ -50,16 +52,18 @@ from grainlab.lab.run_micro_element import (
 from grainlab.lab.solver_comparison import read_run_result, run_config
 from grainlab.result.test_result import TestResult
 
-THEORY_KINDS = ("triaxial", "extension", "oedometer")
+THEORY_KINDS = ("triaxial", "extension", "oedometer", "true_triaxial", "cubical")
 """The lab tests the model follows after a run: those driven along the vertical strain
-(a monotonic eps_zz per stage, lateral stress or lateral strain held)."""
+(a monotonic eps_zz per stage: lateral stress or lateral strain held; the cubical tests at
+constant p or constant sigma_3, z major)."""
 
 SIMULATION = "simulation"
 """The ``side`` of the run's rows (a model's side is its distribution law)."""
 
 CURVE_COLUMNS = ("side", "stage", "eps_axial", "eps_q", "q_over_p", "eps_vol", "K0",
-                 "sigma_v", "p")
-"""The columns of :attr:`TheoryComparison.curves` (module docstring; sigma_v and p in Pa)."""
+                 "sigma_v", "p", "phi_mob")
+"""The columns of :attr:`TheoryComparison.curves` (module docstring; sigma_v and p in Pa,
+phi_mob in degrees)."""
 
 DILATANCY_SHARE = 0.3
 """The dilatancy rate is fitted over the last 30 % of the common strain range."""
@@ -91,12 +95,13 @@ def _curves(table: pd.DataFrame, side: str) -> pd.DataFrame:
         k0 = lateral / sigma_v
         p = table["p"].to_numpy(dtype=float)
         ratio = table["q"].to_numpy(dtype=float) / p
+    phi = np.degrees(np.arcsin(np.clip(table["sin_phi"].to_numpy(dtype=float), -1.0, 1.0)))
     return pd.DataFrame({
         "side": side, "stage": table["stage"].astype(str).to_numpy(),
         "eps_axial": table[f"eps_{vertical}"].to_numpy(dtype=float),
         "eps_q": table["eps_q"].to_numpy(dtype=float), "q_over_p": ratio,
         "eps_vol": table["eps_vol"].to_numpy(dtype=float), "K0": k0, "sigma_v": sigma_v,
-        "p": p})
+        "p": p, "phi_mob": phi})
 
 
 def simulation_curves(result: TestResult) -> pd.DataFrame:
@@ -280,6 +285,8 @@ def _measures(kind: str, curves: pd.DataFrame) -> list[tuple[str, str, float]]:
     return [
         *out,
         ("peak_q_over_p", "peak q/p", float(np.nanmax(loading["q_over_p"]))),
+        ("peak_phi", "peak mobilised angle asin((s1 - s3)/(s1 + s3)) [deg]",
+         float(np.nanmax(loading["phi_mob"]))),
         ("end_eps_axial", "largest vertical |strain| both reached", float(end["eps_axial"])),
         ("end_q_over_p", "q/p at the largest vertical |strain| both reached",
          float(end["q_over_p"])),
@@ -297,7 +304,9 @@ def _whole_path(curves: pd.DataFrame) -> list[tuple[str, str, float]]:
     return [("reached_eps_axial", "vertical strain at the end of its own path (each side)",
              float(loading["eps_axial"].iloc[-1])),
             ("own_peak_q_over_p", "peak q/p over its own path (each side)",
-             float(np.nanmax(loading["q_over_p"])))]
+             float(np.nanmax(loading["q_over_p"]))),
+            ("own_peak_phi", "peak mobilised angle over its own path (each side) [deg]",
+             float(np.nanmax(loading["phi_mob"])))]
 
 
 def _differences(kind: str, pairs: dict[str, tuple[pd.DataFrame, pd.DataFrame]],

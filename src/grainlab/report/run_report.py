@@ -85,6 +85,7 @@ MICRO_DESCRIPTORS = (
 
 TARGETS = {
     "triaxial": ("eps_q_max",), "extension": ("eps_q_max",), "true_triaxial": ("eps_q_max", "b"),
+    "cubical": ("eps_q_max", "b"),
     "oedometer": ("axial_strain", "unload_strain"), "simple_shear": ("gamma_max",),
     "circular": ("q_ratio", "circle_points"), "cyclic_shear": ("amplitude", "n_cycles"),
 }

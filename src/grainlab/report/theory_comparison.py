@@ -1,7 +1,9 @@
 """The overlay of a discrete run and the micro-element models of its packing
 (``theory.png``): the simulation in black, one colour per distribution law, on the same axes.
 
-Triaxial and extension: q/p and eps_vol against the vertical strain (eps_zz; eps_yy of a 2D
+Triaxial and extension: q/p and eps_vol against the vertical strain; the cubical tests
+(true_triaxial at constant p, cubical at constant sigma_3, any b): the mobilised angle and
+eps_vol (eps_zz; eps_yy of a 2D
 run of discs; from the end of the compaction, compression > 0). Oedometer: K0 and the
 vertical stress against the vertical strain. Each side is
 drawn on its own rows (:attr:`~grainlab.lab.theory_comparison.TheoryComparison.own_curves`:
@@ -18,7 +20,8 @@ from grainlab.lab.theory_comparison import SIMULATION, TheoryComparison
 from grainlab.report.curves import new_figure_axes
 from grainlab.report.run_curves import run_title
 
-PANELS = {"oedometer": ("K0", "sigma_v")}
+PANELS = {"oedometer": ("K0", "sigma_v"), "true_triaxial": ("phi_mob", "eps_vol"),
+          "cubical": ("phi_mob", "eps_vol")}
 """Per test kind the y columns drawn against eps_axial; the others draw :data:`SHEAR_PANELS`."""
 SHEAR_PANELS = ("q_over_p", "eps_vol")
 
@@ -26,6 +29,8 @@ LABELS = {
     "eps_axial": r"vertical strain from the compaction's end, $\varepsilon_{zz}$ "
                  r"(2D: $\varepsilon_{yy}$) [-]",
     "q_over_p": r"$q/p = (\sigma_1 - \sigma_3)/p$ [-]",
+    "phi_mob": r"mobilised angle $\arcsin((\sigma_1 - \sigma_3)/(\sigma_1 + \sigma_3))$ "
+               r"[deg]",
     "eps_vol": r"$\varepsilon_{vol}$ (compression > 0) [-]",
     "K0": r"$K_0 = \sigma_h / \sigma_v$ [-]",
     "sigma_v": r"vertical stress $\sigma_{zz}$ ($\sigma_{yy}$ in 2D) [Pa]",
