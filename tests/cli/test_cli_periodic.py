@@ -35,6 +35,7 @@ def test_simple_shear_in_a_periodic_cell(tmp_path):
 @pytest.mark.parametrize(("arguments", "words"), [
     (["test", "simple_shear"], "sample.boundary"),
     (["test", "circular", "--boundary", "walls"], "cannot shear"),
+    (["test", "cubical", "--boundary", "walls", "--b", "0.5"], "cannot shear"),
     (["test", "oedometer", "--boundary", "periodic"], "deformable contacts"),
     (["oedometer", "--boundary", "periodic"], "deformable contacts"),
     (["test", "torsion"], "KIND"),

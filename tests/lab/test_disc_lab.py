@@ -72,7 +72,7 @@ def test_a_1d_compression_of_discs_reports_k0_as_the_lateral_over_the_vertical_s
     assert figure.axes[1].get_ylabel() == "sigma_yy [kPa]"
 
 
-@pytest.mark.parametrize("kind", ["true_triaxial", "circular", "cyclic_shear"])
+@pytest.mark.parametrize("kind", ["true_triaxial", "cubical", "circular", "cyclic_shear"])
 def test_test_kinds_of_three_axes_are_refused_with_discs(kind):
     with pytest.raises(InputError) as error:
         disc_config(kind, boundary="periodic").load_path()

@@ -24,6 +24,7 @@ from grainlab.lab.run_micro_element import (
 )
 from grainlab.lab.solver_comparison import read_run_result
 from grainlab.lab.theory_comparison import (
+    CURVE_COLUMNS,
     SIMULATION,
     TheoryComparison,
     _dilatancy,
@@ -138,7 +139,8 @@ def _curves(side, stages, eps, q_over_p, eps_vol):
     n = len(eps)
     return pd.DataFrame({"side": side, "stage": stages, "eps_axial": eps, "eps_q": eps,
                          "q_over_p": q_over_p, "eps_vol": eps_vol, "K0": np.ones(n),
-                         "sigma_v": np.ones(n), "p": np.ones(n)})
+                         "sigma_v": np.ones(n), "p": np.ones(n),
+                         "phi_mob": np.degrees(np.arcsin(np.clip(q_over_p, 0.0, 1.0)))})
 
 
 def test_a_model_on_the_runs_grid_is_interpolated_linearly_and_cut_where_it_stopped():
@@ -160,6 +162,7 @@ def test_a_model_on_the_runs_grid_is_interpolated_linearly_and_cut_where_it_stop
     np.testing.assert_allclose(mod["q_over_p"], 2 * sim_eps[:5] + 0.1, rtol=1e-12)
     np.testing.assert_allclose(mod["eps_vol"], -0.5 * sim_eps[:5], rtol=1e-12)
     assert list(mod["stage"]) == stages[:5]
+    assert list(table.columns) == list(CURVE_COLUMNS)  # every column kept, phi_mob too
     assert len(sim) == len(mod)
 
 
@@ -237,3 +240,48 @@ def test_a_run_of_discs_and_its_2d_model_start_from_the_same_stress(tmp_path):
     curves = pd.read_csv(out / "theory.csv")
     assert {"sigma_v", "K0", "q_over_p"} <= set(curves.columns)
     assert set(curves["side"]) == {SIMULATION, "homogeneous"}
+
+
+CUBICAL = ["theory-vs-sim", "cubical", "--boundary", "periodic", "-n", "150", "--size-ratio",
+           "1.5", "--b", "0.5", "--eps-q", "0.02", "--sigma0", "1e5", "--mu", "0.4",
+           "--inertia", "0.01", "--record-every", "2", "--seed", "1", "--distribution",
+           "homogeneous", "--model-steps", "60", "--no-progress"]
+"""150 rigid spheres in a periodic cell, the cubical test at sigma_3 = sigma0 and b = 0.5."""
+
+
+@pytest.mark.long
+def test_the_cubical_test_and_its_model_hold_sigma_3_and_b(tmp_path):
+    """The cubical test at constant sigma_3 (Lade & Duncan's, the report's path): the run and
+    the model of its packing start from the same stress, both hold sigma_yy = sigma0 and b
+    while sigma_zz grows, and the mobilised angle is asin((s1 - s3)/(s1 + s3)) of each
+    side's own stresses."""
+    out = tmp_path / "cubical"
+    done = runner.invoke(app, [*CUBICAL, "--out", str(out)])
+    assert done.exit_code == 0, done.output
+    run = read_run_result(out / "run").table
+    model = pd.read_csv(out / "model-homogeneous.csv")
+    # the model's steps whose stress targets the driver met (its 'converged' column); the
+    # homogeneous model loses the lateral stress once its stiff contacts near z carry it
+    held = model.iloc[1:][model["converged"].iloc[1:].astype(bool)]
+    assert len(held) >= 5
+    # the run's cell within 10 % of sigma0 (150 grains at I = 1e-2); the model's driver
+    # within its tolerance, relative to |sigma| (mostly sigma_zz)
+    for table, tolerance, relative in ((run[run["stage"] == "shear"], 0.1, False),
+                                       (held, 1e-3, True)):
+        late = table.iloc[len(table) // 2:]
+        scale = late["sigma_zz"] if relative else 1e5
+        assert (np.abs(late["sigma_yy"] - 1e5) <= tolerance * scale).all()
+        b = (late["sigma_xx"] - late["sigma_yy"]) / (late["sigma_zz"] - late["sigma_yy"])
+        assert b.mean() == pytest.approx(0.5, abs=tolerance)
+        assert (late["sigma_zz"] > late["sigma_xx"]).all()
+    curves = pd.read_csv(out / "theory.csv")
+    sim = curves[curves["side"] == SIMULATION]
+    shear = run[run["stage"] == "shear"]
+    expected = np.degrees(np.arcsin((shear["sigma_1"] - shear["sigma_3"])
+                                    / (shear["sigma_1"] + shear["sigma_3"])))
+    np.testing.assert_allclose(np.sort(sim["phi_mob"].iloc[1:].to_numpy())[-1],
+                               expected.max(), rtol=1e-9)
+    start = curves[curves["stage"] == "initial"]
+    assert start["p"].iloc[1] == pytest.approx(start["p"].iloc[0], rel=1e-6)
+    differences = pd.read_csv(out / "theory-differences.csv").set_index("quantity")
+    assert differences.loc["peak_phi", "model"] > 0.0
