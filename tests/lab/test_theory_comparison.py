@@ -23,9 +23,11 @@ from grainlab.lab.run_micro_element import (
     run_micro_element_model,
 )
 from grainlab.lab.solver_comparison import read_run_result
+from grainlab.result.test_result import TestResult
 from grainlab.lab.theory_comparison import (
     CURVE_COLUMNS,
     SIMULATION,
+    model_curves,
     TheoryComparison,
     _dilatancy,
     check_theory_kind,
@@ -164,6 +166,33 @@ def test_a_model_on_the_runs_grid_is_interpolated_linearly_and_cut_where_it_stop
     assert list(mod["stage"]) == stages[:5]
     assert list(table.columns) == list(CURVE_COLUMNS)  # every column kept, phi_mob too
     assert len(sim) == len(mod)
+
+
+def _element_table(converged: list[bool], eps_xx_last: float) -> pd.DataFrame:
+    n = len(converged)
+    eps_yy = np.linspace(0.0, 0.001 * (n - 1), n)
+    eps_xx = -0.5 * eps_yy
+    eps_xx[-1] = eps_xx_last
+    sigma_yy = 1e5 * (1.0 + 10.0 * eps_yy)
+    return pd.DataFrame({
+        "stage": ["initial"] + ["shear"] * (n - 1), "sigma_xx": 1e5, "sigma_yy": sigma_yy,
+        "eps_xx": eps_xx, "eps_yy": eps_yy, "eps_vol": eps_xx + eps_yy,
+        "eps_q": eps_yy - eps_xx, "p": 0.5 * (1e5 + sigma_yy), "q": sigma_yy - 1e5,
+        "sin_phi": (sigma_yy - 1e5) / (sigma_yy + 1e5), "converged": converged})
+
+
+@pytest.mark.parametrize(("status", "converged", "kept"), [
+    ("failure", [True, True, True, False], 3),   # the failed step's row: not a state reached
+    ("failure", [True, True, True, True], 4),    # a step that failed after converging: kept
+    ("completed", [True, True, False, False], 4),  # unconverged but carried on: kept
+])
+def test_the_row_of_the_step_that_failed_is_not_a_state_of_the_model(status, converged, kept):
+    table = _element_table(converged, eps_xx_last=-16.6)
+    test = TestResult.create(table, specimen={"kind": "micro_element"},
+                             load_path={"name": "biaxial"}, outcome={"status": status})
+    curves = model_curves(test, "homogeneous")
+    assert len(curves) == kept
+    assert (curves["eps_vol"] > -1.0).all() == (kept == 3)
 
 
 def test_the_dilatancy_rate_is_the_slope_over_the_last_part_of_the_strain():

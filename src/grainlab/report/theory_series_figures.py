@@ -74,7 +74,7 @@ def biaxial_figure(curves: pd.DataFrame, stiffness_ratio: float) -> Figure:
     (module docstring)."""
     biaxial = curves[(curves["test"] == "biaxial") &
                      (curves["stiffness_ratio"] == stiffness_ratio)]
-    figure, axes = new_figure_axes(1, 2, figsize=(10.4, 4.0))
+    figure, axes = new_figure_axes(1, 2, figsize=(13.5, 4.2))
     pressures = sorted(set(biaxial["sigma0"]))
     first_seed = min(biaxial["seed"])
     for index, side in enumerate(_sides(biaxial)):
@@ -99,7 +99,9 @@ def biaxial_figure(curves: pd.DataFrame, stiffness_ratio: float) -> Figure:
     for ax in axes:
         ax.set_xlabel(VERTICAL)
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize="small")
+    # the legend beside the axes: with several sigma0 it would hide the curves
+    axes[1].legend(*axes[0].get_legend_handles_labels(), fontsize="x-small",
+                   loc="upper left", bbox_to_anchor=(1.02, 1.0))
     angles = ", ".join(f"{a:g}" for a in sorted(set(biaxial["phi_mu"])))
     figure.suptitle(f"biaxial compression, k_s/k_n = {stiffness_ratio:g}, phi_mu = {angles} "
                     f"deg, {len(set(biaxial['seed']))} packing(s) (the first bold)",
