@@ -119,7 +119,8 @@ def test_the_command_writes_its_table_and_figures(tmp_path):
                                  "--seed", "2", "--stiffness-ratio", "1", "--eps-q", "0.01",
                                  "--distribution", "homogeneous", "--model-steps", "30"])
     assert result.exit_code == 0, result.output
-    for name in ("series.csv", "series-summary.csv", "series-curves.csv", "biaxial-ks1.png"):
+    for name in ("series.csv", "series-summary.csv", "series-curves.csv", "biaxial-ks1.png",
+                 "packing.png"):
         assert (out / name).stat().st_size > 0
     table = pd.read_csv(out / "series.csv")
     assert set(table["side"]) == {SIMULATION, "homogeneous"}

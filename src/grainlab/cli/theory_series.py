@@ -106,7 +106,8 @@ def theory_series_command(
     volumetric strain, Figs. 3.4-3.5; several --sigma0 and -n 250 for Fig. 3.6), each on
     every --seed. Writes OUT/CASE/ (each run and its models, as `grainlab theory-vs-sim`),
     OUT/series.csv (every case and side), OUT/series-summary.csv (mean, min, max over the
-    seeds), OUT/series-curves.csv, OUT/k0.png and OUT/biaxial-ksR.png. Run again, it reuses
+    seeds), OUT/series-curves.csv, OUT/packing.png (the first packing, Fig. 3.1), OUT/k0.png and
+    OUT/biaxial-ksR.png. Run again, it reuses
     the runs that ended."""
     from grainlab.lab.run_outcome import EXIT_NOT_AS_ASKED
     from grainlab.lab.theory_series import SeriesPlan, run_series
@@ -142,7 +143,7 @@ def theory_series_command(
     outcome.table.to_csv(out / "series.csv", index=False)
     summary.to_csv(out / "series-summary.csv", index=False)
     outcome.curves.to_csv(out / "series-curves.csv", index=False)
-    figures = []
+    figures = [_packing(plan, out, save_figure)]
     if "oedometer" in set(outcome.curves["test"]):
         figures.append(save_figure(k0_figure(outcome.curves), out / "k0.png", dpi=120))
     biaxial = outcome.curves[outcome.curves["test"] == "biaxial"]
@@ -160,3 +161,15 @@ def theory_series_command(
         console.print(f"figure: {path}")
     if any("blew up" in line or "not as asked" in line for line in outcome.problems):
         raise typer.Exit(code=EXIT_NOT_AS_ASKED)
+
+
+def _packing(plan, out: Path, save_figure) -> Path:
+    """OUT/packing.png: the first case's packing at the end of its compaction (Fig. 3.1)."""
+    from grainlab.lab.run_micro_element import compaction_snapshot
+    from grainlab.report.theory_series_figures import packing_figure
+
+    case = plan.cases[0]
+    network = compaction_snapshot(out / case.folder_name / "snapshots.h5")
+    title = (f"seed {case.seed} at the end of its compaction to {case.sigma0 / 1e3:g} kPa: "
+             f"{len(network.positions)} discs, {len(network.pair_particles)} contacts")
+    return save_figure(packing_figure(network, title), out / "packing.png", dpi=120)

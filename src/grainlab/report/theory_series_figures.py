@@ -5,6 +5,9 @@ model in its own line style, every seed drawn (the first seed bold, the others t
 * :func:`k0_figure` (Fig. 3.3): K0 = sigma_h / sigma_v against the vertical strain in
   one-dimensional compression, one colour per phi_mu, one panel per side (the run, then
   each law), the report's end values marked on the right edge.
+* :func:`packing_figure` (Fig. 3.1): a packing at the end of its compaction, the state
+  both sides start from: the discs, and a line along each contact's branch vector whose
+  width is proportional to the pair's normal force.
 * :func:`biaxial_figure` (Figs. 3.4, 3.5; Fig. 3.6 with several sigma0): the report's
   q/p = (sigma_v - sigma_h) / (sigma_v + sigma_h) and the volumetric strain against the
   vertical strain, one colour per side, one figure per k_s/k_n (line width per sigma0 when
@@ -13,8 +16,11 @@ model in its own line style, every seed drawn (the first seed bold, the others t
 
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
+from matplotlib.collections import LineCollection, PatchCollection
 from matplotlib.figure import Figure
+from matplotlib.patches import Circle
 
 from grainlab.lab.theory_comparison import SIMULATION
 from grainlab.lab.theory_series import REPORT_K0
@@ -107,4 +113,33 @@ def biaxial_figure(curves: pd.DataFrame, stiffness_ratio: float) -> Figure:
                     f"deg, {len(set(biaxial['seed']))} packing(s) (the first bold)",
                     fontsize="medium")
     figure.set_layout_engine("tight")
+    return figure
+
+
+def packing_figure(network, title: str = "") -> Figure:
+    """Fig. 3.1 of a 2D contact network (module docstring): discs of radius sqrt(area / pi)
+    at their centres, force lines of width proportional to the normal force (capped at four
+    times the mean)."""
+    positions = np.asarray(network.positions)[:, :2]
+    radii = np.sqrt(np.asarray(network.volumes) / np.pi)
+    branches = np.asarray(network.pair_branches)[:, :2]
+    forces = np.asarray(network.pair_forces)[:, :2]
+    lengths = np.linalg.norm(branches, axis=1)
+    normal = np.abs(np.einsum("pi,pi->p", forces, branches)) / np.where(lengths > 0, lengths,
+                                                                         1.0)
+    start = positions[np.asarray(network.pair_particles)[:, 0]]
+    mean = max(float(normal.mean()) if len(normal) else 0.0, 1e-300)
+    figure, ax = new_figure_axes(figsize=(5.5, 5.5))
+    ax.add_collection(PatchCollection([Circle(c, r) for c, r in zip(positions, radii,
+                                                                    strict=True)],
+                                      facecolor="0.85", edgecolor="0.4", lw=0.6))
+    ax.add_collection(LineCollection(np.stack([start, start + branches], axis=1),
+                                     linewidths=np.clip(2.0 * normal / mean, 0.2, 8.0),
+                                     colors="tab:red"))
+    ax.autoscale()
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(title or f"{len(positions)} discs, {len(normal)} contacts (line width: "
+                 "normal force)", fontsize="medium")
     return figure
