@@ -13,7 +13,8 @@ compaction with its forces (periodic images kept) and the springs the soft DEM w
 the run (k_n = 1e4 sigma0 <d>, k_s = k_n / 2), and the run's own path. A model's angle is its
 peak where it reached its strength (``failed``), else the largest it reached
 (``hardening`` to the end of the path, or ``stopped`` where the driver could no longer hold
-the stresses).
+the stresses); none where it ``failed at the start`` (no strength state from the packing's
+own: the self-consistent law on these packings).
 
 Writes OUT/b_sweep.csv (path, b, side, peak angle, how each side ended) and
 OUT/b_sweep.png, and prints the table beside the report's cubical strengths (41 deg at
@@ -70,8 +71,11 @@ def case_rows(path: str, b: float, folder: Path, args) -> list[dict]:
         own = comparison.own_curves.query("side == @law")
         ended = "hardening" if outcome.get("status") == "completed" else (
             "failed" if "strength" in str(outcome.get("reason", "")) else "stopped")
-        rows.append({"path": path, "b": b, "side": law,
-                     "peak_phi": float(own["phi_mob"].max()), "ended": ended})
+        if len(own) < 2:  # no step taken: the law has no strength state at the start
+            ended = "failed at the start"
+        rows.append({"path": path, "b": b, "side": law, "ended": ended,
+                     "peak_phi": float(own["phi_mob"].max()) if len(own) > 1 else
+                     float("nan")})
     rows += [{"path": path, "b": b, "side": law, "peak_phi": float("nan"),
               "ended": "could not start"} for law in comparison.failures]
     return rows
@@ -80,8 +84,9 @@ def case_rows(path: str, b: float, folder: Path, args) -> list[dict]:
 def figure(table: pd.DataFrame, out: Path) -> Path:
     """Peak angle against b, the run black, a colour per law, solid at constant sigma_3 and
     dashed at constant p; hollow markers where the model did not fail."""
-    fig, ax = new_figure_axes(1, 1, figsize=(7.0, 4.8))
-    sides = list(dict.fromkeys(table["side"]))
+    fig, ax = new_figure_axes(1, 1, figsize=(10.0, 4.8))
+    sides = [side for side in dict.fromkeys(table["side"])
+             if table.loc[table["side"] == side, "peak_phi"].notna().any()]
     for index, side in enumerate(sides):
         colour = "k" if side == SIMULATION else f"C{index - 1}"
         for path in dict.fromkeys(table["path"]):
@@ -90,7 +95,7 @@ def figure(table: pd.DataFrame, out: Path) -> Path:
                     ls="-" if path == "cubical" else "--", lw=1.3,
                     label=f"{'discrete run' if side == SIMULATION else side}, "
                           f"{PATH_WORDS[path]}")
-            failed = rows["ended"].isin(["failed", "as asked"])
+            failed = rows["ended"].isin(["failed", "as asked"]).to_numpy()
             ax.plot(rows["b"][failed], rows["peak_phi"][failed], "o", color=colour, ms=5)
             ax.plot(rows["b"][~failed], rows["peak_phi"][~failed], "o", color=colour, ms=5,
                     mfc="none")
@@ -99,7 +104,8 @@ def figure(table: pd.DataFrame, out: Path) -> Path:
     ax.set_xlabel("b = (sigma_2 - sigma_3) / (sigma_1 - sigma_3) [-]")
     ax.set_ylabel("peak mobilised angle [deg]")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize="x-small", ncols=2)
+    ax.legend(fontsize="x-small", loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    fig.set_layout_engine("tight")
     return save_figure(fig, out / "b_sweep.png", dpi=120)
 
 
@@ -115,7 +121,7 @@ def main() -> None:
     parser.add_argument("--mu", type=float, default=0.4)
     parser.add_argument("--sigma0", type=float, default=1e5)
     parser.add_argument("--inertia", type=float, default=0.01)
-    parser.add_argument("--model-steps", type=int, default=200)
+    parser.add_argument("--model-steps", type=int, default=1000)
     parser.add_argument("--seed", type=int, default=1)
     args = parser.parse_args()
     rows, start = [], time.perf_counter()
