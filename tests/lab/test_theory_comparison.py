@@ -168,6 +168,22 @@ def test_a_model_on_the_runs_grid_is_interpolated_linearly_and_cut_where_it_stop
     assert len(sim) == len(mod)
 
 
+def test_a_run_that_ends_its_stage_a_hair_beyond_the_target_keeps_its_next_stage():
+    """The run's cell reaches a stage's strain target within its integration (1e-8 of it in
+    a DEM oedometer), the model to round-off: the run's last loading row is on the common
+    grid (the model's end value there) and the unloading that follows is compared too."""
+    sim_eps = np.array([0.0, 0.005, 0.01 * (1.0 + 1e-8), 0.006, 0.002])
+    stages = ["initial", "loading", "loading", "unloading", "unloading"]
+    simulation = _curves(SIMULATION, stages, sim_eps, np.zeros(5), np.zeros(5))
+    eps = np.concatenate([np.linspace(0.0, 0.01, 21), np.linspace(0.01, 0.002, 17)[1:]])
+    model = _curves("m", ["initial"] + ["loading"] * 20 + ["unloading"] * 16, eps,
+                    2 * eps + 0.1, -0.5 * eps)
+    table = on_simulation_grid(simulation, model)
+    mod = table[table["side"] == "m"]
+    assert list(mod["stage"]) == stages
+    np.testing.assert_allclose(mod["q_over_p"], 2 * sim_eps + 0.1, rtol=1e-7)
+
+
 def _element_table(converged: list[bool], eps_xx_last: float) -> pd.DataFrame:
     n = len(converged)
     eps_yy = np.linspace(0.0, 0.001 * (n - 1), n)

@@ -70,9 +70,12 @@ DILATANCY_SHARE = 0.3
 
 INITIAL = "initial"
 
-GRID_SLACK = 1e-9
+GRID_SLACK = 1e-6
 """A run's row counts as inside the model's strain range within this fraction of the largest
-strain (a stage's end strain, reached by both, differs by round-off) [-]."""
+strain [-]: a stage's end strain, reached by both, differs by the run's integration of its
+cell's strain rate (1e-8 of it in a DEM oedometer, where 1e-9 dropped the run's last
+loading row and with it the whole unloading); beyond the model's range its value is its
+end value (np.interp), off by the slope times this slack at most."""
 
 
 def check_theory_kind(kind: str, field: str = "KIND") -> str:
