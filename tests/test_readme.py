@@ -30,6 +30,9 @@ SMALLER = (
     (re.compile(r'"n_particles": \d+'), '"n_particles": 24'),
     (re.compile(r'"eps_q_max": [0-9.]+'), '"eps_q_max": 0.02'),
     (re.compile(r"--only S1,S8"), "--only S1"),  # the spheres of the angularity series
+    (re.compile(r"grainlab theory-b-sweep"),  # one case of the 3D sweep, one law
+     "grainlab theory-b-sweep -n 150 --path cubical --b 0.5 --eps-q 0.02 --distribution "
+     "homogeneous --model-steps 20"),
     (re.compile(r"grainlab theory-series"),  # one case of seed 001's chapter 3 series
      "grainlab theory-series --seed 1 --test oedometer --phi-mu 25 --axial-strain 0.002 "
      "--distribution homogeneous --model-steps 20"),

@@ -287,11 +287,11 @@ def test_a_run_of_discs_and_its_2d_model_start_from_the_same_stress(tmp_path):
     assert set(curves["side"]) == {SIMULATION, "homogeneous"}
 
 
-CUBICAL = ["theory-vs-sim", "cubical", "--boundary", "periodic", "-n", "150", "--size-ratio",
-           "1.5", "--b", "0.5", "--eps-q", "0.02", "--sigma0", "1e5", "--mu", "0.4",
-           "--inertia", "0.01", "--record-every", "2", "--seed", "1", "--distribution",
-           "homogeneous", "--model-steps", "60", "--no-progress"]
-"""150 rigid spheres in a periodic cell, the cubical test at sigma_3 = sigma0 and b = 0.5."""
+CUBICAL = ["theory-b-sweep", "--path", "cubical", "--b", "0.5", "-n", "150", "--size-ratio",
+           "1.5", "--eps-q", "0.02", "--sigma0", "1e5", "--mu", "0.4", "--inertia", "0.01",
+           "--seed", "1", "--distribution", "homogeneous", "--model-steps", "60"]
+"""150 rigid spheres in a periodic cell, the cubical test at sigma_3 = sigma0 and b = 0.5,
+through ``grainlab theory-b-sweep`` (one case of the sweep)."""
 
 
 @pytest.mark.long
@@ -299,12 +299,16 @@ def test_the_cubical_test_and_its_model_hold_sigma_3_and_b(tmp_path):
     """The cubical test at constant sigma_3 (Lade & Duncan's, the report's path): the run and
     the model of its packing start from the same stress, both hold sigma_yy = sigma0 and b
     while sigma_zz grows, and the mobilised angle is asin((s1 - s3)/(s1 + s3)) of each
-    side's own stresses."""
-    out = tmp_path / "cubical"
+    side's own stresses, as the sweep's table says."""
+    out = tmp_path / "sweep"
     done = runner.invoke(app, [*CUBICAL, "--out", str(out)])
     assert done.exit_code == 0, done.output
-    run = read_run_result(out / "run").table
-    model = pd.read_csv(out / "model-homogeneous.csv")
+    assert (out / "b_sweep.png").stat().st_size > 0
+    sweep = pd.read_csv(out / "b_sweep.csv").set_index("side")
+    assert sweep.loc[SIMULATION, "ended"] == "as asked"
+    run = read_run_result(out / "cubical-b0.5").table
+    comparison = TheoryComparison(["homogeneous"], 60).compute(out / "cubical-b0.5")
+    model = comparison.models["homogeneous"].table
     # the model's steps whose stress targets the driver met (its 'converged' column); the
     # homogeneous model loses the lateral stress once its stiff contacts near z carry it
     held = model.iloc[1:][model["converged"].iloc[1:].astype(bool)]
@@ -319,14 +323,12 @@ def test_the_cubical_test_and_its_model_hold_sigma_3_and_b(tmp_path):
         b = (late["sigma_xx"] - late["sigma_yy"]) / (late["sigma_zz"] - late["sigma_yy"])
         assert b.mean() == pytest.approx(0.5, abs=tolerance)
         assert (late["sigma_zz"] > late["sigma_xx"]).all()
-    curves = pd.read_csv(out / "theory.csv")
-    sim = curves[curves["side"] == SIMULATION]
     shear = run[run["stage"] == "shear"]
     expected = np.degrees(np.arcsin((shear["sigma_1"] - shear["sigma_3"])
                                     / (shear["sigma_1"] + shear["sigma_3"])))
-    np.testing.assert_allclose(np.sort(sim["phi_mob"].iloc[1:].to_numpy())[-1],
-                               expected.max(), rtol=1e-9)
-    start = curves[curves["stage"] == "initial"]
+    assert sweep.loc[SIMULATION, "peak_phi"] == pytest.approx(expected.max(), rel=1e-9)
+    start = comparison.curves[comparison.curves["stage"] == "initial"]
     assert start["p"].iloc[1] == pytest.approx(start["p"].iloc[0], rel=1e-6)
-    differences = pd.read_csv(out / "theory-differences.csv").set_index("quantity")
-    assert differences.loc["peak_phi", "model"] > 0.0
+    own = comparison.own_curves
+    assert sweep.loc["homogeneous", "peak_phi"] == pytest.approx(
+        own[own["side"] == "homogeneous"]["phi_mob"].max(), rel=1e-9)

@@ -31,6 +31,13 @@ from grainlab.prep.sample_shapes import particles_text
 console = Console()
 
 
+def print_wide(renderable, width: int = 140) -> None:
+    """Print a wide table unbroken when the output is a pipe or a file (80 columns there
+    by default); on a terminal, at the terminal's width."""
+    (console if console.is_terminal else Console(width=max(console.width, width))).print(
+        renderable)
+
+
 def _report(folder: Path) -> None:
     """Write the run's report (:func:`~grainlab.report.run_report.write_run_report`); a
     failure is a warning, never the run's failure: the results are already on disk and

@@ -16,6 +16,7 @@ from grainlab.cli import (
     precompile,
     report,
     study,
+    theory_b_sweep,
     theory_series,
     theory_vs_sim,
 )
@@ -41,6 +42,7 @@ app.command("test")(discrete.lab_test_command)
 app.command("compare")(compare.compare_command)
 app.command("theory-vs-sim")(theory_vs_sim.theory_vs_sim_command)
 app.command("theory-series")(theory_series.theory_series_command)
+app.command("theory-b-sweep")(theory_b_sweep.theory_b_sweep_command)
 app.command("resume")(discrete.resume_command)
 app.command("vtk")(discrete.vtk_command)
 app.command("report")(report.report_command)

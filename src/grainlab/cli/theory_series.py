@@ -16,11 +16,10 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from grainlab.cli.discrete import console
+from grainlab.cli.discrete import console, print_wide
 from grainlab.cli.errors import friendly_errors
 from grainlab.cli.inputs import output_folder
 
@@ -150,10 +149,8 @@ def theory_series_command(
     for ratio in dict.fromkeys(biaxial["stiffness_ratio"]):
         figures.append(save_figure(biaxial_figure(outcome.curves, ratio),
                                    out / f"biaxial-ks{ratio:g}.png", dpi=120))
-    # a table wider than a pipe's 80 columns is easier to read unbroken in a log
-    wide = console if console.is_terminal else Console(width=max(console.width, 140))
     for test in dict.fromkeys(summary["test"]):
-        wide.print(summary_table(summary, test))
+        print_wide(summary_table(summary, test))
     for line in outcome.problems:
         console.print(f"[bold yellow]{escape(line)}[/]", soft_wrap=True)
     console.print(f"table: {out / 'series.csv'}, {out / 'series-summary.csv'}")

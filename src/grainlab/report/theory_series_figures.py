@@ -143,3 +143,40 @@ def packing_figure(network, title: str = "") -> Figure:
     ax.set_title(title or f"{len(positions)} discs, {len(normal)} contacts (line width: "
                  "normal force)", fontsize="medium")
     return figure
+
+
+def b_sweep_figure(table: pd.DataFrame, title: str = "") -> Figure:
+    """The peak mobilised angle against b of a theory-vs-simulation b-sweep
+    (:func:`~grainlab.lab.theory_b_sweep.run_b_sweep`'s table): the run black, a colour per
+    distribution law, solid at constant sigma_3 and dashed at constant p; filled markers
+    where the side reached its peak (the run as asked, a model that failed at its strength),
+    hollow where a model stopped or was still hardening; the report's cubical strengths as
+    grey stars."""
+    from grainlab.lab.theory_b_sweep import PATHS, REPORT_ANGLES
+
+    figure, ax = new_figure_axes(1, 1, figsize=(10.0, 4.8))
+    sides = [side for side in _sides(table)
+             if table.loc[table["side"] == side, "peak_phi"].notna().any()]
+    for index, side in enumerate(sides):
+        colour = "k" if side == SIMULATION else f"C{index - 1}"
+        for path in dict.fromkeys(table["path"]):
+            rows = table[(table["side"] == side) & (table["path"] == path)].sort_values("b")
+            label = "discrete run" if side == SIMULATION else side
+            ax.plot(rows["b"], rows["peak_phi"], color=colour,
+                    ls="-" if path == "cubical" else "--", lw=1.3,
+                    label=f"{label}, {PATHS[path]}")
+            peak = rows["ended"].isin(["failed", "as asked"]).to_numpy()
+            ax.plot(rows["b"][peak], rows["peak_phi"][peak], "o", color=colour, ms=5)
+            ax.plot(rows["b"][~peak], rows["peak_phi"][~peak], "o", color=colour, ms=5,
+                    mfc="none")
+    ax.plot(list(REPORT_ANGLES), list(REPORT_ANGLES.values()), "*", color="0.5", ms=11,
+            label="the report (model, constant sigma_3)")
+    ax.set_xlabel("b = (sigma_2 - sigma_3) / (sigma_1 - sigma_3) [-]")
+    ax.set_ylabel(r"peak mobilised angle $\arcsin((\sigma_1-\sigma_3)/(\sigma_1+\sigma_3))$"
+                  " [deg]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="x-small", loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    if title:
+        ax.set_title(title, fontsize="medium")
+    figure.set_layout_engine("tight")
+    return figure
