@@ -1,6 +1,7 @@
 """The lab's load paths on one compacted periodic sample: extension, true triaxial at constant
-p and b, the cubical test at constant sigma_3 and b, a circle on the octahedral plane, cyclic simple shear. Each path's own control is
-checked on what the periodic cell measures (the stress its image contacts carry)."""
+p and b, the cubical test at constant sigma_3 and b, a circle on the octahedral plane, cyclic
+simple shear. Each path's own control is checked on what the periodic cell measures (the
+stress its image contacts carry)."""
 
 from __future__ import annotations
 

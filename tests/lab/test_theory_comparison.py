@@ -23,16 +23,16 @@ from grainlab.lab.run_micro_element import (
     run_micro_element_model,
 )
 from grainlab.lab.solver_comparison import read_run_result
-from grainlab.result.test_result import TestResult
 from grainlab.lab.theory_comparison import (
     CURVE_COLUMNS,
     SIMULATION,
-    model_curves,
     TheoryComparison,
     _dilatancy,
     check_theory_kind,
+    model_curves,
     on_simulation_grid,
 )
+from grainlab.result.test_result import TestResult
 
 runner = CliRunner()
 

@@ -163,7 +163,8 @@ def lab_test_command(**options: Any) -> None:
     compaction to SIGMA0 until quasi-static, then KIND: triaxial (compression to EPS_Q at
     lateral stress SIGMA0), extension, oedometer (in a periodic cell with --solver dem only:
     rigid grains cannot follow it there), true_triaxial (constant p and B to EPS_Q),
-    cubical (Lade & Duncan's: constant sigma_3 = SIGMA0 and B to EPS_Q), simple_shear (gamma_xz to GAMMA, sigma_zz held, eps_xx = eps_yy = 0), circular (a full
+    cubical (Lade & Duncan's: constant sigma_3 = SIGMA0 and B to EPS_Q), simple_shear
+    (gamma_xz to GAMMA, sigma_zz held, eps_xx = eps_yy = 0), circular (a full
     turn on the octahedral plane at q = Q_RATIO x SIGMA0), cyclic_shear (CYCLES of gamma_xz
     between +-AMPLITUDE), in a box of walls or (--boundary periodic) a periodic cell whose
     six components follow the test."""

@@ -43,7 +43,8 @@ def summary_table(summary, test: str) -> Table:
     from grainlab.lab.theory_series import REPORT_K0
 
     measures = SHOWN[test]
-    shown = Table(title=escape(f"{test}: mean [min, max] over the seeds whose run was as asked"), title_justify="left")
+    shown = Table(title=escape(f"{test}: mean [min, max] over the seeds whose run was as "
+                               "asked"), title_justify="left")
     for name in ("phi_mu", "k_s/k_n", "sigma0 [kPa]", "side", *measures):
         shown.add_column(name, justify="left" if name == "side" else "right")
     if test == "oedometer":

@@ -12,9 +12,9 @@ every key has a default, an unknown key is an error that names it::
                "walls" | "periodic"), height_ratio (the start box's height / width),
                preparation ("loose" | "deposition" | "file"), skeleton_file (for "file")
     [test]     kind (:data:`TEST_KINDS`), sigma0 [Pa], eps_q_max (triaxial, extension,
-               true_triaxial, cubical), axial_strain and unload_strain (oedometer), b (true_triaxial,
-               cubical),
-               gamma_max (simple_shear), q_ratio and circle_points (circular),
+               true_triaxial, cubical), axial_strain and unload_strain (oedometer), b
+               (true_triaxial, cubical), gamma_max (simple_shear), q_ratio and
+               circle_points (circular),
                amplitude and n_cycles (cyclic_shear)
     [test.quasi_static]   stress_tolerance, unbalanced_force, kinetic_energy: when a
                compaction has settled (:class:`~grainlab.lab.wall_stages.QuasiStaticCriteria`;
@@ -250,8 +250,9 @@ class TestConfig(ConfigSection):
     lateral stress sigma0 to eps_q_max, (extension) the same with the axial strain reversed,
     (oedometer) 1-D compression by axial_strain and optional unloading by unload_strain,
     (true_triaxial) constant p = sigma0 and constant b to eps_q_max, (cubical) constant
-    sigma_3 = sigma0 and constant b to eps_q_max (Lade & Duncan's cubical test), (simple_shear) gamma_xz
-    to gamma_max with sigma_zz held at sigma0 and eps_xx = eps_yy = 0, (circular) a full
+    sigma_3 = sigma0 and constant b to eps_q_max (Lade & Duncan's cubical test),
+    (simple_shear) gamma_xz to gamma_max with sigma_zz held at sigma0 and eps_xx = eps_yy =
+    0, (circular) a full
     turn on the octahedral plane at p = sigma0 and q = q_ratio sigma0 (circle_points
     targets), (cyclic_shear) n_cycles of gamma_xz between +-amplitude with sigma_zz held."""
 
