@@ -1,11 +1,12 @@
 # Two entry points: `make demo` (set up, then run the default demo) and `make test`
-# (set up, then lint and run the test suite). Both create .venv on first use.
+# (set up, then lint and run the test suite). Both create .venv on first use. `make docs`
+# builds the documentation site into docs/_build/html, warnings counted as errors.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test setup clean
+.PHONY: demo test setup docs clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -21,5 +22,14 @@ test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks examples
 	$(BIN)/python -m pytest -n auto --maxprocesses 4 --durations=15
 
+DOCS_STAMP := $(VENV)/.docs-installed
+
+$(DOCS_STAMP): $(STAMP)
+	$(BIN)/python -m pip install --quiet --no-compile -e ".[docs]"
+	touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP)
+	$(BIN)/sphinx-build -W --keep-going -b html docs docs/_build/html
+
 clean:
-	rm -rf $(VENV) grainlab-demo .pytest_cache
+	rm -rf $(VENV) grainlab-demo .pytest_cache docs/_build docs/reference/generated

@@ -223,3 +223,21 @@ def test_snapshot_with_wrong_first_axis_rejected(shape):
 def test_bad_dimension_rejected():
     with pytest.raises(InputError, match="dimension"):
         TestResult.create(pd.DataFrame({"q": [1.0]}), specimen={}, load_path={}, dimension=4)
+
+
+def test_a_result_shows_a_summary_not_its_whole_table():
+    """print(result), repr(result) and a notebook's view: what it is and its size, the table
+    only as pandas truncates it."""
+    n = 5000
+    table = pd.DataFrame({"eps_zz": np.linspace(0.0, 0.05, n), "sigma_zz": np.full(n, 1e5)})
+    result = TestResult.create(table, specimen={"kind": "discrete", "name": "300 <spheres>"},
+                               load_path={"name": "triaxial_compression"},
+                               outcome={"status": "failure", "reason": "strength reached"},
+                               title="a triaxial test")
+    text = str(result)
+    assert "a triaxial test" in text and "triaxial_compression" in text
+    assert "failure (strength reached)" in text and f"{n} rows x 2 columns" in text
+    assert len(repr(result)) < 200 and repr(result).startswith("<TestResult")
+    shown = result._repr_html_()
+    assert "<table" in shown and "300 &lt;spheres&gt;" in shown  # escaped
+    assert shown.count("<tr") < 100  # pandas' truncation, not 5000 rows

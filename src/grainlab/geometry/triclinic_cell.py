@@ -4,7 +4,7 @@ holding the matrix h whose columns are the cell vectors (STYLE.md 7).
 The cell is the parallelepiped spanned by the columns c1, c2, c3 [m] of h (right-handed,
 det h > 0), with one corner at the origin. The medium repeats it: a point x and x + h n,
 n in Z^3, are the same material point in different images. With s = h^-1 x the fractional
-coordinates,
+coordinates::
 
     wrap counts   w = floor(s)                  (integers, per axis)
     wrapped       x~ = x - h w                  (fractional coordinates in [0, 1))

@@ -1,8 +1,8 @@
 """The boundaries a discrete run can hold its sample in, one record each
 (:class:`BoundaryRecord`), in one registry (:data:`BOUNDARIES`, STYLE.md 3): what the lab, the
 config, the CLI, the checkpoints and the sample's preparation know of a boundary is read from
-its record or asked of the engine boundary itself (:attr:`~grainlab.engine.boundaries.
-boundary.Boundary.periodic`), never from its name.
+its record or asked of the engine boundary itself
+(:attr:`~grainlab.engine.boundaries.boundary.Boundary.periodic`), never from its name.
 
 * ``"walls"``, a box of six walls (:class:`~grainlab.engine.boundaries.wall_box.WallBox`,
   driven by :class:`~grainlab.lab.box_boundary.BoxBoundary` through the stages of

@@ -9,22 +9,22 @@ calls::
 
 Structures (:func:`build_structure`)
 ------------------------------------
-=============  ==========================================================================
-name           structure
-=============  ==========================================================================
-``idealized``  seed 001 §4.2: 30 micro-elements of 8 spheres (:func:`idealized_material`)
-``binary``     seed 001 §4.1: 12 binary units along the icosahedron axes
-               (:func:`binary_units`; r = 0.2 mm, e = 0.7, n_bar = 7)
-``chang2d``    seed 001 ch. 3: micro-elements of the random periodic packing of 12 + 13
-               discs (:func:`chang_periodic_discs` -> :func:`from_disc_packing`); making
-               the packing takes seconds to minutes, depending on the seed
-FILE ``.h5``   a contact-network snapshot file of a discrete run (:func:`read_snapshot`
-               -> :func:`micro_elements_from_snapshot`): one micro-element per particle,
-               the run's contact forces as the initial state (no consolidation);
-               ``forces=False``: :func:`from_contact_network`, consolidated from zero
-FILE ``.toml``, ``.csv``  a periodic disc packing (:func:`read_packing` ->
-               :func:`from_disc_packing`)
-=============  ==========================================================================
+==============  ==========================================================================
+name            structure
+==============  ==========================================================================
+``idealized``   seed 001 §4.2: 30 micro-elements of 8 spheres (:func:`idealized_material`)
+``binary``      seed 001 §4.1: 12 binary units along the icosahedron axes
+                (:func:`binary_units`; r = 0.2 mm, e = 0.7, n_bar = 7)
+``chang2d``     seed 001 ch. 3: micro-elements of the random periodic packing of 12 + 13
+                discs (:func:`chang_periodic_discs` -> :func:`from_disc_packing`); making
+                the packing takes seconds to minutes, depending on the seed
+FILE ``.h5``    a contact-network snapshot file of a discrete run (:func:`read_snapshot`
+                -> :func:`micro_elements_from_snapshot`): one micro-element per particle,
+                the run's contact forces as the initial state (no consolidation);
+                ``forces=False``: :func:`from_contact_network`, consolidated from zero
+FILE ``.toml``  a periodic disc packing, or a ``.csv`` one (:func:`read_packing` ->
+                :func:`from_disc_packing`)
+==============  ==========================================================================
 
 Defaults per structure (:func:`structure_defaults`, seed 001 §3 and §4)
 -----------------------------------------------------------------------

@@ -1,6 +1,7 @@
-"""What a run adds to its simulation's operations (:class:`~grainlab.engine.simulation.
-Simulation`, besides the test's own stage control and records): an action every few steps
-(checkpoints, ParaView frames), the contact problems of chosen steps written to files, and
+"""What a run adds to its simulation's operations
+(:class:`~grainlab.engine.simulation.Simulation`, besides the test's own stage control and
+records): an action every few steps (checkpoints, ParaView frames), the contact problems of
+chosen steps written to files, and
 the progress bar of a stage with the figures it shows (:func:`progress_fields`, also the
 study display's).
 """

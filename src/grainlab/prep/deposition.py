@@ -123,7 +123,7 @@ class DepositedPacking:
 def core_packing_fraction(centres: np.ndarray, radii: np.ndarray, lower: np.ndarray,
                           upper: np.ndarray, lattice: int = 16) -> float:
     """Solid fraction [-] of the box [lower, upper] (3,) [m]: the spheres' volume inside it,
-    exact for the spheres wholly in or out, and from a cubic lattice of ``lattice``^3 points
+    exact for the spheres wholly in or out, and from a cubic lattice of ``lattice`` ^ 3 points
     in the unit cube (those in the unit ball) for the spheres the box's faces cut (about
     1 % of such a sphere's volume)."""
     lower, upper = np.asarray(lower, float), np.asarray(upper, float)

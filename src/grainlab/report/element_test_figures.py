@@ -5,24 +5,24 @@ summary in the same format and returns a matplotlib :class:`~matplotlib.figure.F
 without pyplot (:func:`grainlab.report.curves.new_figure_axes`). Compression is positive;
 strains are drawn in percent, stresses in kPa, angles in degrees.
 
-==========================  ================================================================
-function                    figure
-==========================  ================================================================
-:func:`triaxial_figure`     q/p and eps_vol against the vertical strain (Figs. 3.4–3.6, 4.9)
-:func:`k0_figure`           K0 against the vertical strain and against OCR (Figs. 3.3, 4.6)
+===============================  ================================================================
+function                         figure
+===============================  ================================================================
+:func:`triaxial_figure`          q/p and eps_vol against the vertical strain (Figs. 3.4–3.6, 4.9)
+:func:`k0_figure`                K0 against the vertical strain and against OCR (Figs. 3.3, 4.6)
 :func:`oedometer_stages_figure`  K0 and sigma_zz against eps_zz, one line per stage (a
-                            discrete ``grainlab oedometer`` run: loading, unloading)
-:func:`b_sweep_figure`      peak phi against b, failure points on the octahedral plane with
-                            Mohr–Coulomb, Matsuoka–Nakai and Lade–Duncan, strain-increment
-                            directions at failure (Figs. 4.11–4.13)
-:func:`circular_path_figure`  stress and strain paths on the octahedral plane (Fig. 4.14)
-:func:`simple_shear_figure`  tau/sigma_v–gamma, sigma_2 against (sigma_1 + sigma_3)/2,
-                            tau/sigma_v against tan psi with kappa, angles psi, beta, omega,
-                            chi, xi against gamma (Figs. 4.15–4.16)
-:func:`cyclic_figure`       G_s/G_max and damping ratio against the shear-strain amplitude
-                            (Figs. 4.3–4.4)
-:func:`hysteresis_figure`   tau against gamma of a cyclic simple-shear test
-==========================  ================================================================
+                                 discrete ``grainlab oedometer`` run: loading, unloading)
+:func:`b_sweep_figure`           peak phi against b, failure points on the octahedral plane with
+                                 Mohr–Coulomb, Matsuoka–Nakai and Lade–Duncan, strain-increment
+                                 directions at failure (Figs. 4.11–4.13)
+:func:`circular_path_figure`     stress and strain paths on the octahedral plane (Fig. 4.14)
+:func:`simple_shear_figure`      tau/sigma_v–gamma, sigma_2 against (sigma_1 + sigma_3)/2,
+                                 tau/sigma_v against tan psi with kappa, angles psi, beta, omega,
+                                 chi, xi against gamma (Figs. 4.15–4.16)
+:func:`cyclic_figure`            G_s/G_max and damping ratio against the shear-strain amplitude
+                                 (Figs. 4.3–4.4)
+:func:`hysteresis_figure`        tau against gamma of a cyclic simple-shear test
+===============================  ================================================================
 
 Summaries. :func:`b_sweep_figure` reads a summary table with one row per b and the columns
 ``b``, ``phi_peak`` [rad], ``oct_x_over_p``, ``oct_y_over_p`` [-] (failure point, see

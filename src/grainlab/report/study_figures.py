@@ -11,23 +11,23 @@ The walls of a small box order the particles next to them; the microstructure fi
 :mod:`grainlab.analysis.wall_layer`) wherever the summary has them, and say so in their
 labels; the packing fraction and the connectivity draw the whole box beside the core.
 
-=================================  =========================  =========================
-figure                             seed 002 (angularity)      seed 003 (non-convexity)
-=================================  =========================  =========================
-:func:`curves_figure`              Figs. 5, 7                 Figs. 3, 5
-:func:`strength_figure`            Fig. 6 (with eq. 12's fit) Fig. 4
-:func:`packing_fraction_figure`    Fig. 8                     Fig. 7
-:func:`connectivity_figure`        Fig. 10                    Fig. 9
-:func:`contact_types_figure`       Fig. 11                    Fig. 10
-:func:`anisotropies_figure`        Figs. 15-17                Figs. 12, 13, 17, 22
-:func:`sliding_figure`             Fig. 19                    Fig. 19
-:func:`stress_dilatancy_figure`    Fig. 20 (eqs. 27a, 27b,    Fig. 23 (eqs. 35a, 35b)
-                                   B1)
-:func:`partial_strength_figure`    Fig. 22                    Fig. 18
-:func:`partial_anisotropies_figure` Figs. 23-24               -
-:func:`sliding_by_type_figure`     -                          Fig. 20
-:func:`wall_profile_figure`        -                          -
-=================================  =========================  =========================
+===================================  =========================  =========================
+figure                               seed 002 (angularity)      seed 003 (non-convexity)
+===================================  =========================  =========================
+:func:`curves_figure`                Figs. 5, 7                 Figs. 3, 5
+:func:`strength_figure`              Fig. 6 (eq. 12's fit)      Fig. 4
+:func:`packing_fraction_figure`      Fig. 8                     Fig. 7
+:func:`connectivity_figure`          Fig. 10                    Fig. 9
+:func:`contact_types_figure`         Fig. 11                    Fig. 10
+:func:`anisotropies_figure`          Figs. 15-17                Figs. 12, 13, 17, 22
+:func:`sliding_figure`               Fig. 19                    Fig. 19
+:func:`stress_dilatancy_figure`      Fig. 20 (eqs. 27a, 27b,    Fig. 23 (eqs. 35a, 35b)
+                                     B1)
+:func:`partial_strength_figure`      Fig. 22                    Fig. 18
+:func:`partial_anisotropies_figure`  Figs. 23-24                -
+:func:`sliding_by_type_figure`       -                          Fig. 20
+:func:`wall_profile_figure`          -                          -
+===================================  =========================  =========================
 
 :func:`stress_dilatancy_figure` draws the peak state (the summary's ``M_at_peak``, from the
 snapshot nearest the peak) beside the residual one where the summary has it. The friction

@@ -162,6 +162,40 @@ class TestResult:
         """How the test ended (completed, failure and why, ...)."""
         return self.metadata.get("outcome", {})
 
+    def summary(self) -> str:
+        """What the result is, in a few lines: title, specimen, load path, outcome, table
+        size (what ``print(result)`` and a notebook show above the table)."""
+        specimen = self.specimen
+        outcome = self.outcome
+        lines = [self.metadata.get("title") or "test result",
+                 f"specimen: {specimen.get('kind', '?')}"
+                 + (f" ({specimen['name']})" if specimen.get("name") else ""),
+                 f"load path: {self.load_path.get('name', '?')}",
+                 f"outcome: {outcome.get('status', '?')}"
+                 + (f" ({outcome['reason']})" if outcome.get("reason") else ""),
+                 f"table: {len(self.table)} rows x {len(self.table.columns)} columns"
+                 + (f", snapshots: {', '.join(self.snapshots)}" if self.snapshots else "")]
+        return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        """One line: title, specimen kind, path, outcome, table size (not the whole table)."""
+        return (f"<TestResult {self.metadata.get('title') or ''!r}: "
+                f"{self.specimen.get('kind', '?')}, {self.load_path.get('name', '?')}, "
+                f"{self.outcome.get('status', '?')}, {len(self.table)} rows x "
+                f"{len(self.table.columns)} columns>")
+
+    def __str__(self) -> str:
+        return self.summary()
+
+    def _repr_html_(self) -> str:
+        """A notebook's view: the summary, then the table as pandas shows it (truncated)."""
+        import html
+
+        head, *rest = self.summary().split("\n")
+        items = "".join(f"<li>{html.escape(line)}</li>" for line in rest)
+        return (f"<p><b>{html.escape(head)}</b></p><ul>{items}</ul>"
+                + self.table._repr_html_())
+
     def column(self, name: str) -> np.ndarray:
         """One table column as a numpy array; a clear error names the available ones."""
         if name not in self.table.columns:

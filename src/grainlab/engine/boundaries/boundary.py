@@ -6,7 +6,7 @@ A boundary is one of
 * the box of six walls, fixed, velocity- or stress-controlled
   (:class:`~grainlab.engine.boundaries.wall_box.WallBox`);
 * the periodic deformable cell
-(:class:`~grainlab.engine.boundaries.periodic_boundary.PeriodicCell`).
+  (:class:`~grainlab.engine.boundaries.periodic_boundary.PeriodicCell`).
 
 Each implements the :class:`Boundary` protocol, three calls per time step of a solver:
 

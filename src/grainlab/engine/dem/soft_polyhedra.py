@@ -1,6 +1,7 @@
-"""Convex polyhedra in the soft-contact DEM solver (:class:`~grainlab.engine.dem.soft_contact.
-SoftContactStep`): a soft law on the penetration depth at each point of the contact manifold
-of contact dynamics (STYLE.md 3, 10; kernels in :mod:`grainlab.engine.dem.soft_polyhedra_kernels`).
+"""Convex polyhedra in the soft-contact DEM solver
+(:class:`~grainlab.engine.dem.soft_contact.SoftContactStep`): a soft law on the penetration
+depth at each point of the contact manifold of contact dynamics (STYLE.md 3, 10; kernels in
+:mod:`grainlab.engine.dem.soft_polyhedra_kernels`).
 
 Geometry. Each sub-step recomputes, for every pair of the neighbour list, the pair's manifold
 from the current configuration with the narrow phase of contact dynamics

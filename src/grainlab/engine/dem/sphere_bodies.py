@@ -1,8 +1,9 @@
 """The bodies' side of a soft-contact sub-step for bodies of isotropic inertia (spheres) without
 local damping, as vector code (:mod:`grainlab._vector_loops`): the half kicks, the take-up of
 a change of the cell's velocity gradient and the drift with its quaternion turn, with the same
-operations in the same order as the scalar :func:`~grainlab.engine.dem.soft_contact_kernels.
-_body_pass`, so the same bits, several bodies at a time.
+operations in the same order as the scalar
+:func:`~grainlab.engine.dem.soft_contact_kernels._body_pass`, so the same bits, several bodies
+at a time.
 
 The turn of a body's orientation by exp(h omega / 2) uses the series of
 :func:`~grainlab.engine.quaternion.half_turn_series`, which is what the scalar pass uses below

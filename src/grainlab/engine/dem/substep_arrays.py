@@ -2,8 +2,9 @@
 the compiled sub-step loop takes (Numba passes a NamedTuple of arrays as one argument): the
 bodies (:class:`BodyArrays`) and the rows of a contact list, of member spheres
 (:class:`SphereRowArrays`) or of polyhedra (:class:`PolyhedronPairArrays`);
-the boundary's arrays are its face's (:class:`~grainlab.engine.boundaries.wall_box_face.
-WallFace`, :class:`~grainlab.engine.boundaries.periodic_cell_face.CellFace`)."""
+the boundary's arrays are its face's
+(:class:`~grainlab.engine.boundaries.wall_box_face.WallFace`,
+:class:`~grainlab.engine.boundaries.periodic_cell_face.CellFace`)."""
 
 from __future__ import annotations
 

@@ -29,9 +29,8 @@ Algorithm
    the pair (primary i, ghost of j with image -m), which exists too (the ghost slab is
    symmetric: if x~_j + h m is within R_cut of x~_i, x~_i - h m is within R_cut of x~_j);
    ghost-ghost pairs are copies of primary pairs; a body never meets its own ghost.
-4. **Narrow phase** (:class:`~grainlab.engine.detect.narrow_phase.NarrowPhase`, no walls) on the
-kept
-   pairs of the extended state; rows then map back: body_j of a ghost row is its body, the
+4. **Narrow phase** (:class:`~grainlab.engine.detect.narrow_phase.NarrowPhase`, no walls) on
+   the kept pairs of the extended state; rows then map back: body_j of a ghost row is its body, the
    image vector is n = m + w_i - w_j (m = 0 for two primaries), and the point moves by
    + h w_i to lie near the unwrapped x_i (gap and normal do not change under a translation).
 

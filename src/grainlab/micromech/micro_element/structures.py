@@ -5,15 +5,15 @@ Each function returns a :class:`~grainlab.micromech.micro_element.structure.Micr
 All lengths are in metres, volumes in m^3 (areas in m^2 in 2D); every random generator is
 reproducible from an integer ``seed``.
 
-===========================  =================================================================
-generator                    structure
-===========================  =================================================================
-:func:`binary_units`         §4.1: isotropic set of binary units (one contact each)
-:func:`idealized_material`   §4.2: 5 random 8-sphere micro-elements x 6 axis permutations = 30
-:func:`from_contact_network` one micro-element per particle of a contact network (2D or 3D)
-:func:`from_disc_packing`    one micro-element per disc of a periodic packing, V^n = power cell
-:func:`chang_periodic_discs` §3: random jammed periodic packing of 12 + 13 discs (a DiscPacking2D)
-===========================  =================================================================
+=============================  =================================================================
+generator                      structure
+=============================  =================================================================
+:func:`binary_units`           §4.1: isotropic set of binary units (one contact each)
+:func:`idealized_material`     §4.2: 5 random 8-sphere micro-elements x 6 axis permutations = 30
+:func:`from_contact_network`   one micro-element per particle of a contact network (2D or 3D)
+:func:`from_disc_packing`      one micro-element per disc of a periodic packing, V^n = power cell
+:func:`chang_periodic_discs`   §3: random jammed periodic packing of 12 + 13 discs (a DiscPacking2D)
+=============================  =================================================================
 
 Volume bookkeeping. The micro-element stress is sigma^n = (1 / 2V^n) sum_m L^nm f^nm (seed 001
 eq. 2.16) and the overall stress its volume average (eq. 2.20), so
