@@ -30,7 +30,8 @@ extensions = [
     "sphinx.ext.viewcode",
 ]
 source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
-exclude_patterns = ["_build", "**/.ipynb_checkpoints", "reference/cli_commands.md"]
+exclude_patterns = ["_build", "**/.ipynb_checkpoints", "reference/cli_commands.md",
+                    "reference/config_keys_table.md", "reference/result_columns_table.md"]
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
 
@@ -93,13 +94,18 @@ def _prose_after_sections(app, what, name, obj, options, lines) -> None:
         index += 1
 
 
-def _cli_reference(app) -> None:
+def _generated_references(app) -> None:
+    """The reference pages written from the CLI and the registries (docs/_cli.py,
+    docs/_registries.py)."""
     from _cli import write_cli_reference
+    from _registries import write_columns_reference, write_config_reference
 
     write_cli_reference(HERE / "reference" / "cli_commands.md")
+    write_config_reference(HERE / "reference" / "config_keys_table.md")
+    write_columns_reference(HERE / "reference" / "result_columns_table.md")
 
 
 def setup(app) -> None:
-    app.connect("builder-inited", _cli_reference)
+    app.connect("builder-inited", _generated_references)
     app.connect("autodoc-process-docstring", _prose_after_sections, priority=400)
     app.connect("autodoc-process-docstring", _plain_bars)

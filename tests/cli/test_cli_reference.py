@@ -24,3 +24,28 @@ def test_the_cli_reference_holds_every_command_with_its_help(tmp_path):
         for sub in getattr(command, "commands", {}):
             assert f"`grainlab {name} {sub}`" in text
     assert "Usage: grainlab theory-b-sweep" in text and "--distribution" in text
+
+
+def test_the_config_and_column_references_hold_every_key_and_column(tmp_path):
+    """docs/_registries.py: every key of a run config (walked from a config's own dump) and
+    every standard column is on its page, each with what the registry says of it."""
+    from grainlab.lab.run_config import RunConfig
+    from grainlab.result.columns import COLUMNS
+
+    written = runpy.run_path(str(DOCS / "_registries.py"))
+    keys_page, columns_page = tmp_path / "keys.md", tmp_path / "columns.md"
+    written["write_config_reference"](keys_page)
+    written["write_columns_reference"](columns_page)
+    keys = keys_page.read_text(encoding="utf-8")
+
+    def leaves(data, prefix=""):
+        for name, value in data.items():
+            key = f"{prefix}.{name}" if prefix else name
+            yield from leaves(value, key) if isinstance(value, dict) else [key]
+
+    for key in leaves(RunConfig.model_validate({}).model_dump()):
+        assert f"| `{key}` |" in keys, key
+    assert "| `test.sigma0` | `float` | `10000.0` | > 0 | `--sigma0`" in keys
+    columns = columns_page.read_text(encoding="utf-8")
+    for name, column in COLUMNS.items():
+        assert f"| `{name}` | {column.unit} |" in columns
