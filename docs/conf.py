@@ -31,7 +31,8 @@ extensions = [
 ]
 source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
 exclude_patterns = ["_build", "**/.ipynb_checkpoints", "reference/cli_commands.md",
-                    "reference/config_keys_table.md", "reference/result_columns_table.md"]
+                    "reference/config_keys_table.md", "reference/result_columns_table.md",
+                    "reference/lab_tests_table.md"]
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
 
@@ -98,11 +99,16 @@ def _generated_references(app) -> None:
     """The reference pages written from the CLI and the registries (docs/_cli.py,
     docs/_registries.py)."""
     from _cli import write_cli_reference
-    from _registries import write_columns_reference, write_config_reference
+    from _registries import (
+        write_columns_reference,
+        write_config_reference,
+        write_lab_tests_reference,
+    )
 
     write_cli_reference(HERE / "reference" / "cli_commands.md")
     write_config_reference(HERE / "reference" / "config_keys_table.md")
     write_columns_reference(HERE / "reference" / "result_columns_table.md")
+    write_lab_tests_reference(HERE / "reference" / "lab_tests_table.md")
 
 
 def setup(app) -> None:

@@ -46,6 +46,14 @@ def test_the_config_and_column_references_hold_every_key_and_column(tmp_path):
     for key in leaves(RunConfig.model_validate({}).model_dump()):
         assert f"| `{key}` |" in keys, key
     assert "| `test.sigma0` | `float` | `10000.0` | > 0 | `--sigma0`" in keys
+    tests_page = tmp_path / "tests.md"
+    written["write_lab_tests_reference"](tests_page)
+    lab_tests = tests_page.read_text(encoding="utf-8")
+    from grainlab.lab.run_config import TEST_KINDS
+
+    for kind in TEST_KINDS:
+        assert f"## `{kind}`" in lab_tests and f"`grainlab test {kind}" in lab_tests
+    assert "cubical test at sigma_3 = 10000 Pa and b = 0.5" in lab_tests
     columns = columns_page.read_text(encoding="utf-8")
     for name, column in COLUMNS.items():
         assert f"| `{name}` | {column.unit} |" in columns
