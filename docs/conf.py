@@ -1,6 +1,7 @@
 """Sphinx configuration of grainlab's documentation site (``make docs``).
 
-Sphinx with the PyData theme and MyST: the pages are Markdown (the same files the repository
+Sphinx with the PyData theme and MyST (myst-nb: the tutorials are MyST notebooks executed at
+every build): the pages are Markdown (the same files the repository
 shows), the API reference comes from the docstrings (autodoc + napoleon, NumPy style), the
 command-line reference from the CLI's own help (docs/_cli.py), and equations are
 rendered by MathJax. Warnings are errors in ``make docs`` (``-W --keep-going``)."""
@@ -22,14 +23,18 @@ release = grainlab.__version__
 version = release
 
 extensions = [
-    "myst_parser",
+    "myst_nb",
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.napoleon",
     "sphinx.ext.mathjax",
     "sphinx.ext.viewcode",
 ]
-source_suffix = {".md": "markdown", ".rst": "restructuredtext"}
+source_suffix = {".rst": "restructuredtext", ".md": "myst-nb"}
+nb_execution_mode = "force"
+"""Tutorials are executed at every build: a tutorial that no longer runs fails the build."""
+nb_execution_timeout = 900
+nb_execution_raise_on_error = True
 exclude_patterns = ["_build", "**/.ipynb_checkpoints", "reference/cli_commands.md",
                     "reference/config_keys_table.md", "reference/result_columns_table.md",
                     "reference/lab_tests_table.md"]
