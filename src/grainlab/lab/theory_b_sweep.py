@@ -23,16 +23,18 @@ packing's own: no angle).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import pandas as pd
 
+from grainlab._validate import at_least, in_range, positive
 from grainlab.errors import InputError
 from grainlab.lab.run_config import RunConfig
 from grainlab.lab.run_micro_element import check_distributions
 from grainlab.lab.theory_comparison import SIMULATION, TheoryComparison
+from grainlab.lab.theory_series import each
 
 PATHS = {"cubical": "constant sigma_3", "true_triaxial": "constant p"}
 """The cubical paths (the discrete lab's test kinds) and what each holds besides b."""
@@ -46,18 +48,6 @@ REPORT_ANGLES = {0.0: 41.0, 0.6: 48.0, 1.0: 45.0}
 sigma_3)."""
 
 ALL_LAWS = ("homogeneous", "maxwellian-average", "maxwellian-first-order", "maxwellian")
-
-
-def _numbers(name: str, values: Sequence[float], low: float, high: float,
-             allowed: str) -> tuple[float, ...]:
-    values = tuple(values)
-    if not values:
-        raise InputError(name, "(none)", allowed)
-    for value in values:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or \
-                not math.isfinite(value) or not low <= value <= high:
-            raise InputError(name, value, allowed)
-    return tuple(float(v) for v in values)
 
 
 @dataclass(frozen=True)
@@ -107,10 +97,10 @@ class BSweepPlan:
         for path in paths or ("(none)",):
             if path not in PATHS:
                 raise InputError("--path", path, "one or more of " + ", ".join(PATHS))
-        b_values = tuple(dict.fromkeys(_numbers("--b", self.b_values, 0.0, 1.0,
-                                                "values of b in [0, 1]")))
-        _numbers("--sigma0", (self.sigma0,), 1e-300, math.inf, "a pressure > 0 [Pa]")
-        _numbers("--mu", (self.friction,), 0.0, math.inf, "a friction coefficient >= 0")
+        b_values = tuple(dict.fromkeys(each("--b", self.b_values, in_range, 0.0, 1.0, "",
+                                            "[]")))
+        positive("--sigma0", self.sigma0, "Pa")
+        at_least("--mu", self.friction, 0.0, False)
         if self.solver not in ("cd", "dem"):
             raise InputError("--solver", self.solver, "cd or dem")
         if isinstance(self.model_steps, bool) or not isinstance(self.model_steps, int) or \

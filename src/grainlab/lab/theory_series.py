@@ -41,6 +41,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from grainlab._validate import in_range, positive
+from grainlab._validate import seed as checked_seed
 from grainlab.errors import InputError
 from grainlab.lab.run_config import RunConfig
 from grainlab.lab.run_micro_element import check_distributions
@@ -89,15 +91,13 @@ class SeriesCase:
                 f"{self.sigma0 / 1e3:g}kPa-seed{self.seed}")
 
 
-def _positive(field_name: str, values: Sequence[float], allowed: str) -> tuple[float, ...]:
+def each(field_name: str, values: Sequence, check, *args) -> tuple:
+    """``check(field_name, value, *args)`` of each of ``values`` (a
+    :mod:`grainlab._validate` check), refusing an empty list naming ``field_name``."""
     values = tuple(values)
     if not values:
-        raise InputError(field_name, "(none)", allowed)
-    for value in values:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or \
-                not math.isfinite(value) or value <= 0.0:
-            raise InputError(field_name, value, allowed)
-    return tuple(float(v) for v in values)
+        raise InputError(field_name, "(none)", "one value or more")
+    return tuple(check(field_name, value, *args) for value in values)
 
 
 @dataclass(frozen=True)
@@ -149,20 +149,13 @@ class SeriesPlan:
         for test in tests or ("(none)",):
             if test not in SERIES_TESTS:
                 raise InputError("--test", test, "one or more of " + ", ".join(SERIES_TESTS))
-        seeds = tuple(dict.fromkeys(self.seeds))
-        if not seeds or any(isinstance(s, bool) or not isinstance(s, int) or s < 0
-                            for s in seeds):
-            raise InputError("--seed", list(self.seeds), "one or more integers >= 0")
-        angles = _positive("--phi-mu", self.k0_angles, "angles in degrees, 0 < phi_mu < 90")
-        biaxial = _positive("--biaxial-phi-mu", (self.biaxial_angle,),
-                            "an angle in degrees, 0 < phi_mu < 90")[0]
-        for name, angle in [*(("--phi-mu", a) for a in angles), ("--biaxial-phi-mu", biaxial)]:
-            if angle >= 90.0:
-                raise InputError(name, angle, "an angle in degrees, 0 < phi_mu < 90")
-        ratios = _positive("--stiffness-ratio", self.stiffness_ratios, "k_s/k_n > 0")
-        sigma0s = _positive("--sigma0", self.sigma0s, "confining pressures > 0 [Pa]")
-        _positive("--axial-strain", (self.axial_strain,), "a vertical strain > 0")
-        _positive("--eps-q", (self.eps_q_max,), "eps_1 - eps_3 > 0")
+        seeds = tuple(dict.fromkeys(each("--seed", self.seeds, checked_seed)))
+        angles = each("--phi-mu", self.k0_angles, in_range, 0.0, 90.0, "deg")
+        biaxial = in_range("--biaxial-phi-mu", self.biaxial_angle, 0.0, 90.0, "deg")
+        ratios = each("--stiffness-ratio", self.stiffness_ratios, positive)
+        sigma0s = each("--sigma0", self.sigma0s, positive, "Pa")
+        positive("--axial-strain", self.axial_strain)
+        positive("--eps-q", self.eps_q_max)
         if isinstance(self.n_particles, bool) or not isinstance(self.n_particles, int) or \
                 self.n_particles < 4:
             raise InputError("--particles", self.n_particles, "an integer >= 4")
