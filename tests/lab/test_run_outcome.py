@@ -282,3 +282,52 @@ def test_the_progress_of_a_periodic_compaction_reads_the_cells_stress(tmp_path):
         assert 0.0 <= fraction <= 1.0 and "unbalanced force" in info
         assert "wall_sigma_xx" not in row and "cell_sigma_xx" in row
     assert len({fraction for (fraction, _), _ in seen}) > 1  # it moves
+
+
+class _NotebookOutput:
+    """A stand-in for IPython's display: records what a cell shows and each update of it."""
+
+    def __init__(self) -> None:
+        self.shown = []
+
+    def __call__(self, renderable, display_id=False):
+        assert display_id is True
+        self.shown.append(renderable)
+        return self
+
+    def update(self, renderable) -> None:
+        self.shown.append(renderable)
+
+
+def _text(renderable) -> str:
+    import io
+
+    from rich.console import Console
+
+    console = Console(file=io.StringIO(), width=200, color_system=None)
+    console.print(renderable)
+    return console.file.getvalue()
+
+
+def test_the_progress_bar_shows_in_a_notebook_as_one_output_updated_in_place(tmp_path):
+    """In a notebook the bar is a cell output replaced in place (no ipywidgets, no terminal):
+    shown once at the start, redrawn while the run goes, and its last state is the run's
+    last stage."""
+    from grainlab.lab.run_operations import ProgressBar
+
+    run = start_run(tmp_path / "run", _short_triaxial())
+    bar = ProgressBar(run.test, notebook=True)
+    output = _NotebookOutput()
+    bar.progress._display = output
+    bar.progress.refresh_seconds = 0.0
+    bar.start()
+    run.test.on_record = bar.update
+    try:
+        run.run(max_steps=16)
+    finally:
+        bar.stop()
+    assert not bar.progress.progress.live.is_started  # rich's terminal display never ran
+    texts = [_text(shown) for shown in output.shown]
+    assert len(texts) > 3
+    assert any("compaction" in t for t in texts) and "shear" in texts[-1]
+    assert "q/p" in texts[-1] and "left" in texts[-1]

@@ -66,21 +66,19 @@ class ProblemWriter:
 class ProgressBar:
     """A rich progress bar per stage (strain or quasi-static state), with the time spent and
     the time left in the stage as its progress so far predicts (the bar restarts with each
-    stage, so that the estimate is the stage's own)."""
+    stage, so that the estimate is the stage's own). It shows in a terminal and in a Jupyter
+    notebook (``notebook``: as :class:`grainlab._live_progress.LiveProgress`)."""
 
-    def __init__(self, test: DiscreteTest) -> None:
-        from rich.progress import (
-            BarColumn,
-            Progress,
-            TextColumn,
-            TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
+    def __init__(self, test: DiscreteTest, notebook: bool | None = None) -> None:
+        from rich.progress import BarColumn, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+        from grainlab._live_progress import LiveProgress
 
         self.test = test
-        self.progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
-                                 TextColumn("{task.fields[info]}"), TimeElapsedColumn(),
-                                 TextColumn("left"), TimeRemainingColumn())
+        self.progress = LiveProgress(TextColumn("[bold]{task.description}"), BarColumn(),
+                                     TextColumn("{task.fields[info]}"), TimeElapsedColumn(),
+                                     TextColumn("left"), TimeRemainingColumn(),
+                                     notebook=notebook)
         self.task = None
         self.stage_name: str | None = None
 

@@ -253,7 +253,7 @@ class Study:
 
 class _Display:
     """The study's display: a line per sample (stage, progress, numbers) and one for the
-    study, from the samples' progress.json (rich)."""
+    study, from the samples' progress.json (rich; in a terminal or a Jupyter notebook)."""
 
     def __init__(self, study: Study, names: list[str], show: bool,
                  on_update: Callable[[dict[str, dict]], None] | None) -> None:
@@ -267,16 +267,18 @@ class _Display:
     def start(self) -> None:
         if not self.show:
             return
-        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+        from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
-        self.progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
-                                 TextColumn("{task.percentage:>3.0f} %"),
-                                 TextColumn("{task.fields[info]}"), TimeElapsedColumn())
-        self.progress.start()
+        from grainlab._live_progress import LiveProgress
+
+        self.progress = LiveProgress(TextColumn("[bold]{task.description}"), BarColumn(),
+                                     TextColumn("{task.percentage:>3.0f} %"),
+                                     TextColumn("{task.fields[info]}"), TimeElapsedColumn())
         self.tasks["study"] = self.progress.add_task(
             f"study {self.study.spec.study.name}", total=len(self.names), info="")
         for name in self.names:
             self.tasks[name] = self.progress.add_task(name, total=1.0, info="waiting")
+        self.progress.start()
 
     def refresh(self) -> None:
         data = {n: read_progress(self.study.sample_folder(n)) for n in self.names}
