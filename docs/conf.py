@@ -37,7 +37,7 @@ nb_execution_timeout = 900
 nb_execution_raise_on_error = True
 exclude_patterns = ["_build", "**/.ipynb_checkpoints", "reference/cli_commands.md",
                     "reference/config_keys_table.md", "reference/result_columns_table.md",
-                    "reference/lab_tests_table.md"]
+                    "reference/lab_tests_table.md", "reference/citations_table.md"]
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
 
@@ -103,6 +103,7 @@ def _prose_after_sections(app, what, name, obj, options, lines) -> None:
 def _generated_references(app) -> None:
     """The reference pages written from the CLI and the registries (docs/_cli.py,
     docs/_registries.py)."""
+    from _citations import write_citations
     from _cli import write_cli_reference
     from _registries import (
         write_columns_reference,
@@ -114,6 +115,7 @@ def _generated_references(app) -> None:
     write_config_reference(HERE / "reference" / "config_keys_table.md")
     write_columns_reference(HERE / "reference" / "result_columns_table.md")
     write_lab_tests_reference(HERE / "reference" / "lab_tests_table.md")
+    write_citations(HERE / "reference" / "citations_table.md")
 
 
 def setup(app) -> None:
