@@ -1,12 +1,13 @@
 # Two entry points: `make demo` (set up, then run the default demo) and `make test`
 # (set up, then lint and run the test suite). Both create .venv on first use. `make docs`
-# builds the documentation site into docs/_build/html, warnings counted as errors.
+# builds the documentation site into docs/_build/html, warnings counted as errors;
+# `make docs-check` builds it afresh and checks every link inside it.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test setup docs clean
+.PHONY: demo test setup docs docs-check clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -30,6 +31,14 @@ $(DOCS_STAMP): $(STAMP)
 
 docs: $(DOCS_STAMP)
 	$(BIN)/sphinx-build -W --keep-going -b html docs docs/_build/html
+
+# The documentation check: a fresh build (every tutorial and how-to executed), warnings as
+# errors (broken references, pages outside the toctree, failing cells), then every link
+# inside the built site followed to its file and anchor (offline).
+docs-check: $(DOCS_STAMP)
+	rm -rf docs/_build/html docs/_build/.jupyter_cache docs/reference/generated
+	$(BIN)/sphinx-build -W --keep-going -b html docs docs/_build/html
+	$(BIN)/python docs/_check_links.py docs/_build/html
 
 clean:
 	rm -rf $(VENV) grainlab-demo .pytest_cache docs/_build docs/reference/generated

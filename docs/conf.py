@@ -118,7 +118,18 @@ def _generated_references(app) -> None:
     write_citations(HERE / "reference" / "citations_table.md")
 
 
+def _unreadable_modules_out_of_viewcode(app):
+    """viewcode remembers a module whose source it could not read (``builtins``, named by an
+    attribute whose value is a built-in) and still lists it on its index, linking to a page
+    it never writes: forget such modules before viewcode writes its pages."""
+    modules = getattr(app.env, "_viewcode_modules", {})
+    for name in [name for name, entry in modules.items() if entry is False]:
+        del modules[name]
+    return []
+
+
 def setup(app) -> None:
+    app.connect("html-collect-pages", _unreadable_modules_out_of_viewcode, priority=100)
     app.connect("builder-inited", _generated_references)
     app.connect("autodoc-process-docstring", _prose_after_sections, priority=400)
     app.connect("autodoc-process-docstring", _plain_bars)
