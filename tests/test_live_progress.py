@@ -70,3 +70,20 @@ def test_in_a_terminal_it_is_rich_live_display():
     bar.stop()
     assert not bar.progress.live.is_started
     assert bar.tasks[0].finished
+
+
+def test_the_notebook_output_is_html_wide_enough_for_a_long_line_of_numbers():
+    shown = _Handle()
+    bar = LiveProgress(TextColumn("{task.description}"), BarColumn(),
+                       TextColumn("{task.fields[info]}"), notebook=True, display=shown)
+    info = "step 829 (224 of <= 200000 in the stage)  q/p 0.266  packing fraction 0.5545  " \
+           "z 3.52  I 8.7e-04 (<= 0.001)"
+    task = bar.add_task("shear", total=1.0, info=info)
+    bar.start()
+    bar.update(task, completed=0.5)
+    bar.stop()
+    last = shown.shown[-1]
+    html = last._repr_html_()
+    assert html.startswith("<pre")
+    assert "shear" in html and "(&lt;= 0.001)" in html  # nothing cut
+    assert "━" in repr(last) and repr(last).rstrip().endswith("(<= 0.001)")

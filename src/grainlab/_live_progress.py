@@ -13,6 +13,39 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+NOTEBOOK_COLUMNS = 200
+"""Characters per line of the bar in a notebook: a run's bar carries a long line of numbers,
+which a notebook's default width (rich's 115) would cut, squeezing the bar out."""
+
+
+class NotebookBar:
+    """The bar's state as a notebook output: HTML (a ``<pre>`` of the bar drawn by rich at
+    :data:`NOTEBOOK_COLUMNS` characters, colours inline) and plain text, and the renderable
+    itself for a rich console."""
+
+    def __init__(self, renderable) -> None:
+        self.renderable = renderable
+
+    def _draw(self):
+        import io
+
+        from rich.console import Console
+
+        console = Console(file=io.StringIO(), width=NOTEBOOK_COLUMNS, record=True,
+                          force_terminal=True, force_jupyter=False, color_system="truecolor")
+        console.print(self.renderable)
+        return console
+
+    def _repr_html_(self) -> str:
+        return self._draw().export_html(inline_styles=True, code_format=(
+            '<pre style="white-space: pre; overflow-x: auto; font-size: 0.8em">{code}</pre>'))
+
+    def __repr__(self) -> str:
+        return self._draw().export_text().rstrip()
+
+    def __rich__(self):
+        return self.renderable
+
 
 class LiveProgress:
     """A rich progress bar (its columns as given) that shows wherever the code runs.
@@ -67,9 +100,9 @@ class LiveProgress:
     def reset(self, task, **fields: Any) -> None:
         self.progress.reset(task, **fields)
 
-    def table(self):
-        """The bar as a rich renderable: one row per task, the columns as given."""
-        return self.progress.make_tasks_table(self.progress.tasks)
+    def table(self) -> NotebookBar:
+        """The bar as a notebook output: one row per task, the columns as given."""
+        return NotebookBar(self.progress.make_tasks_table(self.progress.tasks))
 
     def start(self) -> None:
         if not self.notebook:
