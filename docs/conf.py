@@ -114,7 +114,8 @@ def _generated_references(app) -> None:
     write_cli_reference(HERE / "reference" / "cli_commands.md")
     write_config_reference(HERE / "reference" / "config_keys_table.md")
     write_columns_reference(HERE / "reference" / "result_columns_table.md")
-    write_lab_tests_reference(HERE / "reference" / "lab_tests_table.md")
+    write_lab_tests_reference(HERE / "reference" / "lab_tests_table.md",
+                              HERE / "howto" / "lab-tests")
     write_citations(HERE / "reference" / "citations_table.md")
 
 
