@@ -59,8 +59,8 @@ TARGET_CAPPED = 0.02
 FIXED_STEPS = {"compaction": {"time_step_growth": 1.0},
                "shear": {"time_step_growth": 1.0, "overlap_recovery": 0.05}}
 """The ``[solver]`` tables of the second grainlab run: every step at the time step factor's
-length, with the overlap recovery those steps had (docs/discrete_engine.md, "The step grows
-while the overlaps stay small")."""
+length, with the overlap recovery those steps had (docs/explanations/walls-and-box-tests.md,
+"The step grows while the overlaps stay small")."""
 
 
 def timed_run(n: int, eps_q: float, folder: Path, kinetic_energy: float,

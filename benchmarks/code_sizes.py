@@ -13,7 +13,7 @@ from pathlib import Path
 
 LIMITS = {"file_lines": 800, "function_lines": 100, "kernel_parameters": 30,
           "python_parameters": 15}
-"""The limits (docs/discrete_engine.md, "The engine's layout")."""
+"""The limits (docs/explanations/discrete-engine.md, "The engine's layout")."""
 
 
 def _compiled(node: ast.FunctionDef) -> bool:

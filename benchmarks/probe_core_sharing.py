@@ -1,5 +1,5 @@
 """Whether the machine's cores are shared right now: the rate two threads get, against twice
-one thread's, for a vector loop and for a scalar loop (docs/discrete_engine.md, "Where the
+one thread's, for a vector loop and for a scalar loop (docs/benchmarks/soft-dem.md, "Where the
 spread comes from").
 
 Each loop works on its own data in the first-level cache, so the two threads share nothing;

@@ -1,6 +1,6 @@
 """The frictional contact problem on its own: u = W r + q with Coulomb's law at each contact,
 solved by every method of :func:`grainlab.engine.nscd.plain_problem_methods.solve`
-(docs/discrete_engine.md, "The contact problem on its own").
+(docs/explanations/contact-problem.md, "The contact problem on its own").
 
 1. A sphere resting on a plane tilted by 20 deg (mu = 0.5 > tan 20 deg, so it sticks): the
    problem written by hand (W = I / m for a point mass), the impulse known in closed form,

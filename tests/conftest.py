@@ -36,8 +36,9 @@ BASELINE_NUMERICS = {
 processor at run time, and their last bits differ between processors. grainlab's compiled
 kernels need no pin: they are compiled without fast-math, so LLVM neither contracts a*b + c into
 a fused multiply-add nor reorders a sum, and give the same bits for any target
-(``NUMBA_CPU_NAME=generic`` or the host's; docs/discrete_engine.md, "One outcome on every
-processor"). Set before NumPy loads, so that the workers and every child process inherit it."""
+(``NUMBA_CPU_NAME=generic`` or the host's; docs/explanations/one-outcome.md, "One outcome on
+every processor"). Set before NumPy loads, so that the workers and every child process inherit
+it."""
 
 if NUMERICS_TARGET == "baseline":
     if "numpy" in sys.modules:
@@ -107,8 +108,8 @@ def _another_trajectory():
     (:meth:`~grainlab.engine.state.BodyState.from_library`) in the tests that run lab tests
     (:data:`PERTURBED_FOLDERS`) has its positions scaled by 1 + 2^-45: a difference in the
     last bits, as another processor's, that takes a jammed packing along another trajectory.
-    A probe for tests that need one particular trajectory (docs/discrete_engine.md, "One
-    outcome on every processor"); a run and its resumed twin start from the same moved
+    A probe for tests that need one particular trajectory (docs/explanations/one-outcome.md,
+    "One outcome on every processor"); a run and its resumed twin start from the same moved
     state, so bit-for-bit resumption still holds."""
     if os.environ.get("GRAINLAB_TEST_PERTURB") != "1":
         yield

@@ -5,7 +5,7 @@ Over force-carrying interactions (``it.isReal`` and a non-zero normal force): z 
 (grain-grain contacts over all grains); grains with fewer than ``min_contacts`` contacts
 (walls included) are removed repeatedly as rattlers; z_nr = 2 C_gg' / N' over the grains left
 and z_walls_nr = 2 (C_gg' + C_gw') / N', a wall contact counted like a grain contact
-(docs/discrete_engine.md, mechanical coordination).
+(docs/explanations/runs.md, mechanical coordination).
 """
 
 

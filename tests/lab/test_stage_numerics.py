@@ -14,7 +14,7 @@ from grainlab.lab.wall_stages import wall_stages
 
 
 def test_the_defaults_are_the_documented_values():
-    # docs/discrete_engine.md, "Solver settings of the lab tests"
+    # docs/explanations/walls-and-box-tests.md, "Solver settings of the lab tests"
     assert COMPACTION == StageNumerics(friction=0.0, inertia_number=1e-2,
                                        time_step_factor=0.01, tolerance=1e-4,
                                        max_iterations=1000, overlap_recovery=0.0,

@@ -48,7 +48,7 @@ from grainlab.errors import InputError
 
 CORE_MARGIN = 1.0
 """Default margin of the core, in mean volume-equivalent diameters <d_v> (see
-docs/studies.md for the profiles it was read from)."""
+docs/explanations/studies.md for the profiles it was read from)."""
 
 
 def mean_diameter(network: ContactNetwork) -> float:

@@ -268,7 +268,7 @@ RUN_OPTIONS: tuple[RunOption, ...] = (
     RunOption("max_iterations", ("--max-iterations",), "Most NLGS sweeps per loading step "
               "(solver.shear.max_iterations; 100 to 1000 is usual); fewer is faster, with "
               "larger overlaps and unconverged steps flagged in the results "
-              "(docs/discrete_engine.md).", int, ("triaxial", *SEVERAL_KINDS),
+              "(docs/explanations/walls-and-box-tests.md).", int, ("triaxial", *SEVERAL_KINDS),
               "solver.shear.max_iterations",
               compaction_key="solver.compaction.max_iterations"),
     RunOption("record_every", ("--record-every",), "Steps between results rows.", int,
@@ -296,8 +296,9 @@ RUN_OPTIONS: tuple[RunOption, ...] = (
               "--preparation file).", Path, ONE_RUN, "sample.skeleton_file"),
     RunOption("particle_file", ("--particle-file",), "A .csv (particle,kind,x,y,z,radius) or "
               ".npz file of the particles themselves: spheres, aggregates' member spheres or "
-              "polyhedra's vertices, in world coordinates [m] (docs/discrete_engine.md; "
-              "implies --preparation file; the shapes, sizes and box come from the file).",
+              "polyhedra's vertices, in world coordinates [m] "
+              "(docs/explanations/sample-preparation.md; implies --preparation file; the "
+              "shapes, sizes and box come from the file).",
               Path, ONE_RUN, "sample.particle_file"),
     RunOption("distributions", ("--distribution",), "The micro-element model's "
               "distribution law of strain (repeatable: one model each, on one figure): "

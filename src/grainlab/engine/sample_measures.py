@@ -340,7 +340,7 @@ def core_connectivity(network: ContactNetwork, lower: np.ndarray, upper: np.ndar
     its own loaded pairs (z_core) and their nominal points (z_c_core) whoever the neighbour
     is. Walls take constraints that particles would otherwise share, so z and z_c over all
     the particles of a small box read low (seed 002's 40 000 particles are almost all core;
-    docs/polyhedra.md gives both). NaN when the core is empty."""
+    docs/benchmarks/polyhedra.md gives both). NaN when the core is empty."""
     x = network.positions
     core = np.all((x >= lower + margin) & (x <= upper - margin), axis=1)
     n_core = int(np.count_nonzero(core))

@@ -78,8 +78,9 @@ MAX_POINTS = 16
 """Largest number of points of one manifold (the ``max_points`` argument: 3 to 16)."""
 DEFAULT_MAX_POINTS = 8
 """Points kept per manifold by default. Measured on a frictionless compaction of 60
-polyhedra (n_f = 30, docs/polyhedra.md): with 3 or 4 the largest overlap ran away to 10 % of
-<d>, with 6 it settled at 2 %, with 8 at 0.3 %, with 16 at 0.27 % (13 % more contacts)."""
+polyhedra (n_f = 30, docs/benchmarks/polyhedra.md): with 3 or 4 the largest overlap ran away
+to 10 % of <d>, with 6 it settled at 2 %, with 8 at 0.3 %, with 16 at 0.27 % (13 % more
+contacts)."""
 
 TOUCH_TOLERANCE = 1e-12
 """Relative round-off band of the separations: two values of s within

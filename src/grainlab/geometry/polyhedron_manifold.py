@@ -65,8 +65,8 @@ the body turns into the other about the kept ones; in a frictionless compaction 
 polyhedra (n_f = 30) the left-out points sank in turn (the deepest point of a wall contact
 alternated between two vertices as it went from 4 % to 9 % of <d>) and the largest overlap
 ran away to 10 % of <d> with 3 or 4 points; with 6 it settled at 2 %, with 8 at 0.3 %
-(docs/polyhedra.md). Coplanar points are hyperstatic: NLGS still converges (the velocities
-are unique), the split of the normal force among them is one of many.
+(docs/benchmarks/polyhedra.md). Coplanar points are hyperstatic: NLGS still converges (the
+velocities are unique), the split of the normal force among them is one of many.
 
 Feature ids (stable warm-start keys): vertex k -> k, edge e -> n_v + e, face f -> n_v + n_e + f
 (local to the shape). A manifold point made by a vertex of B inside a face of A has ids (face

@@ -28,7 +28,7 @@ otherwise; :meth:`DiscreteTestSettings.numerics_for`):
   a centre of mass to a face plane; :func:`time_step_length`) (research/cd_engines.md pitfall
   6: v h <= 0.01-0.05 d_min), unless ``dt`` is given. In triaxial shear the solver ends each
   step with small velocity violations (the NLGS residual stalls near the tolerance however
-  many sweeps: docs/discrete_engine.md, "The contact problem on its own") and contact
+  many sweeps: docs/explanations/contact-problem.md, "The contact problem on its own") and contact
   dynamics never pushes an overlap back, so overlaps accumulate at a
   rate that falls faster than h: with 0.01 the largest overlap reached 6-9 % of <d> at
   eps_q = 0.1 on 200 spheres, with 0.003 below 1 %. That h is the stage's shortest step h_0:

@@ -45,7 +45,7 @@ microseconds, so more is hours of work for any sample."""
 MAX_PARTICLE_SUBSTEPS = 2e11
 """Most particle-sub-steps (sub-steps x particles) a soft-contact run may be estimated at:
 a thousand times the 1000-sphere triaxial test at kappa = 1e4, some 6 hours at the solver's
-1e7 particle-sub-steps per second on 2 cores (docs/discrete_engine.md)."""
+1e7 particle-sub-steps per second on 2 cores (docs/benchmarks/soft-dem.md)."""
 MAX_STEPS = 1e7
 """Most steps a contact-dynamics run with a given ``dt`` may be estimated at (the 1000-sphere
 triaxial test takes some 4e3)."""

@@ -29,7 +29,7 @@ Distribution laws (:data:`DISTRIBUTION_READINGS`, the names of ``grainlab microe
 --distribution``): ``homogeneous`` (eq. 2.30), ``maxwellian`` (eq. 2.32 as printed, the
 overall C, self-consistent), ``maxwellian-average`` (eq. 2.32 with C_bar) and
 ``maxwellian-first-order`` (C_bar, eq. 2.35 cut after its first-order term); see
-docs/micro_element.md.
+docs/explanations/micro-element.md.
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ own numerics (:func:`stage_kind` decides which a stage is):
   quasi-static), the step shorter and the solver tighter.
 
 Their values are the lab tests' settings, measured on 200 to 1000 spheres
-(docs/discrete_engine.md, "Solver settings of the lab tests").
+(docs/explanations/walls-and-box-tests.md, "Solver settings of the lab tests").
 
 >>> SHEAR.friction, COMPACTION.friction
 (0.4, 0.0)

@@ -2,7 +2,7 @@
 
 A Moreau-Jean step solved to a finite tolerance leaves a few contacts approaching at a small
 speed; contact dynamics never pushes an overlap back at once, so what a step cannot hold
-shows as overlap (docs/discrete_engine.md, "The time step"). The overlap is the error of the
+shows as overlap (docs/explanations/time-step.md, "The time step"). The overlap is the error of the
 step, and it sets how long the step may be: the sweeps a step needs do not grow with its
 length (1000 spheres in shear: 502 / 364 / 291 sweeps a step at v h / d_min = 0.003 / 0.006 /
 0.01), so a longer step saves time nearly in proportion, until the overlaps grow.

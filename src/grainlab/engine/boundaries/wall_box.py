@@ -18,7 +18,7 @@ s_w n_w. Controls:
   with m_w = c_w h it moves at s_w = (F_w - R_w) / c_w, an overdamped servo of damping c_w
   [N s/m] (PFC's servo walls; :meth:`servo_masses`). A wall with momentum that was pushed
   out by a stress spike kept flying out after the particles stopped pushing, and a rigid
-  sample behind it unloaded completely (docs/polyhedra.md).
+  sample behind it unloaded completely (docs/benchmarks/polyhedra.md).
 
 A **planar** box holds a 2D sample of discs (:mod:`grainlab.engine.planar`): its z extent is
 the discs' thickness t, so that its volume and the areas of its four side walls (L t) give

@@ -80,7 +80,7 @@ polyhedra mixed with spheres or aggregates in one sample (both refused with a me
 Cost: one manifold per listed pair per sub-step, about 7 us per pair for n_f = 30 (5 of them
 the manifold); 100 polyhedra (n_f = 30) resting in a box, 3 listed pairs per particle: 390-520
 sub-steps per second on one thread (``benchmarks/benchmark_engine_soft_polyhedra.py``;
-docs/discrete_engine.md).
+docs/explanations/soft-dem.md).
 
 A cube of side 1 cm at rest on a face sinks by m g / k_n, each corner carrying a quarter:
 

@@ -54,8 +54,8 @@ the step before too: f_n + lambda (f_n - f_(n-1)), projected on its Coulomb cone
 (``warm_start_extrapolation`` = lambda; 0 by default: f_n, not projected; the lab tests use
 :data:`WARM_START_EXTRAPOLATION` = 0.5); a new contact starts from zero. In quasi-static
 shear the forces of the sticking network drift steadily from step to step
-(docs/discrete_engine.md, "The contact problem on its own"), and the extrapolation starts
-each step further along that drift.
+(docs/explanations/contact-problem.md, "The contact problem on its own"), and the
+extrapolation starts each step further along that drift.
 Measured on 1000 spheres sheared from eps_q = 0.06 to 0.08 (tolerance 1.666e-4, every step
 converged): 540 / 498 / 465 / 509 / 656 sweeps a step on average with lambda = 0 / 0.25 /
 0.5 / 0.75 / 1.
