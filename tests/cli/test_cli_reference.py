@@ -47,13 +47,20 @@ def test_the_config_and_column_references_hold_every_key_and_column(tmp_path):
         assert f"| `{key}` |" in keys, key
     assert "| `test.sigma0` | `float` | `10000.0` | > 0 | `--sigma0`" in keys
     tests_page = tmp_path / "tests.md"
-    written["write_lab_tests_reference"](tests_page)
+    written["write_lab_tests_reference"](tests_page, tmp_path / "lab-tests")
     lab_tests = tests_page.read_text(encoding="utf-8")
-    from grainlab.lab.run_config import TEST_KINDS
+    from grainlab.lab.run_config import TEST_KINDS, RunConfig
 
     for kind in TEST_KINDS:
         assert f"## `{kind}`" in lab_tests and f"`grainlab test {kind}" in lab_tests
+        page = (tmp_path / "lab-tests" / f"{kind}.md").read_text(encoding="utf-8")
+        assert page.startswith("---\nfile_format: mystnb") and f"# The `{kind}` test" in page
+        assert f"'kind': '{kind}'" in page and "write_run_figures(folder, result)" in page
     assert "cubical test at sigma_3 = 10000 Pa and b = 0.5" in lab_tests
+    # each page's small run asks for targets its test reads
+    for kind, targets in written["SMALL_TARGETS"].items():
+        RunConfig.model_validate({"test": {"kind": kind, **targets},
+                                  "sample": {"boundary": "periodic"}})
     columns = columns_page.read_text(encoding="utf-8")
     for name, column in COLUMNS.items():
         assert f"| `{name}` | {column.unit} |" in columns
