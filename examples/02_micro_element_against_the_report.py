@@ -1,5 +1,5 @@
 """Seed 001's micro-element model beside the report's numbers (the table of
-docs/explanations/micro-element.md).
+docs/validation/micro-element-report.md).
 
 For each distribution law and seed of the idealized material: peak friction angles in
 triaxial compression, extension and true triaxial tests at b = 0.2 ... 0.8, simple-shear
@@ -10,7 +10,7 @@ Run:  .venv/bin/python examples/02_micro_element_against_the_report.py [OUTPUT_F
           [--laws overall] [--seeds 1] [--steps 6000] [--with-2d]
 
 The defaults are a quick look (the self-consistent law on seed 1, a few seconds). The table
-of docs/explanations/micro-element.md is
+of docs/validation/micro-element-report.md is
 
       ... OUTPUT_FOLDER --laws homogeneous,average,overall,first-order --seeds 1,2,3,4,5
           --with-2d

@@ -14,7 +14,7 @@ Run:  .venv/bin/python examples/04_micro_element_readings.py [OUTPUT_FOLDER]
           [--laws first-order] [--seeds 1] [--b 0,0.6,1] [--paths constant-sigma3]
           [--steps 600] [--no-simple-shear]
 
-The defaults are a quick look (seconds). docs/explanations/micro-element.md was made with
+The defaults are a quick look (seconds). docs/validation/micro-element-report.md was made with
 
       ... OUTPUT_FOLDER --laws homogeneous,average,overall,first-order --seeds 1,2,3,4,5
           --b 0,0.2,0.4,0.6,0.8,1 --paths constant-sigma3,constant-p --steps 6000

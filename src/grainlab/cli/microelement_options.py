@@ -89,7 +89,7 @@ DISTRIBUTION_OPTION = typer.Option(
     "eq. 2.32 as printed, solved self-consistently), maxwellian-average (the average "
     "stiffness C_bar in eq. 2.32) or maxwellian-first-order (C_bar, the series of eq. 2.35 "
     "cut after its first-order term: G^n = (V^n/V)(2I - C_bar^-1 C^n); the reading that "
-    "gives the report's cubical strengths, see docs/explanations/micro-element.md).")
+    "gives the report's cubical strengths, see docs/validation/micro-element-report.md).")
 AFFINE_OPTION = typer.Option(True, "--non-affine/--affine", help="Let each centre particle "
                              "move to balance its contact forces (eq. 2.14), or not.")
 SPIN_OPTION = typer.Option(None, help="Particle spin: none, micro-element or uniform "

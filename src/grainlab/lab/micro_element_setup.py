@@ -43,7 +43,7 @@ the unit never fails (contacts near the major principal axis stay elastic). With
 of <= 0.005 eps_ref to converge). ``distribution="maxwellian-first-order"`` (C_bar, the series
 of eq. 2.35 cut after its first-order term) gives the report's cubical strengths at constant
 sigma_3, with defects (G^n not positive definite, dependence on the step and the seed); see
-docs/explanations/micro-element.md for the four readings side by side.
+docs/validation/micro-element-report.md for the four readings side by side.
 
 A snapshot file takes the ``idealized`` defaults in 3D and the ``chang2d`` ones in 2D; a
 packing file those of ``chang2d``. A structure that carries its snapshot's forces

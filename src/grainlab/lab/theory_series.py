@@ -8,7 +8,7 @@ The specimen is seed 001's §3.1: a periodic cell of discs, 12 of radius 0.21 mm
 (203 kPa) without friction (the same packing for every friction angle of a seed), soft-contact
 DEM with Cundall & Strack's linear springs, k_n = 200 kN/m per disc and
 k_s = (k_s/k_n) k_n. Discs are as thick as their mean diameter; the model's springs are the
-run's per unit thickness (k / t: docs/explanations/micro-element.md, "Discs (2D)"). Then
+run's per unit thickness (k / t: docs/validation/theory-vs-simulation.md, "Discs (2D)"). Then
 each case loads with friction tan(phi_mu):
 
 * ``oedometer`` (Fig. 3.3): the horizontal strain held, the vertical strain raised to
