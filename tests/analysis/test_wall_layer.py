@@ -77,6 +77,18 @@ def test_the_core_of_a_cubic_lattice_is_its_bulk():
     np.testing.assert_allclose(stress_from_network(claimed), np.eye(3) / 4.0, atol=1e-12)
 
 
+def test_a_core_holding_no_centre_measures_nothing():
+    """A margin that leaves a region but no particle centre in it: every core value is NaN,
+    not a packing fraction of 0."""
+    net = cubic_lattice(4, 1.0)
+    core = CoreConnectivity(margin=1.9).compute(net)  # d = 2: the region [3.8, 4.2], no centre
+    assert int(core.core.sum()) == 0 and core.core_volume > 0.0
+    out = core.descriptors()
+    assert all(np.isnan(out[name]) for name in ("packing_fraction_core",
+                                                 "coordination_number_core",
+                                                 "connectivity_number_core"))
+
+
 def test_snapshot_analysis_gives_both_the_box_and_the_core():
     net = cubic_lattice(5, 1.0, (1.0, 1.0, 2.0))
     d = SnapshotAnalysis().compute(net).descriptors

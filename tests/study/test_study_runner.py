@@ -84,6 +84,9 @@ def test_worker_killed_mid_run_resumes_and_ended_samples_are_not_rerun(tmp_path,
     shown = {line.split("(")[-1].rstrip(")") for line in text.splitlines()
              if line.startswith("![")}
     assert shown and shown == {p.name for p in report.parent.glob("*.png")}
+    # the same report as one HTML file, every figure inline
+    page = (report.parent / "report.html").read_text()
+    assert "<table>" in page and page.count('src="data:image/png;base64,') == len(shown)
 
 
 def test_interrupted_study_goes_on_where_it_stopped(tmp_path):

@@ -200,7 +200,9 @@ class CoreConnectivity(Compute):
 
         self._store(
             margin=margin, core=core, core_volume=volume, n_core=n_core,
-            packing_fraction=ratio(float(network.volumes[core].sum()), volume),
+            # no centre in the core: nothing measured there (not a packing fraction of 0)
+            packing_fraction=ratio(float(network.volumes[core].sum()), volume) if n_core
+            else float("nan"),
             coordination_number=ratio(ends.sum(), n_core),
             connectivity_number=ratio(ends @ points, n_core),
             rattler_fraction=ratio(int((core & rattlers).sum()), n_core),

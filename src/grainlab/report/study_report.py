@@ -1,9 +1,11 @@
 """The report of a study: ``report/report.md`` in the study folder with its figures as PNG
-files beside it, readable without grainlab (any Markdown viewer, or as plain text).
+files beside it, readable without grainlab (any Markdown viewer, or as plain text), and the
+same as one HTML file with the figures inline (``report/report.html``).
 
 It holds: what the study is (series, protocol, window), a table of every sample (its outcome
 and cost, the peak and residual values with their standard deviations over the window), the
-papers' values for the same series where the study is one of the presets, the figures of
+papers' values for the same series where the study is one of the presets (a table, quantity
+by quantity, with a verdict: :mod:`grainlab.report.paper_comparison`), the figures of
 :mod:`grainlab.report.study_figures`, the packing fraction against the distance to the walls,
 and for the first, middle and last sample: the polar diagrams of the angular distributions
 with their harmonic fits (seed 002 Fig. 14) and the PDFs of normal and radial forces (seed 003
@@ -151,8 +153,20 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
     if notes or late:
         text += ["Samples to read with care:", "", *notes, *late, ""]
     if spec.study.parameter in PAPERS:
+        from grainlab.report.paper_comparison import comparison_markdown, paper_comparison
+
         n = int(table["n_particles"].max())
-        text += ["## The papers' values", "", PAPERS[spec.study.parameter], "",
+        comparison = paper_comparison(table, spec.study.parameter)
+        comparison.to_csv(out / "against_the_paper.csv", index=False)
+        text += ["## Against the paper", "",
+                 "Each quantity the paper reports along its series, grainlab's first and last "
+                 "sample over the whole box and over the core (± the standard deviation over "
+                 "the residual window; none for the initial state), and a verdict on the "
+                 "core's values (the whole box's where the core has none): a value agrees "
+                 "within the stated tolerance plus two standard deviations "
+                 "(`grainlab.report.paper_comparison`; both verdicts are in "
+                 "`against_the_paper.csv`).", "", comparison_markdown(comparison), "",
+                 "## The papers' values", "", PAPERS[spec.study.parameter], "",
                  f"The samples here hold {n} particles at most, in a box of walls about "
                  f"{n ** (1 / 3):.0f} particles wide, where the papers' held 12 000 to "
                  "40 000: the walls order the particles next to them (the whole-box packing "
@@ -167,6 +181,9 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
              "snapshots.h5, run.log).", ""]
     path = out / "report.md"
     path.write_text("\n".join(text), encoding="utf-8")
+    from grainlab.report.html_report import write_html_report
+
+    write_html_report(path, f"Study: {spec.study.name}")
     return path
 
 
