@@ -10,7 +10,7 @@ from rich.console import Console
 
 from grainlab.cli.errors import friendly_errors
 from grainlab.errors import InputError
-from grainlab.study.series_presets import LENGTHS, series_spec
+from grainlab.study.series_presets import BOUNDARIES, LENGTHS, series_spec
 from grainlab.study.study_runner import SPEC, Study, StudyInterrupted
 from grainlab.study.study_spec import StudySpec
 
@@ -38,6 +38,8 @@ _LENGTH = typer.Option("short", "--length", help="; ".join(
 _ONLY = typer.Option(None, "--only", help=(
     "Run only these samples (comma-separated names, e.g. S1,S8); the others are left as they "
     "are, and the report covers every sample that has ended."))
+_BOUNDARY = typer.Option("walls", "--boundary", help="; ".join(
+    f"{name}: {words}" for name, words in BOUNDARIES.items()) + ".")
 _SEED = typer.Option(0, "--seed", min=0, help="Seed of the sphere packing shared by the "
                                               "samples, and of their shapes.")
 
@@ -78,6 +80,8 @@ def _preset(series: str, out: Path, n_particles, length, seed, scheduler, worker
             progress, only, **options) -> None:
     if length not in LENGTHS:
         raise InputError("--length", length, "one of " + ", ".join(LENGTHS))
+    if options.get("boundary") not in BOUNDARIES:
+        raise InputError("--boundary", options.get("boundary"), "one of " + ", ".join(BOUNDARIES))
     spec = series_spec(series, n_particles=n_particles, length=length, seed=seed, **options)
     _run_study(Study.create(out, spec), scheduler, workers, threads, progress, only)
 
@@ -90,6 +94,7 @@ def angularity_command(
     templates: int = typer.Option(None, "--templates", min=0, help=(
         "Polyhedra drawn once and reused in random orientations (0: every particle its own, "
         "as the paper; default 12 for short, 0 for full).")),
+    boundary: str = _BOUNDARY,
     scheduler: str = _SCHEDULER, workers: int = _WORKERS, threads: int = _THREADS,
     only: str = _ONLY, progress: bool = _PROGRESS,
 ) -> None:
@@ -97,7 +102,7 @@ def angularity_command(
     and 8 faces (S2 ... S8) inscribed in one sphere packing; triaxial compression after a
     frictionless isotropic compaction. Run it again to resume."""
     _preset("angularity", out, n_particles, length, seed, scheduler, workers, threads,
-            progress, only, templates=templates)
+            progress, only, templates=templates, boundary=boundary)
 
 
 @app.command("nonconvexity")
@@ -105,6 +110,7 @@ def angularity_command(
 def nonconvexity_command(
     out: Path = typer.Option(Path("study-nonconvexity"), "--out", "-o", help="Study folder."),
     n_particles: int = _N, length: str = _LENGTH, seed: int = _SEED,
+    boundary: str = _BOUNDARY,
     scheduler: str = _SCHEDULER, workers: int = _WORKERS, threads: int = _THREADS,
     only: str = _ONLY, progress: bool = _PROGRESS,
 ) -> None:
@@ -112,7 +118,7 @@ def nonconvexity_command(
     0.7 inscribed in one sphere packing; triaxial compression after a frictionless
     isotropic compaction. Run it again to resume."""
     _preset("nonconvexity", out, n_particles, length, seed, scheduler, workers, threads,
-            progress, only)
+            progress, only, boundary=boundary)
 
 
 @app.command("run")

@@ -83,14 +83,41 @@ ETAS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7)
 """Seed 003's eight packings."""
 
 
+BOUNDARIES = {
+    "walls": "a box of six walls, the papers' (the particles along the walls are a large share "
+             "of a small sample: the study's core values leave them out)",
+    "periodic": "a periodic cell: no wall layer, every particle in the bulk; each sample a "
+                "loose packing of its own shapes drawn with the same seed, compacted in the "
+                "cell (not inscribed in one deposited sphere packing)",
+}
+"""The boundaries a preset study runs in (``boundary``), in words."""
+
+PERIODIC_PARTICLES = 800
+"""Particles per sample in a periodic cell by default (at least): the cell must stay three
+interaction ranges across along each axis (no pair touching through two images), which the
+60-100 particles of a smoke or short study do not give with seed 003's sizes (up to 3 R_min):
+500 aggregates of eta = 0.7 in a cube compact to a cell 3.23 of their largest diameters
+across, just under the bound (measured); 800 leave it about 3.8 across."""
+
+
 def _protocol(n_particles: int, length: str, seed: int, size_ratio: float,
-              snapshots: int) -> dict[str, Any]:
-    """The papers' protocol as a base run config (module docstring)."""
+              snapshots: int, boundary: str = "walls") -> dict[str, Any]:
+    """The papers' protocol as a base run config (module docstring); in a periodic cell
+    (``boundary = "periodic"``) the samples are loose packings compacted in the cell, with
+    the same compaction and shear, in a cube below eps_q = 0.5 (a taller cell leaves its
+    lateral sides fewer particles across), as tall as the length's height ratio above (the
+    shear shortens it)."""
     eps_q_max = LENGTHS[length].eps_q_max
+    sample = {"n_particles": n_particles, "size_ratio": size_ratio, "seed": seed,
+              "preparation": "deposition", "wall_friction": 0.0,
+              "height_ratio": LENGTHS[length].height_ratio}
+    if _boundary(boundary) == "periodic":
+        del sample["wall_friction"]
+        sample.update(boundary="periodic", preparation="loose")
+        if eps_q_max < 0.5:  # a cube: its lateral sides keep three interaction ranges
+            sample["height_ratio"] = 1.0
     return {
-        "sample": {"n_particles": n_particles, "size_ratio": size_ratio, "seed": seed,
-                   "preparation": "deposition", "wall_friction": 0.0,
-                   "height_ratio": LENGTHS[length].height_ratio},
+        "sample": sample,
         "test": {"kind": "triaxial", "eps_q_max": eps_q_max},
         "solver": {"compaction": {"friction": 0.0}, "shear": {"friction": 0.4,
                                                               "inertia_number": 1e-3}},
@@ -107,15 +134,16 @@ def _snapshot_every(n_particles: int, length: str) -> int:
 
 
 def angularity_series(*, n_particles: int | None = None, length: str = "short",
-                      seed: int = 0, templates: int | None = None) -> StudySpec:
+                      seed: int = 0, templates: int | None = None,
+                      boundary: str = "walls") -> StudySpec:
     """Seed 002's eight samples S1 ... S8 (module docstring). ``templates``: polyhedra drawn
     once and reused in random orientations (0: every particle its own, as the paper; default:
-    the length's, :data:`LENGTHS`)."""
+    the length's, :data:`LENGTHS`); ``boundary``: one of :data:`BOUNDARIES`."""
     length = _length(length)
-    n = n_particles or LENGTHS[length].particles
+    n = n_particles or _default_particles(length, boundary)
     if templates is None:
         templates = LENGTHS[length].templates
-    base = _protocol(n, length, seed, 2.0, _snapshot_every(n, length))
+    base = _protocol(n, length, seed, 2.0, _snapshot_every(n, length), boundary)
     samples = [{"name": "S1", "value": 0.0, "set": {"sample": {"shape": "sphere"}}}]
     for k, faces in enumerate(sorted(TABLE_I, reverse=True)):
         samples.append({"name": f"S{k + 2}", "value": TABLE_I[faces],
@@ -123,31 +151,33 @@ def angularity_series(*, n_particles: int | None = None, length: str = "short",
                                            "templates": templates}}})
     return _series("angularity", "mean_angularity", "<alpha>",
                    "Seed 002: spheres and polyhedra of 596 ... 8 faces", length, n, base,
-                   samples)
+                   samples, boundary)
 
 
 def nonconvexity_series(*, n_particles: int | None = None, length: str = "short",
-                        seed: int = 0) -> StudySpec:
-    """Seed 003's eight samples eta = 0 ... 0.7 (module docstring)."""
+                        seed: int = 0, boundary: str = "walls") -> StudySpec:
+    """Seed 003's eight samples eta = 0 ... 0.7 (module docstring); ``boundary``: one of
+    :data:`BOUNDARIES`."""
     length = _length(length)
-    n = n_particles or LENGTHS[length].particles
-    base = _protocol(n, length, seed, 3.0, _snapshot_every(n, length))
+    n = n_particles or _default_particles(length, boundary)
+    base = _protocol(n, length, seed, 3.0, _snapshot_every(n, length), boundary)
     samples = []
     for eta in ETAS:
         shape = {"shape": "sphere"} if eta == 0.0 else {"shape": "aggregate", "eta": eta}
         samples.append({"name": f"eta-{eta:.1f}", "value": eta, "set": {"sample": shape}})
     return _series("nonconvexity", "eta", "eta",
                    "Seed 003: aggregates of four spheres, eta = 0 ... 0.7", length, n, base,
-                   samples)
+                   samples, boundary)
 
 
 def _series(name: str, parameter: str, symbol: str, text: str, length: str, n: int,
-            base: dict, samples: list[dict]) -> StudySpec:
+            base: dict, samples: list[dict], boundary: str = "walls") -> StudySpec:
     """The study of a preset series: its window at ``length``, described by ``text``."""
+    where = ", in a periodic cell" if boundary == "periodic" else ""
     return StudySpec.model_validate({
         "study": {"name": name, "parameter": parameter, "symbol": symbol,
                   "window": LENGTHS[length].window[name],
-                  "description": f"{text} ({length} length, {n} particles per sample)"},
+                  "description": f"{text} ({length} length, {n} particles per sample{where})"},
         "base": base, "samples": samples})
 
 
@@ -161,6 +191,18 @@ def series_spec(name: str, **options: Any) -> StudySpec:
     if name not in SERIES:
         raise InputError("series", name, "one of " + ", ".join(SERIES))
     return SERIES[name](**options)
+
+
+def _default_particles(length: str, boundary: str) -> int:
+    """The length's particles per sample, at least :data:`PERIODIC_PARTICLES` in a cell."""
+    n = LENGTHS[length].particles
+    return max(n, PERIODIC_PARTICLES) if _boundary(boundary) == "periodic" else n
+
+
+def _boundary(boundary: str) -> str:
+    if boundary not in BOUNDARIES:
+        raise InputError("boundary", boundary, "one of " + ", ".join(BOUNDARIES))
+    return boundary
 
 
 def _length(length: str) -> str:
