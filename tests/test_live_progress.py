@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import io
 
-from rich.console import Console
 from rich.progress import BarColumn, TextColumn
 
 from grainlab._live_progress import LiveProgress
@@ -23,10 +22,8 @@ class _Handle:
         self.shown.append(renderable)
 
 
-def _text(renderable) -> str:
-    console = Console(file=io.StringIO(), width=120, color_system=None)
-    console.print(renderable)
-    return console.file.getvalue()
+def _text(shown) -> str:
+    return repr(shown)  # the bar as plain text (NotebookBar)
 
 
 def _bar(**options) -> LiveProgress:
