@@ -39,7 +39,7 @@ from grainlab.engine.state import BodyState, ShapeLibrary
 
 G = 9.81  # m/s^2
 STEP = 1e-4  # s
-CAPS = {"nlgs": 2000, "psor": 2000, "apgd": 20000, "jacobi": 20000}
+CAPS = {"nlgs": 2000, "psor": 2000, "apgd": 20000, "jacobi": 20000, "nlgs-subspace": 2000}
 """Iterations allowed per method: the gradient and Jacobi methods take more, cheaper ones."""
 
 
@@ -56,7 +56,7 @@ def sphere_on_an_incline(mass: float = 0.01, tilt_deg: float = 20.0,
     for method in METHODS:
         solution = solve(problem, method, tolerance=1e-12, max_iterations=CAPS[method])
         gap = float(np.abs(solution.reactions - exact).max() / np.abs(exact).max())
-        print(f"  {method:6s} r = {np.round(solution.reactions, 9).tolist()}, relative "
+        print(f"  {method:13s} r = {np.round(solution.reactions, 9).tolist()}, relative "
               f"difference {gap:.1e}, error {solution.error:.1e} in {solution.iterations} "
               "iterations")
 
@@ -90,14 +90,14 @@ def main(folder: Path) -> None:
     problem = stored.problem
     print(f"\npile step: {problem.n_contacts} contacts, written to and read from {path}; the "
           f"engine's impulses: error {natural_map_error(problem, stored.reactions):.1e}")
-    print(f"  {'method':6s} {'iterations':>10s} {'error':>9s} {'seconds':>8s}  largest "
+    print(f"  {'method':13s} {'iterations':>10s} {'error':>9s} {'seconds':>8s}  largest "
           f"difference from NLGS's impulses / largest impulse")
     reference = solve(problem, "nlgs", tolerance=1e-10, max_iterations=CAPS["nlgs"])
     scale = float(np.abs(reference.reactions).max())
     for method in METHODS:
         solution = solve(problem, method, tolerance=1e-8, max_iterations=CAPS[method])
         difference = float(np.abs(solution.reactions - reference.reactions).max()) / scale
-        print(f"  {method:6s} {solution.iterations:10d} {solution.error:9.1e} "
+        print(f"  {method:13s} {solution.iterations:10d} {solution.error:9.1e} "
               f"{solution.seconds:8.4f}  {difference:.1e}"
               + ("" if solution.converged else "  (not converged)"))
 

@@ -30,7 +30,8 @@ VALUES = {
     "shape": "aggregate", "n": 25, "d_min": 2e-3, "size_ratio": 1.5, "eta": 0.2,
     "faces": 20, "templates": 2, "density": 2000.0, "seed": 7, "sigma0": 2e4, "eps_q": 0.2,
     "axial_strain": 0.02, "unload_strain": 0.005, "mu": 0.3, "inertia": 5e-4, "dt": 1e-6,
-    "tolerance": 1e-5, "sweep": "serial", "max_iterations": 500, "record_every": 7,
+    "tolerance": 1e-5, "sweep": "serial", "correction": "none", "max_iterations": 500,
+    "record_every": 7,
     "snapshot_every": 7, "checkpoint_every": 7, "vtk_every": 7, "kappa": 2e3,
     "young_modulus": 1e9, "restitution": 0.3, "height_ratio": 1.5, "b": 0.3, "gamma": 0.2,
     "q_ratio": 0.4, "circle_points": 12, "amplitude": 0.02, "cycles": 3, "law": "linear",
@@ -75,7 +76,7 @@ def what_the_run_reads(config) -> dict:
     if not any(stage.moving_axes for stage in stages):
         settings.pop("shear")  # no loading stage
     if method == "dem":
-        for key in ("sweep", "theta", "warm_start_extrapolation"):
+        for key in ("sweep", "correction", "theta", "warm_start_extrapolation"):
             settings.pop(key)
         for kind in ("compaction", "shear"):
             for key in CD_ONLY:

@@ -29,7 +29,7 @@ from grainlab.errors import InputError, SolverDivergence
 G, H, MASS = 9.81, 1e-3, 0.5
 TIGHT = 1e-10
 DT_PILE = 1e-4
-CAPS = {"nlgs": 2000, "psor": 2000, "apgd": 20000, "jacobi": 20000}
+CAPS = {"nlgs": 2000, "psor": 2000, "apgd": 20000, "jacobi": 20000, "nlgs-subspace": 2000}
 
 FLOOR_ROWS = WallRows([[0.0, 0.0, 1.0]], [0.0], [0.0], [np.inf])  # a fixed floor z = 0
 

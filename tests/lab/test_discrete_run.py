@@ -37,9 +37,9 @@ SMALL = {
     # no overlap recovery and a compaction solved as tightly as the shear: on 40 particles the
     # recovery's push makes the lateral walls' reactions fluctuate by ~10 % from record to
     # record (1 % without), which the wall-stress checks below would confuse with control
-    # the warm start, the shear's sweep cap and the fixed steps of the recorded run
-    # (tests/lab/data)
-    "solver": {"sweep": "serial", "warm_start_extrapolation": 0.0,
+    # the warm start, the shear's sweep cap, NLGS alone and the fixed steps of the recorded
+    # run (tests/lab/data)
+    "solver": {"sweep": "serial", "warm_start_extrapolation": 0.0, "correction": "none",
                "compaction": {"inertia_number": 0.05, "max_iterations": 400,
                               "time_step_growth": 1.0},
                "shear": {"inertia_number": 0.01, "overlap_recovery": 0.0,

@@ -81,6 +81,7 @@ def test_settings_follow_each_key_changed():
         "sample": {"seed": 11},
         "test": {"quasi_static": {"stress_tolerance": 0.02}},
         "solver": {"method": "dem", "dt": 2e-6, "theta": 0.75, "sweep": "serial",
+                   "correction": "none",
                    "warm_start_extrapolation": 0.25, "max_stage_steps": 77,
                    "at_max_stage_steps": "next_stage", "wall_mass_factor": 3.0,
                    "wall_servo": False, "seed": 5,

@@ -65,6 +65,11 @@ class DiscreteTestSettings:
         Solver settings (:class:`~grainlab.engine.nscd.contact_dynamics.ContactDynamicsStep`;
         ``warm_start_extrapolation`` lambda in [0, 1], default
         :data:`~grainlab.engine.nscd.contact_dynamics.WARM_START_EXTRAPOLATION`).
+    correction:
+        The correction between sweeps of the contact-dynamics steps (``correction`` of
+        :class:`~grainlab.engine.nscd.contact_dynamics.ContactDynamicsStep`): ``"subspace"``
+        (default; it acts on the frictionless steps: the compaction), ``"none"``: NLGS alone,
+        the reference.
     record_every, snapshot_every:
         Steps between results rows and between contact-network snapshots (0: none; with
         snapshots on, the state each stage ends in is one too).
@@ -107,6 +112,7 @@ class DiscreteTestSettings:
     theta: float = 0.5
     sweep: str = "coloured"
     warm_start_extrapolation: float = WARM_START_EXTRAPOLATION
+    correction: str = "subspace"
     record_every: int = 10
     snapshot_every: int = 0
     max_stage_steps: int = 200_000

@@ -4,8 +4,8 @@ setting that would do nothing is refused, not kept silently.
 A run reads only part of its config. Contact dynamics (``solver.method = "cd"``) has rigid
 grains: the ``[solver.dem]`` table (stiffness, law, restitution, damping) does nothing. The
 soft-contact solver (``"dem"``) is explicit: it has no NLGS sweeps, so ``solver.sweep``,
-``theta``, ``warm_start_extrapolation``, the stage tables' ``tolerance``, ``max_iterations``,
-``overlap_recovery``, ``capped_share_limit`` and ``time_step_growth``, and
+``theta``, ``warm_start_extrapolation``, ``correction``, the stage tables' ``tolerance``,
+``max_iterations``, ``overlap_recovery``, ``capped_share_limit`` and ``time_step_growth``, and
 ``output.problems_every`` (the contact problems of contact-dynamics steps) do nothing. A linear
 law reads ``normal_stiffness`` (or ``kappa``), Hertz-Mindlin ``young_modulus`` and
 ``poisson_ratio`` (or ``kappa``). The periodic cell has no walls (``solver.wall_servo``,

@@ -20,7 +20,8 @@ every key has a default, an unknown key is an error that names it::
                compaction has settled (:class:`~grainlab.lab.wall_stages.QuasiStaticCriteria`;
                inf: not checked)
     [solver]   method ("cd": contact dynamics | "dem": soft-contact DEM), dt [s]
-               (0: automatic), theta, sweep, warm_start_extrapolation, max_stage_steps,
+               (0: automatic), theta, sweep, warm_start_extrapolation, correction
+               ("subspace" | "none": NLGS alone), max_stage_steps,
                at_max_stage_steps ("stop" | "next_stage"), wall_mass_factor, wall_servo,
                seed
     [solver.compaction]   friction, inertia_number, time_step_factor, tolerance,
@@ -338,6 +339,7 @@ class _RunWideSolver(ConfigSection):
     theta: StrictFloat = Field(_RUN_WIDE.theta, ge=0.5, le=1.0)
     sweep: Literal["coloured", "serial"] = _RUN_WIDE.sweep
     warm_start_extrapolation: StrictFloat = Field(_RUN_WIDE.warm_start_extrapolation, ge=0, le=1)
+    correction: Literal["subspace", "none"] = _RUN_WIDE.correction
     max_stage_steps: StrictInt = Field(_RUN_WIDE.max_stage_steps, ge=1)
     at_max_stage_steps: Literal["stop", "next_stage"] = _RUN_WIDE.at_max_stage_steps
     wall_mass_factor: StrictFloat = Field(_RUN_WIDE.wall_mass_factor, gt=0)

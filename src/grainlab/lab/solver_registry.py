@@ -222,11 +222,13 @@ def _build_contact_dynamics(settings, sample, confining, gyroscopic: bool):
         dt=settings.dt or 1.0, theta=settings.theta, tolerance=first.tolerance,
         max_iterations=first.max_iterations, friction=first.friction, sweep=settings.sweep,
         seed=settings.seed, overlap_recovery=first.overlap_recovery, gyroscopic=gyroscopic,
-        warm_start_extrapolation=settings.warm_start_extrapolation)
+        warm_start_extrapolation=settings.warm_start_extrapolation,
+        correction=settings.correction)
     return solver, None
 
 
 NLGS_KEYS = ("solver.sweep", "solver.theta", "solver.warm_start_extrapolation",
+             "solver.correction",
              "output.problems_every",
              *(f"solver.{kind}.{key}" for kind in STAGE_KEYS
                for key in ("tolerance", "max_iterations", "overlap_recovery",

@@ -83,6 +83,14 @@ Skipping open contacts (LMGC90's iskip idea): a contact found open (P = 0) at
 :data:`SKIP_REVISIT`-th and the one after a failed check, which visit every contact; the
 check pass always covers every contact, so a skipped contact that closes fails the residual.
 
+Subspace minimisation (``correction="subspace"``): in a step where every contact is
+frictionless, the sweeps run :data:`~grainlab.engine.nscd.subspace_minimisation.SWEEPS_BETWEEN`
+at a time, and after each run that has not converged the normal impulses take one subspace
+minimisation (:mod:`~grainlab.engine.nscd.subspace_minimisation`: the loaded contacts' linear
+system by conjugate gradients, a projected line search that lowers the step's energy). The
+stop test is the kernel's, after the sweeps; ``correction_products`` counts the corrections'
+products (each about a third of a sweep's work). Frictional steps are swept alone.
+
 Convergence (both must be <= ``tolerance`` after a sweep; the change is measured in every
 sweep, the residual, which costs a pass over the contacts, only after sweeps whose change is
 below the tolerance and at the cap):
@@ -131,6 +139,7 @@ from grainlab.engine.gyroscopic import gyroscopic_spins
 from grainlab.engine.nscd.contact_colouring import colour_contacts, slab_contacts
 from grainlab.engine.nscd.contact_problem import (
     assemble_problem,
+    constraint_system,
     project_on_cones,
 )
 from grainlab.engine.nscd.nlgs_parallel import (
@@ -141,6 +150,11 @@ from grainlab.engine.nscd.nlgs_parallel import (
     slab_count,
 )
 from grainlab.engine.nscd.serial_sweep import nlgs_kernel
+from grainlab.engine.nscd.subspace_minimisation import (
+    CG_ITERATIONS,
+    SWEEPS_BETWEEN,
+    subspace_correction,
+)
 from grainlab.engine.nscd.sweep_arrays import (
     BodyRows,
     CellRows,
@@ -157,6 +171,8 @@ from grainlab.engine.step_report import StepReport, contact_frames, contact_keys
 from grainlab.errors import ConvergenceError, InputError, SolverDivergence
 
 _SWEEPS = ("coloured", "serial")
+CORRECTIONS = ("none", "subspace")
+"""The corrections between sweeps (``correction`` of :class:`ContactDynamicsStep`)."""
 
 
 WARM_START_EXTRAPOLATION = 0.5
@@ -217,6 +233,13 @@ class ContactDynamicsStep:
         lambda in [0, 1]: a contact found in the two previous steps starts from its last
         force plus lambda times that force's change over the last step, projected on its
         Coulomb cone (module docstring, "Warm start"); 0: from its last force.
+    correction:
+        ``"none"`` (default): NLGS sweeps alone; ``"subspace"``: in a step where every
+        contact is frictionless, a subspace minimisation every
+        :data:`~grainlab.engine.nscd.subspace_minimisation.SWEEPS_BETWEEN` sweeps
+        (:mod:`~grainlab.engine.nscd.subspace_minimisation`; the same stop test, the sweeps
+        and the corrections' conjugate-gradient products counted apart); steps with friction
+        are swept alone (module docstring, "Subspace minimisation").
 
     Attributes
     ----------
@@ -236,6 +259,7 @@ class ContactDynamicsStep:
         alert: float | None = None, gyroscopic: bool = False, strict: bool = False,
         seed: int = 0, sweep: str = "coloured", overlap_recovery: float = 0.0,
         change_tolerance: float | None = None, warm_start_extrapolation: float = 0.0,
+        correction: str = "none",
     ) -> None:
         self.dt = at_least("dt", dt)
         theta_value = at_least("theta", theta)
@@ -261,6 +285,11 @@ class ContactDynamicsStep:
         if sweep not in _SWEEPS:
             raise InputError("sweep", sweep, "one of " + ", ".join(map(repr, _SWEEPS)))
         self.sweep = sweep
+        if correction not in CORRECTIONS:
+            raise InputError("correction", correction,
+                             "one of " + ", ".join(map(repr, CORRECTIONS)))
+        self.correction = correction
+        self.correction_products = 0
         self.overlap_recovery = overlap_recovery
         self.overlap_recovery_speed = math.inf
         self.warm_start_extrapolation = in_range(
@@ -438,12 +467,21 @@ class ContactDynamicsStep:
         residuals = np.zeros(2)
         if self.sweep == "serial":
             order = self._rng.permutation(n_contacts).astype(np.int64)
-            iterations = nlgs_kernel(rows, bodies, walls, cell, settings, order, motion,
-                                     impulses, delassus, residuals)
+
+            def sweeps(limits):
+                return nlgs_kernel(rows, bodies, walls, cell, limits, order, motion, impulses,
+                                   delassus, residuals)
         else:
-            iterations = nlgs_coloured_kernel(
-                rows, bodies, walls, cell, settings, _sweep_groups(rows, walls, x_m, serial),
-                motion, impulses, delassus, residuals)
+            groups = _sweep_groups(rows, walls, x_m, serial)
+
+            def sweeps(limits):
+                return nlgs_coloured_kernel(rows, bodies, walls, cell, limits, groups, motion,
+                                            impulses, delassus, residuals)
+        if self.correction == "subspace" and n_contacts and not np.any(rows.mu > 0.0):
+            iterations = self._corrected_sweeps(sweeps, settings, rows, bodies, walls, cell,
+                                                motion, impulses, residuals)
+        else:
+            iterations = sweeps(settings)
         change, residual = float(residuals[0]), float(residuals[1])
         _check_finite_solve(iterations, change, residual, impulses,
                             {"body velocities": motion.velocities,
@@ -458,6 +496,37 @@ class ContactDynamicsStep:
                 f"residual {residual:.3e} (tolerance {self.tolerance:.3e}, "
                 f"{n_contacts} contacts).")
         return motion, iterations, change, residual
+
+    def _corrected_sweeps(self, sweeps, settings: SolveSettings, rows: ContactRows,
+                          bodies: BodyRows, walls: WallRows, cell: CellRows, motion: Motion,
+                          impulses: np.ndarray, residuals: np.ndarray) -> int:
+        """Sweeps in runs of :data:`SWEEPS_BETWEEN`, a subspace minimisation of the normal
+        impulses after each run that ends unconverged (frictionless steps,
+        :mod:`~grainlab.engine.nscd.subspace_minimisation`); the sweeps done. The last run
+        is a plain run of sweeps, so the stop test and the motion are the kernel's own.
+        A step where a wall's or the cell's speed limit holds is not the plain problem the
+        correction minimises (:mod:`~grainlab.engine.nscd.contact_problem`): its remaining
+        sweeps run alone."""
+        system = None
+        done = 0
+        while True:
+            run = min(SWEEPS_BETWEEN, settings.max_iterations - done)
+            ran = sweeps(settings._replace(max_iterations=run))
+            done += ran
+            converged = residuals[0] <= settings.change_tolerance \
+                and residuals[1] <= settings.tolerance
+            if converged or ran < run or done >= settings.max_iterations:
+                return done
+            if _brake_held(walls, cell, motion):
+                return done + sweeps(settings._replace(
+                    max_iterations=settings.max_iterations - done))
+            if system is None:
+                system = constraint_system(rows, bodies, walls, cell, settings.dt)
+            normal, gain = subspace_correction(system, impulses[:, 0])
+            self.correction_products += CG_ITERATIONS
+            if gain < 0.0:
+                impulses[:, 0] = normal
+                impulses[:, 1:] = 0.0
 
     def _remember_forces(self, keys: np.ndarray, frames: np.ndarray,
                          impulses: np.ndarray) -> np.ndarray:
@@ -527,6 +596,19 @@ def _check_finite_state(state: BodyState) -> None:
         if bad.size:
             raise InputError(f"state.{name}[{int(bad[0])}]", array[bad[0]].tolist(),
                              "finite values at the start of a step")
+
+
+def _brake_held(walls: WallRows, cell: CellRows, motion: Motion) -> bool:
+    """Whether a mobile wall ends the sweeps at its speed limit or a free cell degree of
+    freedom at a bound (:mod:`~grainlab.engine.nscd.speed_limits`)."""
+    mobile = walls.inv_mass > 0.0
+    if np.any(np.abs(motion.wall_speeds[mobile]) >= (1.0 - 1e-9) * walls.max_speeds[mobile]):
+        return True
+    free = cell.inv_mass > 0.0
+    dofs = motion.cell_dofs[free]
+    bounds = cell.bounds[free]
+    return bool(np.any((dofs <= bounds[:, 0] + 1e-12 * np.abs(bounds[:, 0]))
+                       | (dofs >= bounds[:, 1] - 1e-12 * np.abs(bounds[:, 1]))))
 
 
 def _check_finite_solve(iterations: int, change: float, residual: float,

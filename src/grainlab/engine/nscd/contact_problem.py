@@ -154,8 +154,29 @@ def project_on_cones(z: np.ndarray, mu: np.ndarray) -> np.ndarray:
     return out
 
 
+@dataclass(frozen=True, eq=False)
+class ConstraintSystem:
+    """The parts of a step's plain problem before the Delassus product: ``constraints`` H
+    (3C, n_dofs) (rows 3a .. 3a + 2: contact a's (n, t, s)), ``inverse_mass`` M^-1
+    (n_dofs, n_dofs) [1/kg, 1/(kg m^2)] and ``free_velocity`` q (3C,) [m/s]
+    (:func:`constraint_system`); W = H M^-1 H^T."""
+
+    constraints: sp.csr_matrix
+    inverse_mass: sp.csr_matrix
+    free_velocity: np.ndarray
+
+
 def assemble_problem(contacts, bodies, walls, cell, dt) -> FrictionalContactProblem:
-    """The plain problem (W, q, mu) of a contact-dynamics step, from the arrays its kernels
+    """The plain problem (W, q, mu) of a contact-dynamics step (:func:`constraint_system`,
+    then W = H M^-1 H^T)."""
+    system = constraint_system(contacts, bodies, walls, cell, dt)
+    h_matrix = system.constraints
+    delassus = (h_matrix @ system.inverse_mass @ h_matrix.T).tocsr()
+    return FrictionalContactProblem(delassus, system.free_velocity, contacts.mu)
+
+
+def constraint_system(contacts, bodies, walls, cell, dt) -> ConstraintSystem:
+    """H, M^-1 and q of a contact-dynamics step, from the arrays its kernels
     take (:func:`~grainlab.engine.nscd.serial_sweep.nlgs_kernel`: the named tuples of
     :mod:`~grainlab.engine.nscd.sweep_arrays`, same names, units and conventions):
     ``contacts`` (:class:`ContactRows`, its ``gap`` the g* [m] of the law), ``bodies``
@@ -198,24 +219,18 @@ def assemble_problem(contacts, bodies, walls, cell, dt) -> FrictionalContactProb
         6 * n_bodies + mobile_walls.size + np.arange(free_cell.size),
         6 * n_bodies + mobile_walls.size + free_cell.size)
 
-    inverse_blocks = [sp.block_diag([sp.diags(np.full(3, float(m))), sp.csr_matrix(inertia)])
-                      for m, inertia in zip(np.asarray(bodies.inv_mass, dtype=np.float64),
-                                            np.asarray(bodies.inv_inertia, dtype=np.float64)
-                                            .reshape(n_bodies, 3, 3), strict=True)]
-    extra = np.concatenate([wall_inv_mass[mobile_walls], cell_inv_mass[free_cell]])
-    if extra.size:
-        inverse_blocks.append(sp.diags(extra))
-    inverse_mass = sp.block_diag(inverse_blocks, format="csr") if inverse_blocks else \
-        sp.csr_matrix((0, 0))
-    delassus = (h_matrix @ inverse_mass @ h_matrix.T).tocsr()
-
+    inverse_mass = _inverse_mass(
+        np.asarray(bodies.inv_mass, dtype=np.float64).reshape(n_bodies),
+        np.asarray(bodies.inv_inertia, dtype=np.float64).reshape(n_bodies, 3, 3),
+        np.concatenate([wall_inv_mass[mobile_walls], cell_inv_mass[free_cell]]))
     free = np.concatenate([
         np.concatenate([np.asarray(bodies.free_velocities, dtype=np.float64).reshape(n_bodies, 3),
                         np.asarray(bodies.free_spins, dtype=np.float64).reshape(n_bodies, 3)],
                        axis=1).ravel(),
         wall_free[mobile_walls], cell_free[free_cell]])
     q = (h_matrix @ free).reshape(n_contacts, 3)
-    fixed_walls = np.flatnonzero((body_i < 0) & (wall_column[np.maximum(-1 - body_i, 0)] < 0))
+    on_wall = np.flatnonzero(body_i < 0)  # none in a periodic cell (no walls at all)
+    fixed_walls = on_wall[wall_column[-1 - body_i[on_wall]] < 0]
     if fixed_walls.size:  # a driven wall moves at its prescribed speed
         wall = -1 - body_i[fixed_walls]
         q[fixed_walls] -= wall_free[wall][:, None] * np.einsum(
@@ -228,7 +243,29 @@ def assemble_problem(contacts, bodies, walls, cell, dt) -> FrictionalContactProb
                 rate += cell_free[d] * cell_basis[d]
         q[crossing] += np.einsum("cij,cj->ci", frame[crossing], images[crossing] @ rate.T)
     q[:, 0] += np.asarray(contacts.gap, dtype=np.float64).reshape(n_contacts) / float(dt)
-    return FrictionalContactProblem(delassus, q.ravel(), contacts.mu)
+    return ConstraintSystem(h_matrix, inverse_mass, q.ravel())
+
+
+def _inverse_mass(inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                  extra: np.ndarray) -> sp.csr_matrix:
+    """M^-1 over the degrees of freedom: per body 1/m three times, then its world inverse
+    inertia (3 x 3); then the ``extra`` (walls', cell's) inverse masses on the diagonal."""
+    n_bodies = inv_mass.size
+    base = 6 * np.arange(n_bodies)
+    rows = [base[:, None] + np.arange(3)[None, :],
+            np.broadcast_to((base[:, None] + 3 + np.arange(3)[None, :])[:, :, None],
+                            (n_bodies, 3, 3))]
+    cols = [rows[0], np.broadcast_to((base[:, None] + 3 + np.arange(3)[None, :])[:, None, :],
+                                     (n_bodies, 3, 3))]
+    vals = [np.repeat(inv_mass[:, None], 3, axis=1), inv_inertia]
+    n_dofs = 6 * n_bodies + extra.size
+    rows.append(6 * n_bodies + np.arange(extra.size))
+    cols.append(rows[-1])
+    vals.append(extra)
+    return sp.csr_matrix((np.concatenate([v.ravel() for v in vals]),
+                          (np.concatenate([r.ravel() for r in rows]),
+                           np.concatenate([c.ravel() for c in cols]))),
+                         shape=(n_dofs, n_dofs))
 
 
 def _constraint_matrix(contacts, frame, wall_normals, wall_column, images, free_basis,
@@ -404,6 +441,7 @@ def problem_scale(problem: FrictionalContactProblem) -> float:
     return norm if norm > _EPSILON else 1.0
 
 
-__all__ = ["FrictionalContactProblem", "StoredProblem", "assemble_problem",
+__all__ = ["ConstraintSystem", "FrictionalContactProblem", "StoredProblem", "assemble_problem",
+           "constraint_system",
            "natural_map_error", "problem_scale", "project_on_cones", "read_fclib",
            "write_fclib"]

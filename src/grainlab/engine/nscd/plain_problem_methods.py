@@ -44,6 +44,14 @@ Methods
     Projected Jacobi: every contact solved locally against the others' previous values,
     all at once, then r <- r + omega (local - r) with omega = 0.5 (undamped Jacobi
     oscillates on packings; stable below :func:`jacobi_relaxation_bound`).
+``"nlgs-subspace"``
+    NLGS with a subspace minimisation of the normal impulses after every
+    :data:`~grainlab.engine.nscd.subspace_minimisation.SWEEPS_BETWEEN` sweeps
+    (:mod:`~grainlab.engine.nscd.subspace_minimisation`: conjugate gradients on the loaded
+    contacts' W_AA, a projected line search on the energy) where every contact is
+    frictionless; with friction it is NLGS. Its iterations are the sweeps; each
+    correction adds :data:`~grainlab.engine.nscd.subspace_minimisation.CG_ITERATIONS` + 2
+    products with W_nn (``ContactSolution.products``).
 
 >>> import numpy as np, scipy.sparse as sp
 >>> from grainlab.engine.nscd.contact_problem import FrictionalContactProblem
@@ -70,9 +78,14 @@ from grainlab.engine.nscd.contact_problem import (
     FrictionalContactProblem,
     problem_scale,
 )
+from grainlab.engine.nscd.subspace_minimisation import (
+    CG_ITERATIONS,
+    SWEEPS_BETWEEN,
+    minimise_on_loaded,
+)
 from grainlab.errors import InputError, SolverDivergence
 
-METHODS = ("nlgs", "psor", "apgd", "jacobi")
+METHODS = ("nlgs", "psor", "apgd", "jacobi", "nlgs-subspace")
 """The methods of :func:`solve` (module docstring)."""
 
 DIVERGENCE_FACTOR = 1e6
@@ -93,7 +106,8 @@ class ContactSolution:
     one the stop test measured (``errors[-1]``; 0 without contacts); ``converged`` that same
     number against the tolerance (error <= tolerance); ``errors`` (iterations,) the error
     after each iteration; ``seconds`` the wall time of the iterations (compilation excluded
-    once the kernels are compiled); ``method``.
+    once the kernels are compiled); ``method``; ``products`` the products with W made
+    besides the iterations (``"nlgs-subspace"``'s corrections; 0 for the others).
     """
 
     reactions: np.ndarray
@@ -104,6 +118,7 @@ class ContactSolution:
     errors: np.ndarray
     seconds: float
     method: str
+    products: int = 0
 
 
 @dataclass(frozen=True, eq=False)
@@ -177,9 +192,13 @@ def solve(problem: FrictionalContactProblem, method: str = "nlgs", *,
     start_error = _error(w.indptr, w.indices, w.blocks, q, mu, r, u, scale)
     limit = DIVERGENCE_FACTOR * max(1.0, start_error)
     start = time.perf_counter()
+    products = 0
     if method in ("nlgs", "psor"):
         done = _gauss_seidel(w.indptr, w.indices, w.blocks, w.diagonal, q, mu, visit, omega,
                              tolerance, limit, scale, r, u, errors)
+    elif method == "nlgs-subspace":
+        done, products = _subspace_sweeps(problem, w, visit, tolerance, limit, scale, r, u,
+                                          errors)
     elif method == "jacobi":
         done = _jacobi(w.indptr, w.indices, w.blocks, w.diagonal, q, mu, omega, tolerance,
                        limit, scale, r, u, errors, np.empty((n, 3)))
@@ -194,7 +213,45 @@ def solve(problem: FrictionalContactProblem, method: str = "nlgs", *,
                                            errors[:-done], start_error))
     error = float(errors[done - 1])  # the error the stop test measured, and no other
     return ContactSolution(r.ravel().copy(), u.ravel().copy(), int(done), error,
-                           bool(error <= tolerance), errors[:done].copy(), seconds, method)
+                           bool(error <= tolerance), errors[:done].copy(), seconds, method,
+                           products)
+
+
+def _subspace_sweeps(problem: FrictionalContactProblem, w: BlockDelassus, visit, tolerance,
+                     limit, scale, r, u, errors) -> tuple[int, int]:
+    """``"nlgs-subspace"``: NLGS in runs of SWEEPS_BETWEEN sweeps, a subspace minimisation
+    of the normal impulses after each unconverged run of a frictionless problem; the sweeps
+    done (negated on divergence, as :func:`_gauss_seidel`) and the correction's products."""
+    q, mu = problem.free_velocity.reshape(-1, 3), problem.friction
+    if np.any(mu > 0.0):
+        return _gauss_seidel(w.indptr, w.indices, w.blocks, w.diagonal, q, mu, visit, 1.0,
+                             tolerance, limit, scale, r, u, errors), 0
+    normal_block = problem.delassus[0::3, 0::3].tocsr()
+
+    def restricted(loaded):
+        block = normal_block[loaded][:, loaded].tocsr()
+        return (lambda x: block @ x), block.diagonal()
+
+    done, products = 0, 0
+    while done < errors.shape[0]:
+        run = min(SWEEPS_BETWEEN, errors.shape[0] - done)
+        ran = _gauss_seidel(w.indptr, w.indices, w.blocks, w.diagonal, q, mu, visit, 1.0,
+                            tolerance, limit, scale, r, u, errors[done:done + run])
+        if ran < 0:
+            return ran - done, products
+        done += ran
+        if ran < run or errors[done - 1] <= tolerance or done == errors.shape[0]:
+            break
+        normal, gain = minimise_on_loaded(
+            r[:, 0].copy(), normal_block @ r[:, 0] + q[:, 0], lambda x: normal_block @ x,
+            restricted)
+        products += CG_ITERATIONS + 2
+        if gain < 0.0:
+            r[:, 0] = normal
+            errors[done - 1] = _error(w.indptr, w.indices, w.blocks, q, mu, r, u, scale)
+            if _verdict(errors[done - 1], tolerance, limit) == 1:
+                break
+    return done, products
 
 
 def jacobi_relaxation_bound(problem: FrictionalContactProblem) -> float:
