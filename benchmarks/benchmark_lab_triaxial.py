@@ -21,14 +21,17 @@ kappa = 1e3 on the same thread count, at most 2 % of the steps ended at the solv
 cap; the script exits with status 1 when one is missed.
 
     .venv/bin/python benchmarks/benchmark_lab_triaxial.py [N] [EPS_Q] [--no-yade]
-        [--threads 1 2] [--kinetic-energy inf] [--no-fixed-steps]
+        [--threads 1 2] [--kinetic-energy inf] [--no-fixed-steps] [--no-nlgs-alone]
 
-A second grainlab run on each thread count keeps every step at its shortest length
-(:data:`FIXED_STEPS`: no growth of the step with the overlaps, grainlab.lab.step_control, and
-the shear's overlap recovery of the fixed steps, 0.05), the defaults before the step grew: its
-figures, largest overlap included, and its time ratio to YADE are printed beside the
-defaults'; the targets are judged on the defaults. YADE prints its largest overlap in the
-triaxial phase, for comparison with grainlab's ``max overlap / <d>``.
+A grainlab run with NLGS alone (:data:`NLGS_ALONE`: ``solver.correction = "none"``, no
+subspace minimisation in the frictionless compaction) follows on each thread count, with its
+time ratio to the defaults. A further grainlab run on each thread count keeps every step at
+its shortest length (:data:`FIXED_STEPS`: no growth of the step with the overlaps,
+grainlab.lab.step_control, and the shear's overlap recovery of the fixed steps, 0.05), the
+defaults before the step grew: its figures, largest overlap included, and its time ratio to
+YADE are printed beside the defaults'; the targets are judged on the defaults. YADE prints
+its largest overlap in the triaxial phase, for comparison with grainlab's
+``max overlap / <d>``.
 """
 
 from __future__ import annotations
@@ -61,6 +64,17 @@ FIXED_STEPS = {"compaction": {"time_step_growth": 1.0},
 """The ``[solver]`` tables of the second grainlab run: every step at the time step factor's
 length, with the overlap recovery those steps had (docs/explanations/walls-and-box-tests.md,
 "The step grows while the overlaps stay small")."""
+
+
+NLGS_ALONE = {"correction": "none"}
+"""The ``[solver]`` of the reference grainlab run: NLGS sweeps alone, without the subspace
+minimisation of the frictionless (compaction) steps (engine/nscd/subspace_minimisation.py)."""
+
+
+def _stage_seconds(figures: dict, stage: str) -> float:
+    """A stage's wall time [s] from :func:`grainlab_run`'s printed figures."""
+    key = next(k for k in figures if k.startswith(f"{stage}: wall time"))
+    return float(str(figures[key]).split(",")[0])
 
 
 def timed_run(n: int, eps_q: float, folder: Path, kinetic_energy: float,
@@ -188,6 +202,8 @@ def main() -> None:
     parser.add_argument("--no-yade", action="store_true")
     parser.add_argument("--no-fixed-steps", action="store_true",
                         help="skip the second grainlab run (FIXED_STEPS)")
+    parser.add_argument("--no-nlgs-alone", action="store_true",
+                        help="skip the grainlab run with NLGS alone (NLGS_ALONE)")
     args = parser.parse_args()
     n, eps_q = args.n, args.eps_q
     yade_cases = {"kappa 1e3, dt 0.8 P-wave": ("--kappa", "1e3", "--dt-safety", "0.8"),
@@ -201,6 +217,16 @@ def main() -> None:
             ours = grainlab_run(n, eps_q, Path(tmp) / "grainlab", args.kinetic_energy)
             print("grainlab (contact dynamics):")
             show(ours)
+            if not args.no_nlgs_alone:
+                alone = grainlab_run(n, eps_q, Path(tmp) / "alone", args.kinetic_energy,
+                                     NLGS_ALONE)
+                print(f"grainlab with NLGS alone ({NLGS_ALONE}):")
+                show(alone)
+                compaction = _stage_seconds(alone, "compaction") / \
+                    _stage_seconds(ours, "compaction")
+                print(f"wall time NLGS alone / defaults = "
+                      f"{alone['wall time [s]'] / ours['wall time [s]']:.2f}; compaction "
+                      f"{compaction:.2f} ({threads} threads, same run of this script)")
             fixed = None if args.no_fixed_steps else grainlab_run(
                 n, eps_q, Path(tmp) / "fixed", args.kinetic_energy, FIXED_STEPS)
             if fixed is not None:

@@ -10,14 +10,10 @@ import pytest
 
 from grainlab.engine.boundaries.wall_box import WallBox
 from grainlab.engine.nscd.contact_dynamics import ContactDynamicsStep
-from grainlab.engine.nscd.contact_problem import (
-    ConstraintSystem,
-    assemble_problem,
-    natural_map_error,
-)
+from grainlab.engine.nscd.contact_problem import assemble_problem, natural_map_error
 from grainlab.engine.nscd.plain_problem_methods import solve
-from grainlab.engine.nscd.subspace_minimisation import subspace_correction
-from grainlab.engine.nscd.sweep_arrays import BodyRows, ContactRows, WallRows
+from grainlab.engine.nscd.subspace_minimisation import NormalCoupling, subspace_correction
+from grainlab.engine.nscd.sweep_arrays import BodyRows, CellRows, ContactRows, WallRows
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.engine.step_report import contact_frames
 from grainlab.errors import InputError
@@ -118,10 +114,9 @@ def energy(problem, normal):
 
 
 def test_a_correction_never_raises_the_energy_and_reaches_the_chain_s_solution():
-    from grainlab.engine.nscd.contact_problem import constraint_system
     n = 12
     rows, bodies, walls = chain_system(n)
-    system = constraint_system(rows, bodies, walls, None, 1.0)
+    coupling = NormalCoupling.of(rows, bodies, walls, None)
     problem = assemble_problem(rows, bodies, walls, None, 1.0)
     rng = np.random.default_rng(0)
     normal = rng.uniform(0.0, 2.0 * n, n)
@@ -132,7 +127,8 @@ def test_a_correction_never_raises_the_energy_and_reaches_the_chain_s_solution()
             [normal, np.zeros((n, 2))]).ravel(), max_iterations=1, tolerance=1e-300)
         normal = start.reactions[0::3]
         energies.append(energy(problem, normal))
-        normal, gain = subspace_correction(system, normal, iterations=n)
+        velocity = problem.velocity(np.column_stack([normal, np.zeros((n, 2))]))[0::3]
+        normal, gain = subspace_correction(coupling, normal, velocity, iterations=n)
         assert gain <= 0.0
         assert energy(problem, normal) == pytest.approx(energies[-1] + gain, abs=1e-9 * n * n)
         energies.append(energy(problem, normal))
@@ -144,16 +140,65 @@ def test_a_correction_never_raises_the_energy_and_reaches_the_chain_s_solution()
 def test_a_correction_does_not_depend_on_the_numbering_of_the_contacts():
     n = 10
     rows, bodies, walls = chain_system(n)
-    from grainlab.engine.nscd.contact_problem import constraint_system
-    system = constraint_system(rows, bodies, walls, None, 1.0)
     normal = np.linspace(1.0, 3.0, n)
-    corrected, _ = subspace_correction(system, normal, iterations=4)
+
+    def corrected(contact_rows, impulses):
+        problem = assemble_problem(contact_rows, bodies, walls, None, 1.0)
+        velocity = problem.velocity(np.column_stack([impulses, np.zeros((n, 2))]))[0::3]
+        return subspace_correction(NormalCoupling.of(contact_rows, bodies, walls, None),
+                                   impulses, velocity, iterations=4)[0]
+
     order = np.random.default_rng(1).permutation(n)
-    rows_permuted = ContactRows(*(np.asarray(field)[order] for field in rows))
-    permuted_system = constraint_system(rows_permuted, bodies, walls, None, 1.0)
-    corrected_permuted, _ = subspace_correction(permuted_system, normal[order], iterations=4)
-    np.testing.assert_allclose(corrected_permuted, corrected[order], rtol=1e-12)
-    assert isinstance(permuted_system, ConstraintSystem)
+    permuted = ContactRows(*(np.asarray(field)[order] for field in rows))
+    np.testing.assert_allclose(corrected(permuted, normal[order]),
+                               corrected(rows, normal)[order], rtol=1e-12)
+
+
+def random_scene(seed: int):
+    """Five bodies with random inverse masses and inertias, twelve contacts in random
+    frames: between bodies, on fixed and on mobile walls, across a periodic cell with two
+    free degrees of freedom."""
+    rng = np.random.default_rng(seed)
+    n_bodies, n_contacts = 5, 12
+    body_i = rng.integers(-3, n_bodies, n_contacts)
+    body_j = rng.integers(0, n_bodies, n_contacts)
+    body_j[body_j == body_i] = (body_j[body_j == body_i] + 1) % n_bodies
+    normals = rng.normal(size=(n_contacts, 3))
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    images = np.where(rng.random((n_contacts, 1)) < 0.4,
+                      rng.integers(-1, 2, (n_contacts, 3)), 0).astype(float)
+    rows = ContactRows(body_i, body_j, contact_frames(normals),
+                       rng.normal(size=(n_contacts, 3)) * 1e-3,
+                       rng.normal(size=(n_contacts, 3)) * 1e-3, images, np.zeros(n_contacts),
+                       np.zeros(n_contacts))
+    inertia = rng.normal(size=(n_bodies, 3, 3))
+    inertia = np.einsum("bij,bkj->bik", inertia, inertia) * 1e8 + np.eye(3) * 1e8
+    bodies = BodyRows(rng.uniform(10.0, 100.0, n_bodies), inertia,
+                      rng.normal(size=(n_bodies, 3)), rng.normal(size=(n_bodies, 3)))
+    wall_normals = rng.normal(size=(3, 3))
+    wall_normals /= np.linalg.norm(wall_normals, axis=1)[:, None]
+    walls = WallRows(wall_normals, [0.0, 5.0, 7.0], rng.normal(size=3), np.full(3, np.inf))
+    basis = np.zeros((2, 3, 3))
+    basis[0, 0, 0], basis[1, 0, 2] = 1e-2, 1e-2
+    cell = CellRows(np.zeros((3, 3)), basis, np.array([3.0, 4.0]), np.zeros(2),
+                    np.tile([-np.inf, np.inf], (2, 1)))
+    return rows, bodies, walls, cell
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_compiled_products_are_the_normal_block_of_w(seed):
+    rows, bodies, walls, cell = random_scene(seed)
+    w_nn = assemble_problem(rows, bodies, walls, cell, 1.0).delassus[0::3, 0::3].toarray()
+    coupling = NormalCoupling.of(rows, bodies, walls, cell)
+    everything = np.arange(w_nn.shape[0])
+    x = np.random.default_rng(seed + 10).normal(size=w_nn.shape[0])
+    np.testing.assert_allclose(coupling.product(everything, x), w_nn @ x, rtol=1e-12,
+                               atol=1e-12 * np.abs(w_nn).max() * np.abs(x).max())
+    np.testing.assert_allclose(coupling.diagonal(everything), np.diag(w_nn), rtol=1e-12)
+    subset = everything[::3]
+    np.testing.assert_allclose(coupling.product(subset, x[subset]),
+                               w_nn[np.ix_(subset, subset)] @ x[subset], rtol=1e-12,
+                               atol=1e-12 * np.abs(w_nn).max() * np.abs(x).max())
 
 
 def test_a_step_with_friction_is_swept_alone():

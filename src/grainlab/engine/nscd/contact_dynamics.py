@@ -139,7 +139,6 @@ from grainlab.engine.gyroscopic import gyroscopic_spins
 from grainlab.engine.nscd.contact_colouring import colour_contacts, slab_contacts
 from grainlab.engine.nscd.contact_problem import (
     assemble_problem,
-    constraint_system,
     project_on_cones,
 )
 from grainlab.engine.nscd.nlgs_parallel import (
@@ -153,6 +152,7 @@ from grainlab.engine.nscd.serial_sweep import nlgs_kernel
 from grainlab.engine.nscd.subspace_minimisation import (
     CG_ITERATIONS,
     SWEEPS_BETWEEN,
+    NormalCoupling,
     subspace_correction,
 )
 from grainlab.engine.nscd.sweep_arrays import (
@@ -507,7 +507,7 @@ class ContactDynamicsStep:
         A step where a wall's or the cell's speed limit holds is not the plain problem the
         correction minimises (:mod:`~grainlab.engine.nscd.contact_problem`): its remaining
         sweeps run alone."""
-        system = None
+        coupling = crossing = None
         done = 0
         while True:
             run = min(SWEEPS_BETWEEN, settings.max_iterations - done)
@@ -520,9 +520,12 @@ class ContactDynamicsStep:
             if _brake_held(walls, cell, motion):
                 return done + sweeps(settings._replace(
                     max_iterations=settings.max_iterations - done))
-            if system is None:
-                system = constraint_system(rows, bodies, walls, cell, settings.dt)
-            normal, gain = subspace_correction(system, impulses[:, 0])
+            if coupling is None:
+                coupling = NormalCoupling.of(rows, bodies, walls, cell)
+                crossing = np.any(rows.images != 0.0, axis=1)
+            velocity = _closing_velocities(rows, walls, motion, crossing)[:, 0] \
+                + rows.gap / settings.dt
+            normal, gain = subspace_correction(coupling, impulses[:, 0], velocity)
             self.correction_products += CG_ITERATIONS
             if gain < 0.0:
                 impulses[:, 0] = normal

@@ -37,10 +37,11 @@ dynamics step uses it only where every contact is frictionless.
 
 from __future__ import annotations
 
-import numpy as np
-import scipy.sparse as sp
+from dataclasses import dataclass
 
-from grainlab.engine.nscd.contact_problem import ConstraintSystem
+import numpy as np
+
+from numba import njit
 
 SWEEPS_BETWEEN = 10
 """Gauss-Seidel sweeps between two corrections."""
@@ -50,46 +51,139 @@ SMALLEST_STEP = 1.0 / 1024.0
 """The shortest step of the line search; below it the correction is dropped."""
 
 
-def normal_rows(system: ConstraintSystem) -> tuple[sp.csr_matrix, sp.csr_matrix, np.ndarray]:
-    """H_n (C, n_dofs), its transpose and q_n (C,) [m/s]: the normal rows of ``system``."""
-    h_normal = system.constraints[0::3].tocsr()
-    return h_normal, h_normal.T.tocsr(), np.ascontiguousarray(system.free_velocity[0::3])
+@dataclass(frozen=True, eq=False)
+class NormalCoupling:
+    """The normal rows of H of a step, per contact a (C contacts, N bodies, E extra degrees
+    of freedom: the mobile walls, then the free degrees of freedom of a periodic cell):
+    ``body_i``, ``body_j`` (C,) int64 (body_i < 0: a wall), ``g_i``, ``g_j`` (C, 6) body i's
+    and body j's rows (n, arm x n; minus for i; zero for a wall), ``extra_col`` (C, K) int64
+    the extra degrees of freedom contact a moves (-1: none) and ``extra_coef`` (C, K) their
+    coefficients; the inverse masses ``inv_mass`` (N,) [1/kg], ``inv_inertia`` (N, 3, 3)
+    [1/(kg m^2)] and ``extra_inv_mass`` (E,). W_nn = H_n M^-1 H_n^T is applied from them by
+    a compiled kernel (:meth:`product`), never formed."""
+
+    body_i: np.ndarray
+    body_j: np.ndarray
+    g_i: np.ndarray
+    g_j: np.ndarray
+    extra_col: np.ndarray
+    extra_coef: np.ndarray
+    inv_mass: np.ndarray
+    inv_inertia: np.ndarray
+    extra_inv_mass: np.ndarray
+
+    @classmethod
+    def of(cls, contacts, bodies, walls, cell) -> NormalCoupling:
+        """From the arrays of a step's kernels (:mod:`~grainlab.engine.nscd.sweep_arrays`:
+        ``contacts`` ContactRows, ``bodies`` BodyRows, ``walls`` WallRows, ``cell`` CellRows
+        or None), the normal rows of the H of
+        :func:`~grainlab.engine.nscd.contact_problem.constraint_system`."""
+        body_i = np.ascontiguousarray(contacts.body_i, dtype=np.int64)
+        body_j = np.ascontiguousarray(contacts.body_j, dtype=np.int64)
+        normal = np.asarray(contacts.frame, dtype=np.float64).reshape(-1, 3, 3)[:, 0]
+        arm_i = np.asarray(contacts.arm_i, dtype=np.float64).reshape(-1, 3)
+        arm_j = np.asarray(contacts.arm_j, dtype=np.float64).reshape(-1, 3)
+        g_j = np.concatenate([normal, np.cross(arm_j, normal)], axis=1)
+        g_i = -np.concatenate([normal, np.cross(arm_i, normal)], axis=1)
+        g_i[body_i < 0] = 0.0
+        wall_inv_mass = np.asarray(walls.inv_mass, dtype=np.float64).reshape(-1)
+        mobile = np.flatnonzero(wall_inv_mass > 0.0)
+        wall_column = np.full(wall_inv_mass.size, -1, dtype=np.int64)
+        wall_column[mobile] = np.arange(mobile.size)
+        if cell is None:
+            basis, cell_inv_mass = np.zeros((0, 3, 3)), np.zeros(0)
+        else:
+            basis = np.asarray(cell.basis, dtype=np.float64).reshape(-1, 3, 3)
+            cell_inv_mass = np.asarray(cell.inv_mass, dtype=np.float64).reshape(-1)
+        free = np.flatnonzero(cell_inv_mass > 0.0)
+        n_contacts = body_i.size
+        extra_col = np.full((n_contacts, 1 + free.size), -1, dtype=np.int64)
+        extra_coef = np.zeros((n_contacts, 1 + free.size))
+        on_wall = np.flatnonzero(body_i < 0)
+        if on_wall.size:
+            wall = -1 - body_i[on_wall]
+            extra_col[on_wall, 0] = wall_column[wall]
+            wall_normals = np.asarray(walls.normals, dtype=np.float64).reshape(-1, 3)
+            extra_coef[on_wall, 0] = -np.einsum("ci,ci->c", normal[on_wall],
+                                                wall_normals[wall])
+        images = np.asarray(contacts.images, dtype=np.float64).reshape(n_contacts, 3)
+        crossing = np.flatnonzero(np.any(images != 0.0, axis=1))
+        if crossing.size and free.size:  # an image moves with the cell's free dofs
+            moved = np.einsum("dab,cb->cda", basis[free], images[crossing])
+            extra_col[crossing, 1:] = mobile.size + np.arange(free.size)
+            extra_coef[crossing, 1:] = np.einsum("ca,cda->cd", normal[crossing], moved)
+        return cls(body_i, body_j, np.ascontiguousarray(g_i), np.ascontiguousarray(g_j),
+                   extra_col, extra_coef,
+                   np.ascontiguousarray(bodies.inv_mass, dtype=np.float64).reshape(-1),
+                   np.ascontiguousarray(bodies.inv_inertia, dtype=np.float64)
+                   .reshape(-1, 3, 3),
+                   np.concatenate([wall_inv_mass[mobile], cell_inv_mass[free]]))
+
+    def product(self, loaded: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """(W_nn x)_A for impulses x (|A|,) [N s] on the contacts ``loaded`` (A), zero on
+        the others."""
+        out = np.empty(loaded.size)
+        _normal_product(loaded, x, self.body_i, self.body_j, self.g_i, self.g_j,
+                        self.extra_col, self.extra_coef, self.inv_mass, self.inv_inertia,
+                        self.extra_inv_mass, np.empty((self.inv_mass.size, 6)),
+                        np.empty(self.extra_inv_mass.size), out)
+        return out
+
+    def diagonal(self, loaded: np.ndarray) -> np.ndarray:
+        """W_nn,aa [1/kg] of the contacts ``loaded``."""
+        out = np.empty(loaded.size)
+        _normal_diagonal(loaded, self.body_i, self.body_j, self.g_i, self.g_j,
+                         self.extra_col, self.extra_coef, self.inv_mass, self.inv_inertia,
+                         self.extra_inv_mass, out)
+        return out
 
 
-def subspace_correction(system: ConstraintSystem, normal: np.ndarray,
+def subspace_correction(coupling: NormalCoupling, normal: np.ndarray, velocity: np.ndarray,
                         iterations: int = CG_ITERATIONS) -> tuple[np.ndarray, float]:
-    """The normal impulses ``normal`` (C,) [N s] of a step (``system``: its H, M^-1, q)
-    after one correction (module docstring), and the change of J it made [J] (0, with
-    ``normal`` returned unchanged, when no step lowered J). W is applied as
-    H_n M^-1 H_n^T, never formed."""
-    h_normal, h_transpose, q_normal = normal_rows(system)
-    inverse_mass = system.inverse_mass
+    """The normal impulses ``normal`` (C,) [N s] of a step after one correction (module
+    docstring), given their normal velocities ``velocity`` = W r + q (C,) [m/s] and the
+    step's ``coupling``; and the change of J it made [J] (0, with ``normal`` returned
+    unchanged, when no step lowered J). Every product is on the loaded contacts, where r
+    and its change live."""
+    loaded = np.flatnonzero(normal > 0.0)
+    if loaded.size == 0:
+        return normal, 0.0
 
-    def delassus(x):
-        return h_normal @ (inverse_mass @ (h_transpose @ x))
+    def delassus(change):
+        out = np.zeros_like(change)
+        out[loaded] = coupling.product(loaded, change[loaded])
+        return out
 
-    def restricted(loaded):
-        h_loaded = h_normal[loaded]
-        h_loaded_t = h_loaded.T.tocsr()
-        diagonal = np.asarray(h_loaded.multiply(h_loaded @ inverse_mass).sum(axis=1)).ravel()
-        return (lambda x: h_loaded @ (inverse_mass @ (h_loaded_t @ x))), diagonal
+    def solve_loaded(rhs):
+        out = np.empty(loaded.size)
+        _loaded_conjugate_gradients(
+            loaded, rhs, iterations, coupling.body_i, coupling.body_j, coupling.g_i,
+            coupling.g_j, coupling.extra_col, coupling.extra_coef, coupling.inv_mass,
+            coupling.inv_inertia, coupling.extra_inv_mass, out)
+        return out
 
-    return minimise_on_loaded(normal, delassus(normal) + q_normal, delassus, restricted,
-                              iterations)
+    return minimise_on_loaded(normal, velocity, delassus, None, iterations,
+                              solve_loaded=solve_loaded)
 
 
 def minimise_on_loaded(normal: np.ndarray, velocity: np.ndarray, delassus, restricted,
-                       iterations: int = CG_ITERATIONS) -> tuple[np.ndarray, float]:
+                       iterations: int = CG_ITERATIONS, *,
+                       solve_loaded=None) -> tuple[np.ndarray, float]:
     """One correction of the normal impulses ``normal`` (C,) [N s] whose normal velocities
     are ``velocity`` = W r + q (C,) [m/s], given ``delassus`` (x -> W_nn x over every
     contact) and ``restricted`` (loaded indices -> (x -> W_AA x, diag W_AA)): the conjugate
     gradients on the loaded contacts, then the projected line search on J (module
-    docstring). Returns the new impulses and the change of J [J] (0: unchanged)."""
+    docstring; ``solve_loaded``: rhs -> the conjugate gradients' x in one call, in place of
+    ``restricted``). Returns the new impulses and the change of J [J] (0: unchanged)."""
     loaded = np.flatnonzero(normal > 0.0)
     if loaded.size == 0:
         return normal, 0.0
-    product, diagonal = restricted(loaded)
-    solution = _conjugate_gradients(product, 1.0 / diagonal, -velocity[loaded], iterations)
+    if solve_loaded is None:
+        product, diagonal = restricted(loaded)
+        solution = _conjugate_gradients(product, 1.0 / diagonal, -velocity[loaded],
+                                        iterations)
+    else:
+        solution = solve_loaded(-velocity[loaded])
     direction = np.zeros_like(normal)
     direction[loaded] = solution
     step = 1.0
@@ -100,6 +194,113 @@ def minimise_on_loaded(normal: np.ndarray, velocity: np.ndarray, delassus, restr
             return normal + change, energy  # = max(0, r + t x)
         step *= 0.5
     return normal, 0.0
+
+
+@njit(cache=True)
+def _normal_product(loaded, x, body_i, body_j, g_i, g_j, extra_col, extra_coef, inv_mass,
+                    inv_inertia, extra_inv_mass, acc, acc_extra, out):
+    """out = (H_n M^-1 H_n^T x)_A: the impulses x on the contacts ``loaded`` gathered on the
+    bodies and extra degrees of freedom, times M^-1, read back at the same contacts."""
+    acc[:, :] = 0.0
+    acc_extra[:] = 0.0
+    for k in range(loaded.shape[0]):
+        a = loaded[k]
+        xa = x[k]
+        j = body_j[a]
+        for c in range(6):
+            acc[j, c] += xa * g_j[a, c]
+        i = body_i[a]
+        if i >= 0:
+            for c in range(6):
+                acc[i, c] += xa * g_i[a, c]
+        for e in range(extra_col.shape[1]):
+            if extra_col[a, e] >= 0:
+                acc_extra[extra_col[a, e]] += xa * extra_coef[a, e]
+    for b in range(acc.shape[0]):
+        m = inv_mass[b]
+        t0, t1, t2 = acc[b, 3], acc[b, 4], acc[b, 5]
+        acc[b, 0] *= m
+        acc[b, 1] *= m
+        acc[b, 2] *= m
+        for r in range(3):
+            acc[b, 3 + r] = inv_inertia[b, r, 0] * t0 + inv_inertia[b, r, 1] * t1 \
+                + inv_inertia[b, r, 2] * t2
+    for e in range(acc_extra.shape[0]):
+        acc_extra[e] *= extra_inv_mass[e]
+    for k in range(loaded.shape[0]):
+        a = loaded[k]
+        j = body_j[a]
+        total = 0.0
+        for c in range(6):
+            total += g_j[a, c] * acc[j, c]
+        i = body_i[a]
+        if i >= 0:
+            for c in range(6):
+                total += g_i[a, c] * acc[i, c]
+        for e in range(extra_col.shape[1]):
+            if extra_col[a, e] >= 0:
+                total += extra_coef[a, e] * acc_extra[extra_col[a, e]]
+        out[k] = total
+
+
+@njit(cache=True)
+def _body_quadratic(g, b, inv_mass, inv_inertia):
+    """g . M_b^-1 g for a row g (6,) of body b."""
+    total = inv_mass[b] * (g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
+    for r in range(3):
+        for c in range(3):
+            total += g[3 + r] * inv_inertia[b, r, c] * g[3 + c]
+    return total
+
+
+@njit(cache=True)
+def _normal_diagonal(loaded, body_i, body_j, g_i, g_j, extra_col, extra_coef, inv_mass,
+                     inv_inertia, extra_inv_mass, out):
+    """out = W_nn,aa of the contacts ``loaded``."""
+    for k in range(loaded.shape[0]):
+        a = loaded[k]
+        total = _body_quadratic(g_j[a], body_j[a], inv_mass, inv_inertia)
+        if body_i[a] >= 0:
+            total += _body_quadratic(g_i[a], body_i[a], inv_mass, inv_inertia)
+        for e in range(extra_col.shape[1]):
+            if extra_col[a, e] >= 0:
+                total += extra_coef[a, e] ** 2 * extra_inv_mass[extra_col[a, e]]
+        out[k] = total
+
+
+@njit(cache=True)
+def _loaded_conjugate_gradients(loaded, rhs, iterations, body_i, body_j, g_i, g_j, extra_col,
+                                extra_coef, inv_mass, inv_inertia, extra_inv_mass, x):
+    """x = the conjugate gradients' solution of W_AA x = rhs after ``iterations`` (from 0,
+    preconditioned by diag W_AA, stopped early when a direction has no curvature left):
+    :func:`_conjugate_gradients` compiled with :func:`_normal_product`."""
+    n = loaded.shape[0]
+    acc = np.empty((inv_mass.shape[0], 6))
+    acc_extra = np.empty(extra_inv_mass.shape[0])
+    inverse_diagonal = np.empty(n)
+    _normal_diagonal(loaded, body_i, body_j, g_i, g_j, extra_col, extra_coef, inv_mass,
+                     inv_inertia, extra_inv_mass, inverse_diagonal)
+    for k in range(n):
+        inverse_diagonal[k] = 1.0 / inverse_diagonal[k]
+    residual = rhs.copy()
+    z = inverse_diagonal * residual
+    direction = z.copy()
+    image = np.empty(n)
+    x[:] = 0.0
+    rz = np.dot(residual, z)
+    for _ in range(iterations):
+        _normal_product(loaded, direction, body_i, body_j, g_i, g_j, extra_col, extra_coef,
+                        inv_mass, inv_inertia, extra_inv_mass, acc, acc_extra, image)
+        curvature = np.dot(direction, image)
+        if not curvature > 0.0 or not rz > 0.0:
+            break
+        alpha = rz / curvature
+        x += alpha * direction
+        residual -= alpha * image
+        z = inverse_diagonal * residual
+        rz_new = np.dot(residual, z)
+        direction = z + (rz_new / rz) * direction
+        rz = rz_new
 
 
 def _conjugate_gradients(product, inverse_diagonal: np.ndarray, rhs: np.ndarray,
@@ -127,5 +328,5 @@ def _conjugate_gradients(product, inverse_diagonal: np.ndarray, rhs: np.ndarray,
     return x
 
 
-__all__ = ["CG_ITERATIONS", "SMALLEST_STEP", "SWEEPS_BETWEEN", "minimise_on_loaded",
-           "normal_rows", "subspace_correction"]
+__all__ = ["CG_ITERATIONS", "SMALLEST_STEP", "SWEEPS_BETWEEN", "NormalCoupling",
+           "minimise_on_loaded", "subspace_correction"]
