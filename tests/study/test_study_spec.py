@@ -114,3 +114,35 @@ def test_the_study_lengths_are_ordered():
     order = sorted(LENGTHS.values(), key=lambda length: length.eps_q_max)
     assert [length.particles for length in order] == sorted(length.particles
                                                             for length in order)
+
+
+@pytest.mark.parametrize("name", ["angularity", "nonconvexity"])
+@pytest.mark.parametrize("length", list(LENGTHS))
+def test_the_periodic_presets_run_loose_samples_in_a_cell_large_enough(name, length):
+    from grainlab.study.series_presets import PERIODIC_PARTICLES
+    walls = series_spec(name, length=length)
+    cell = series_spec(name, length=length, boundary="periodic")
+    assert cell.names == walls.names
+    for sample in cell.names:
+        config, boxed = cell.sample_config(sample), walls.sample_config(sample)
+        assert config.sample.boundary == "periodic" and config.sample.preparation == "loose"
+        # three interaction ranges across the cell: never fewer than PERIODIC_PARTICLES
+        assert config.sample.n_particles == max(boxed.sample.n_particles, PERIODIC_PARTICLES)
+        # a cube below eps_q = 0.5 (its lateral sides keep the particles across), the
+        # length's height above it (room for the shear that shortens it)
+        expected_height = 1.0 if config.test.eps_q_max < 0.5 else boxed.sample.height_ratio
+        assert config.sample.height_ratio == expected_height
+        # the same protocol otherwise: shapes, sizes, friction, rate, path and window
+        for field in ("shape", "eta", "n_faces", "templates", "size_ratio", "seed"):
+            assert getattr(config.sample, field) == getattr(boxed.sample, field), field
+        assert config.solver == boxed.solver and config.test == boxed.test
+    assert cell.study.window == walls.study.window
+    assert "periodic cell" in cell.study.description
+    # a number of particles asked for is kept, even below the default
+    assert series_spec(name, length=length, boundary="periodic",
+                       n_particles=900).sample_config(cell.names[0]).sample.n_particles == 900
+
+
+def test_an_unknown_boundary_is_refused_by_name():
+    with pytest.raises(InputError, match="boundary"):
+        series_spec("angularity", boundary="spherical")
