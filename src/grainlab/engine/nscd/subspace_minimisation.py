@@ -155,42 +155,30 @@ def subspace_correction(coupling: NormalCoupling, normal: np.ndarray, velocity: 
         out[loaded] = coupling.product(loaded, change[loaded])
         return out
 
-    def solve_loaded(rhs):
-        out = np.empty(loaded.size)
-        _loaded_conjugate_gradients(
-            loaded, rhs, iterations, coupling.body_i, coupling.body_j, coupling.g_i,
-            coupling.g_j, coupling.extra_col, coupling.extra_coef, coupling.inv_mass,
-            coupling.inv_inertia, coupling.extra_inv_mass, out)
-        return out
+    def restricted(subset):
+        return (lambda x: coupling.product(subset, x)), coupling.diagonal(subset)
 
-    return minimise_on_loaded(normal, velocity, delassus, None, iterations,
-                              solve_loaded=solve_loaded)
+    return minimise_on_loaded(normal, velocity, delassus, restricted, iterations)
 
 
 def minimise_on_loaded(normal: np.ndarray, velocity: np.ndarray, delassus, restricted,
-                       iterations: int = CG_ITERATIONS, *,
-                       solve_loaded=None) -> tuple[np.ndarray, float]:
+                       iterations: int = CG_ITERATIONS) -> tuple[np.ndarray, float]:
     """One correction of the normal impulses ``normal`` (C,) [N s] whose normal velocities
     are ``velocity`` = W r + q (C,) [m/s], given ``delassus`` (x -> W_nn x over every
     contact) and ``restricted`` (loaded indices -> (x -> W_AA x, diag W_AA)): the conjugate
     gradients on the loaded contacts, then the projected line search on J (module
-    docstring; ``solve_loaded``: rhs -> the conjugate gradients' x in one call, in place of
-    ``restricted``). Returns the new impulses and the change of J [J] (0: unchanged)."""
+    docstring). Returns the new impulses and the change of J [J] (0: unchanged)."""
     loaded = np.flatnonzero(normal > 0.0)
     if loaded.size == 0:
         return normal, 0.0
-    if solve_loaded is None:
-        product, diagonal = restricted(loaded)
-        solution = _conjugate_gradients(product, 1.0 / diagonal, -velocity[loaded],
-                                        iterations)
-    else:
-        solution = solve_loaded(-velocity[loaded])
+    product, diagonal = restricted(loaded)
+    solution = _conjugate_gradients(product, 1.0 / diagonal, -velocity[loaded], iterations)
     direction = np.zeros_like(normal)
     direction[loaded] = solution
     step = 1.0
     while step >= SMALLEST_STEP:
         change = np.maximum(normal + step * direction, 0.0) - normal
-        energy = float(change @ velocity + 0.5 * change @ delassus(change))
+        energy = _dot(change, velocity) + 0.5 * _dot(change, delassus(change))
         if energy < 0.0:
             return normal + change, energy  # = max(0, r + t x)
         step *= 0.5
@@ -270,41 +258,6 @@ def _normal_diagonal(loaded, body_i, body_j, g_i, g_j, extra_col, extra_coef, in
 
 
 @njit(cache=True)
-def _loaded_conjugate_gradients(loaded, rhs, iterations, body_i, body_j, g_i, g_j, extra_col,
-                                extra_coef, inv_mass, inv_inertia, extra_inv_mass, x):
-    """x = the conjugate gradients' solution of W_AA x = rhs after ``iterations`` (from 0,
-    preconditioned by diag W_AA, stopped early when a direction has no curvature left):
-    :func:`_conjugate_gradients` compiled with :func:`_normal_product`."""
-    n = loaded.shape[0]
-    acc = np.empty((inv_mass.shape[0], 6))
-    acc_extra = np.empty(extra_inv_mass.shape[0])
-    inverse_diagonal = np.empty(n)
-    _normal_diagonal(loaded, body_i, body_j, g_i, g_j, extra_col, extra_coef, inv_mass,
-                     inv_inertia, extra_inv_mass, inverse_diagonal)
-    for k in range(n):
-        inverse_diagonal[k] = 1.0 / inverse_diagonal[k]
-    residual = rhs.copy()
-    z = inverse_diagonal * residual
-    direction = z.copy()
-    image = np.empty(n)
-    x[:] = 0.0
-    rz = _dot(residual, z)
-    for _ in range(iterations):
-        _normal_product(loaded, direction, body_i, body_j, g_i, g_j, extra_col, extra_coef,
-                        inv_mass, inv_inertia, extra_inv_mass, acc, acc_extra, image)
-        curvature = _dot(direction, image)
-        if not curvature > 0.0 or not rz > 0.0:
-            break
-        alpha = rz / curvature
-        x += alpha * direction
-        residual -= alpha * image
-        z = inverse_diagonal * residual
-        rz_new = _dot(residual, z)
-        direction = z + (rz_new / rz) * direction
-        rz = rz_new
-
-
-@njit(cache=True)
 def _dot(a, b):
     """a . b summed in order (not BLAS's ddot, whose sums differ between processors)."""
     total = 0.0
@@ -316,23 +269,24 @@ def _dot(a, b):
 def _conjugate_gradients(product, inverse_diagonal: np.ndarray, rhs: np.ndarray,
                          iterations: int) -> np.ndarray:
     """x after ``iterations`` of conjugate gradients on product(x) = rhs from x = 0,
-    preconditioned by ``inverse_diagonal``; stops early when a search direction has no
-    curvature left (the residual is zero, or the operator is singular along it)."""
+    preconditioned by ``inverse_diagonal``, its sums in order (:func:`_dot`); stops early
+    when a search direction has no curvature left (the residual is zero, or the operator is
+    singular along it)."""
     x = np.zeros_like(rhs)
     residual = rhs.copy()
     z = inverse_diagonal * residual
     direction = z.copy()
-    rz = float(residual @ z)
+    rz = _dot(residual, z)
     for _ in range(iterations):
         image = product(direction)
-        curvature = float(direction @ image)
+        curvature = _dot(direction, image)
         if not curvature > 0.0 or not rz > 0.0:
             break
         alpha = rz / curvature
         x += alpha * direction
         residual -= alpha * image
         z = inverse_diagonal * residual
-        rz_new = float(residual @ z)
+        rz_new = _dot(residual, z)
         direction = z + (rz_new / rz) * direction
         rz = rz_new
     return x
