@@ -150,3 +150,77 @@ def report_command(
     if not (folder / SPEC).exists():
         raise InputError("FOLDER", str(folder), f"a study folder with a {SPEC}")
     _report(Study.open(folder))
+
+
+def _sizes(option: str, text: str | None) -> tuple[int, ...]:
+    if not text:
+        return ()
+    try:
+        return tuple(int(part) for part in text.split(",") if part.strip())
+    except ValueError:
+        raise InputError(option, text, "comma-separated particle counts, e.g. 500,1000"
+                         ) from None
+
+
+@app.command("size-check")
+@friendly_errors
+def size_check_command(
+    series: str = typer.Argument(..., help="The preset series: angularity or nonconvexity."),
+    out: Path = typer.Option(None, "--out", "-o", help=(
+        "Size-check folder, one study per boundary and size inside (default: "
+        "size-check-<series>).")),
+    samples: str = typer.Option(None, "--samples", help=(
+        "Comma-separated sample names (default: S1,S5 for angularity; eta-0.0,eta-0.4 for "
+        "nonconvexity).")),
+    walls: str = typer.Option("500,1000,2000", "--walls", help=(
+        "Particles per sample of the runs in a box of walls (comma-separated).")),
+    periodic: str = typer.Option("1000", "--periodic", help=(
+        "Particles per sample of the runs in a periodic cell (comma-separated): the bulk "
+        "reference.")),
+    length: str = typer.Option("full", "--length", help="; ".join(
+        f"{name}: {spec.text}" for name, spec in LENGTHS.items()) + "."),
+    seed: int = _SEED,
+    run: bool = typer.Option(True, "--run/--no-run", help=(
+        "Run (or go on with) the studies; --no-run writes the table and report from the "
+        "samples that have ended.")),
+    scheduler: str = _SCHEDULER, workers: int = _WORKERS, threads: int = _THREADS,
+    progress: bool = _PROGRESS,
+) -> None:
+    """The size check of a preset series: its samples in boxes of walls of several sizes
+    and in a periodic cell, the core values (away from the walls) against the cell's as the
+    box grows, and the cell's against the paper's; size_check.csv, size_check.md and a
+    figure per sample. Run it again to resume."""
+    from grainlab.report.size_check_report import write_size_check_report
+    from grainlab.study.size_check import (
+        DEFAULT_SAMPLES,
+        SizeCheckPlan,
+        run_size_check,
+        size_check_table,
+    )
+
+    names = tuple(n.strip() for n in samples.split(",") if n.strip()) if samples else \
+        DEFAULT_SAMPLES.get(series, ())
+    plan = SizeCheckPlan(series, names, walls=_sizes("--walls", walls),
+                         periodic=_sizes("--periodic", periodic), length=length, seed=seed)
+    folder = out or Path(f"size-check-{series}")
+    complete = True
+    if run:
+        try:
+            outcomes = run_size_check(folder, plan, scheduler=scheduler, workers=workers,
+                                      threads=threads, progress=progress)
+        except StudyInterrupted as error:
+            console.print(str(error))
+            raise typer.Exit(code=130) from None
+        for name, outcome in outcomes.items():
+            console.print(f"{name}: {outcome.summary()}")
+        complete = len(outcomes) == len(plan.runs) and all(
+            o.complete for o in outcomes.values())
+    table = size_check_table(folder, plan)
+    if not len(table):
+        console.print("no sample has ended yet: no table or report")
+    else:
+        path = write_size_check_report(folder, plan, table)
+        console.print(f"table: {folder / 'size_check.csv'}\nreport: {path}")
+    if not complete:
+        console.print("the size check is not complete: run the same command again to go on")
+        raise typer.Exit(code=3)

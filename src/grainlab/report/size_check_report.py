@@ -1,0 +1,176 @@
+"""The report of a size check (:mod:`grainlab.study.size_check`): ``size_check.md`` in the
+check's folder, one table per sample with every quantity at every size (whole box / core in
+the walls, the periodic cell, the paper), a verdict per quantity, and a figure per sample
+(``size_check-<sample>.png``): each quantity against the particles per sample, the walls'
+whole box and core with their error bars, the cell's value as a band and the paper's as a
+dashed line.
+"""
+
+from __future__ import annotations
+
+import math
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from grainlab.report.curves import new_figure_axes, save_figure
+from grainlab.report.paper_comparison import PAPER_CLAIMS
+from grainlab.study.series_presets import series_spec
+from grainlab.study.size_check import SizeCheckPlan, convergence_verdicts, shrinking
+
+REPORT = "size_check.md"
+
+
+def _tolerances(series: str) -> dict[str, float]:
+    """The papers' reading tolerance per quantity: the slack of an initial state (one value,
+    no error bar) against the cell's."""
+    parameter = series_spec(series, n_particles=2).study.parameter
+    return {claim.quantity: claim.tolerance for claim in PAPER_CLAIMS.get(parameter, ())}
+
+
+def _pm(value: float, std: float) -> str:
+    if not math.isfinite(value):
+        return "-"
+    return f"{value:.3g} ± {std:.2g}" if math.isfinite(std) and std > 0 else f"{value:.3g}"
+
+
+def _gaps(gaps) -> str:
+    return " → ".join("-" if not math.isfinite(g) else f"{g:+.3g}"
+                      for g in np.asarray(gaps, float))
+
+
+def verdict_text(row: pd.Series) -> str:
+    """The one-line reading of a :func:`convergence_verdicts` row."""
+    sizes = row["sizes"]
+    basis = "core" if row["basis"] == "core" else "whole box (no core value)"
+    if not sizes:
+        parts = ["no box of walls"]
+    elif row["reaches"]:
+        parts = [f"{basis} within the cell's error bars from N = {row['reaches']}"]
+    else:
+        gaps = row["core_gaps"] if row["basis"] == "core" else row["whole_gaps"]
+        trend = "shrinking" if shrinking(gaps) else "not shrinking"
+        parts = [f"{basis} off the cell by {_gaps(gaps)} (N = "
+                 f"{', '.join(str(n) for n in sizes)}: {trend})"]
+    if sizes and row["basis"] == "core":
+        parts.append(f"whole box off by {_gaps(row['whole_gaps'])}")
+    if math.isfinite(row["paper"]):
+        parts.append(f"cell {row['cell_vs_paper']:+.3g} from the paper's {row['paper']:g}")
+    return "; ".join(parts)
+
+
+def size_check_markdown(table: pd.DataFrame, plan: SizeCheckPlan) -> str:
+    """The check's tables and verdicts (module docstring) as Markdown."""
+    verdicts = convergence_verdicts(table, _tolerances(plan.series))
+    runs = [run for run in plan.runs
+            if ((table["boundary"] == run.boundary) & (table["n"] == run.n)).any()]
+    lines = []
+    for sample in plan.samples:
+        part = table[table["sample"] == sample]
+        if not len(part):
+            lines += [f"## {sample}", "", "No run of this sample has ended yet.", ""]
+            continue
+        header = ["quantity"] + [f"walls {r.n}: whole / core" if r.boundary == "walls"
+                                 else f"cell {r.n}" for r in runs] + ["paper", "reading"]
+        lines += [f"## {sample}", "", "| " + " | ".join(header) + " |",
+                  "|" + "---|" * len(header)]
+        for quantity, group in part.groupby("quantity", sort=False):
+            cells = [quantity]
+            for run in runs:
+                at = group[(group["boundary"] == run.boundary) & (group["n"] == run.n)]
+                if not len(at):
+                    cells.append("-")
+                    continue
+                one = at.iloc[0]
+                whole = _pm(one["whole"], one["whole_std"])
+                cells.append(f"{whole} / {_pm(one['core'], one['core_std'])}"
+                             if run.boundary == "walls" else whole)
+            paper = group["paper"].dropna()
+            cells.append(f"{paper.iloc[0]:g}" if len(paper) else "-")
+            found = verdicts[(verdicts["sample"] == sample)
+                             & (verdicts["quantity"] == quantity)] if len(verdicts) else []
+            cells.append(verdict_text(found.iloc[0]) if len(found) else "no cell yet")
+            lines.append("| " + " | ".join(cells) + " |")
+        costs = part.drop_duplicates(["boundary", "n"])
+        lines += ["", "Cost per run: " + "; ".join(
+            f"{row.boundary} {row.n}: {row.wall_time:.0f} s, {row.capped_share:.1%} of the "
+            "steps capped" for row in costs.itertuples()) + ".", ""]
+    return "\n".join(lines)
+
+
+def size_check_figure(table: pd.DataFrame, sample: str) -> Figure | None:
+    """Each quantity of ``sample`` against the particles per sample (module docstring); None
+    without a row."""
+    part = table[table["sample"] == sample]
+    quantities = list(dict.fromkeys(part["quantity"]))
+    if not quantities:
+        return None
+    sizes = sorted(set(int(n) for n in part["n"]))
+    ncols = min(4, len(quantities))
+    nrows = math.ceil(len(quantities) / ncols)
+    figure, axes = new_figure_axes(nrows, ncols, figsize=(3.2 * ncols, 2.7 * nrows),
+                                   squeeze=False)
+    for ax, quantity in zip(axes.ravel(), quantities, strict=False):
+        group = part[part["quantity"] == quantity]
+        walls = group[group["boundary"] == "walls"].sort_values("n")
+        cells = group[group["boundary"] == "periodic"].sort_values("n")
+        if len(walls):
+            ax.errorbar(walls["n"], walls["whole"], yerr=walls["whole_std"].fillna(0.0),
+                        fmt="o", mfc="none", color="C0", capsize=2, label="walls, whole box")
+            ax.errorbar(walls["n"], walls["core"], yerr=walls["core_std"].fillna(0.0),
+                        fmt="s", color="C1", capsize=2, label="walls, core")
+        if len(cells):
+            cell = cells.iloc[-1]
+            bar = 2.0 * (cell["whole_std"] if math.isfinite(cell["whole_std"]) else 0.0)
+            ax.axhspan(cell["whole"] - bar, cell["whole"] + bar, color="C2", alpha=0.25)
+            ax.axhline(cell["whole"], color="C2", label=f"periodic cell, N = {cell['n']}")
+        paper = group["paper"].dropna()
+        if len(paper):
+            ax.axhline(paper.iloc[0], color="k", ls="--", lw=1, label="paper")
+        ax.set_xscale("log")
+        ax.set_xticks(sizes, [str(n) for n in sizes])
+        ax.set_xticks([], minor=True)
+        ax.set_xlim(min(sizes) / 1.3, max(sizes) * 1.3)
+        ax.set_title(quantity, fontsize=9)
+        ax.set_xlabel("particles per sample", fontsize=8)
+        ax.tick_params(labelsize=7)
+    for ax in axes.ravel()[len(quantities):]:
+        ax.set_visible(False)
+    legend = {}
+    for ax in axes.ravel()[:len(quantities)]:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            legend.setdefault(label, handle)
+    handles, labels = list(legend.values()), list(legend)
+    figure.legend(handles, labels, loc="lower center", ncol=4, fontsize=8,
+                  bbox_to_anchor=(0.5, -0.02))
+    figure.suptitle(f"{sample}: the box's values against the periodic cell's "
+                    "(error bars: std over the residual window)", fontsize=10)
+    figure.tight_layout(rect=(0, 0.05, 1, 0.97))
+    return figure
+
+
+def write_size_check_report(folder: str | Path, plan: SizeCheckPlan,
+                            table: pd.DataFrame) -> Path:
+    """``size_check.md`` and the figures in ``folder``; returns the report's path."""
+    folder = Path(folder)
+    sizes = ", ".join(f"{r.boundary} {r.n}" for r in plan.runs)
+    lines = [f"# Size check: {plan.series}", "",
+             f"Samples {', '.join(plan.samples)}; runs {sizes}; length {plan.length}, seed "
+             f"{plan.seed}. Written {datetime.now(UTC):%Y-%m-%d %H:%M} UTC.", "",
+             "Core: the particles at least the study's core margin from every wall. In the "
+             "periodic cell the whole packing is bulk. ± the standard deviation over the "
+             "residual window (none for an initial state, whose slack against the cell is the "
+             "paper's reading tolerance).", ""]
+    lines.append(size_check_markdown(table, plan))
+    for sample in plan.samples:
+        figure = size_check_figure(table, sample)
+        if figure is not None:
+            name = f"size_check-{sample}.png"
+            save_figure(figure, folder / name)
+            lines += [f"![{sample}]({name})", ""]
+    path = folder / REPORT
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path

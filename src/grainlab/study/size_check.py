@@ -1,0 +1,261 @@
+"""The size check of a preset series (issue of the studies at the papers' level): which of a
+study's numbers are physics and which are the box. The same samples of one series run at
+several sizes in a box of walls and in a periodic cell; the values over the core (the
+particles away from the walls: :mod:`grainlab.analysis.wall_layer`) must approach, as the box
+grows, the cell's, which has no wall layer at all, while the whole-box values, the wall layer
+included, need not.
+
+A size check is a folder holding one study per boundary and size, each the series preset
+(:mod:`grainlab.study.series_presets`) run for the checked samples only
+(``<boundary>-<N>``: ``walls-500``, ``walls-1000``, ``periodic-1000``...), so that every run
+resumes where it stopped, as a study does, and any of them can be opened as a study.
+
+The table (:func:`size_check_table`) has one row per sample, quantity, boundary and size: the
+whole-box and core values with their standard deviations over the residual window (none for
+an initial state), and the paper's value for that sample where its paper gives one
+(:data:`~grainlab.report.paper_comparison.PAPER_CLAIMS`); :func:`convergence_verdicts` reads
+it quantity by quantity: how far the core and the whole box sit from the cell at each size,
+whether the core reaches the cell within their error bars, and where the cell's value lands
+against the paper's.
+
+>>> plan = SizeCheckPlan("angularity", ("S1",), walls=(500, 1000), periodic=(1000,))
+>>> [run.folder_name for run in plan.runs]
+['walls-500', 'walls-1000', 'periodic-1000']
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from grainlab.errors import InputError
+from grainlab.report.paper_comparison import PAPER_CLAIMS, PaperClaim
+from grainlab.study.sample_task import sample_state
+from grainlab.study.series_presets import LENGTHS, SERIES, series_spec
+from grainlab.study.study_runner import Study, StudyOutcome
+
+DEFAULT_SAMPLES = {"angularity": ("S1", "S5"), "nonconvexity": ("eta-0.0", "eta-0.4")}
+"""The samples a size check runs by default: the spheres and one shape near the middle of the
+series (seed 002's S5, <alpha> = 0.5, where nu0 peaks; seed 003's eta = 0.4)."""
+
+PEAK = PaperClaim("(q/p)+", "q_over_trace_peak", None, "", 0.0)
+"""The smoothed peak of q/p, checked for size though no paper value is read for it."""
+
+TABLE = "size_check.csv"
+
+
+@dataclass(frozen=True)
+class SizeRun:
+    """One study of a size check: its ``boundary`` ("walls" or "periodic") and particles per
+    sample ``n``."""
+
+    boundary: str
+    n: int
+
+    @property
+    def folder_name(self) -> str:
+        return f"{self.boundary}-{self.n}"
+
+
+@dataclass(frozen=True)
+class SizeCheckPlan:
+    """Which ``samples`` of the preset ``series`` run at which sizes: ``walls`` and
+    ``periodic`` (particles per sample), to ``length`` (:data:`LENGTHS`) with packing
+    ``seed``."""
+
+    series: str
+    samples: tuple[str, ...]
+    walls: tuple[int, ...] = (500, 1000, 2000)
+    periodic: tuple[int, ...] = (1000,)
+    length: str = "full"
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.series not in SERIES:
+            raise InputError("series", self.series, "one of " + ", ".join(SERIES))
+        if self.length not in LENGTHS:
+            raise InputError("length", self.length, "one of " + ", ".join(LENGTHS))
+        known = series_spec(self.series, n_particles=2).names
+        for name in self.samples:
+            if name not in known:
+                raise InputError("samples", name, f"samples of {self.series}: "
+                                 + ", ".join(known))
+        if not self.samples:
+            raise InputError("samples", "", "at least one sample name")
+        for field, sizes in (("walls", self.walls), ("periodic", self.periodic)):
+            for n in sizes:
+                if int(n) < 2:
+                    raise InputError(field, n, "particle counts of at least 2")
+        if not self.periodic:
+            raise InputError("periodic", "", "at least one size in the periodic cell (the "
+                             "reference the walls' core values must approach)")
+
+    @property
+    def runs(self) -> list[SizeRun]:
+        return ([SizeRun("walls", int(n)) for n in self.walls]
+                + [SizeRun("periodic", int(n)) for n in self.periodic])
+
+    def study(self, folder: str | Path, run: SizeRun) -> Study:
+        """The study of ``run`` in its subfolder of ``folder`` (created or opened as it
+        is)."""
+        spec = series_spec(self.series, n_particles=run.n, length=self.length, seed=self.seed,
+                           boundary=run.boundary)
+        return Study.create(Path(folder) / run.folder_name, spec)
+
+
+def run_size_check(folder: str | Path, plan: SizeCheckPlan, *, scheduler: str | None = None,
+                   workers: int | None = None, threads: int = 1, progress: bool = True,
+                   ) -> dict[str, StudyOutcome]:
+    """Run (or go on with) every study of ``plan`` in ``folder``, the smallest first, each
+    for the plan's samples only; returns each run's outcome by folder name. A run that stops
+    (interrupted, a failed sample) stops the check there: run it again to go on."""
+    outcomes = {}
+    for run in sorted(plan.runs, key=lambda r: (r.n, r.boundary)):
+        study = plan.study(folder, run)
+        outcome = study.run(scheduler=scheduler, workers=workers, threads=threads,
+                            progress=progress, only=list(plan.samples))
+        outcomes[run.folder_name] = outcome
+        if not outcome.complete:
+            break
+    return outcomes
+
+
+def _claims(series: str) -> tuple[PaperClaim, ...]:
+    parameter = series_spec(series, n_particles=2).study.parameter
+    return (PEAK, *PAPER_CLAIMS.get(parameter, ()))
+
+
+def paper_value(claim: PaperClaim, index: int, count: int, parameter: float) -> float:
+    """The paper's value of ``claim`` for the sample at ``index`` of a series of ``count``
+    samples with shape parameter ``parameter``: its first or last sample's value, the others'
+    level, or the peak value near the peak's location; NaN where the paper gives none."""
+    if index == 0 and claim.first is not None:
+        return claim.first
+    if index == count - 1 and claim.last is not None:
+        return claim.last
+    if index > 0 and claim.rest is not None:
+        return claim.rest
+    if (claim.peak is not None and claim.peak_at is not None
+            and abs(parameter - claim.peak_at) <= claim.peak_tolerance):
+        return claim.peak
+    return math.nan
+
+
+def _number(row: pd.Series, column: str | None) -> float:
+    if column is None or column not in row.index:
+        return math.nan
+    value = pd.to_numeric(row[column], errors="coerce")
+    return float(value) if pd.notna(value) else math.nan
+
+
+def size_check_table(folder: str | Path, plan: SizeCheckPlan) -> pd.DataFrame:
+    """One row per ended sample, quantity and run of ``plan`` in ``folder`` (module
+    docstring): ``sample``, ``quantity``, ``column``, ``boundary``, ``n``, ``whole``,
+    ``whole_std``, ``core``, ``core_std``, ``paper``, ``capped_share``, ``wall_time`` [s].
+    Each run's study summary is written again from its ended samples
+    (:func:`~grainlab.study.study_summary.study_summary`); in a cell the core is the whole
+    packing. Written to ``size_check.csv`` in ``folder``."""
+    from grainlab.study.study_summary import study_summary
+
+    folder = Path(folder)
+    claims = _claims(plan.series)
+    rows = []
+    for run in plan.runs:
+        path = folder / run.folder_name
+        if not path.is_dir():
+            continue
+        study = Study.open(path)
+        if not any(sample_state(study.sample_folder(name)) == "ended"
+                   for name in plan.samples):
+            continue
+        table = study_summary(study)
+        names = study.spec.names
+        for _, row in table.iterrows():
+            if row["name"] not in plan.samples:
+                continue
+            index = names.index(row["name"])
+            value = _number(row, "measured")
+            for claim in claims:
+                whole = _number(row, claim.column)
+                core_column = claim.core_column if run.boundary == "walls" else claim.column
+                core = _number(row, core_column)
+                rows.append({
+                    "sample": row["name"], "quantity": claim.quantity,
+                    "column": claim.column, "boundary": run.boundary, "n": run.n,
+                    "whole": whole, "whole_std": _number(row, f"{claim.column}_std"),
+                    "core": core, "core_std": _number(row, f"{core_column}_std")
+                    if core_column else math.nan,
+                    "paper": paper_value(claim, index, len(names), value),
+                    "capped_share": _number(row, "capped_share"),
+                    "wall_time": _number(row, "wall_time")})
+    out = pd.DataFrame(rows, columns=["sample", "quantity", "column", "boundary", "n",
+                                      "whole", "whole_std", "core", "core_std", "paper",
+                                      "capped_share", "wall_time"])
+    folder.mkdir(parents=True, exist_ok=True)
+    out.to_csv(folder / TABLE, index=False)
+    return out
+
+
+def _bar(std: float) -> float:
+    return std if math.isfinite(std) else 0.0
+
+
+def _within(value: float, std: float, ref: float, ref_std: float) -> bool:
+    """Whether ``value`` lies within the two error bars of ``ref`` (each two standard
+    deviations; a value without one, an initial state, by its own at 0)."""
+    return abs(value - ref) <= 2.0 * (_bar(std) + _bar(ref_std))
+
+
+def convergence_verdicts(table: pd.DataFrame, tolerance: dict[str, float] | None = None,
+                         ) -> pd.DataFrame:
+    """Quantity by quantity and sample by sample, the walls' values against the cell's (the
+    largest cell of the table): ``core_gaps`` and ``whole_gaps``, value minus the cell's at
+    each box size (smallest first); ``basis``, "core", or "whole" for a quantity without a
+    core value (the peak, read from the walls' stress); ``reaches``, the smallest box size
+    whose value on that basis lies within the error bars of the cell (or, for a value
+    without error bars, an initial state's, within ``tolerance[quantity]``) and stays there at
+    every larger size (0 where none does); ``cell`` and ``cell_std``; ``paper`` and
+    ``cell_vs_paper``, the cell's value minus the paper's."""
+    tolerance = tolerance or {}
+    rows = []
+    for (sample, quantity), group in table.groupby(["sample", "quantity"], sort=False):
+        cells = group[group["boundary"] == "periodic"].sort_values("n")
+        walls = group[group["boundary"] == "walls"].sort_values("n")
+        if not len(cells):
+            continue
+        cell = cells.iloc[-1]
+        ref, ref_std = float(cell["whole"]), float(cell["whole_std"])
+        slack = tolerance.get(quantity, 0.0)
+        core_gaps = (walls["core"] - ref).to_numpy(float)
+        whole_gaps = (walls["whole"] - ref).to_numpy(float)
+        basis = "core" if np.isfinite(core_gaps).any() else "whole"
+        gaps = core_gaps if basis == "core" else whole_gaps
+        close = [math.isfinite(gap) and (_within(value, std, ref, ref_std) or (
+            abs(gap) <= slack and not (math.isfinite(std) or math.isfinite(ref_std))))
+            for gap, value, std in zip(gaps, walls[basis], walls[f"{basis}_std"],
+                                       strict=True)]
+        reaches = 0
+        for k in range(len(close)):
+            if all(close[k:]):
+                reaches = int(walls["n"].iloc[k])
+                break
+        paper = float(cell["paper"])
+        rows.append({"sample": sample, "quantity": quantity,
+                     "sizes": list(walls["n"].astype(int)), "basis": basis,
+                     "core_gaps": core_gaps, "whole_gaps": whole_gaps,
+                     "reaches": reaches, "cell": ref, "cell_std": ref_std,
+                     "cell_n": int(cell["n"]), "paper": paper,
+                     "cell_vs_paper": ref - paper if math.isfinite(paper) else math.nan})
+    return pd.DataFrame(rows)
+
+
+def shrinking(gaps: np.ndarray) -> bool:
+    """Whether the box's distance from the cell shrinks as the box grows (its largest size
+    closer than its smallest)."""
+    gaps = np.abs(np.asarray(gaps, float))
+    gaps = gaps[np.isfinite(gaps)]
+    return gaps.size >= 2 and gaps[-1] < gaps[0]

@@ -1,0 +1,178 @@
+"""The size check of a preset series: its plan, the paper's value per sample, the table read
+from each run's study summary, the verdict of the walls' core against the periodic cell, and
+the command's report."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+import grainlab.study.size_check as size_check
+from grainlab.cli.main import app
+from grainlab.errors import InputError
+from grainlab.report.paper_comparison import ANGULARITY, NONCONVEXITY
+from grainlab.report.size_check_report import size_check_markdown, verdict_text
+from grainlab.study.size_check import (
+    SizeCheckPlan,
+    convergence_verdicts,
+    paper_value,
+    size_check_table,
+)
+
+
+def test_plan_runs_every_boundary_and_size_in_its_own_folder():
+    plan = SizeCheckPlan("nonconvexity", ("eta-0.0", "eta-0.4"), walls=(500, 2000),
+                         periodic=(800, 1000))
+    assert [r.folder_name for r in plan.runs] == [
+        "walls-500", "walls-2000", "periodic-800", "periodic-1000"]
+
+
+@pytest.mark.parametrize("field, options", [
+    ("series", {"series": "roundness"}),
+    ("samples", {"samples": ("S1", "S9")}),
+    ("samples", {"samples": ()}),
+    ("walls", {"walls": (500, 1)}),
+    ("periodic", {"periodic": ()}),
+    ("length", {"length": "long"}),
+])
+def test_plan_refuses_bad_input_by_name(field, options):
+    arguments = {"series": "angularity", "samples": ("S1",), **options}
+    with pytest.raises(InputError) as error:
+        SizeCheckPlan(**arguments)
+    assert error.value.field == field
+
+
+def test_the_papers_value_of_each_sample():
+    by_name = {claim.quantity: claim for claim in ANGULARITY}
+    # (q/p)*: 0.2 for the spheres, 0.4 for the most angular, nothing in between
+    assert paper_value(by_name["(q/p)*"], 0, 8, 0.0) == 0.2
+    assert paper_value(by_name["(q/p)*"], 7, 8, 1.27) == 0.4
+    assert math.isnan(paper_value(by_name["(q/p)*"], 4, 8, 0.5))
+    # nu0 peaks near <alpha> = 0.5 at 0.75: S5 (0.501) gets it, S8 (1.27) does not
+    assert paper_value(by_name["ν0"], 4, 8, 0.501) == 0.75
+    assert math.isnan(paper_value(by_name["ν0"], 7, 8, 1.27))
+    # z_c0 about 12 for every polyhedron, no value for the spheres
+    assert paper_value(by_name["z_c0"], 3, 8, 0.34) == 12.0
+    assert math.isnan(paper_value(by_name["z_c0"], 0, 8, 0.0))
+    eta = {claim.quantity: claim for claim in NONCONVEXITY}
+    assert paper_value(eta["Z_c0"], 0, 8, 0.0) == 6.0
+    assert paper_value(eta["Z_c0"], 4, 8, 0.4) == 12.0
+
+
+def rows(quantity, walls, cell, paper=math.nan, sample="S1"):
+    """Table rows: ``walls`` {n: (whole, whole_std, core, core_std)}, ``cell`` (n, value,
+    std)."""
+    out = [{"sample": sample, "quantity": quantity, "column": "c", "boundary": "walls",
+            "n": n, "whole": w, "whole_std": ws, "core": c, "core_std": cs, "paper": paper,
+            "capped_share": 0.01, "wall_time": 10.0 * n}
+           for n, (w, ws, c, cs) in walls.items()]
+    n, value, std = cell
+    out.append({"sample": sample, "quantity": quantity, "column": "c",
+                "boundary": "periodic", "n": n, "whole": value, "whole_std": std,
+                "core": value, "core_std": std, "paper": paper, "capped_share": 0.0,
+                "wall_time": 10.0 * n})
+    return out
+
+
+def test_core_reaching_the_cell_and_staying_there_is_found():
+    table = pd.DataFrame(
+        rows("z*", {500: (3.4, 0.05, 3.7, 0.05), 1000: (3.6, 0.05, 3.95, 0.04),
+                    2000: (3.75, 0.04, 4.0, 0.03)}, (1000, 4.02, 0.03), paper=4.0)
+        # the core touches the cell at 1000, leaves it at 2000: no size reaches it
+        + rows("z_c*", {500: (3.4, 0.05, 3.8, 0.02), 1000: (3.6, 0.05, 4.0, 0.02),
+                        2000: (3.75, 0.04, 3.7, 0.02)}, (1000, 4.02, 0.02)))
+    verdicts = convergence_verdicts(table).set_index("quantity")
+    assert verdicts.loc["z*", "reaches"] == 1000
+    assert verdicts.loc["z*", "basis"] == "core"
+    np.testing.assert_allclose(verdicts.loc["z*", "core_gaps"], [-0.32, -0.07, -0.02])
+    np.testing.assert_allclose(verdicts.loc["z*", "whole_gaps"], [-0.62, -0.42, -0.27])
+    assert verdicts.loc["z*", "cell_vs_paper"] == pytest.approx(0.02)
+    assert verdicts.loc["z_c*", "reaches"] == 0
+    assert math.isnan(verdicts.loc["z_c*", "cell_vs_paper"])
+    text = verdict_text(verdicts.reset_index().iloc[1])
+    assert "off the cell by -0.22 → -0.02 → -0.32" in text and "not shrinking" in text
+
+
+def test_initial_states_use_the_tolerance_and_a_quantity_without_core_the_whole_box():
+    table = pd.DataFrame(
+        rows("ν0", {500: (0.60, math.nan, 0.625, math.nan),
+                    1000: (0.61, math.nan, 0.638, math.nan)}, (1000, 0.645, math.nan))
+        + rows("(q/p)+", {500: (0.28, math.nan, math.nan, math.nan),
+                          1000: (0.30, math.nan, math.nan, math.nan)},
+               (1000, 0.31, math.nan)))
+    strict = convergence_verdicts(table).set_index("quantity")
+    assert strict.loc["ν0", "reaches"] == 0  # no error bar, no slack: never within
+    loose = convergence_verdicts(table, {"ν0": 0.01, "(q/p)+": 0.015}).set_index("quantity")
+    assert loose.loc["ν0", "reaches"] == 1000  # 0.638 within 0.01 of 0.645; 0.625 is not
+    assert loose.loc["(q/p)+", "basis"] == "whole"
+    assert loose.loc["(q/p)+", "reaches"] == 1000
+    assert "whole box (no core value)" in verdict_text(loose.reset_index().iloc[1])
+
+
+def summary_row(name, n, core_offset, walls=True):
+    """A study summary row of spheres: in walls z* = 4 - 10 / N^(1/3) over the whole box and
+    the core ``core_offset`` below the bulk's 4; in the cell 4."""
+    return {"name": name, "measured": 0.0, "capped_share": 0.004, "wall_time": float(n),
+            "q_over_trace_peak": 0.3, "q_over_trace_residual": 0.24,
+            "q_over_trace_residual_std": 0.01,
+            "z_residual": 4.0 - 10.0 / n ** (1 / 3) if walls else 4.0,
+            "z_residual_std": 0.02, "coordination_number_core_residual": 4.0 - core_offset,
+            "coordination_number_core_residual_std": 0.02}
+
+
+def fake_runs(tmp_path, monkeypatch, plan, offsets):
+    """Study folders of ``plan`` whose samples have ended with the summary rows above."""
+    summaries = {}
+    for run in plan.runs:
+        study = plan.study(tmp_path, run)
+        offset = offsets.get(run.n, 0.0) if run.boundary == "walls" else 0.0
+        summaries[str(study.folder)] = pd.DataFrame(
+            [summary_row(name, run.n, offset, run.boundary == "walls")
+             for name in plan.samples])
+
+    def summary(study, microstructure=True):
+        return summaries[str(study.folder)]
+
+    monkeypatch.setattr("grainlab.study.study_summary.study_summary", summary)
+    monkeypatch.setattr(size_check, "sample_state", lambda folder: "ended")
+
+
+def test_table_reads_every_run_and_writes_its_csv(tmp_path, monkeypatch):
+    plan = SizeCheckPlan("angularity", ("S1",), walls=(500, 2000), periodic=(1000,))
+    fake_runs(tmp_path, monkeypatch, plan, {500: 0.3, 2000: 0.01})
+    table = size_check_table(tmp_path, plan)
+    assert (tmp_path / "size_check.csv").exists()
+    z = table[table["quantity"] == "z*"].set_index(["boundary", "n"])
+    assert z.loc[("walls", 500), "core"] == pytest.approx(3.7)
+    # the cell's core is its whole packing
+    assert z.loc[("periodic", 1000), "core"] == z.loc[("periodic", 1000), "whole"]
+    assert z.loc[("walls", 500), "paper"] == 4.0  # S1 is the first sample: z about 4
+    assert set(table["quantity"]) >= {"(q/p)+", "(q/p)*", "z*"}
+    verdicts = convergence_verdicts(table).set_index("quantity")
+    assert verdicts.loc["z*", "reaches"] == 2000
+
+
+def test_command_writes_the_report_from_ended_runs(tmp_path, monkeypatch):
+    plan = SizeCheckPlan("angularity", ("S1", "S5"), walls=(500, 1000), periodic=(1000,))
+    fake_runs(tmp_path, monkeypatch, plan, {500: 0.3, 1000: 0.01})
+    result = CliRunner().invoke(app, [
+        "study", "size-check", "angularity", "-o", str(tmp_path), "--walls", "500,1000",
+        "--periodic", "1000", "--no-run"])
+    assert result.exit_code == 0, result.output
+    report = (tmp_path / "size_check.md").read_text()
+    assert "## S1" in report and "## S5" in report
+    assert "core within the cell's error bars from N = 1000" in report
+    assert (tmp_path / "size_check-S1.png").stat().st_size > 0
+    table = pd.read_csv(tmp_path / "size_check.csv")
+    assert "| z* |" in size_check_markdown(table, plan)
+
+
+def test_command_refuses_bad_sizes_by_name(tmp_path):
+    result = CliRunner().invoke(app, ["study", "size-check", "angularity", "-o",
+                                      str(tmp_path), "--walls", "500,many", "--no-run"])
+    assert result.exit_code != 0
+    assert "--walls" in result.output and "many" in result.output
