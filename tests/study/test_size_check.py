@@ -15,13 +15,12 @@ import grainlab.study.size_check as size_check
 from grainlab.cli.main import app
 from grainlab.errors import InputError
 from grainlab.report.paper_comparison import ANGULARITY, NONCONVEXITY
-from grainlab.report.size_check_report import size_check_markdown, verdict_text
-from grainlab.study.size_check import (
-    SizeCheckPlan,
+from grainlab.report.size_check_report import (
     convergence_verdicts,
-    paper_value,
-    size_check_table,
+    size_check_markdown,
+    verdict_text,
 )
+from grainlab.study.size_check import SizeCheckPlan, paper_value, size_check_table
 
 
 def test_plan_runs_every_boundary_and_size_in_its_own_folder():

@@ -146,3 +146,53 @@ def test_the_periodic_presets_run_loose_samples_in_a_cell_large_enough(name, len
 def test_an_unknown_boundary_is_refused_by_name():
     with pytest.raises(InputError, match="boundary"):
         series_spec("angularity", boundary="spherical")
+
+
+@pytest.mark.parametrize("name, expected", [
+    ("angularity", ("S1", "S4", "S8")), ("nonconvexity", ("eta-0.0", "eta-0.3", "eta-0.7"))])
+def test_replicas_repeat_the_ends_and_middle_of_a_series_with_other_packing_seeds(
+        name, expected, tmp_path):
+    single = series_spec(name, length="full", seed=3)
+    repeated = series_spec(name, length="full", seed=3, replicas=3)
+    # one replica is the series as it was: study folders made before resume
+    assert series_spec(name, length="full", seed=3, replicas=1) == single
+    assert repeated.names[:8] == single.names
+    extra = repeated.samples[8:]
+    assert [s.name for s in extra] == [f"{n}-seed{s}" for s in (4, 5) for n in expected]
+    for sample in extra:
+        of = repeated.sample(sample.replica_of)
+        assert sample.value == of.value and not of.replica_of
+        config, base = repeated.sample_config(sample.name), repeated.sample_config(of.name)
+        assert config.sample.seed == int(sample.name.rsplit("seed", 1)[1]) != base.sample.seed
+        # the same shape and protocol otherwise
+        assert config.sample.model_copy(update={"seed": 3}) == base.sample
+        assert config.solver == base.solver and config.test == base.test
+    # written and read back: a sample of its own carries no replica_of
+    path = repeated.write(tmp_path / "study.toml")
+    assert StudySpec.read(path) == repeated
+    assert path.read_text().count("replica_of") == len(extra)
+
+
+def test_replicas_are_refused_by_name_where_they_make_no_sense():
+    with pytest.raises(InputError) as error:
+        series_spec("angularity", replicas=2, replicated=("S1", "S9"))
+    assert error.value.field == "replicated" and error.value.value == "S9"
+    with pytest.raises(InputError) as error:
+        series_spec("nonconvexity", replicas=0)
+    assert error.value.field == "replicas"
+    base = {"study": {"name": "s", "parameter": "eta", "window": [0.1, 0.2]},
+            "base": {"sample": {"shape": "aggregate", "n_particles": 40}}}
+    a = {"name": "a", "value": 0.1, "set": {"sample": {"eta": 0.1}}}
+    for k, (replica, field) in enumerate([
+            ({"name": "b", "value": 0.1, "replica_of": "z"}, "samples[1].replica_of"),
+            ({"name": "b", "value": 0.2, "replica_of": "a"}, "samples[1].value"),
+            ({"name": "b", "value": 0.1, "replica_of": "b"}, "samples[1].replica_of")]):
+        with pytest.raises(InputError) as error:
+            StudySpec.model_validate({**base, "samples": [a, replica]})
+        assert error.value.field == field, k
+    # a replica of a replica
+    with pytest.raises(InputError) as error:
+        StudySpec.model_validate({**base, "samples": [
+            a, {"name": "b", "value": 0.1, "replica_of": "a"},
+            {"name": "c", "value": 0.1, "replica_of": "b"}]})
+    assert error.value.field == "samples[2].replica_of"

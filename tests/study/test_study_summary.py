@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from grainlab.errors import InputError
@@ -48,3 +49,38 @@ def test_smoothed_peak_ignores_row_order_and_nan_rows():
 @pytest.mark.parametrize("q_over_p", [0.2, 0.4, 0.6])
 def test_friction_angle_is_equation_11(q_over_p):
     assert math.sin(friction_angle(q_over_p)) == pytest.approx(3 * q_over_p / (2 + q_over_p))
+
+
+def test_replicas_pool_into_one_point_with_the_spread_over_their_seeds():
+    from grainlab.study.study_summary import pooled_replicas
+
+    rng = np.random.default_rng(7)
+    values = rng.normal(0.3, 0.02, 3)
+    table = pd.DataFrame({
+        "name": ["S1", "S4", "S8", "S1-seed1", "S1-seed2"],
+        "replica_of": ["", "", "", "S1", "S1"], "seed": [0, 0, 0, 1, 2],
+        "value": [0.0, 0.34, 1.27, 0.0, 0.0], "status": ["ended"] * 5,
+        "q_over_trace_residual": [values[0], 0.4, 0.45, values[1], values[2]],
+        "q_over_trace_residual_std": [0.01, 0.02, 0.03, 0.03, 0.02],
+        "packing_fraction_initial": [0.60, 0.62, 0.61, 0.62, 0.58],
+        "wall_time": [100.0, 200.0, 300.0, 110.0, 120.0]})
+    pooled = pooled_replicas(table)
+    assert list(pooled["name"]) == ["S1", "S4", "S8"]  # the series' order, one point each
+    assert list(pooled["n_seeds"]) == [3, 1, 1]
+    s1 = pooled.iloc[0]
+    assert s1["q_over_trace_residual"] == pytest.approx(values.mean())
+    assert s1["q_over_trace_residual_std"] == pytest.approx(values.std(ddof=1))
+    assert s1["q_over_trace_residual_window_std"] == pytest.approx(0.02)
+    # the initial state gets an error bar from the seeds too
+    assert s1["packing_fraction_initial_std"] == pytest.approx(np.std([0.6, 0.62, 0.58],
+                                                                      ddof=1))
+    assert s1["wall_time"] == 330.0 and s1["seeds"] == "0,1,2" and s1["status"] == "ended"
+    # a sample without replicas keeps its own values and its window's error bar
+    s4 = pooled.iloc[1]
+    assert s4["q_over_trace_residual"] == 0.4 and s4["q_over_trace_residual_std"] == 0.02
+    # relabelling the replicas does not change the point
+    shuffled = table.iloc[[4, 1, 3, 0, 2]].reset_index(drop=True)
+    again = pooled_replicas(shuffled).set_index("name").loc["S1"]
+    assert again["q_over_trace_residual"] == pytest.approx(s1["q_over_trace_residual"])
+    assert again["q_over_trace_residual_std"] == pytest.approx(
+        s1["q_over_trace_residual_std"])

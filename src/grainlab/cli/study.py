@@ -10,7 +10,7 @@ from rich.console import Console
 
 from grainlab.cli.errors import friendly_errors
 from grainlab.errors import InputError
-from grainlab.study.series_presets import BOUNDARIES, LENGTHS, series_spec
+from grainlab.study.series_presets import BOUNDARIES, LENGTHS, REPLICATED, series_spec
 from grainlab.study.study_runner import SPEC, Study, StudyInterrupted
 from grainlab.study.study_spec import StudySpec
 
@@ -42,6 +42,18 @@ _BOUNDARY = typer.Option("walls", "--boundary", help="; ".join(
     f"{name}: {words}" for name, words in BOUNDARIES.items()) + ".")
 _SEED = typer.Option(0, "--seed", min=0, help="Seed of the sphere packing shared by the "
                                               "samples, and of their shapes.")
+_REPLICAS = typer.Option(1, "--replicas", min=1, help=(
+    "Packings per repeated sample: the samples of --replicated run again with the seeds "
+    "seed + 1, ..., seed + replicas - 1 (named <sample>-seed<s>), and the report pools each "
+    "with its repeats into one point whose error bars are the spread over the seeds."))
+_REPLICATED = typer.Option(None, "--replicated", help=(
+    "The samples --replicas repeats (comma-separated; default: "
+    + "; ".join(f"{series}: {','.join(names)}" for series, names in REPLICATED.items())
+    + ")."))
+
+
+def _names(text: str | None) -> tuple[str, ...] | None:
+    return tuple(n.strip() for n in text.split(",") if n.strip()) if text else None
 
 
 def _run_study(study: Study, scheduler, workers, threads, progress, only) -> None:
@@ -66,13 +78,13 @@ def _run_study(study: Study, scheduler, workers, threads, progress, only) -> Non
 
 def _report(study: Study) -> None:
     from grainlab.report.study_report import write_study_report
-    from grainlab.study.study_summary import study_summary
+    from grainlab.study.study_summary import pooled_replicas, study_summary
 
     table = study_summary(study)
     if not len(table):
         console.print("no sample has ended yet: no summary or report")
         return
-    path = write_study_report(study, table)
+    path = write_study_report(study, pooled_replicas(table))
     console.print(f"summary: {study.folder / 'summary.csv'}\nreport: {path}")
 
 
@@ -94,7 +106,7 @@ def angularity_command(
     templates: int = typer.Option(None, "--templates", min=0, help=(
         "Polyhedra drawn once and reused in random orientations (0: every particle its own, "
         "as the paper; default 12 for short, 0 for full).")),
-    boundary: str = _BOUNDARY,
+    boundary: str = _BOUNDARY, replicas: int = _REPLICAS, replicated: str = _REPLICATED,
     scheduler: str = _SCHEDULER, workers: int = _WORKERS, threads: int = _THREADS,
     only: str = _ONLY, progress: bool = _PROGRESS,
 ) -> None:
@@ -102,7 +114,8 @@ def angularity_command(
     and 8 faces (S2 ... S8) inscribed in one sphere packing; triaxial compression after a
     frictionless isotropic compaction. Run it again to resume."""
     _preset("angularity", out, n_particles, length, seed, scheduler, workers, threads,
-            progress, only, templates=templates, boundary=boundary)
+            progress, only, templates=templates, boundary=boundary, replicas=replicas,
+            replicated=_names(replicated))
 
 
 @app.command("nonconvexity")
@@ -110,7 +123,7 @@ def angularity_command(
 def nonconvexity_command(
     out: Path = typer.Option(Path("study-nonconvexity"), "--out", "-o", help="Study folder."),
     n_particles: int = _N, length: str = _LENGTH, seed: int = _SEED,
-    boundary: str = _BOUNDARY,
+    boundary: str = _BOUNDARY, replicas: int = _REPLICAS, replicated: str = _REPLICATED,
     scheduler: str = _SCHEDULER, workers: int = _WORKERS, threads: int = _THREADS,
     only: str = _ONLY, progress: bool = _PROGRESS,
 ) -> None:
@@ -118,7 +131,8 @@ def nonconvexity_command(
     0.7 inscribed in one sphere packing; triaxial compression after a frictionless
     isotropic compaction. Run it again to resume."""
     _preset("nonconvexity", out, n_particles, length, seed, scheduler, workers, threads,
-            progress, only, boundary=boundary)
+            progress, only, boundary=boundary, replicas=replicas,
+            replicated=_names(replicated))
 
 
 @app.command("run")
@@ -198,8 +212,7 @@ def size_check_command(
         size_check_table,
     )
 
-    names = tuple(n.strip() for n in samples.split(",") if n.strip()) if samples else \
-        DEFAULT_SAMPLES.get(series, ())
+    names = _names(samples) or DEFAULT_SAMPLES.get(series, ())
     plan = SizeCheckPlan(series, names, walls=_sizes("--walls", walls),
                          periodic=_sizes("--periodic", periodic), length=length, seed=seed)
     folder = out or Path(f"size-check-{series}")

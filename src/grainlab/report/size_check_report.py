@@ -1,9 +1,10 @@
-"""The report of a size check (:mod:`grainlab.study.size_check`): ``size_check.md`` in the
-check's folder, one table per sample with every quantity at every size (whole box / core in
-the walls, the periodic cell, the paper), a verdict per quantity, and a figure per sample
-(``size_check-<sample>.png``): each quantity against the particles per sample, the walls'
-whole box and core with their error bars, the cell's value as a band and the paper's as a
-dashed line.
+"""The reading and report of a size check (:mod:`grainlab.study.size_check`): the walls'
+values against the periodic cell's, quantity by quantity (:func:`convergence_verdicts`), and
+``size_check.md`` in the check's folder: one table per sample with every quantity at every
+size (whole box / core in the walls, the periodic cell, the paper), a verdict per quantity,
+and a figure per sample (``size_check-<sample>.png``): each quantity against the particles
+per sample, the walls' whole box and core with their error bars, the cell's value as a band
+and the paper's as a dashed line.
 """
 
 from __future__ import annotations
@@ -11,24 +12,76 @@ from __future__ import annotations
 import math
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
 from grainlab.report.curves import new_figure_axes, save_figure
-from grainlab.report.paper_comparison import PAPER_CLAIMS
-from grainlab.study.series_presets import series_spec
-from grainlab.study.size_check import SizeCheckPlan, convergence_verdicts, shrinking
 
 REPORT = "size_check.md"
 
 
-def _tolerances(series: str) -> dict[str, float]:
-    """The papers' reading tolerance per quantity: the slack of an initial state (one value,
-    no error bar) against the cell's."""
-    parameter = series_spec(series, n_particles=2).study.parameter
-    return {claim.quantity: claim.tolerance for claim in PAPER_CLAIMS.get(parameter, ())}
+def _bar(std: float) -> float:
+    return std if math.isfinite(std) else 0.0
+
+
+def _within(value: float, std: float, ref: float, ref_std: float) -> bool:
+    """Whether ``value`` lies within the two error bars of ``ref`` (each two standard
+    deviations; a value without one, an initial state, by its own at 0)."""
+    return abs(value - ref) <= 2.0 * (_bar(std) + _bar(ref_std))
+
+
+def convergence_verdicts(table: pd.DataFrame, tolerance: dict[str, float] | None = None,
+                         ) -> pd.DataFrame:
+    """Quantity by quantity and sample by sample, the walls' values against the cell's (the
+    largest cell of the table): ``core_gaps`` and ``whole_gaps``, value minus the cell's at
+    each box size (smallest first); ``basis``, "core", or "whole" for a quantity without a
+    core value (the peak, read from the walls' stress); ``reaches``, the smallest box size
+    whose value on that basis lies within the error bars of the cell (or, for a value
+    without error bars, an initial state's, within ``tolerance[quantity]``) and stays there at
+    every larger size (0 where none does); ``cell`` and ``cell_std``; ``paper`` and
+    ``cell_vs_paper``, the cell's value minus the paper's."""
+    tolerance = tolerance or {}
+    rows = []
+    for (sample, quantity), group in table.groupby(["sample", "quantity"], sort=False):
+        cells = group[group["boundary"] == "periodic"].sort_values("n")
+        walls = group[group["boundary"] == "walls"].sort_values("n")
+        if not len(cells):
+            continue
+        cell = cells.iloc[-1]
+        ref, ref_std = float(cell["whole"]), float(cell["whole_std"])
+        slack = tolerance.get(quantity, 0.0)
+        core_gaps = (walls["core"] - ref).to_numpy(float)
+        whole_gaps = (walls["whole"] - ref).to_numpy(float)
+        basis = "core" if np.isfinite(core_gaps).any() else "whole"
+        gaps = core_gaps if basis == "core" else whole_gaps
+        close = [math.isfinite(gap) and (_within(value, std, ref, ref_std) or (
+            abs(gap) <= slack and not (math.isfinite(std) or math.isfinite(ref_std))))
+            for gap, value, std in zip(gaps, walls[basis], walls[f"{basis}_std"],
+                                       strict=True)]
+        reaches = 0
+        for k in range(len(close)):
+            if all(close[k:]):
+                reaches = int(walls["n"].iloc[k])
+                break
+        paper = float(cell["paper"])
+        rows.append({"sample": sample, "quantity": quantity,
+                     "sizes": list(walls["n"].astype(int)), "basis": basis,
+                     "core_gaps": core_gaps, "whole_gaps": whole_gaps,
+                     "reaches": reaches, "cell": ref, "cell_std": ref_std,
+                     "cell_n": int(cell["n"]), "paper": paper,
+                     "cell_vs_paper": ref - paper if math.isfinite(paper) else math.nan})
+    return pd.DataFrame(rows)
+
+
+def shrinking(gaps: np.ndarray) -> bool:
+    """Whether the box's distance from the cell shrinks as the box grows (its largest size
+    closer than its smallest)."""
+    gaps = np.abs(np.asarray(gaps, float))
+    gaps = gaps[np.isfinite(gaps)]
+    return gaps.size >= 2 and gaps[-1] < gaps[0]
 
 
 def _pm(value: float, std: float) -> str:
@@ -62,9 +115,10 @@ def verdict_text(row: pd.Series) -> str:
     return "; ".join(parts)
 
 
-def size_check_markdown(table: pd.DataFrame, plan: SizeCheckPlan) -> str:
-    """The check's tables and verdicts (module docstring) as Markdown."""
-    verdicts = convergence_verdicts(table, _tolerances(plan.series))
+def size_check_markdown(table: pd.DataFrame, plan: Any) -> str:
+    """The check's tables and verdicts (module docstring) as Markdown; ``plan`` a
+    :class:`~grainlab.study.size_check.SizeCheckPlan` (its samples, runs and tolerances)."""
+    verdicts = convergence_verdicts(table, plan.tolerances)
     runs = [run for run in plan.runs
             if ((table["boundary"] == run.boundary) & (table["n"] == run.n)).any()]
     lines = []
@@ -152,7 +206,7 @@ def size_check_figure(table: pd.DataFrame, sample: str) -> Figure | None:
     return figure
 
 
-def write_size_check_report(folder: str | Path, plan: SizeCheckPlan,
+def write_size_check_report(folder: str | Path, plan: Any,
                             table: pd.DataFrame) -> Path:
     """``size_check.md`` and the figures in ``folder``; returns the report's path."""
     folder = Path(folder)

@@ -47,6 +47,7 @@ PAPERS = {
 
 COLUMNS = (
     ("value", "parameter", "{:.3g}"), ("measured", "measured", "{:.3g}"),
+    ("n_seeds", "seeds", "{:.0f}"),
     ("status", "outcome", "{}"), ("wall_time", "wall time [s]", "{:.0f}"),
     ("capped_share", "capped steps", "{:.0%}"),
     ("q_over_trace_peak", "(q/p)+", "{:.3f}"), ("q_over_trace_residual", "(q/p)*", "pm"),
@@ -95,12 +96,16 @@ def summary_markdown(table: pd.DataFrame) -> str:
 
 def write_study_report(study, table: pd.DataFrame) -> Path:
     """Write the study's figures and ``report/report.md`` (module docstring) from its summary
-    table (:func:`~grainlab.study.study_summary.study_summary`); returns the report's path."""
+    table (:func:`~grainlab.study.study_summary.study_summary`, its replicas pooled by
+    :func:`~grainlab.study.study_summary.pooled_replicas`: ``n_seeds`` > 1 marks a sample
+    whose error bars are over its seeds); returns the report's path."""
     from grainlab.lab.discrete_run import RESULTS_H5
     from grainlab.report.run_curves import shear_from_its_start
     from grainlab.result.test_result import read_test_result
-
     spec = study.spec
+    replicated = "n_seeds" in table and bool((table["n_seeds"] > 1).any())
+    if "n_seeds" in table and not replicated:
+        table = table.drop(columns="n_seeds")
     out = study.folder / REPORT
     out.mkdir(exist_ok=True)
     for stale in out.glob("*.png"):  # a figure an earlier report drew, not drawn now
@@ -132,11 +137,18 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
     text = [
         f"# Study: {spec.study.name}", "",
         spec.study.description or "", "",
-        f"- samples: {len(spec.samples)} ({len(table)} ended)",
+        f"- samples: {len(spec.samples)} ({len(table)} ended"
+        + (f", pooled from {int(table['n_seeds'].sum())} runs with their seeds"
+           if replicated else "")
+        + ")",
         f"- shape parameter: {symbol} (`{spec.study.parameter}`)",
         f"- residual window: eps_q in [{lo:g}, {hi:g}]; residual values are the mean ± the "
         "sample standard deviation of the recorded rows, or of the snapshots for the "
         "microstructure, in the window",
+        *(["- independent samples: a sample repeated with other packing seeds (n_seeds > "
+            "1) is one point, the mean over its seeds, and its error bars are the standard "
+            "deviation over the seeds (for the initial state too), not over the window; "
+            "each seed's own row is in summary.csv"] if replicated else []),
         f"- peak (q/p)+: the largest running mean of q/p over eps_q windows of width "
         f"{spec.study.peak_window:g} (the largest single row, biased up by the rows' "
         "fluctuations, is `q_over_trace_peak_raw` in summary.csv)",

@@ -135,10 +135,12 @@ def _snapshot_every(n_particles: int, length: str) -> int:
 
 def angularity_series(*, n_particles: int | None = None, length: str = "short",
                       seed: int = 0, templates: int | None = None,
-                      boundary: str = "walls") -> StudySpec:
+                      boundary: str = "walls", replicas: int = 1,
+                      replicated: tuple[str, ...] | None = None) -> StudySpec:
     """Seed 002's eight samples S1 ... S8 (module docstring). ``templates``: polyhedra drawn
     once and reused in random orientations (0: every particle its own, as the paper; default:
-    the length's, :data:`LENGTHS`); ``boundary``: one of :data:`BOUNDARIES`."""
+    the length's, :data:`LENGTHS`); ``boundary``: one of :data:`BOUNDARIES`; ``replicas``
+    and ``replicated``: :func:`with_replicas`."""
     length = _length(length)
     n = n_particles or _default_particles(length, boundary)
     if templates is None:
@@ -149,15 +151,17 @@ def angularity_series(*, n_particles: int | None = None, length: str = "short",
         samples.append({"name": f"S{k + 2}", "value": TABLE_I[faces],
                         "set": {"sample": {"shape": "polyhedron", "n_faces": faces,
                                            "templates": templates}}})
+    samples = with_replicas(samples, seed, replicas, replicated, REPLICATED["angularity"])
     return _series("angularity", "mean_angularity", "<alpha>",
                    "Seed 002: spheres and polyhedra of 596 ... 8 faces", length, n, base,
                    samples, boundary)
 
 
 def nonconvexity_series(*, n_particles: int | None = None, length: str = "short",
-                        seed: int = 0, boundary: str = "walls") -> StudySpec:
+                        seed: int = 0, boundary: str = "walls", replicas: int = 1,
+                        replicated: tuple[str, ...] | None = None) -> StudySpec:
     """Seed 003's eight samples eta = 0 ... 0.7 (module docstring); ``boundary``: one of
-    :data:`BOUNDARIES`."""
+    :data:`BOUNDARIES`; ``replicas`` and ``replicated``: :func:`with_replicas`."""
     length = _length(length)
     n = n_particles or _default_particles(length, boundary)
     base = _protocol(n, length, seed, 3.0, _snapshot_every(n, length), boundary)
@@ -165,9 +169,49 @@ def nonconvexity_series(*, n_particles: int | None = None, length: str = "short"
     for eta in ETAS:
         shape = {"shape": "sphere"} if eta == 0.0 else {"shape": "aggregate", "eta": eta}
         samples.append({"name": f"eta-{eta:.1f}", "value": eta, "set": {"sample": shape}})
+    samples = with_replicas(samples, seed, replicas, replicated, REPLICATED["nonconvexity"])
     return _series("nonconvexity", "eta", "eta",
                    "Seed 003: aggregates of four spheres, eta = 0 ... 0.7", length, n, base,
                    samples, boundary)
+
+
+REPLICATED = {"angularity": ("S1", "S4", "S8"),
+              "nonconvexity": ("eta-0.0", "eta-0.3", "eta-0.7")}
+"""The samples of each series repeated with other packing seeds by default (``replicas`` >
+1): both ends and the middle of the series, so that every trend has error bars from
+independent samples."""
+
+
+def with_replicas(samples: list[dict], seed: int, replicas: int,
+                  replicated: tuple[str, ...] | None, default: tuple[str, ...]) -> list[dict]:
+    """``samples`` and, after them, ``replicas - 1`` repeats of each ``replicated`` sample
+    (default ``default``) with the packing seeds seed + 1, seed + 2, ...: named
+    ``<name>-seed<s>``, the same shape and value, marked ``replica_of`` the sample (the
+    summary pools them: :func:`~grainlab.study.study_summary.pooled_replicas`). One replica
+    (the default) adds nothing.
+
+    >>> samples = [{"name": "S1", "value": 0.0, "set": {"sample": {"shape": "sphere"}}}]
+    >>> [(s["name"], s["set"]["sample"].get("seed")) for s in
+    ...  with_replicas(samples, 4, 3, None, ("S1",))]
+    [('S1', None), ('S1-seed5', 5), ('S1-seed6', 6)]
+    """
+    if int(replicas) < 1:
+        raise InputError("replicas", replicas, "a whole number of packings >= 1 per sample")
+    names = [s["name"] for s in samples]
+    chosen = tuple(default if replicated is None else replicated)
+    for name in chosen:
+        if name not in names:
+            raise InputError("replicated", name, "samples of the series: " + ", ".join(names))
+    out = list(samples)
+    for k in range(1, int(replicas)):
+        for sample in samples:
+            if sample["name"] in chosen:
+                table = {**sample["set"], "sample": {**sample["set"].get("sample", {}),
+                                                     "seed": seed + k}}
+                out.append({"name": f"{sample['name']}-seed{seed + k}",
+                            "value": sample["value"], "set": table,
+                            "replica_of": sample["name"]})
+    return out
 
 
 def _series(name: str, parameter: str, symbol: str, text: str, length: str, n: int,

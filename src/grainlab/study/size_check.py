@@ -13,10 +13,12 @@ resumes where it stopped, as a study does, and any of them can be opened as a st
 The table (:func:`size_check_table`) has one row per sample, quantity, boundary and size: the
 whole-box and core values with their standard deviations over the residual window (none for
 an initial state), and the paper's value for that sample where its paper gives one
-(:data:`~grainlab.report.paper_comparison.PAPER_CLAIMS`); :func:`convergence_verdicts` reads
-it quantity by quantity: how far the core and the whole box sit from the cell at each size,
+(:data:`~grainlab.report.paper_comparison.PAPER_CLAIMS`);
+:func:`~grainlab.report.size_check_report.convergence_verdicts` reads it quantity by
+quantity: how far the core and the whole box sit from the cell at each size,
 whether the core reaches the cell within their error bars, and where the cell's value lands
-against the paper's.
+against the paper's; :func:`~grainlab.report.size_check_report.write_size_check_report`
+writes the check's report.
 
 >>> plan = SizeCheckPlan("angularity", ("S1",), walls=(500, 1000), periodic=(1000,))
 >>> [run.folder_name for run in plan.runs]
@@ -29,7 +31,6 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from grainlab.errors import InputError
@@ -98,6 +99,12 @@ class SizeCheckPlan:
     def runs(self) -> list[SizeRun]:
         return ([SizeRun("walls", int(n)) for n in self.walls]
                 + [SizeRun("periodic", int(n)) for n in self.periodic])
+
+    @property
+    def tolerances(self) -> dict[str, float]:
+        """The paper's reading tolerance per quantity (:data:`PAPER_CLAIMS`): the slack of a
+        value without error bars (an initial state) against the cell's."""
+        return {claim.quantity: claim.tolerance for claim in _claims(self.series)}
 
     def study(self, folder: str | Path, run: SizeRun) -> Study:
         """The study of ``run`` in its subfolder of ``folder`` (created or opened as it
@@ -198,64 +205,3 @@ def size_check_table(folder: str | Path, plan: SizeCheckPlan) -> pd.DataFrame:
     folder.mkdir(parents=True, exist_ok=True)
     out.to_csv(folder / TABLE, index=False)
     return out
-
-
-def _bar(std: float) -> float:
-    return std if math.isfinite(std) else 0.0
-
-
-def _within(value: float, std: float, ref: float, ref_std: float) -> bool:
-    """Whether ``value`` lies within the two error bars of ``ref`` (each two standard
-    deviations; a value without one, an initial state, by its own at 0)."""
-    return abs(value - ref) <= 2.0 * (_bar(std) + _bar(ref_std))
-
-
-def convergence_verdicts(table: pd.DataFrame, tolerance: dict[str, float] | None = None,
-                         ) -> pd.DataFrame:
-    """Quantity by quantity and sample by sample, the walls' values against the cell's (the
-    largest cell of the table): ``core_gaps`` and ``whole_gaps``, value minus the cell's at
-    each box size (smallest first); ``basis``, "core", or "whole" for a quantity without a
-    core value (the peak, read from the walls' stress); ``reaches``, the smallest box size
-    whose value on that basis lies within the error bars of the cell (or, for a value
-    without error bars, an initial state's, within ``tolerance[quantity]``) and stays there at
-    every larger size (0 where none does); ``cell`` and ``cell_std``; ``paper`` and
-    ``cell_vs_paper``, the cell's value minus the paper's."""
-    tolerance = tolerance or {}
-    rows = []
-    for (sample, quantity), group in table.groupby(["sample", "quantity"], sort=False):
-        cells = group[group["boundary"] == "periodic"].sort_values("n")
-        walls = group[group["boundary"] == "walls"].sort_values("n")
-        if not len(cells):
-            continue
-        cell = cells.iloc[-1]
-        ref, ref_std = float(cell["whole"]), float(cell["whole_std"])
-        slack = tolerance.get(quantity, 0.0)
-        core_gaps = (walls["core"] - ref).to_numpy(float)
-        whole_gaps = (walls["whole"] - ref).to_numpy(float)
-        basis = "core" if np.isfinite(core_gaps).any() else "whole"
-        gaps = core_gaps if basis == "core" else whole_gaps
-        close = [math.isfinite(gap) and (_within(value, std, ref, ref_std) or (
-            abs(gap) <= slack and not (math.isfinite(std) or math.isfinite(ref_std))))
-            for gap, value, std in zip(gaps, walls[basis], walls[f"{basis}_std"],
-                                       strict=True)]
-        reaches = 0
-        for k in range(len(close)):
-            if all(close[k:]):
-                reaches = int(walls["n"].iloc[k])
-                break
-        paper = float(cell["paper"])
-        rows.append({"sample": sample, "quantity": quantity,
-                     "sizes": list(walls["n"].astype(int)), "basis": basis,
-                     "core_gaps": core_gaps, "whole_gaps": whole_gaps,
-                     "reaches": reaches, "cell": ref, "cell_std": ref_std,
-                     "cell_n": int(cell["n"]), "paper": paper,
-                     "cell_vs_paper": ref - paper if math.isfinite(paper) else math.nan})
-    return pd.DataFrame(rows)
-
-
-def shrinking(gaps: np.ndarray) -> bool:
-    """Whether the box's distance from the cell shrinks as the box grows (its largest size
-    closer than its smallest)."""
-    gaps = np.abs(np.asarray(gaps, float))
-    gaps = gaps[np.isfinite(gaps)]
-    return gaps.size >= 2 and gaps[-1] < gaps[0]

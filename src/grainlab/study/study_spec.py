@@ -12,7 +12,8 @@ A study file has three parts::
     [base]       a run config (the tables of :class:`~grainlab.lab.run_config.RunConfig`)
                  shared by every sample
     [[samples]]  name (the sample's folder), value (the shape parameter, as the paper gives
-                 it), set (the config keys of this sample over [base], as nested tables)
+                 it), set (the config keys of this sample over [base], as nested tables),
+                 replica_of (optional: the sample this one repeats with another seed)
 
 Example (two samples of seed 003's series)::
 
@@ -90,11 +91,14 @@ class StudyHeader(_Model):
 
 
 class StudySample(_Model):
-    """One ``[[samples]]`` entry."""
+    """One ``[[samples]]`` entry; ``replica_of`` names the sample it repeats with another
+    packing seed (the same shape, an independent sample: the summary pools them into one
+    point whose error bar is their spread), empty for a sample of its own."""
 
     name: str
     value: float
     set: dict[str, Any] = Field(default_factory=dict)
+    replica_of: str = ""
 
     @field_validator("name")
     @classmethod
@@ -132,6 +136,17 @@ class StudySpec(_Model):
                 raise InputError(f"samples[{k}].name", sample.name,
                                  "a name no other sample of the study has")
             seen.add(sample.name)
+        for k, sample in enumerate(self.samples):
+            if not sample.replica_of:
+                continue
+            of = [s for s in self.samples if s.name == sample.replica_of]
+            if not of or of[0].replica_of or of[0] is sample:
+                raise InputError(f"samples[{k}].replica_of", sample.replica_of,
+                                 "the name of another sample of the study that is not a "
+                                 "replica itself")
+            if of[0].value != sample.value:
+                raise InputError(f"samples[{k}].value", sample.value,
+                                 f"the value of the sample it repeats ({of[0].value:g})")
         try:
             RunConfig.model_validate(self.base)
         except InputError as error:
@@ -159,7 +174,11 @@ class StudySpec(_Model):
     def write(self, path: str | Path) -> Path:
         """Write as TOML."""
         path = Path(path)
-        path.write_text(tomli_w.dumps(self.model_dump(mode="json")), encoding="utf-8")
+        data = self.model_dump(mode="json")
+        for sample in data["samples"]:  # a sample of its own says nothing of replicas
+            if not sample["replica_of"]:
+                del sample["replica_of"]
+        path.write_text(tomli_w.dumps(data), encoding="utf-8")
         return path
 
     # -- what it means ------------------------------------------------------------------------

@@ -195,9 +195,67 @@ def study_summary(study, microstructure: bool = True) -> pd.DataFrame:
         folder = study.sample_folder(sample.name)
         if sample_state(folder) != "ended":
             continue
-        rows.append(sample_row(folder, study.spec.study.window, sample.value, microstructure,
-                               core_margin=study.spec.study.core_margin,
-                               peak_window=study.spec.study.peak_window))
+        row = sample_row(folder, study.spec.study.window, sample.value, microstructure,
+                         core_margin=study.spec.study.core_margin,
+                         peak_window=study.spec.study.peak_window)
+        row["replica_of"] = sample.replica_of
+        row["seed"] = study.spec.sample_config(sample.name).sample.seed
+        rows.append(row)
     table = pd.DataFrame(rows)
     table.to_csv(study.folder / SUMMARY, index=False)
     return table
+
+
+def pooled_replicas(table: pd.DataFrame) -> pd.DataFrame:
+    """One row per sample of its own, its replicas (``replica_of``: the same shape with
+    other packing seeds) pooled into it, in the table's order of those samples. A pooled row
+    holds the mean over its ``n_seeds`` samples of every number, and as ``X_std`` the sample
+    standard deviation over the seeds (ddof = 1) of every number X that is not itself a
+    standard deviation: the error bar from independent samples, for the initial state too;
+    the window's standard deviation it replaces, averaged over the seeds, stays as
+    ``X_window_std``. ``wall_time`` is the seeds' sum, the point's cost. A row without
+    replicas stays as it is, with ``n_seeds`` = 1. A table without ``replica_of`` is returned
+    as it is.
+
+    >>> table = pd.DataFrame({"name": ["a", "b", "a-seed1"], "replica_of": ["", "", "a"],
+    ...                       "x_residual": [1.0, 5.0, 3.0], "x_residual_std": [0.1, 0.2, 0.3],
+    ...                       "wall_time": [10.0, 20.0, 30.0]})
+    >>> pooled = pooled_replicas(table)
+    >>> pooled[["name", "n_seeds", "x_residual", "wall_time"]].values.tolist()
+    [['a', 2, 2.0, 40.0], ['b', 1, 5.0, 20.0]]
+    >>> [round(float(pooled.loc[0, c]), 4) for c in ("x_residual_std", "x_residual_window_std")]
+    [1.4142, 0.2]
+    """
+    if "replica_of" not in table or not len(table):
+        return table
+    base = table["replica_of"].fillna("").astype(str)
+    groups = base.where(base != "", table["name"])
+    numeric = [c for c in table.columns if pd.api.types.is_numeric_dtype(table[c])
+               and c not in ("seed",)]
+    rows = []
+    for name in table.loc[base == "", "name"]:
+        group = pd.concat([table[table["name"] == name],  # the sample itself first
+                           table[(groups == name) & (table["name"] != name)]])
+        row = group.iloc[0].to_dict()
+        row["n_seeds"] = len(group)
+        if len(group) > 1:
+            for column in numeric:
+                values = group[column].to_numpy(float)
+                if column == "wall_time":
+                    row[column] = float(np.nansum(values))
+                    continue
+                row[column] = float(np.nanmean(values)) if np.isfinite(values).any() \
+                    else math.nan
+                if column.endswith("_std"):
+                    row[column.removesuffix("_std") + "_window_std"] = row[column]
+            for column in numeric:
+                if column.endswith("_std") or column == "wall_time":
+                    continue
+                values = group[column].to_numpy(float)
+                finite = values[np.isfinite(values)]
+                row[f"{column}_std"] = float(np.std(finite, ddof=1)) if finite.size > 1 \
+                    else math.nan
+            row["seeds"] = ",".join(str(int(v)) for v in group["seed"]) if "seed" in group \
+                else ""
+        rows.append(row)
+    return pd.DataFrame(rows)
