@@ -237,3 +237,21 @@ def size_check_command(
     if not complete:
         console.print("the size check is not complete: run the same command again to go on")
         raise typer.Exit(code=3)
+
+
+@app.command("publish")
+@friendly_errors
+def publish_command(
+    folder: Path = typer.Argument(..., help="A study folder or a size-check folder."),
+    to: Path = typer.Option(..., "--to", help=(
+        "Destination folder (its files of the same names are replaced).")),
+) -> None:
+    """Copy a study's results, small enough to commit (study.toml, summary.csv, the report
+    with its figures and its comparison with the paper, PROVENANCE.md with the versions, the
+    machine and each run's cost), without the runs' checkpoints, snapshots and results; a
+    size check with each of its studies."""
+    from grainlab.study.publish import publish
+
+    dest = publish(folder, to)
+    size = sum(p.stat().st_size for p in dest.rglob("*") if p.is_file())
+    console.print(f"published {folder} to {dest} ({size / 2**20:.1f} MiB)")
