@@ -197,6 +197,7 @@ def main(sizes: list[int]) -> None:
               f"{'sweeps':>6} {'kernel':>8} {'col':>6} {'bp':>6} {'np':>6} {'py':>7} "
               f"{'upd/s':>8} {'ns/upd':>6} {'steps/s':>8} {'p-steps/s':>9} {'us/p-st':>7}")
     print(header)
+    per_particle_step: dict[int, float] = {}
     for n in sizes:
         start = time.perf_counter()
         library, state, box = sample(n)
@@ -204,6 +205,8 @@ def main(sizes: list[int]) -> None:
         for sweep in ("serial", "coloured"):
             for threads in thread_counts:
                 r = run(library, state, box, sweep, threads)
+                if sweep == "coloured" and threads == max(thread_counts):
+                    per_particle_step[n] = r["kernel"] / r["sweeps"] / n
                 flag = "" if r["converged"] else "  (not converged)"
                 print(f"{n:>7} {sweep:>8} {threads:>3} {r['contacts']:>8.0f} "
                       f"{r['contacts'] / n:>5.2f} {r['colours'] if r['colours'] >= 0 else '-':>4} "
@@ -219,6 +222,17 @@ def main(sizes: list[int]) -> None:
               f"per sphere ({memory / r['contacts']:.0f} per contact; NumPy arrays of the "
               f"state, the solver and a step, tracemalloc)")
     numba.set_num_threads(max_threads)
+    small, large = min(per_particle_step, default=0), max(per_particle_step, default=0)
+    if large >= 100 * small > 0:
+        ratio = per_particle_step[large] / per_particle_step[small]
+        print(f"target, kernel time per particle and sweep at N = {large} within "
+              f"{TARGET_GROWTH:g} x N = {small}'s (coloured, {max(thread_counts)} threads): "
+              f"{'met' if ratio <= TARGET_GROWTH else 'missed'} ({ratio:.2f} x)")
+
+
+TARGET_GROWTH = 1.5
+"""How much more a particle-step may cost at 10^5 spheres than at 10^3 (per sweep: the
+sweeps a step are capped alike, so this is the memory's share)."""
 
 
 if __name__ == "__main__":

@@ -11,9 +11,9 @@ step growing while the overlaps stay small: grainlab.lab.step_control). The comp
 the sphere benchmark's does (``--kinetic-energy inf``: the walls' stresses and the unbalanced
 force, YADE's criterion; ``--kinetic-energy 1e-6`` for grainlab's default).
 
-Targets printed for the issue's test (1000 polyhedra of 30 faces to eps_q = 0.5): at most
-900 s, at most 2 % of each stage's steps ended at the sweep cap; the script exits with status
-1 when one is missed.
+Targets printed for the test of 1000 polyhedra of 30 faces to eps_q = 0.5: at most 600 s (it
+was 900 s before the frictional solver's target; 1166 s measured), at most 2 % of each
+stage's steps ended at the sweep cap; the script exits with status 1 when one is missed.
 
     PYTHONPATH=src .venv/bin/python benchmarks/benchmark_lab_triaxial_polyhedra.py \
         [--n 1000] [--faces 30] [--eps-q 0.5] [--templates 0] [--max-iterations N] \
@@ -34,7 +34,7 @@ from grainlab.lab.run_config import RunConfig
 
 TYPES = ("fv", "ee", "fe", "ff")
 
-TARGET_SECONDS = 900.0
+TARGET_SECONDS = 600.0
 """The speed target of 1000 polyhedra of 30 faces to eps_q = 0.5 on 2 threads [s]."""
 TARGET_CAPPED = 0.02
 """The largest share of a stage's steps that may end at the sweep cap."""
