@@ -255,3 +255,66 @@ def publish_command(
     dest = publish(folder, to)
     size = sum(p.stat().st_size for p in dest.rglob("*") if p.is_file())
     console.print(f"published {folder} to {dest} ({size / 2**20:.1f} MiB)")
+
+
+RUNNING_WITHIN = 60.0
+"""A sample whose progress was written this many seconds ago at most is running; an older
+one has stopped (its state on disk says where)."""
+
+
+def _status_rows(study: Study) -> list[tuple[str, ...]]:
+    import json
+    import time
+
+    from grainlab.study.sample_task import PROGRESS, sample_state
+
+    rows = []
+    for name in study.spec.names:
+        folder = study.sample_folder(name)
+        state = sample_state(folder)
+        stage = where = age = ""
+        if state != "new" and (folder / PROGRESS).exists():
+            try:
+                progress = json.loads((folder / PROGRESS).read_text())
+            except (OSError, ValueError):
+                progress = {}
+            stage = str(progress.get("stage", ""))
+            fraction = progress.get("fraction")
+            where = f"{fraction:.0%}" if isinstance(fraction, int | float) else ""
+            written = progress.get("time")
+            seconds = time.time() - written if isinstance(written, int | float) else None
+            if seconds is not None:
+                age = f"{max(0.0, seconds):.0f} s ago"
+            if (progress.get("state") == "running" and state != "ended" and seconds is not None
+                    and seconds < RUNNING_WITHIN):
+                state = "running"
+        rows.append((name, state, stage, where, age))
+    return rows
+
+
+@app.command("status")
+@friendly_errors
+def status_command(
+    folder: Path = typer.Argument(..., help="A study folder or a size-check folder."),
+) -> None:
+    """Where each sample of a study stands (new, started, partial: a checkpoint to resume
+    from, running, ended), its stage, the share of its run done and when its progress was
+    last written; every study of a size check."""
+    from rich.table import Table
+
+    studies = [folder] if (folder / SPEC).exists() else \
+        sorted(p for p in folder.iterdir() if (p / SPEC).exists()) if folder.is_dir() else []
+    if not studies:
+        raise InputError("FOLDER", str(folder), f"a study folder (with a {SPEC}) or a folder "
+                         "of studies (a size check)")
+    for path in studies:
+        study = Study.open(path)
+        table = Table(title=f"{path} ({study.spec.study.description or study.spec.study.name})")
+        for column in ("sample", "state", "stage", "done", "progress written"):
+            table.add_column(column)
+        rows = _status_rows(study)
+        for row in rows:
+            table.add_row(*row)
+        console.print(table)
+        ended = sum(row[1] == "ended" for row in rows)
+        console.print(f"{ended} of {len(rows)} samples ended")
