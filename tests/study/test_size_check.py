@@ -175,3 +175,12 @@ def test_command_refuses_bad_sizes_by_name(tmp_path):
                                       str(tmp_path), "--walls", "500,many", "--no-run"])
     assert result.exit_code != 0
     assert "--walls" in result.output and "many" in result.output
+
+
+def test_a_run_with_too_many_capped_steps_is_flagged():
+    table = pd.DataFrame(rows("z*", {500: (3.4, 0.05, 3.7, 0.05)}, (1000, 4.02, 0.03)))
+    table.loc[table["boundary"] == "periodic", "capped_share"] = 0.12
+    plan = SizeCheckPlan("angularity", ("S1",), walls=(500,), periodic=(1000,))
+    text = size_check_markdown(table, plan)
+    assert "walls 500: 5000 s, 1.0% of the steps capped;" in text
+    assert "periodic 1000: 10000 s, 12.0% of the steps capped (above 2%" in text
