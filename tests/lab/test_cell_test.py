@@ -85,6 +85,11 @@ def test_periodic_triaxial_compacts_then_shears_at_held_lateral_stress(triaxial)
         np.testing.assert_allclose(shear[f"cell_sigma_{axis}"], SIGMA0, rtol=0.05)
         assert shear[f"cell_sigma_{axis}"].mean() == pytest.approx(SIGMA0, rel=0.02)
         np.testing.assert_allclose(shear[f"sigma_{axis}"], SIGMA0, rtol=0.15)
+    # the step: fixed in the stress-driven compaction, growing in the strain-driven shear
+    # while the largest overlap stays below half the bound (0.5 % of <d>)
+    assert np.ptp(table.loc[table["stage"] == "compaction", "dt"]) == 0.0
+    assert shear["dt"].iloc[-1] > shear["dt"].iloc[0]
+    assert shear["max_overlap_over_d"].max() < 0.0025
     # the shear strains are held (the triaxial preset controls them at zero, as rigid platens
     # would): the cell does not shear after the first half step, which still moves at the
     # compaction's last rate (theta scheme)

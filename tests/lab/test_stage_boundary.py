@@ -37,7 +37,8 @@ def protocol_methods() -> set[str]:
 def test_each_boundary_gives_the_loop_all_it_asks(kind):
     missing = {name for name in protocol_methods() if not callable(getattr(kind, name, None))}
     assert not missing
-    assert isinstance(kind.steps_by_overlap, bool)
+    # a fixed answer, or one per stage (the cell: its strain-driven stages only)
+    assert isinstance(kind.steps_by_overlap, bool | property)
 
 
 @pytest.mark.parametrize(("boundary", "method", "kind", "extra"), [
