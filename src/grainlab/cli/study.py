@@ -59,7 +59,7 @@ def _names(text: str | None) -> tuple[str, ...] | None:
 def _run_study(study: Study, scheduler, workers, threads, progress, only) -> None:
     console.print(f"study {study.spec.study.name} in {study.folder}: "
                   f"{len(study.spec.samples)} samples ({study.spec.study.description})")
-    names = [n.strip() for n in only.split(",") if n.strip()] if only else None
+    names = list(_names(only) or ()) or None
     try:
         outcome = study.run(scheduler=scheduler, workers=workers, threads=threads,
                             progress=progress, only=names)
@@ -167,10 +167,8 @@ def report_command(
 
 
 def _sizes(option: str, text: str | None) -> tuple[int, ...]:
-    if not text:
-        return ()
     try:
-        return tuple(int(part) for part in text.split(",") if part.strip())
+        return tuple(int(part) for part in _names(text) or ())
     except ValueError:
         raise InputError(option, text, "comma-separated particle counts, e.g. 500,1000"
                          ) from None

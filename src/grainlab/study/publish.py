@@ -111,6 +111,5 @@ def publish(folder: str | Path, dest: str | Path) -> Path:
         for path in sorted(report.iterdir()):
             if path.is_file() and path.suffix in REPORT_FILES:
                 _copy(path, dest / "report" / path.name)
-    dest.mkdir(parents=True, exist_ok=True)
     (dest / "PROVENANCE.md").write_text(_provenance(folder, summary) + "\n", encoding="utf-8")
     return dest

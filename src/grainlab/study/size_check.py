@@ -1,5 +1,5 @@
-"""The size check of a preset series (issue of the studies at the papers' level): which of a
-study's numbers are physics and which are the box. The same samples of one series run at
+"""The size check of a preset series: which of a study's numbers are physics and which are
+the box. The same samples of one series run at
 several sizes in a box of walls and in a periodic cell; the values over the core (the
 particles away from the walls: :mod:`grainlab.analysis.wall_layer`) must approach, as the box
 grows, the cell's, which has no wall layer at all, while the whole-box values, the wall layer
