@@ -29,7 +29,6 @@ SMALLER = (
     (re.compile(r"--synthetic \d+"), "--synthetic 2000"),
     (re.compile(r'"n_particles": \d+'), '"n_particles": 24'),
     (re.compile(r'"eps_q_max": [0-9.]+'), '"eps_q_max": 0.02'),
-    (re.compile(r"--only S1,S8"), "--only S1"),  # the spheres of the angularity series
     (re.compile(r"grainlab theory-b-sweep"),  # one case of the 3D sweep, one law
      "grainlab theory-b-sweep -n 150 --path cubical --b 0.5 --eps-q 0.02 --distribution "
      "homogeneous --model-steps 20"),

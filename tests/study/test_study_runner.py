@@ -89,7 +89,8 @@ def test_worker_killed_mid_run_resumes_and_ended_samples_are_not_rerun(tmp_path,
     assert "<table>" in page and page.count('src="data:image/png;base64,') == len(shown)
 
 
-def test_interrupted_study_goes_on_where_it_stopped(tmp_path):
+def test_interrupted_study_goes_on_where_it_stopped(tmp_path, monkeypatch):
+    monkeypatch.setattr(study_runner, "DISPLAY_PERIOD", 0.05)  # see a sample end sooner
     study = Study.create(tmp_path / "s", tiny_spec(("a", "b")))
 
     def interrupt_after_a(progress):
