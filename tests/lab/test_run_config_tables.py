@@ -87,7 +87,7 @@ def test_settings_follow_each_key_changed():
                    "wall_servo": False, "seed": 5,
                    "compaction": {"friction": 0.1, "tolerance": 1e-5},
                    "shear": {"max_iterations": 9}, "dem": {"kappa": 2e3}},
-        "output": {"record_every": 4, "snapshot_every": 8}})
+        "output": {"record_every": 4, "snapshot_every": 8, "snapshot_eps_q": [0.01]}})
     settings, default = changed.settings(), RunConfig().settings()
     for field in fields(DiscreteTestSettings):
         assert getattr(settings, field.name) != getattr(default, field.name), field.name

@@ -130,6 +130,18 @@ def test_a_folder_holding_another_study_is_refused(tmp_path):
     assert "samples" in caught.value.allowed
 
 
+def test_a_folder_differing_only_in_its_snapshot_strains_goes_on_as_it_is_held(tmp_path):
+    held = Study.create(tmp_path / "s", tiny_spec()).spec
+    data = tiny_spec().model_dump(mode="json")
+    data["base"]["output"]["snapshot_eps_q"] = [0.01, 0.02]
+    opened = Study.create(tmp_path / "s", StudySpec.model_validate(data))
+    assert opened.spec == held
+    assert opened.spec.sample_config("a").output.snapshot_eps_q == ()
+    data["base"]["output"]["record_every"] = 7  # and another key: another study
+    with pytest.raises(InputError, match="record_every"):
+        Study.create(tmp_path / "s", StudySpec.model_validate(data))
+
+
 
 WORKER_SCRIPT = """
 import os

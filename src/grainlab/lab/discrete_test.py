@@ -10,7 +10,8 @@ their strains, progress, ends and thickness checks; its solver is a record of
 :mod:`grainlab.lab.solver_registry`. The test runs them on a
 :class:`~grainlab.engine.simulation.Simulation` through two operations: the stage control
 (boundary driven, stage ends decided) and the recorder (one results row every
-``record_every`` steps, a contact-network snapshot every ``snapshot_every`` and of the state
+``record_every`` steps, a contact-network snapshot every ``snapshot_every``, at the first
+record past each strain of ``snapshot_eps_q`` in a strain-driven stage, and of the state
 each stage ends in, so that a short run has its compaction and its end to analyse).
 Everything it needs to go on is plain data (:meth:`DiscreteTest.progress_arrays`), so a run
 can checkpoint and resume.
@@ -193,6 +194,7 @@ class DiscreteTest:
         self.strain_rate = 0.0
         self.n_snapshots = 0
         self._unsnapped: tuple[Any, dict[str, Any]] | None = None
+        self._eps_q_reached: tuple[int, float] | None = None  # stage index, largest eps_q
         self.finished = False
         self.halted: dict[str, str] | None = None
         """Why the test stopped before the end of its path (``stage``, ``ended`` of
@@ -543,13 +545,31 @@ class DiscreteTest:
         self.rows.append(full)
         every = self.settings.snapshot_every
         self._unsnapped = None
-        if every and sim.step_index % every == 0:
+        if (every and sim.step_index % every == 0) or self._passes_a_strain_mark(full):
             self._snapshot(network, full)
-        elif every:
+        elif every or self.settings.snapshot_eps_q:
             self._unsnapped = (network, full)  # snapshotted if the stage ends on this row
         if self.on_record is not None:
             self.on_record(self, full)
         return full
+
+    def _passes_a_strain_mark(self, row: dict[str, Any]) -> bool:
+        """Whether ``row`` (just recorded) is the first of its strain-driven stage whose eps_q
+        has risen past a strain of ``settings.snapshot_eps_q``: past the largest eps_q of the
+        stage's earlier rows. Read from the rows, so a resumed test snapshots where the test
+        run straight through did."""
+        marks = self.settings.snapshot_eps_q
+        if not marks or self.stage is None or not self.stage.moving_axes \
+                or not math.isfinite(row.get("eps_q", math.nan)):
+            return False
+        reached = self._eps_q_reached
+        if reached is None or reached[0] != self.stage_index:
+            earlier = [r["eps_q"] for r in self.rows[:-1] if r["stage"] == row["stage"]
+                       and r["step"] > self.stage_start_step]
+            reached = (self.stage_index, max(earlier, default=-math.inf))
+        eps = row["eps_q"]
+        self._eps_q_reached = (self.stage_index, max(reached[1], eps))
+        return any(reached[1] < mark <= eps for mark in marks)
 
     def measures(self):
         """The results row and contact network of the sample now (the boundary's

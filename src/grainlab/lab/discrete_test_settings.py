@@ -13,7 +13,9 @@ True
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
+from itertools import pairwise
 from typing import Any
 
 import numpy as np
@@ -73,6 +75,10 @@ class DiscreteTestSettings:
     record_every, snapshot_every:
         Steps between results rows and between contact-network snapshots (0: none; with
         snapshots on, the state each stage ends in is one too).
+    snapshot_eps_q:
+        Deviatoric strains eps_q [-] (increasing, > 0) at which a strain-driven stage also
+        snapshots the contact network: at the first record where eps_q has risen past each
+        (the peak's neighbourhood, say, denser than ``snapshot_every``); () none.
     max_stage_steps:
         Cap on the steps of one stage (>= 1); reaching it, the stage did not reach its end.
     at_max_stage_steps:
@@ -115,6 +121,7 @@ class DiscreteTestSettings:
     correction: str = "subspace"
     record_every: int = 10
     snapshot_every: int = 0
+    snapshot_eps_q: tuple[float, ...] = ()
     max_stage_steps: int = 200_000
     at_max_stage_steps: str = "stop"
     wall_mass_factor: float = 1.0
@@ -141,6 +148,7 @@ class DiscreteTestSettings:
             if isinstance(value, bool) or not isinstance(value, int | np.integer) \
                     or value < low:
                 raise InputError(name, value, f"an integer >= {low}")
+        object.__setattr__(self, "snapshot_eps_q", strain_marks(self.snapshot_eps_q))
 
     def __getattr__(self, name: str) -> Any:
         """A solver's own settings by its ``settings_key`` (``settings.dem``)."""
@@ -161,3 +169,20 @@ class DiscreteTestSettings:
         data["quasi_static"] = self.quasi_static.to_dict()
         data.update(data.pop("solver_settings"))
         return data
+
+
+def strain_marks(values, field: str = "snapshot_eps_q") -> tuple[float, ...]:
+    """``values`` as a tuple of strains [-], each finite and > 0, strictly increasing;
+    otherwise :class:`~grainlab.errors.InputError` naming ``field``.
+
+    >>> strain_marks([0.01, 0.02])
+    (0.01, 0.02)
+    """
+    try:
+        marks = tuple(float(v) for v in values)
+    except (TypeError, ValueError):
+        raise InputError(field, values, "a list of strains > 0, increasing") from None
+    if not all(math.isfinite(m) and m > 0.0 for m in marks) \
+            or any(b <= a for a, b in pairwise(marks)):
+        raise InputError(field, list(marks), "a list of strains > 0, increasing")
+    return marks

@@ -35,7 +35,8 @@ every key has a default, an unknown key is an error that names it::
                young_modulus [Pa], poisson_ratio, stiffness_ratio, restitution,
                rolling_friction, local_damping, time_step_fraction, rigid_walls
                (:class:`~grainlab.lab.soft_contact_settings.SoftContactSettings`)
-    [output]   record_every, snapshot_every, checkpoint_every, vtk_every, problems_every
+    [output]   record_every, snapshot_every, checkpoint_every, vtk_every, problems_every,
+               snapshot_eps_q
                (steps; 0: never)
 
 Types are strict: a key that takes a number or a count refuses ``true`` and ``false`` (and a
@@ -94,6 +95,7 @@ from grainlab.lab.boundary_registry import (
 )
 from grainlab.lab.config_section import ConfigSection, settings_table, units
 from grainlab.lab.discrete_test import DiscreteTestSettings
+from grainlab.lab.discrete_test_settings import strain_marks
 from grainlab.lab.kind_stages import kind_stages, renamed
 from grainlab.lab.load_path import LoadPath
 from grainlab.lab.presets import isotropic_compression
@@ -148,7 +150,7 @@ CHANGEABLE_ON_RESUME = (
     "solver.dt", "solver.max_stage_steps", "solver.at_max_stage_steps",
     *(f"solver.{kind}.{key}" for kind in STAGE_KINDS for key in CHANGEABLE_STAGE_KEYS),
     "output.record_every", "output.snapshot_every", "output.checkpoint_every",
-    "output.vtk_every", "output.problems_every",
+    "output.vtk_every", "output.problems_every", "output.snapshot_eps_q",
 )
 """Keys a resumed run may change (module docstring): they take effect from the resumed step
 on, in the stage under way too (a target only in a stage not ended yet). Every per-stage key
@@ -388,13 +390,22 @@ class OutputConfig(ConfigSection):
     analyse RUN`` has something to read. ``problems_every``: the frictional contact problem
     of every such contact-dynamics step goes to ``problems/step-NNNNNNNN.hdf5`` in FCLib's
     layout (:mod:`grainlab.engine.nscd.contact_problem`), to compare solvers on it
-    (``benchmarks/benchmark_plain_problem_methods.py``)."""
+    (``benchmarks/benchmark_plain_problem_methods.py``). ``snapshot_eps_q``: deviatoric strains
+at which a strain-driven stage also snapshots, at the first record past each (a list, e.g.
+``[0.01, 0.02, 0.03]`` to catch the peak; :class:`~grainlab.lab.discrete_test_settings.
+DiscreteTestSettings`)."""
 
     record_every: StrictInt = Field(_RUN_WIDE.record_every, ge=1)
     snapshot_every: StrictInt = Field(500, ge=0)
     checkpoint_every: StrictInt = Field(500, ge=0)
     vtk_every: StrictInt = Field(0, ge=0)
     problems_every: StrictInt = Field(0, ge=0)
+    snapshot_eps_q: tuple[float, ...] = ()
+
+    @field_validator("snapshot_eps_q")
+    @classmethod
+    def _strain_marks(cls, value: tuple[float, ...]) -> tuple[float, ...]:
+        return strain_marks(value, "output.snapshot_eps_q")
 
 
 class RunConfig(ConfigSection):

@@ -121,8 +121,34 @@ def _protocol(n_particles: int, length: str, seed: int, size_ratio: float,
         "test": {"kind": "triaxial", "eps_q_max": eps_q_max},
         "solver": {"compaction": {"friction": 0.0}, "shear": {"friction": 0.4,
                                                               "inertia_number": 1e-3}},
-        "output": {"snapshot_every": snapshots, "record_every": 10},
+        "output": {"snapshot_every": snapshots, "record_every": 10,
+                   "snapshot_eps_q": peak_snapshot_strains(length)},
     }
+
+
+PEAK_SNAPSHOT_STEP = 0.005
+"""Deviatoric strain between the snapshots taken in the early shear [-] (``output.
+snapshot_eps_q``), up to :data:`PEAK_SNAPSHOT_UNTIL`: the peak state (seed 002 Fig. 20,
+seed 003 Fig. 23) is read from the snapshot nearest the smoothed peak, which lies at eps_q
+0.03-0.08 in these series; the snapshots of ``snapshot_every``, spaced for the residual
+window, fell up to 0.06 from it (measured: S1 in a periodic cell, peak at 0.044, nearest
+snapshot at 0.10)."""
+PEAK_SNAPSHOT_UNTIL = 0.15
+"""The last of those strains [-]."""
+
+
+def peak_snapshot_strains(length: str) -> list[float]:
+    """The strains of the early shear's snapshots (:data:`PEAK_SNAPSHOT_STEP`) below the
+    length's residual window; none for a smoke study, whose window holds its peak.
+
+    >>> peak_snapshot_strains("full")[:3], len(peak_snapshot_strains("full"))
+    ([0.005, 0.01, 0.015], 30)
+    """
+    if length == "smoke":
+        return []
+    until = min(PEAK_SNAPSHOT_UNTIL, min(lo for lo, _ in LENGTHS[length].window.values()))
+    count = int(round(until / PEAK_SNAPSHOT_STEP))
+    return [round(PEAK_SNAPSHOT_STEP * k, 6) for k in range(1, count + 1)]
 
 
 def _snapshot_every(n_particles: int, length: str) -> int:

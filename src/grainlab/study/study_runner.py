@@ -90,11 +90,13 @@ class Study:
     def create(cls, folder: str | Path, spec: StudySpec) -> Study:
         """The study ``spec`` in ``folder``: a new folder gets study.toml; a folder that
         holds this same study is opened as it is (so that running the same command again
-        resumes it); a folder holding another study is refused with the first key that
-        differs."""
+        resumes it), also where it differs only in :data:`KEPT_AS_HELD` (it goes on as held);
+        a folder holding another study is refused with the first key that differs."""
         folder = Path(folder)
         if (folder / SPEC).exists():
             held = StudySpec.read(folder / SPEC)
+            if held != spec and set(_differences(held, spec)) <= set(KEPT_AS_HELD):
+                return cls(folder, held)  # the folder's own snapshot schedule
             if held != spec:
                 raise InputError("study folder", str(folder), (
                     "a new folder, or the folder of this same study (it holds another: "
@@ -323,14 +325,26 @@ def _logger(folder: Path) -> logging.Logger:
     return log
 
 
-def _first_difference(held: StudySpec, asked: StudySpec) -> str:
-    """The first key where two studies differ, in words."""
+KEPT_AS_HELD = ("base.output.snapshot_eps_q",)
+"""Keys in which a study folder may differ from the study asked and still be that study,
+opened as it is held: when to snapshot changes no run's physics, and a folder made before
+the preset took more snapshots goes on with its own schedule (so its samples resume as they
+started)."""
+
+
+def _differences(held: StudySpec, asked: StudySpec) -> dict[str, tuple[Any, Any]]:
+    """``{key: (held, asked)}`` of the keys where two studies differ."""
     from grainlab.lab.run_config import flat_keys
 
     a, b = flat_keys(held.model_dump(mode="json")), flat_keys(asked.model_dump(mode="json"))
-    for key in sorted(set(a) | set(b)):
-        if a.get(key) != b.get(key):
-            return f"{key} = {a.get(key)!r}, asked {b.get(key)!r}"
+    return {key: (a.get(key), b.get(key)) for key in sorted(set(a) | set(b))
+            if a.get(key) != b.get(key)}
+
+
+def _first_difference(held: StudySpec, asked: StudySpec) -> str:
+    """The first key where two studies differ, in words."""
+    for key, (a, b) in _differences(held, asked).items():
+        return f"{key} = {a!r}, asked {b!r}"
     return "the same keys"
 
 
