@@ -184,3 +184,91 @@ def test_a_run_with_too_many_capped_steps_is_flagged():
     text = size_check_markdown(table, plan)
     assert "walls 500: 5000 s, 1.0% of the steps capped;" in text
     assert "periodic 1000: 10000 s, 12.0% of the steps capped (above 2%" in text
+
+
+class FakeCluster:
+    """Stands in for the local Dask cluster: its address, and whether it was closed."""
+
+    made: list[FakeCluster] = []
+
+    def __init__(self, n_workers, threads):
+        self.n_workers, self.closed = n_workers, False
+        self.cluster = type("C", (), {"scheduler_address": "tcp://fake:1"})()
+        FakeCluster.made.append(self)
+
+    def close(self):
+        self.closed = True
+
+
+def fake_study_runs(monkeypatch, seconds=0.3, stop_after=None):
+    """Study.run replaced by a wait of ``seconds`` (or, with ``stop_after``, until the study's
+    stop file appears): each call's folder, scheduler and start and end times."""
+    import threading
+    import time
+
+    from grainlab.study.sample_task import STOP_FILE
+    from grainlab.study.study_runner import Study, StudyOutcome
+
+    calls, lock = [], threading.Lock()
+
+    def run(self, *, scheduler=None, workers=None, threads=1, progress=True, only=None,
+            on_update=None):
+        start = time.monotonic()
+        outcome = StudyOutcome(ran=list(only))
+        if stop_after is not None and self.folder.name != stop_after:
+            while not (self.folder / STOP_FILE).exists():
+                time.sleep(0.01)
+            outcome = StudyOutcome(interrupted=list(only))
+        else:
+            time.sleep(seconds)
+        with lock:
+            calls.append((self.folder.name, scheduler, start, time.monotonic()))
+        return outcome
+
+    FakeCluster.made.clear()
+    monkeypatch.setattr(Study, "run", run)
+    monkeypatch.setattr(size_check, "LocalSampleCluster", FakeCluster)
+    return calls
+
+
+def overlapping(calls) -> bool:
+    spans = sorted((start, end) for _, _, start, end in calls)
+    return any(b[0] < a[1] for a, b in zip(spans, spans[1:], strict=False))
+
+
+def test_with_several_workers_the_studies_run_at_once_on_one_cluster(tmp_path, monkeypatch):
+    plan = SizeCheckPlan("angularity", ("S1", "S5"), walls=(500, 1000), periodic=(1000,))
+    calls = fake_study_runs(monkeypatch)
+    ended = []
+    outcomes = size_check.run_size_check(tmp_path, plan, workers=4, progress=False,
+                                         on_end=lambda name, outcome: ended.append(name))
+    assert sorted(outcomes) == sorted(ended) == ["periodic-1000", "walls-1000", "walls-500"]
+    assert all(o.complete for o in outcomes.values())
+    assert {scheduler for _, scheduler, _, _ in calls} == {"tcp://fake:1"}
+    assert overlapping(calls)
+    (cluster,) = FakeCluster.made
+    assert cluster.n_workers == 4 and cluster.closed  # 6 samples, 4 workers asked
+
+
+def test_on_one_worker_the_studies_run_one_after_another(tmp_path, monkeypatch):
+    plan = SizeCheckPlan("angularity", ("S1",), walls=(500, 1000), periodic=(1000,))
+    calls = fake_study_runs(monkeypatch, seconds=0.05)
+    size_check.run_size_check(tmp_path, plan, workers=1, progress=False)
+    assert [name for name, *_ in calls] == ["walls-500", "periodic-1000", "walls-1000"]
+    assert not overlapping(calls) and not FakeCluster.made
+    assert {scheduler for _, scheduler, _, _ in calls} == {None}
+
+
+def test_interrupting_the_running_studies_asks_each_to_checkpoint(tmp_path, monkeypatch):
+    from grainlab.study.study_runner import StudyInterrupted
+
+    plan = SizeCheckPlan("angularity", ("S1",), walls=(500, 1000), periodic=(1000,))
+    calls = fake_study_runs(monkeypatch, stop_after="walls-500")
+
+    def interrupt(name, outcome):  # Ctrl-C as the first study ends
+        raise KeyboardInterrupt
+
+    with pytest.raises(StudyInterrupted):
+        size_check.run_size_check(tmp_path, plan, workers=2, progress=False, on_end=interrupt)
+    assert sorted(name for name, *_ in calls) == ["periodic-1000", "walls-1000", "walls-500"]
+    assert FakeCluster.made[0].closed

@@ -217,13 +217,13 @@ def size_check_command(
     complete = True
     if run:
         try:
-            outcomes = run_size_check(folder, plan, scheduler=scheduler, workers=workers,
-                                      threads=threads, progress=progress)
+            outcomes = run_size_check(
+                folder, plan, scheduler=scheduler, workers=workers, threads=threads,
+                progress=progress,
+                on_end=lambda name, outcome: console.print(f"{name}: {outcome.summary()}"))
         except StudyInterrupted as error:
             console.print(str(error))
             raise typer.Exit(code=130) from None
-        for name, outcome in outcomes.items():
-            console.print(f"{name}: {outcome.summary()}")
         complete = len(outcomes) == len(plan.runs) and all(
             o.complete for o in outcomes.values())
     table = size_check_table(folder, plan)

@@ -28,6 +28,9 @@ writes the check's report.
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor, as_completed, wait
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,9 +38,14 @@ import pandas as pd
 
 from grainlab.errors import InputError
 from grainlab.report.paper_comparison import PAPER_CLAIMS, PaperClaim
-from grainlab.study.sample_task import sample_state
+from grainlab.study.sample_task import STOP_FILE, sample_state
 from grainlab.study.series_presets import LENGTHS, SERIES, series_spec
-from grainlab.study.study_runner import Study, StudyOutcome
+from grainlab.study.study_runner import (
+    LocalSampleCluster,
+    Study,
+    StudyInterrupted,
+    StudyOutcome,
+)
 
 DEFAULT_SAMPLES = {"angularity": ("S1", "S5"), "nonconvexity": ("eta-0.0", "eta-0.4")}
 """The samples a size check runs by default: the spheres and one shape near the middle of the
@@ -116,18 +124,66 @@ class SizeCheckPlan:
 
 def run_size_check(folder: str | Path, plan: SizeCheckPlan, *, scheduler: str | None = None,
                    workers: int | None = None, threads: int = 1, progress: bool = True,
+                   on_end: Callable[[str, StudyOutcome], None] | None = None,
                    ) -> dict[str, StudyOutcome]:
-    """Run (or go on with) every study of ``plan`` in ``folder``, the smallest first, each
-    for the plan's samples only; returns each run's outcome by folder name. A run that stops
-    (interrupted, a failed sample) stops the check there: run it again to go on."""
-    outcomes = {}
-    for run in sorted(plan.runs, key=lambda r: (r.n, r.boundary)):
-        study = plan.study(folder, run)
-        outcome = study.run(scheduler=scheduler, workers=workers, threads=threads,
-                            progress=progress, only=list(plan.samples))
-        outcomes[run.folder_name] = outcome
-        if not outcome.complete:
-            break
+    """Run (or go on with) every study of ``plan`` in ``folder``, each for the plan's samples
+    only; returns each run's outcome by folder name (``on_end(name, outcome)`` is called as
+    each study ends).
+
+    On one local worker (``workers = 1``, or a single core) the studies run one after
+    another, the smallest first, each with its display, and a run that stops (interrupted, a
+    failed sample) stops the check there. With more workers, or a scheduler's address, the
+    studies that have samples left run at the same time on one cluster (their samples
+    spread over its workers, a line for each study as it ends): the check takes about as long
+    as its longest run instead of their sum. Ctrl-C then asks every running sample to
+    checkpoint (each study's stop file) and raises
+    :class:`~grainlab.study.study_runner.StudyInterrupted`. Run it again to go on."""
+    studies = [(run, plan.study(folder, run))
+               for run in sorted(plan.runs, key=lambda r: (r.n, r.boundary))]
+    left = [(run, study) for run, study in studies
+            if any(study.states()[name] != "ended" for name in plan.samples)]
+    tasks = len(left) * len(plan.samples)
+    slots = workers or max(1, (os.cpu_count() or 1) // max(1, int(threads)))
+    outcomes: dict[str, StudyOutcome] = {}
+    if scheduler is None and (slots <= 1 or len(left) <= 1):
+        for run, study in studies:
+            outcome = study.run(workers=workers, threads=threads, progress=progress,
+                                only=list(plan.samples))
+            outcomes[run.folder_name] = outcome
+            if on_end is not None:
+                on_end(run.folder_name, outcome)
+            if not outcome.complete:
+                break
+        return outcomes
+    for run, study in studies:
+        if (run, study) not in left:
+            outcomes[run.folder_name] = study.run(threads=threads, progress=False,
+                                                  only=list(plan.samples))  # all ended
+    cluster = LocalSampleCluster(min(slots, tasks), threads) if scheduler is None else None
+    address = scheduler or cluster.cluster.scheduler_address
+    try:
+        with ThreadPoolExecutor(max_workers=len(left)) as pool:
+            running = {pool.submit(study.run, scheduler=address, threads=threads,
+                                   progress=False, only=list(plan.samples)): (run, study)
+                       for run, study in left}
+            try:
+                for future in as_completed(running):
+                    run = running[future][0]
+                    outcomes[run.folder_name] = future.result()
+                    if on_end is not None:
+                        on_end(run.folder_name, outcomes[run.folder_name])
+            except BaseException:  # Ctrl-C, or a study that raised: the others checkpoint
+                for _, study in left:
+                    (study.folder / STOP_FILE).touch()
+                wait(running)
+                raise
+    except KeyboardInterrupt:
+        raise StudyInterrupted(
+            "size check interrupted; every sample that was running checkpointed (or resumes "
+            "from its last checkpoint); go on with the same command") from None
+    finally:
+        if cluster is not None:
+            cluster.close()
     return outcomes
 
 
