@@ -24,6 +24,7 @@ from grainlab.lab.presets import (
     true_triaxial,
 )
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR
+from grainlab.lab.wall_stages import QuasiStaticCriteria
 from grainlab.prep.loose_sample import loose_sample
 
 P = 1e4
@@ -34,7 +35,13 @@ MEAN_TOLERANCE = 0.02
 """... and on average over a stage."""
 SETTINGS = DiscreteTestSettings(record_every=5,
                                 compaction=replace(COMPACTION, inertia_number=0.05),
-                                shear=replace(SHEAR, inertia_number=0.01))
+                                shear=replace(SHEAR, inertia_number=0.01),
+                                quasi_static=QuasiStaticCriteria(stress_tolerance=0.02,
+                                                                 unbalanced_force=0.02,
+                                                                 kinetic_energy=math.inf))
+"""The paths' numerics; the compaction ends settled to 2 % on the stress and the unbalanced
+force (the kinetic-energy criterion off): 610 steps instead of 1165, a packing fraction of
+0.630 instead of 0.635, as loaded (the paths' controls are what is checked)."""
 
 
 @pytest.fixture(scope="module")
