@@ -134,8 +134,8 @@ def run_size_check(folder: str | Path, plan: SizeCheckPlan, *, scheduler: str | 
     another, the smallest first, each with its display, and a run that stops (interrupted, a
     failed sample) stops the check there. With more workers, or a scheduler's address, the
     studies that have samples left run at the same time on one cluster (their samples
-    spread over its workers, a line for each study as it ends): the check takes about as long
-    as its longest run instead of their sum. Ctrl-C then asks every running sample to
+    spread over its workers): the check takes about as long as its longest run instead of
+    their sum. Ctrl-C then asks every running sample to
     checkpoint (each study's stop file) and raises
     :class:`~grainlab.study.study_runner.StudyInterrupted`. Run it again to go on."""
     studies = [(run, plan.study(folder, run))
@@ -159,6 +159,8 @@ def run_size_check(folder: str | Path, plan: SizeCheckPlan, *, scheduler: str | 
         if (run, study) not in left:
             outcomes[run.folder_name] = study.run(threads=threads, progress=False,
                                                   only=list(plan.samples))  # all ended
+            if on_end is not None:
+                on_end(run.folder_name, outcomes[run.folder_name])
     cluster = LocalSampleCluster(min(slots, tasks), threads) if scheduler is None else None
     address = scheduler or cluster.cluster.scheduler_address
     try:
