@@ -5,6 +5,8 @@ the command's report."""
 from __future__ import annotations
 
 import math
+from itertools import pairwise
+from typing import ClassVar
 
 import numpy as np
 import pandas as pd
@@ -189,7 +191,7 @@ def test_a_run_with_too_many_capped_steps_is_flagged():
 class FakeCluster:
     """Stands in for the local Dask cluster: its address, and whether it was closed."""
 
-    made: list[FakeCluster] = []
+    made: ClassVar[list[FakeCluster]] = []
 
     def __init__(self, n_workers, threads):
         self.n_workers, self.closed = n_workers, False
@@ -233,7 +235,7 @@ def fake_study_runs(monkeypatch, seconds=0.3, stop_after=None):
 
 def overlapping(calls) -> bool:
     spans = sorted((start, end) for _, _, start, end in calls)
-    return any(b[0] < a[1] for a, b in zip(spans, spans[1:], strict=False))
+    return any(b[0] < a[1] for a, b in pairwise(spans))
 
 
 def test_with_several_workers_the_studies_run_at_once_on_one_cluster(tmp_path, monkeypatch):

@@ -147,7 +147,7 @@ def peak_snapshot_strains(length: str) -> list[float]:
     if length == "smoke":
         return []
     until = min(PEAK_SNAPSHOT_UNTIL, min(lo for lo, _ in LENGTHS[length].window.values()))
-    count = int(round(until / PEAK_SNAPSHOT_STEP))
+    count = round(until / PEAK_SNAPSHOT_STEP)
     return [round(PEAK_SNAPSHOT_STEP * k, 6) for k in range(1, count + 1)]
 
 
