@@ -390,10 +390,10 @@ class OutputConfig(ConfigSection):
     analyse RUN`` has something to read. ``problems_every``: the frictional contact problem
     of every such contact-dynamics step goes to ``problems/step-NNNNNNNN.hdf5`` in FCLib's
     layout (:mod:`grainlab.engine.nscd.contact_problem`), to compare solvers on it
-    (``benchmarks/benchmark_plain_problem_methods.py``). ``snapshot_eps_q``: deviatoric strains
-at which a strain-driven stage also snapshots, at the first record past each (a list, e.g.
-``[0.01, 0.02, 0.03]`` to catch the peak; :class:`~grainlab.lab.discrete_test_settings.
-DiscreteTestSettings`)."""
+    (``benchmarks/benchmark_plain_problem_methods.py``). ``snapshot_eps_q``: deviatoric
+    strains at which a strain-driven stage also snapshots, at the first record past each (a
+    list, e.g. ``[0.01, 0.02, 0.03]`` to catch the peak;
+    ``DiscreteTestSettings.snapshot_eps_q``)."""
 
     record_every: StrictInt = Field(_RUN_WIDE.record_every, ge=1)
     snapshot_every: StrictInt = Field(500, ge=0)
