@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
 import pytest
 
 from grainlab.errors import InputError
@@ -119,28 +122,63 @@ def test_the_study_lengths_are_ordered():
 @pytest.mark.parametrize("name", ["angularity", "nonconvexity"])
 @pytest.mark.parametrize("length", list(LENGTHS))
 def test_the_periodic_presets_run_loose_samples_in_a_cell_large_enough(name, length):
-    from grainlab.study.series_presets import PERIODIC_PARTICLES
+    from grainlab.study.series_presets import cell_height_ratio, cell_particles
     walls = series_spec(name, length=length)
     cell = series_spec(name, length=length, boundary="periodic")
     assert cell.names == walls.names
+    size_ratio = walls.sample_config(walls.names[0]).sample.size_ratio
+    raised = 0
     for sample in cell.names:
         config, boxed = cell.sample_config(sample), walls.sample_config(sample)
         assert config.sample.boundary == "periodic" and config.sample.preparation == "loose"
-        # three interaction ranges across the cell: never fewer than PERIODIC_PARTICLES
-        assert config.sample.n_particles == max(boxed.sample.n_particles, PERIODIC_PARTICLES)
-        # a cube below eps_q = 0.5 (its lateral sides keep the particles across), the
-        # length's height above it (room for the shear that shortens it)
-        expected_height = 1.0 if config.test.eps_q_max < 0.5 else boxed.sample.height_ratio
-        assert config.sample.height_ratio == expected_height
+        # the study's count is a floor, raised to the room the sample's cell needs
+        table = {"shape": config.sample.shape, "eta": config.sample.eta,
+                 "n_faces": config.sample.n_faces, "templates": config.sample.templates}
+        needed = cell_particles(table, length, size_ratio)
+        assert config.sample.n_particles == max(boxed.sample.n_particles, needed)
+        raised += config.sample.n_particles > boxed.sample.n_particles
+        # as narrow after the compaction as at the end of the shear, which shortens it
+        assert config.sample.height_ratio == pytest.approx(
+            math.exp(2.0 / 3.0 * config.test.eps_q_max), abs=1e-3)
+        assert config.sample.height_ratio == cell_height_ratio(length)
         # the same protocol otherwise: shapes, sizes, friction, rate, path and window
         for field in ("shape", "eta", "n_faces", "templates", "size_ratio", "seed"):
             assert getattr(config.sample, field) == getattr(boxed.sample, field), field
         assert config.solver == boxed.solver and config.test == boxed.test
     assert cell.study.window == walls.study.window
     assert "periodic cell" in cell.study.description
-    # a number of particles asked for is kept, even below the default
+    assert ("more where a cell needs the room" in cell.study.description) == (raised > 0)
+    # a number of particles asked for is kept where the cell has the room
     assert series_spec(name, length=length, boundary="periodic",
                        n_particles=900).sample_config(cell.names[0]).sample.n_particles == 900
+
+
+@pytest.mark.parametrize("name, sample, length", [
+    ("angularity", "S8", "short"), ("nonconvexity", "eta-0.7", "full"),
+    ("angularity", "S1", "smoke")])
+def test_a_periodic_sample_keeps_the_room_of_the_detection_with_its_own_particles(
+        name, sample, length):
+    """The particle count of a periodic preset, checked against the particles it draws: a
+    cell of its height ratio compacted to the densest packing fraction assumed (0.75) keeps
+    its sides, and its height once the shear has shortened it by exp(-2/3 eps_q), above
+    3.15 (d_max + alert); and it does not ask for a quarter more particles than the drawn
+    ones need."""
+    from grainlab.prep.loose_sample import diameters_uniform_by_volume
+    from grainlab.prep.sample_shapes import sample_shape
+
+    config = series_spec(name, length=length, boundary="periodic").sample_config(sample)
+    s = config.sample
+    rng = np.random.default_rng(s.seed)
+    d = diameters_uniform_by_volume(s.n_particles, 1.0, s.size_ratio, rng)
+    shape = sample_shape(s.shape)
+    library, _ = shape.make_library(0.5 * d, rng, **{k: getattr(s, k) for k in shape.parameters})
+    d_max = 2.0 * float(library.bounding_radius.max())
+    width = (float(library.volume.sum()) / (0.75 * s.height_ratio)) ** (1.0 / 3.0)
+    narrowest = min(width, s.height_ratio * width * math.exp(-2.0 / 3.0 * config.test.eps_q_max))
+    limit = 1.05 * 3.0 * (d_max + 0.05)
+    assert narrowest >= limit
+    needed = s.n_particles * (limit / narrowest) ** 3
+    assert s.n_particles <= 1.25 * needed
 
 
 def test_an_unknown_boundary_is_refused_by_name():

@@ -32,7 +32,9 @@ _THREADS = typer.Option(1, "--threads", min=1, help="Numba threads per sample.")
 _PROGRESS = typer.Option(True, "--progress/--no-progress", help="Show the study's display.")
 _N = typer.Option(None, "--n-particles", "-n", min=2, help=(
     "Particles per sample (default: " + ", ".join(
-        f"{length.particles} for --length {name}" for name, length in LENGTHS.items()) + ")."))
+        f"{length.particles} for --length {name}" for name, length in LENGTHS.items()) + "); "
+    "in a periodic cell, a sample whose cell would get too thin for its largest particles "
+    "gets more."))
 _LENGTH = typer.Option("short", "--length", help="; ".join(
     f"{name}: {length.text}" for name, length in LENGTHS.items()) + ".")
 _ONLY = typer.Option(None, "--only", help=(

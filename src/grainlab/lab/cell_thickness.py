@@ -16,9 +16,18 @@ is certain to get too thin is refused; each detection still checks the real cell
 The particles a cell needs scale with its volume: widths w_i x (N / n)^(1/3) reach the limit
 w_min at N = n (w_min / min w_i)^3 (:func:`particles_needed`).
 
->>> import numpy as np
+A study that must run to its end is sized before its samples are drawn
+(:func:`particles_for_the_shear`): a cell of height ratio h = H / W compacted to a packing
+fraction phi holding N particles of mean volume <v> is W = (N <v> / (phi h))^(1/3) wide;
+the triaxial compression then shortens it to H exp(-eps_zz) and widens its sides, with
+eps_zz <= 2/3 eps_q (logarithmic strains, eps_q = eps_1 - eps_3: equality when the volume
+holds, less when the packing dilates, as dense packings do). Its narrowest width over the
+run is therefore W min(1, h exp(-2/3 eps_q)), and it must stay above the detection's limit
+with the lab's margin, 3.15 (d_max + alert). The packing fraction is taken on the high side
+(:data:`CELL_DENSEST_ESTIMATE`): a sample that compacts denser than assumed gets too thin
+after hours, one sized on the high side costs a few percent more particles.
 
-from grainlab.errors import InputError
+>>> import numpy as np
 >>> widths = compacted_widths(np.array([10e-3, 10e-3, 10e-3]), 1e-7, 0.5)
 >>> [round(float(w) * 1e3, 3) for w in widths]
 [5.848, 5.848, 5.848]
@@ -31,6 +40,7 @@ import math
 import numpy as np
 
 from grainlab.errors import InputError
+from grainlab.lab.cell_boundary import THIN_CELL_MARGIN
 
 CELL_PACKING_ESTIMATE = 0.55
 """Packing fraction [-] assumed for the end of a compaction in a periodic cell when a run is
@@ -43,6 +53,48 @@ low side as above (a dense random packing of discs: about 0.82)."""
 CELL_MIN_DIAMETERS = 3.0
 """Smallest width of the cell across a pair of faces, in largest particle diameters (three
 interaction ranges 2 r_max, the alert distance left out: the module docstring)."""
+
+
+CELL_DENSEST_ESTIMATE = 0.75
+"""Packing fraction [-] assumed for the end of a compaction when a study sizes its cells
+(:func:`particles_for_the_shear`): on the high side (measured in a periodic cell of 1000:
+spheres of sizes 1-2 0.645, of sizes 1-3 0.664; the densest of seeds 002 and 003, polyhedra
+and aggregates, about 0.75), so that the cell predicted is on the narrow side."""
+
+SHEAR_SHORTENING = 2.0 / 3.0
+"""Largest axial strain per deviatoric strain of a triaxial compression, eps_zz / eps_q [-]:
+2/3 at constant volume, less for a dilating packing (module docstring; measured: 0.57 / 0.9
+= 0.63 for 1000 spheres in a cell)."""
+
+
+def mean_cube_uniform_by_volume(d_min: float, d_max: float) -> float:
+    """<d^3> [m^3] of diameters with equal volume in every size class of [d_min, d_max]
+    (number density ~ d^-3: :func:`~grainlab.prep.loose_sample.diameters_uniform_by_volume`):
+    2 (d_max - d_min) / (d_min^-2 - d_max^-2), and d^3 for one size.
+
+    >>> round(mean_cube_uniform_by_volume(1.0, 2.0), 4)
+    2.6667
+    """
+    if d_max <= d_min:
+        return d_min**3
+    return 2.0 * (d_max - d_min) / (d_min**-2 - d_max**-2)
+
+
+def particles_for_the_shear(mean_volume: float, largest_diameter: float, alert: float,
+                            height_ratio: float, eps_q_max: float,
+                            packing: float = CELL_DENSEST_ESTIMATE) -> int:
+    """The particles [-] a periodic cell of ``height_ratio`` (height / width) needs to stay
+    wide enough for the contact detection, with the lab's margin, from its compaction to a
+    triaxial compression at ``eps_q_max`` [-] (module docstring), for particles of
+    ``mean_volume`` [m^3], ``largest_diameter`` [m] and an ``alert`` distance [m].
+
+    >>> particles_for_the_shear(2.6667 * 0.5236, 2.0, 0.05, 2.0, 0.9)  # spheres 1-2 m
+    290
+    """
+    limit = THIN_CELL_MARGIN * CELL_MIN_DIAMETERS * (largest_diameter + alert)
+    narrowest = min(1.0, height_ratio * math.exp(-SHEAR_SHORTENING * eps_q_max))
+    width = limit / narrowest
+    return math.ceil(packing * height_ratio * width**3 / mean_volume)
 
 
 def compacted_widths(widths: np.ndarray, solid_volume: float, packing: float,

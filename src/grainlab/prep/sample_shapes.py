@@ -236,6 +236,28 @@ def sample_shape(name: str, field: str = "shape") -> SampleShape:
     return found
 
 
+VOLUME_FRACTION_DRAWS = 16
+"""Particles drawn to estimate a shape's mean volume fraction in its circumscribed sphere
+(:func:`circumscribed_volume_fraction`; polyhedra of 8 faces: 0.177 +- 0.025 over 16
+draws, ~1.5 s)."""
+
+
+@lru_cache(maxsize=64)
+def circumscribed_volume_fraction(name: str, **parameters: Any) -> float:
+    """Mean volume of a particle of shape ``name`` (and ``parameters``, as a run's
+    ``sample.<key>``) over the volume of its circumscribed sphere [-]: 1 for spheres, the
+    unit aggregate's for an aggregate, the mean over :data:`VOLUME_FRACTION_DRAWS` particles
+    drawn with a fixed generator for random polyhedra (the same for every call).
+
+    >>> round(circumscribed_volume_fraction("aggregate", eta=0.7), 3)
+    0.456
+    """
+    shape = sample_shape(name)
+    radii = np.ones(VOLUME_FRACTION_DRAWS)
+    library, _ = shape.make_library(radii, np.random.default_rng(0), **parameters)
+    return float(np.mean(library.volume / (4.0 / 3.0 * math.pi * library.bounding_radius**3)))
+
+
 def particles_text(specimen: Mapping[str, Any]) -> str:
     """The particles of a sample description (``{"shape": "polyhedron", "n_faces": 30}``)
     named in a message: ``"polyhedra of 30 faces"``, ``"spheres"``; a shape no longer

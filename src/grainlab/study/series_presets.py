@@ -27,12 +27,19 @@ whole chain in about a minute (:data:`LENGTHS`).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 from grainlab.errors import InputError
 from grainlab.geometry.polyhedron import TABLE_I
+from grainlab.lab.cell_thickness import (
+    SHEAR_SHORTENING,
+    mean_cube_uniform_by_volume,
+    particles_for_the_shear,
+)
+from grainlab.prep.sample_shapes import circumscribed_volume_fraction, sample_shape
 from grainlab.study.study_spec import StudySpec
 
 
@@ -71,13 +78,14 @@ LENGTHS = {
 }
 """The lengths of a preset study. Particles: a study in minutes, and the papers' protocol at
 the size a 2-core machine runs in hours (the papers used 40 000 polyhedra and 12 000
-aggregates). Height ratio: a lab specimen's 2 for the papers' strain. The triaxial compression
-shortens the box by about exp(-eps_q): to eps_q = 0.9, a cube of 500 or 1000 aggregates with
-seed 003's radii (up to 3 R_min) would end three of its largest particles high, where they
-lock in one or two layers (such a run is refused before it starts: at 500 particles
-eps_q <= 0.41 for eta = 0.7); the papers' 12 000 to 40 000 particles had the room. A short
-study's few particles need 1.5 to reach eps_q = 0.3. Templates: drawing a hull of few faces
-takes ~0.25 s."""
+aggregates). Height ratio: a lab specimen's 2 for the papers' strain (in walls; a periodic
+cell takes :func:`cell_height_ratio`). The triaxial compression shortens the box by
+exp(-eps_zz), eps_zz <= 2/3 eps_q (0.57 measured at eps_q = 0.9): to eps_q = 0.9, a cube of
+500 or 1000 aggregates with seed 003's radii (up to 3 R_min) would end three of its largest
+particles high, where they lock in one or two layers (such a run is refused before it
+starts: at 500 particles eps_q <= 0.41 for eta = 0.7); the papers' 12 000 to 40 000
+particles had the room. A short study's few particles need 1.5 to reach eps_q = 0.3.
+Templates: drawing a hull of few faces takes ~0.25 s."""
 
 ETAS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7)
 """Seed 003's eight packings."""
@@ -88,34 +96,78 @@ BOUNDARIES = {
              "of a small sample: the study's core values leave them out)",
     "periodic": "a periodic cell: no wall layer, every particle in the bulk; each sample a "
                 "loose packing of its own shapes drawn with the same seed, compacted in the "
-                "cell (not inscribed in one deposited sphere packing)",
+                "cell (not inscribed in one deposited sphere packing); as many particles as "
+                "the study asks, more for a sample whose cell would get thinner than the "
+                "contact detection allows (its largest particles against their volume)",
 }
 """The boundaries a preset study runs in (``boundary``), in words."""
 
-PERIODIC_PARTICLES = 800
-"""Particles per sample in a periodic cell by default (at least): the cell must stay three
-interaction ranges across along each axis (no pair touching through two images), which the
-60-100 particles of a smoke or short study do not give with seed 003's sizes (up to 3 R_min):
-500 aggregates of eta = 0.7 in a cube compact to a cell 3.23 of their largest diameters
-across, just under the bound (measured); 800 leave it about 3.8 across."""
+ALERT_ESTIMATE = 0.05
+"""The alert distance a sample's cell is sized for, in smallest diameters d_min [-]: the
+contact dynamics' default, 0.1 of the smallest member sphere's radius, is at most 0.05 d_min
+(:func:`~grainlab.lab.cell_thickness.particles_for_the_shear`)."""
+
+
+def cell_height_ratio(length: str) -> float:
+    """Height / width [-] of a preset's periodic cell: exp(2/3 eps_q_max), at which the cell's
+    sides after the compaction and its height at the end of the shear are equally narrow
+    (:mod:`grainlab.lab.cell_thickness`): the fewest particles for the room the detection
+    needs (1.82 for the papers' strain, 1.22 to eps_q = 0.3).
+
+    >>> round(cell_height_ratio("full"), 3)
+    1.822
+    """
+    return round(math.exp(SHEAR_SHORTENING * LENGTHS[length].eps_q_max), 3)
+
+
+def cell_particles(sample: dict[str, Any], length: str, size_ratio: float) -> int:
+    """The particles [-] a periodic cell of ``sample``'s shapes (a preset sample's
+    ``sample`` table: ``shape`` and its parameters) needs at ``length``, from the shapes'
+    mean volume in their circumscribed spheres, the preset's sizes (uniform by volume in
+    [d_min, ``size_ratio`` d_min]) and a cell of :func:`cell_height_ratio`
+    (:func:`~grainlab.lab.cell_thickness.particles_for_the_shear`).
+
+    >>> cell_particles({"shape": "sphere"}, "full", 2.0)
+    264
+    """
+    shape = sample.get("shape", "sphere")
+    parameters = {key: sample[key] for key in sample_shape(shape).parameters if key in sample}
+    fraction = circumscribed_volume_fraction(shape, **parameters)
+    mean_volume = fraction * math.pi / 6.0 * mean_cube_uniform_by_volume(1.0, size_ratio)
+    return particles_for_the_shear(mean_volume, size_ratio, ALERT_ESTIMATE,
+                                   cell_height_ratio(length), LENGTHS[length].eps_q_max)
+
+
+def with_room(samples: list[dict], n_particles: int, length: str, size_ratio: float
+              ) -> list[dict]:
+    """``samples`` with ``sample.n_particles`` raised, for each sample whose cell would get
+    too thin with ``n_particles``, to :func:`cell_particles` (the others keep
+    ``n_particles``: the study's count is a floor)."""
+    out = []
+    for sample in samples:
+        table = sample["set"].get("sample", {})
+        needed = cell_particles(table, length, size_ratio)
+        if needed > n_particles:
+            sample = {**sample, "set": {**sample["set"],
+                                        "sample": {**table, "n_particles": needed}}}
+        out.append(sample)
+    return out
 
 
 def _protocol(n_particles: int, length: str, seed: int, size_ratio: float,
               snapshots: int, boundary: str = "walls") -> dict[str, Any]:
     """The papers' protocol as a base run config (module docstring); in a periodic cell
     (``boundary = "periodic"``) the samples are loose packings compacted in the cell, with
-    the same compaction and shear, in a cube below eps_q = 0.5 (a taller cell leaves its
-    lateral sides fewer particles across), as tall as the length's height ratio above (the
-    shear shortens it)."""
+    the same compaction and shear, in a cell of :func:`cell_height_ratio` (as narrow at the
+    end of the shear, which shortens it, as at its start)."""
     eps_q_max = LENGTHS[length].eps_q_max
     sample = {"n_particles": n_particles, "size_ratio": size_ratio, "seed": seed,
               "preparation": "deposition", "wall_friction": 0.0,
               "height_ratio": LENGTHS[length].height_ratio}
     if _boundary(boundary) == "periodic":
         del sample["wall_friction"]
-        sample.update(boundary="periodic", preparation="loose")
-        if eps_q_max < 0.5:  # a cube: its lateral sides keep three interaction ranges
-            sample["height_ratio"] = 1.0
+        sample.update(boundary="periodic", preparation="loose",
+                      height_ratio=cell_height_ratio(length))
     return {
         "sample": sample,
         "test": {"kind": "triaxial", "eps_q_max": eps_q_max},
@@ -168,7 +220,7 @@ def angularity_series(*, n_particles: int | None = None, length: str = "short",
     the length's, :data:`LENGTHS`); ``boundary``: one of :data:`BOUNDARIES`; ``replicas``
     and ``replicated``: :func:`with_replicas`."""
     length = _length(length)
-    n = n_particles or _default_particles(length, boundary)
+    n = n_particles or LENGTHS[length].particles
     if templates is None:
         templates = LENGTHS[length].templates
     base = _protocol(n, length, seed, 2.0, _snapshot_every(n, length), boundary)
@@ -177,6 +229,8 @@ def angularity_series(*, n_particles: int | None = None, length: str = "short",
         samples.append({"name": f"S{k + 2}", "value": TABLE_I[faces],
                         "set": {"sample": {"shape": "polyhedron", "n_faces": faces,
                                            "templates": templates}}})
+    if _boundary(boundary) == "periodic":
+        samples = with_room(samples, n, length, 2.0)
     samples = with_replicas(samples, seed, replicas, replicated, REPLICATED["angularity"])
     return _series("angularity", "mean_angularity", "<alpha>",
                    "Seed 002: spheres and polyhedra of 596 ... 8 faces", length, n, base,
@@ -189,12 +243,14 @@ def nonconvexity_series(*, n_particles: int | None = None, length: str = "short"
     """Seed 003's eight samples eta = 0 ... 0.7 (module docstring); ``boundary``: one of
     :data:`BOUNDARIES`; ``replicas`` and ``replicated``: :func:`with_replicas`."""
     length = _length(length)
-    n = n_particles or _default_particles(length, boundary)
+    n = n_particles or LENGTHS[length].particles
     base = _protocol(n, length, seed, 3.0, _snapshot_every(n, length), boundary)
     samples = []
     for eta in ETAS:
         shape = {"shape": "sphere"} if eta == 0.0 else {"shape": "aggregate", "eta": eta}
         samples.append({"name": f"eta-{eta:.1f}", "value": eta, "set": {"sample": shape}})
+    if _boundary(boundary) == "periodic":
+        samples = with_room(samples, n, length, 3.0)
     samples = with_replicas(samples, seed, replicas, replicated, REPLICATED["nonconvexity"])
     return _series("nonconvexity", "eta", "eta",
                    "Seed 003: aggregates of four spheres, eta = 0 ... 0.7", length, n, base,
@@ -244,6 +300,9 @@ def _series(name: str, parameter: str, symbol: str, text: str, length: str, n: i
             base: dict, samples: list[dict], boundary: str = "walls") -> StudySpec:
     """The study of a preset series: its window at ``length``, described by ``text``."""
     where = ", in a periodic cell" if boundary == "periodic" else ""
+    counts = sorted({s["set"].get("sample", {}).get("n_particles", n) for s in samples})
+    if counts != [n]:
+        where = f", more where a cell needs the room (up to {counts[-1]}){where}"
     return StudySpec.model_validate({
         "study": {"name": name, "parameter": parameter, "symbol": symbol,
                   "window": LENGTHS[length].window[name],
@@ -261,12 +320,6 @@ def series_spec(name: str, **options: Any) -> StudySpec:
     if name not in SERIES:
         raise InputError("series", name, "one of " + ", ".join(SERIES))
     return SERIES[name](**options)
-
-
-def _default_particles(length: str, boundary: str) -> int:
-    """The length's particles per sample, at least :data:`PERIODIC_PARTICLES` in a cell."""
-    n = LENGTHS[length].particles
-    return max(n, PERIODIC_PARTICLES) if _boundary(boundary) == "periodic" else n
 
 
 def _boundary(boundary: str) -> str:
