@@ -141,6 +141,7 @@ from grainlab.engine.nscd.contact_problem import (
     assemble_problem,
     project_on_cones,
 )
+from grainlab.engine.nscd.contact_update import closing_velocities_kernel
 from grainlab.engine.nscd.nlgs_parallel import (
     MIN_COLOURS,
     MIN_SLABS,
@@ -383,7 +384,7 @@ class ContactDynamicsStep:
             rows, bodies, wall_rows, cell, settings, impulses, predicted.x_m,
             crossing if bounds.has_free_cell else None, predicted.speed)
         forces = self._remember_forces(keys, rows.frame, impulses)
-        relative = _closing_velocities(rows, wall_rows, motion, crossing)
+        relative = _closing_velocities(rows, wall_rows, motion)
         # end-of-step configuration
         state.velocities[:] = motion.velocities
         state.angular_velocities[:] = motion.spins
@@ -507,7 +508,7 @@ class ContactDynamicsStep:
         A step where a wall's or the cell's speed limit holds is not the plain problem the
         correction minimises (:mod:`~grainlab.engine.nscd.contact_problem`): its remaining
         sweeps run alone."""
-        coupling = crossing = None
+        coupling = None
         done = 0
         while True:
             run = min(SWEEPS_BETWEEN, settings.max_iterations - done)
@@ -522,8 +523,7 @@ class ContactDynamicsStep:
                     max_iterations=settings.max_iterations - done))
             if coupling is None:
                 coupling = NormalCoupling.of(rows, bodies, walls, cell)
-                crossing = np.any(rows.images != 0.0, axis=1)
-            velocity = _closing_velocities(rows, walls, motion, crossing)[:, 0] \
+            velocity = _closing_velocities(rows, walls, motion)[:, 0] \
                 + rows.gap / settings.dt
             normal, gain = subspace_correction(coupling, impulses[:, 0], velocity)
             self.correction_products += CG_ITERATIONS
@@ -695,22 +695,27 @@ def _sweep_groups(rows: ContactRows, walls: WallRows, x_m: np.ndarray, serial) -
     return SweepGroups(groups.order, groups.offsets, groups.chains, body_order, int(n_parallel))
 
 
-def _closing_velocities(rows: ContactRows, walls: WallRows, motion: Motion,
-                        crossing: np.ndarray) -> np.ndarray:
+def _closing_velocities(rows: ContactRows, walls: WallRows, motion: Motion) -> np.ndarray:
     """End-of-step local relative velocities (C, 3) [m/s] of body j w.r.t. body i (or its
-    wall), an image moving with the cell (NumPy twin of the kernel's scalar law)."""
-    relative = _relative_velocities(rows, rows.frame, rows.arm_i, rows.arm_j,
-                                    motion.velocities, motion.spins)
-    frames = rows.frame
-    if np.any(crossing):
-        relative[crossing] += np.einsum("cij,cj->ci", frames[crossing],
-                                        rows.images[crossing] @ motion.cell_rate.T)
-    on_wall = rows.body_i < 0
-    if walls.inv_mass.shape[0] and np.any(on_wall):
-        wall = -1 - rows.body_i[on_wall]
-        relative[on_wall] -= motion.wall_speeds[wall, None] * \
-            np.einsum("cij,cj->ci", frames[on_wall], walls.normals[wall])
-    return relative
+    wall), an image moving with the cell: the sweeps' compiled law
+    (:func:`~grainlab.engine.nscd.contact_update.closing_velocities_kernel`)."""
+    out = np.empty((rows.body_i.shape[0], 3))
+    closing_velocities_kernel(rows, walls.normals, motion, out)
+    return out
+
+
+def closing_velocities_twin(rows: ContactRows, walls: WallRows, motion: Motion) -> np.ndarray:
+    """:func:`_closing_velocities` in NumPy, written from the kinematics alone (the slow,
+    obviously right twin the tests hold the kernel to, STYLE.md 12)."""
+    bj, bi = rows.body_j, rows.body_i
+    u = motion.velocities[bj] + np.cross(motion.spins[bj], rows.arm_j)
+    u += rows.images @ motion.cell_rate.T  # an image moves with the cell: hdot m_k
+    inner = bi >= 0
+    u[inner] -= motion.velocities[bi[inner]] + np.cross(motion.spins[bi[inner]],
+                                                        rows.arm_i[inner])
+    wall = -1 - bi[~inner]
+    u[~inner] -= motion.wall_speeds[wall, None] * walls.normals[wall]
+    return np.einsum("cij,cj->ci", rows.frame, u)
 
 
 def _smallest_radius(library: ShapeLibrary) -> float:
@@ -718,15 +723,5 @@ def _smallest_radius(library: ShapeLibrary) -> float:
     half the time-step length d_min of the library's shape kinds
     (:func:`~grainlab.engine.shape_kinds.library_time_step_length`)."""
     return 0.5 * library_time_step_length(library)
-
-
-def _relative_velocities(contacts, frames, arm_i, arm_j, velocities, spins) -> np.ndarray:
-    """Local relative velocities (C, 3) of body j w.r.t. body i (NumPy twin of the kernel's
-    scalar law, STYLE.md 12)."""
-    bj, bi = contacts.body_j, contacts.body_i
-    u = velocities[bj] + np.cross(spins[bj], arm_j)
-    inner = bi >= 0
-    u[inner] -= velocities[bi[inner]] + np.cross(spins[bi[inner]], arm_i[inner])
-    return np.einsum("cij,cj->ci", frames, u)
 
 

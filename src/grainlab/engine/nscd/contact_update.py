@@ -105,6 +105,18 @@ def _relative_velocity(k, contacts, wall_normals, motion):
             frame[k, 2, 0] * ux + frame[k, 2, 1] * uy + frame[k, 2, 2] * uz)
 
 
+@njit(cache=True)
+def closing_velocities_kernel(contacts, wall_normals, motion, out):
+    """Write into ``out`` (C, 3) the local (n, t, s) velocities [m/s] of every contact in
+    ``motion``, by the sweeps' own law (:func:`_relative_velocity`): the closing velocities a
+    correction between sweeps and the step's report read."""
+    for k in range(out.shape[0]):
+        un, ut, us = _relative_velocity(k, contacts, wall_normals, motion)
+        out[k, 0] = un
+        out[k, 1] = ut
+        out[k, 2] = us
+
+
 @njit(inline="always")
 def _apply(k, dn, dt_, ds, contacts, bodies, walls, cell, motion):
     """Add the local impulse change (dn, dt_, ds) of contact k to its two bodies' ``motion``
