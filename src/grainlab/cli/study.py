@@ -257,6 +257,27 @@ def publish_command(
     console.print(f"published {folder} to {dest} ({size / 2**20:.1f} MiB)")
 
 
+@app.command("slim")
+@friendly_errors
+def slim_command(
+    folder: Path = typer.Argument(..., help="A study folder."),
+) -> None:
+    """Slim a study's ended samples: keep each one's summary row, its residual window's
+    averaged distributions and the two snapshots the report draws (in samples/NAME/digest),
+    remove its snapshots and checkpoints. The summary and report are written first and read
+    the digests from then on, so the folder can be kept or moved to another machine and the
+    study gone on with there (samples not ended are left to run)."""
+    from grainlab.study.study_summary import slim_study
+
+    study = Study.open(folder)
+    _report(study)
+    freed = slim_study(study)
+    for name, size in freed.items():
+        console.print(f"{name}: {size / 2**20:.1f} MiB freed")
+    console.print(f"slimmed {len(freed)} sample(s) of {folder}, "
+                  f"{sum(freed.values()) / 2**20:.1f} MiB freed")
+
+
 RUNNING_WITHIN = 60.0
 """A sample whose progress was written this many seconds ago at most is running; an older
 one has stopped (its state on disk says where)."""

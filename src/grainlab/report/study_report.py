@@ -211,6 +211,7 @@ def _window_distributions(study, table: pd.DataFrame, out: Path) -> list[tuple[s
     from grainlab.analysis.window_average import WindowAverage
     from grainlab.errors import InputError
     from grainlab.lab.discrete_run import SNAPSHOTS
+    from grainlab.lab.run_digest import read_window
     from grainlab.report.microstructure_figures import (
         averaged_force_pdf_figure,
         averaged_polar_figure,
@@ -219,20 +220,27 @@ def _window_distributions(study, table: pd.DataFrame, out: Path) -> list[tuple[s
     lo, hi = study.spec.study.window
     figures = []
     for name in _picked(table):
-        path = study.sample_folder(name) / SNAPSHOTS
-        if not path.exists():
-            continue
-        try:
-            average = WindowAverage((lo, hi), distributions="core",
-                                    core_margin=study.spec.study.core_margin).run(path)
-        except InputError:  # no snapshot in the window
-            continue
-        where = "core" if average.last is not None and average.last.core_parts else "whole box"
-        span = f"{average.n_snapshots} snapshots, eps_q in [{lo:g}, {hi:g}], {where}"
+        folder = study.sample_folder(name)
+        if (folder / SNAPSHOTS).exists():
+            try:
+                average = WindowAverage((lo, hi), distributions="core",
+                                        core_margin=study.spec.study.core_margin
+                                        ).run(folder / SNAPSHOTS)
+            except InputError:  # no snapshot in the window
+                continue
+            where = "core" if average.last is not None and average.last.core_parts \
+                else "whole box"
+            distributions, n_snapshots = average.distributions, average.n_snapshots
+        else:  # a slimmed sample: its digest's average
+            kept = read_window(folder, (lo, hi))
+            if kept is None:
+                continue
+            distributions, n_snapshots, where = kept
+        span = f"{n_snapshots} snapshots, eps_q in [{lo:g}, {hi:g}], {where}"
         for stem, make, title in (("polar", averaged_polar_figure, "Angular distributions"),
                                   ("force_pdfs", averaged_force_pdf_figure, "Force PDFs")):
             file = f"{stem}_{name}.png"
-            save_figure(make(average.distributions), out / file)
+            save_figure(make(distributions), out / file)
             figures.append((f"{title}, {name} ({span})", file))
     return figures
 
@@ -240,13 +248,13 @@ def _window_distributions(study, table: pd.DataFrame, out: Path) -> list[tuple[s
 def _force_networks(study, table: pd.DataFrame, out: Path) -> list[tuple[str, str]]:
     """Radial-force networks of the last snapshot of the first, middle and last sample."""
     from grainlab.analysis.snapshot_files import count_snapshots, read_snapshots
-    from grainlab.lab.discrete_run import SNAPSHOTS
+    from grainlab.lab.run_digest import snapshots_for_report
     from grainlab.report.microstructure_figures import force_network_figure
 
     figures = []
     for name in _picked(table):
-        path = study.sample_folder(name) / SNAPSHOTS
-        if not path.exists() or count_snapshots(path) == 0:
+        path = snapshots_for_report(study.sample_folder(name))
+        if path is None or count_snapshots(path) == 0:
             continue
         last = None
         for network in read_snapshots(path):
@@ -267,13 +275,13 @@ def _wall_profiles(study, table: pd.DataFrame, out: Path, labels: dict[str, str]
     end of its compaction (its last compaction snapshot), with the core's margin."""
     from grainlab.analysis.snapshot_files import read_snapshots
     from grainlab.analysis.wall_layer import mean_diameter, packing_profile
-    from grainlab.lab.discrete_run import SNAPSHOTS
+    from grainlab.lab.run_digest import snapshots_for_report
     from grainlab.report.study_figures import wall_profile_figure
 
     profiles = {}
     for name in table["name"]:
-        path = study.sample_folder(name) / SNAPSHOTS
-        if not path.exists():
+        path = snapshots_for_report(study.sample_folder(name))
+        if path is None:
             continue
         initial = None
         for network in read_snapshots(path):

@@ -49,6 +49,7 @@ import pandas as pd
 
 from grainlab.errors import InputError
 from grainlab.lab.discrete_run import RESULTS_H5, SNAPSHOTS
+from grainlab.lab.run_digest import read_row, row_settings, slim_sample, write_row
 from grainlab.report.run_curves import shear_from_its_start
 from grainlab.result.test_result import read_test_result
 from grainlab.study.sample_task import sample_state
@@ -195,15 +196,50 @@ def study_summary(study, microstructure: bool = True) -> pd.DataFrame:
         folder = study.sample_folder(sample.name)
         if sample_state(folder) != "ended":
             continue
-        row = sample_row(folder, study.spec.study.window, sample.value, microstructure,
-                         core_margin=study.spec.study.core_margin,
-                         peak_window=study.spec.study.peak_window)
+        row = _row(folder, study, sample.value, microstructure)
         row["replica_of"] = sample.replica_of
         row["seed"] = study.spec.sample_config(sample.name).sample.seed
         rows.append(row)
     table = pd.DataFrame(rows)
     table.to_csv(study.folder / SUMMARY, index=False)
     return table
+
+
+def _row(folder: Path, study, value: float, microstructure: bool) -> dict[str, Any]:
+    """The summary row of an ended sample: computed from its run folder (and kept in its
+    digest), or, once slimmed (no snapshots left), the row kept for the same settings
+    (:mod:`~grainlab.lab.run_digest`)."""
+    header = study.spec.study
+    settings = row_settings(header.window, header.core_margin, header.peak_window,
+                            microstructure)
+    if microstructure and not (folder / SNAPSHOTS).exists():
+        kept = read_row(folder, settings)
+        if kept is not None:
+            return kept
+    row = sample_row(folder, header.window, value, microstructure,
+                     core_margin=header.core_margin, peak_window=header.peak_window)
+    if (folder / SNAPSHOTS).exists():
+        write_row(folder, row, settings)
+    return row
+
+
+def slim_study(study) -> dict[str, int]:
+    """Slim every ended sample of ``study`` that still has its snapshots
+    (:func:`~grainlab.lab.run_digest.slim_sample`: its summary row, window average and report
+    snapshots kept, its snapshots and checkpoints removed); the bytes freed per sample. The
+    summary and report of the study read the digests from then on; a sample not ended is left
+    as it is, to be run on."""
+    header = study.spec.study
+    freed = {}
+    for sample in study.spec.samples:
+        folder = study.sample_folder(sample.name)
+        if sample_state(folder) != "ended" or not (folder / SNAPSHOTS).exists():
+            continue
+        row = _row(folder, study, sample.value, True)
+        settings = row_settings(header.window, header.core_margin, header.peak_window, True)
+        freed[sample.name] = slim_sample(folder, row, settings, header.window,
+                                         header.core_margin)
+    return freed
 
 
 def pooled_replicas(table: pd.DataFrame) -> pd.DataFrame:
