@@ -1,8 +1,10 @@
 """A slimmed study: its ended samples lose their snapshots and checkpoints, and keep what
 the summary and the report read, so that the same summary and figures come out of the small
-folder and the study goes on with the samples it has not run."""
+folder, moved elsewhere, and the runner never runs the slimmed samples again."""
 
 from __future__ import annotations
+
+import shutil
 
 import numpy as np
 import pandas as pd
@@ -24,33 +26,40 @@ pytestmark = pytest.mark.long
 
 def spec() -> StudySpec:
     return StudySpec.model_validate({
-        "study": {"name": "tiny", "parameter": "eta", "window": [0.02, 0.04]},
-        "base": {"sample": {"n_particles": 30, "seed": 3, "size_ratio": 3.0},
-                 "test": {"eps_q_max": 0.04},
+        "study": {"name": "tiny", "parameter": "eta", "window": [0.015, 0.03]},
+        "base": {"sample": {"n_particles": 24, "seed": 3, "size_ratio": 3.0},
+                 "test": {"eps_q_max": 0.03},
                  "output": {"snapshot_every": 10, "checkpoint_every": 50}},
         "samples": [{"name": n, "value": 0.1 * k, "set": {"sample": {"seed": 3 + k}}}
                     for k, n in enumerate(("a", "b"))]})
 
 
-def test_a_slimmed_study_keeps_its_summary_and_figures_and_goes_on(tmp_path):
+def test_a_slimmed_study_keeps_its_summary_and_figures_and_goes_on_elsewhere(tmp_path):
     study = Study.create(tmp_path / "s", spec())
-    assert study.run(workers=1, progress=False, only=("a",)).complete
-    before = study_summary(study)
-    report = write_study_report(study, before)
-    drawn = sorted(p.name for p in report.parent.glob("*.png"))
-    assert any(n.startswith("polar_") for n in drawn)
-    assert any(n.startswith("force_network_") for n in drawn)
-    run = study.sample_folder("a")
-    size = sum(p.stat().st_size for p in run.rglob("*") if p.is_file())
+    assert study.run(workers=1, progress=False).complete
+    runs = [study.sample_folder(name) for name in study.spec.names]
+    size = sum(p.stat().st_size for run in runs for p in run.rglob("*") if p.is_file())
 
+    # the command writes the summary and report from the snapshots, then slims
     result = CliRunner().invoke(app, ["study", "slim", str(study.folder)])
     assert result.exit_code == 0, result.output
-    assert "slimmed 1 sample(s)" in result.output
-    assert not (run / SNAPSHOTS).exists() and not (run / CHECKPOINT).exists()
-    assert (run / RESULTS_H5).exists() and sample_state(run) == "ended"
-    assert sum(p.stat().st_size for p in run.rglob("*") if p.is_file()) < 0.5 * size
+    assert "slimmed 2 sample(s)" in result.output
+    before = pd.read_csv(study.folder / "summary.csv")
+    drawn = sorted(p.name for p in (study.folder / "report").glob("*.png"))
+    assert any(n.startswith("polar_") for n in drawn)
+    assert any(n.startswith("force_network_") for n in drawn)
+    for run in runs:
+        assert not (run / SNAPSHOTS).exists() and not (run / CHECKPOINT).exists()
+        assert (run / RESULTS_H5).exists() and sample_state(run) == "ended"
+        assert (run / DIGEST / "snapshots.h5").stat().st_size > 0
+    assert sum(p.stat().st_size for run in runs for p in run.rglob("*") if p.is_file()) \
+        < 0.5 * size
 
-    after = study_summary(study)
+    # moved to another machine: the same summary, the same figures, nothing run again
+    shutil.move(tmp_path / "s", tmp_path / "elsewhere")
+    moved = Study.open(tmp_path / "elsewhere")
+    study_summary(moved)
+    after = pd.read_csv(moved.folder / "summary.csv")
     assert list(after.columns) == list(before.columns)
     for column in before.columns:
         if pd.api.types.is_numeric_dtype(before[column]):
@@ -58,16 +67,13 @@ def test_a_slimmed_study_keeps_its_summary_and_figures_and_goes_on(tmp_path):
                                           before[column].to_numpy(float), err_msg=column)
         else:
             assert after[column].tolist() == before[column].tolist(), column
-    assert any(c.endswith("_residual") and c.startswith("a_c") for c in after.columns)
-    for png in report.parent.glob("*.png"):
+    assert any(c.startswith("a_c") and c.endswith("_residual") for c in after.columns)
+    for png in (moved.folder / "report").glob("*.png"):
         png.unlink()
-    write_study_report(study, after)
+    report = write_study_report(moved, after)
     assert sorted(p.name for p in report.parent.glob("*.png")) == drawn
-
-    # the study goes on: the slimmed sample is not run again, the other one is
-    stamp = (run / RESULTS_H5).stat().st_mtime_ns
-    outcome = study.run(workers=1, progress=False)
-    assert outcome.complete and outcome.skipped == ["a"] and outcome.ran == ["b"]
-    assert (run / RESULTS_H5).stat().st_mtime_ns == stamp
-    assert not (run / DIGEST / "snapshots.h5").stat().st_size == 0
-    assert len(study_summary(study)) == 2
+    stamps = [(moved.sample_folder(n) / RESULTS_H5).stat().st_mtime_ns for n in moved.spec.names]
+    outcome = moved.run(workers=1, progress=False)
+    assert outcome.complete and outcome.skipped == ["a", "b"] and not outcome.ran
+    assert [(moved.sample_folder(n) / RESULTS_H5).stat().st_mtime_ns
+            for n in moved.spec.names] == stamps
