@@ -64,13 +64,22 @@ class CellBoundary:
     def steps_by_overlap(self) -> bool:
         """Whether the coming step grows and shrinks with the overlaps
         (:mod:`grainlab.lab.step_control`): in a strain-driven stage (the shear of a
-        triaxial test, a simple shear), as in the wall box; not in a stress-driven one (the
-        compaction), where the grown step let a small cell overshoot (80 spheres of size
-        ratio 1.2 at I <= 0.05 went thinner than three interaction ranges, which no overlap
-        shows). With the shear's step fixed, 1000 spheres in the cell took 932 sweeps a
-        shearing step to eps_q = 0.1 (247 steps); grown, 543 (127 steps)."""
+        triaxial test, a simple shear), as in the wall box; in a stress-driven one (the
+        compaction) only once the cell carries its targets, while the packing settles. A
+        step grown while the cell still closes in let a small cell overshoot (80 spheres of
+        size ratio 1.2 at I <= 0.05 went thinner than three interaction ranges, which no
+        overlap shows); the first step off the targets falls back to the shortest. With the
+        shear's step fixed, 1000 spheres in the cell took 932 sweeps a shearing step to
+        eps_q = 0.1 (247 steps); grown, 543 (127 steps). The settling of a frictionless
+        compaction is a slow creep (1000 aggregates of eta = 0.3 crept 5600 steps after
+        reaching the stress); from the same checkpoint at the creep, the grown step ended it
+        in 150 steps against 1086 (packing fraction 0.7242 against 0.7253, z_c 11.38 against
+        11.33)."""
         stage = self.test.stage
-        return stage is not None and stage.strain_driven
+        if stage is None:
+            return False
+        return stage.strain_driven or (stage.stage.stress_mode == "target"
+                                       and self._targets_met())
 
     def __init__(self, test) -> None:
         self.test = test
