@@ -85,9 +85,12 @@ def test_periodic_triaxial_compacts_then_shears_at_held_lateral_stress(triaxial)
         np.testing.assert_allclose(shear[f"cell_sigma_{axis}"], SIGMA0, rtol=0.05)
         assert shear[f"cell_sigma_{axis}"].mean() == pytest.approx(SIGMA0, rel=0.02)
         np.testing.assert_allclose(shear[f"sigma_{axis}"], SIGMA0, rtol=0.15)
-    # the step: fixed in the stress-driven compaction, growing in the strain-driven shear
-    # while the largest overlap stays below half the bound (0.5 % of <d>)
-    assert np.ptp(table.loc[table["stage"] == "compaction", "dt"]) == 0.0
+    # the step: the shortest while the cell closes in on its stress (a grown step lets a
+    # small cell overshoot), free to grow once it carries it and in the strain-driven
+    # shear, while the largest overlap stays below half the bound (0.5 % of <d>)
+    compacting = table[table["stage"] == "compaction"]
+    closing = compacting[compacting["p"] < 0.9 * SIGMA0]
+    assert len(closing) and (closing["dt"] == compacting["dt"].min()).all()
     assert shear["dt"].iloc[-1] > shear["dt"].iloc[0]
     assert shear["max_overlap_over_d"].max() < 0.0025
     # the shear strains are held (the triaxial preset controls them at zero, as rigid platens
