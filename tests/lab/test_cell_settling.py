@@ -39,7 +39,7 @@ def compact(sample, fixed_step: bool, monkeypatch):
 
 @pytest.fixture(scope="module")
 def loose():
-    return loose_sample(n_particles=150, size_ratio=1.2, packing_fraction=0.3, seed=4,
+    return loose_sample(n_particles=120, size_ratio=1.2, packing_fraction=0.25, seed=4,
                         boundary=PeriodicCell.around)
 
 
