@@ -9,9 +9,17 @@ STAMP := $(VENV)/.installed
 
 .PHONY: demo test setup docs docs-check clean
 
+# Bytecode compiled once, on all cores, at set-up (compileall): where the environment sets
+# PYTHONDONTWRITEBYTECODE (CI machines do), Python never caches what it compiles, and every
+# process (the test workers, the kernel compilation, a study's Dask workers, each command)
+# would compile every module it imports again: grainlab's command line took 5.9 s to import
+# without bytecode, 2.5 s with it.
+BYTECODE := $(BIN)/python -m compileall -q -j 0 $(VENV)/lib src > /dev/null
+
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --no-compile -e ".[test]"
+	$(BYTECODE)
 	touch $(STAMP)
 
 setup: $(STAMP)
@@ -27,6 +35,7 @@ DOCS_STAMP := $(VENV)/.docs-installed
 
 $(DOCS_STAMP): $(STAMP)
 	$(BIN)/python -m pip install --quiet --no-compile -e ".[docs]"
+	$(BYTECODE)
 	touch $(DOCS_STAMP)
 
 docs: $(DOCS_STAMP)

@@ -1,7 +1,7 @@
 """Test-suite options: ``--validate`` runs the slow validation runs (STYLE.md 11).
 
 With pytest-xdist workers (``make test`` runs ``-n auto``), the kernels are first compiled
-once, split over three processes (``grainlab compile --part ...``), before the workers get
+once, split over two processes (``grainlab compile --part ...``), before the workers get
 their first test (they start and collect meanwhile): each worker would otherwise compile every
 kernel it meets for itself, and compilation is most of a cold run (measured: 550 s cold
 against 235 s with the cache warm, two workers, two cores). ``GRAINLAB_NO_PRECOMPILE=1``
@@ -52,13 +52,14 @@ elif NUMERICS_TARGET != "native":
 
 import pytest  # noqa: E402
 
-PRECOMPILE_PARTS = ("discrete", "dem,polyhedra", "theories")
-"""The compilation split over three processes (measured cold, one after the other: discrete
-108 s, polyhedra 58 s, dem 98 s, theories 50 s; three processes on two cores end in about
-half their sum, where two ended with the longer half, 171 s). dem before polyhedra: the
-polyhedra part also runs contact dynamics, whose sweep kernel (~25 s) the discrete process
-has cached by the time the dem part is done, where the two processes otherwise compiled it
-at the same time; and the dem part compiles the polyhedra's narrow phase for it."""
+PRECOMPILE_PARTS = ("discrete,theories", "dem,polyhedra")
+"""The compilation split over two processes of about equal work (measured cold on two cores,
+one part after the other: discrete 108 s, dem 98 s, polyhedra 58 s, theories 50 s; these two
+processes ended together in 170 s, where discrete | dem,polyhedra | theories in three processes
+took 205 s: a third process only shares the same two cores). dem before polyhedra: the
+polyhedra part also runs contact dynamics, whose sweep kernel (~25 s) the discrete part has
+cached by the time the dem part is done, where the two processes otherwise compiled it at the
+same time; and the dem part compiles the polyhedra's narrow phase for it."""
 
 
 _PRECOMPILING: list[tuple[str, subprocess.Popen]] = []
