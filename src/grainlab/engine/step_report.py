@@ -29,7 +29,9 @@ class StepReport:
     h m_k); with ``keep_problem`` on the step, the step's plain ``problem``
     (a :class:`~grainlab.engine.nscd.contact_problem.FrictionalContactProblem` of
     :func:`~grainlab.engine.nscd.contact_problem.assemble_problem`; its solution is ``impulses``
-    unless a wall or cell speed limit held).
+    unless a wall or cell speed limit held) and its ``system`` (the
+    :class:`~grainlab.engine.nscd.contact_problem.ConstraintSystem` H, M^-1, q and the
+    bodies' centres it came from).
     """
 
     n_contacts: int
@@ -44,6 +46,7 @@ class StepReport:
     relative_velocity: np.ndarray
     images: np.ndarray | None = None
     problem: object | None = None
+    system: object | None = None
     explicit: bool = False
 
     @property

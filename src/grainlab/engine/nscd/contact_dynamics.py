@@ -138,7 +138,7 @@ from grainlab.engine.boundaries.boundary import (
 from grainlab.engine.gyroscopic import gyroscopic_spins
 from grainlab.engine.nscd.contact_colouring import colour_contacts, slab_contacts
 from grainlab.engine.nscd.contact_problem import (
-    assemble_problem,
+    constraint_system,
     project_on_cones,
 )
 from grainlab.engine.nscd.contact_update import closing_velocities_kernel
@@ -372,8 +372,9 @@ class ContactDynamicsStep:
             self.change_tolerance
         settings = SolveSettings(float(h), float(self.tolerance), float(change_tolerance),
                                  int(self.max_iterations))
-        problem = assemble_problem(rows, bodies, wall_rows, cell, h) if self.keep_problem \
-            else None
+        system = constraint_system(rows, bodies, wall_rows, cell, h, centres=predicted.x_m) \
+            if self.keep_problem else None
+        problem = None if system is None else system.problem(rows.mu)
         keys = contact_keys(contacts, state.n_bodies, library)
         impulses = h * np.einsum("cij,cj->ci", rows.frame, self._warm_start_forces(keys))
         if self.warm_start_extrapolation > 0.0:
@@ -402,7 +403,7 @@ class ContactDynamicsStep:
             change=change, residual=residual,
             max_overlap=float(max(0.0, -contacts.gap.min())) if n_contacts else 0.0,
             contacts=contacts, frames=rows.frame, impulses=impulses,
-            relative_velocity=relative, images=images, problem=problem,
+            relative_velocity=relative, images=images, problem=problem, system=system,
         )
 
     def _predict(self, state: BodyState, bounds) -> _Predicted:

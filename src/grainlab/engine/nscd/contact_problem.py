@@ -159,23 +159,30 @@ class ConstraintSystem:
     """The parts of a step's plain problem before the Delassus product: ``constraints`` H
     (3C, n_dofs) (rows 3a .. 3a + 2: contact a's (n, t, s)), ``inverse_mass`` M^-1
     (n_dofs, n_dofs) [1/kg, 1/(kg m^2)] and ``free_velocity`` q (3C,) [m/s]
-    (:func:`constraint_system`); W = H M^-1 H^T."""
+    (:func:`constraint_system`); W = H M^-1 H^T. ``centres`` (N, 3) [m]: the bodies'
+    centres H's arms start from (the step's detection configuration), where given; the
+    rigid motions of groups of bodies need them
+    (:mod:`~grainlab.engine.nscd.rigid_clusters`)."""
 
     constraints: sp.csr_matrix
     inverse_mass: sp.csr_matrix
     free_velocity: np.ndarray
+    centres: np.ndarray | None = None
+
+    def problem(self, friction) -> FrictionalContactProblem:
+        """The plain problem (W = H M^-1 H^T, q, ``friction`` mu (C,))."""
+        h_matrix = self.constraints
+        return FrictionalContactProblem((h_matrix @ self.inverse_mass @ h_matrix.T).tocsr(),
+                                        self.free_velocity, friction)
 
 
 def assemble_problem(contacts, bodies, walls, cell, dt) -> FrictionalContactProblem:
     """The plain problem (W, q, mu) of a contact-dynamics step (:func:`constraint_system`,
     then W = H M^-1 H^T)."""
-    system = constraint_system(contacts, bodies, walls, cell, dt)
-    h_matrix = system.constraints
-    delassus = (h_matrix @ system.inverse_mass @ h_matrix.T).tocsr()
-    return FrictionalContactProblem(delassus, system.free_velocity, contacts.mu)
+    return constraint_system(contacts, bodies, walls, cell, dt).problem(contacts.mu)
 
 
-def constraint_system(contacts, bodies, walls, cell, dt) -> ConstraintSystem:
+def constraint_system(contacts, bodies, walls, cell, dt, centres=None) -> ConstraintSystem:
     """H, M^-1 and q of a contact-dynamics step, from the arrays its kernels
     take (:func:`~grainlab.engine.nscd.serial_sweep.nlgs_kernel`: the named tuples of
     :mod:`~grainlab.engine.nscd.sweep_arrays`, same names, units and conventions):
@@ -190,7 +197,8 @@ def constraint_system(contacts, bodies, walls, cell, dt) -> ConstraintSystem:
     (``cell.inv_mass[d]`` > 0). Rows of H for contact k (body j, minus body i): F_k (v -
     [r] w) for a body, -F_k n_w for a wall w on side i, F_k H_d m_k for cell dof d when body
     j is the image m_k. q = H v_free + F_k (hdot_fixed m_k) + g*_k / h e_n, with the free
-    values of every degree of freedom."""
+    values of every degree of freedom. ``centres`` (N, 3) [m]: the bodies' centres the arms
+    start from, kept in the result (:attr:`ConstraintSystem.centres`)."""
     body_i = np.asarray(contacts.body_i, dtype=np.int64)
     frame = np.asarray(contacts.frame, dtype=np.float64).reshape(-1, 3, 3)
     n_contacts = body_i.size
@@ -243,7 +251,9 @@ def constraint_system(contacts, bodies, walls, cell, dt) -> ConstraintSystem:
                 rate += cell_free[d] * cell_basis[d]
         q[crossing] += np.einsum("cij,cj->ci", frame[crossing], images[crossing] @ rate.T)
     q[:, 0] += np.asarray(contacts.gap, dtype=np.float64).reshape(n_contacts) / float(dt)
-    return ConstraintSystem(h_matrix, inverse_mass, q.ravel())
+    return ConstraintSystem(h_matrix, inverse_mass, q.ravel(),
+                            None if centres is None else
+                            np.array(centres, dtype=np.float64).reshape(n_bodies, 3))
 
 
 def _inverse_mass(inv_mass: np.ndarray, inv_inertia: np.ndarray,
