@@ -35,7 +35,7 @@ nb_execution_mode = "force"
 """Tutorials are executed at every build: a tutorial that no longer runs fails the build."""
 nb_execution_timeout = 900
 nb_execution_raise_on_error = True
-exclude_patterns = ["_build", "**/.ipynb_checkpoints", "reference/cli_commands.md",
+exclude_patterns = ["_build", "studies/**", "**/.ipynb_checkpoints", "reference/cli_commands.md",
                     "reference/config_keys_table.md", "reference/result_columns_table.md",
                     "reference/lab_tests_table.md", "reference/citations_table.md"]
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
