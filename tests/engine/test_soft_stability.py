@@ -39,20 +39,24 @@ def assembled(elem_i, elem_j, normal, arm_i, arm_j, law, masses, inertia_tensors
     n = masses.shape[0]
     stiffness, damping = np.zeros((6 * n, 6 * n)), np.zeros((6 * n, 6 * n))
     for e in range(elem_j.shape[0]):
+        # the contact's rows on its bodies' 12 (or, against a wall, 6) degrees of freedom
         i, j = elem_i[e], elem_j[e]
-        g, spin = np.zeros((3, 6 * n)), np.zeros((3, 6 * n))
-        g[:, 6 * j:6 * j + 3] = np.eye(3)
-        g[:, 6 * j + 3:6 * j + 6] = -cross(arm_j[e])
-        spin[:, 6 * j + 3:6 * j + 6] = np.eye(3)
+        bodies = [j] if i < 0 else [j, i]
+        g, spin = np.zeros((3, 6 * len(bodies))), np.zeros((3, 6 * len(bodies)))
+        g[:, 0:3] = np.eye(3)
+        g[:, 3:6] = -cross(arm_j[e])
+        spin[:, 3:6] = np.eye(3)
         if i >= 0:
-            g[:, 6 * i:6 * i + 3] -= np.eye(3)
-            g[:, 6 * i + 3:6 * i + 6] += cross(arm_i[e])
-            spin[:, 6 * i + 3:6 * i + 6] -= np.eye(3)
+            g[:, 6:9] = -np.eye(3)
+            g[:, 9:12] = cross(arm_i[e])
+            spin[:, 9:12] = -np.eye(3)
+        dofs = np.concatenate([np.arange(6 * b, 6 * b + 6) for b in bodies])
+        block = np.ix_(dofs, dofs)
         nn = np.outer(normal[e], normal[e])
         kn, kt, cn, ct, kr = law[e]
-        stiffness += g.T @ (kt * np.eye(3) + (kn - kt) * nn) @ g
-        stiffness += spin.T @ (kr * (np.eye(3) - nn)) @ spin
-        damping += g.T @ (ct * np.eye(3) + (cn - ct) * nn) @ g
+        stiffness[block] += g.T @ (kt * np.eye(3) + (kn - kt) * nn) @ g
+        stiffness[block] += spin.T @ (kr * (np.eye(3) - nn)) @ spin
+        damping[block] += g.T @ (ct * np.eye(3) + (cn - ct) * nn) @ g
     root = np.zeros((6 * n, 6 * n))
     for b in range(n):
         root[6 * b:6 * b + 3, 6 * b:6 * b + 3] = np.eye(3) / math.sqrt(masses[b])
