@@ -178,3 +178,30 @@ def test_workers_take_their_thread_count_from_their_start(tmp_path):
                           env=environ, cwd=tmp_path, timeout=240)
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.split() == ["worker", "1", "parent", "None"]
+
+
+def test_samples_with_a_checkpoint_run_first_then_in_the_order_asked(tmp_path, monkeypatch):
+    """One worker takes the samples one at a time: the one that has a checkpoint first,
+    then the others in the order ``only`` names them (not the study's order)."""
+    from distributed import LocalCluster
+
+    study = Study.create(tmp_path / "s", tiny_spec(("a", "b", "c", "d")))
+    partial = study.sample_folder("c")
+    partial.mkdir(parents=True)
+    (partial / CHECKPOINT).write_bytes(b"")  # what sample_state reads: c has begun
+    order = tmp_path / "order.txt"
+
+    def record(folder, config, stop_file, threads):  # the sample task, without the run
+        name = os.path.basename(folder)
+        with open(order, "a") as taken:  # the task may be a copy: it writes what it takes
+            taken.write(name + "\n")
+        return {"name": name, "was": "", "resumed": name == "c", "state": "ended"}
+
+    monkeypatch.setattr(study_runner, "run_sample", record)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=":0") as cluster:
+        outcome = study.run(scheduler=cluster.scheduler_address, progress=False,
+                            only=["d", "b", "c"])
+    assert order.read_text().split() == ["c", "d", "b"]
+    assert outcome.ran == ["c", "d", "b"] and outcome.resumed == ["c"]
+    assert "a" not in outcome.skipped  # left as it is, neither run nor counted

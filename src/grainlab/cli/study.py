@@ -38,8 +38,9 @@ _N = typer.Option(None, "--n-particles", "-n", min=2, help=(
 _LENGTH = typer.Option("short", "--length", help="; ".join(
     f"{name}: {length.text}" for name, length in LENGTHS.items()) + ".")
 _ONLY = typer.Option(None, "--only", help=(
-    "Run only these samples (comma-separated names, e.g. S1,S8); the others are left as they "
-    "are, and the report covers every sample that has ended."))
+    "Run only these samples (comma-separated names, e.g. S1,S8), in this order, those with a "
+    "checkpoint first; the others are left as they are, and the report covers every sample "
+    "that has ended."))
 _BOUNDARY = typer.Option("walls", "--boundary", help="; ".join(
     f"{name}: {words}" for name, words in BOUNDARIES.items()) + ".")
 _SEED = typer.Option(0, "--seed", min=0, help="Seed of the sphere packing shared by the "

@@ -16,7 +16,9 @@ samples are independent, so that is where the parallelism pays), or an existing 
 (``scheduler="tcp://host:8786"``; the study folder must then be at the same path on every
 worker). A sample that has ended is never rerun; one interrupted (Ctrl-C on the study, a
 worker killed, a machine gone) resumes from its last checkpoint the next time the study runs,
-or at once on another worker when Dask retries its task. One display shows every sample's
+or at once on another worker when Dask retries its task. The samples with a checkpoint are
+taken first (:func:`running_order`), so that a study gone on with ends what it began before
+it starts anything new. One display shows every sample's
 stage and progress (read from the samples' progress.json), and the whole study's.
 
 Ctrl-C stops the study cleanly: the study writes its stop file, every running sample
@@ -141,7 +143,8 @@ class Study:
         progress:
             Show the study's display (rich).
         only:
-            Run these samples only (names; the others are left as they are).
+            Run these samples only (names; the others are left as they are), in this order
+            (:func:`running_order`: those with a checkpoint first).
         on_update:
             Called with every sample's progress at each refresh (tests, other displays).
         """
@@ -160,8 +163,8 @@ class Study:
                 if name not in states:
                     raise InputError("only", name, "names of the study's samples: "
                                      + ", ".join(self.spec.names))
-            states = {n: s for n, s in states.items() if n in only}
-        todo = [n for n, s in states.items() if s != "ended"]
+            states = {n: states[n] for n in dict.fromkeys(only)}
+        todo = running_order(states)
         outcome.skipped = [n for n, s in states.items() if s == "ended"]
         start = time.perf_counter()
         if not todo:
@@ -187,13 +190,13 @@ class Study:
         display = _Display(self, todo, progress, on_update)
         try:
             futures = {}
-            for name in todo:
+            for rank, name in enumerate(todo):
                 folder = self.sample_folder(name)
                 folder.parent.mkdir(parents=True, exist_ok=True)
                 config = self.spec.sample_config(name).model_dump()
                 future = client.submit(run_sample, str(folder), config, str(stop), threads,
                                        key=f"grainlab-sample-{name}-{os.getpid()}-{start}",
-                                       pure=False)
+                                       pure=False, priority=len(todo) - rank)
                 futures[future] = name
             display.start()
             pending = as_completed(list(futures), with_results=False)
@@ -312,6 +315,19 @@ class _Display:
     def stop(self) -> None:
         if self.progress is not None:
             self.progress.stop()
+
+
+def running_order(states: dict[str, str]) -> list[str]:
+    """The samples to run, in the order their workers take them: those with a checkpoint
+    ("partial") first, so that work already done ends before new samples start, then the
+    others; within each, the order of ``states`` (the study's, or the order ``only`` names
+    them). Ended samples are left out.
+
+    >>> running_order({"S1": "ended", "S2": "new", "S3": "started", "S4": "partial"})
+    ['S4', 'S2', 'S3']
+    """
+    left = [name for name, state in states.items() if state != "ended"]
+    return sorted(left, key=lambda name: states[name] != "partial")
 
 
 def _logger(folder: Path) -> logging.Logger:
