@@ -205,3 +205,46 @@ def test_samples_with_a_checkpoint_run_first_then_in_the_order_asked(tmp_path, m
     assert order.read_text().split() == ["c", "d", "b"]
     assert outcome.ran == ["c", "d", "b"] and outcome.resumed == ["c"]
     assert "a" not in outcome.skipped  # left as it is, neither run nor counted
+
+
+def test_grainlab_study_stop_from_another_shell_stops_the_running_samples(tmp_path,
+                                                                          monkeypatch):
+    """``grainlab study stop FOLDER`` writes the file the running samples look for: each
+    returns interrupted, the study ends not complete and removes the file."""
+    import threading
+    import time
+    from pathlib import Path
+
+    from distributed import LocalCluster
+    from typer.testing import CliRunner
+
+    from grainlab.cli.main import app
+
+    study = Study.create(tmp_path / "s", tiny_spec(("a",)))
+    started = tmp_path / "started"
+
+    def wait_for_stop(folder, config, stop_file, threads):  # a sample that runs until asked
+        started.touch()
+        deadline = time.monotonic() + 60.0
+        while not Path(stop_file).exists() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        return {"name": "a", "was": "new", "resumed": False,
+                "state": "interrupted" if Path(stop_file).exists() else "ended"}
+
+    monkeypatch.setattr(study_runner, "run_sample", wait_for_stop)
+    outcomes = []
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=":0") as cluster:
+        running = threading.Thread(target=lambda: outcomes.append(study.run(
+            scheduler=cluster.scheduler_address, progress=False)))
+        running.start()
+        deadline = time.monotonic() + 60.0
+        while not started.exists() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        result = CliRunner().invoke(app, ["study", "stop", str(study.folder)])
+        running.join(timeout=60.0)
+    assert result.exit_code == 0 and "checkpoint" in result.output
+    assert outcomes and outcomes[0].interrupted == ["a"] and not outcomes[0].complete
+    assert not (study.folder / "stop-requested").exists()
+    refused = CliRunner().invoke(app, ["study", "stop", str(tmp_path / "nothing")])
+    assert refused.exit_code != 0 and "study.toml" in refused.output

@@ -314,6 +314,16 @@ def _status_rows(study: Study) -> list[tuple[str, ...]]:
     return rows
 
 
+def _study_folders(folder: Path) -> list[Path]:
+    """``folder`` if it is a study folder, else the study folders in it (a size check)."""
+    studies = [folder] if (folder / SPEC).exists() else \
+        sorted(p for p in folder.iterdir() if (p / SPEC).exists()) if folder.is_dir() else []
+    if not studies:
+        raise InputError("FOLDER", str(folder), f"a study folder (with a {SPEC}) or a folder "
+                         "of studies (a size check)")
+    return studies
+
+
 @app.command("status")
 @friendly_errors
 def status_command(
@@ -324,11 +334,7 @@ def status_command(
     last written; every study of a size check."""
     from rich.table import Table
 
-    studies = [folder] if (folder / SPEC).exists() else \
-        sorted(p for p in folder.iterdir() if (p / SPEC).exists()) if folder.is_dir() else []
-    if not studies:
-        raise InputError("FOLDER", str(folder), f"a study folder (with a {SPEC}) or a folder "
-                         "of studies (a size check)")
+    studies = _study_folders(folder)
     for path in studies:
         study = Study.open(path)
         table = Table(title=f"{path} ({study.spec.study.description or study.spec.study.name})")
@@ -340,3 +346,20 @@ def status_command(
         console.print(table)
         ended = sum(row[1] == "ended" for row in rows)
         console.print(f"{ended} of {len(rows)} samples ended")
+
+
+@app.command("stop")
+@friendly_errors
+def stop_command(
+    folder: Path = typer.Argument(..., help="A study folder or a size-check folder."),
+) -> None:
+    """Ask a running study to stop as Ctrl-C does, from another shell (a study started in the
+    background, under nohup or on a cluster): it writes the study's stop file, every running
+    sample checkpoints and returns, and the study command ends, saying how to go on (the same
+    command again). A study not running finds the file gone when it next starts."""
+    from grainlab.study.sample_task import STOP_FILE
+
+    studies = _study_folders(folder)
+    for path in studies:
+        (path / STOP_FILE).touch()
+        console.print(f"{path}: asked its running samples to checkpoint and stop")
