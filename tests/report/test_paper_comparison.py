@@ -133,3 +133,22 @@ def test_a_core_missing_in_one_sample_is_not_compared():
     row = comparison[comparison["quantity"] == "S*"].iloc[0]
     assert row["core"] == "-" and row["whole_box_agrees"]
     assert "**agrees** (whole box)" in comparison_markdown(comparison)
+
+
+def test_one_sample_is_not_judged_along_the_series_and_a_cell_has_no_core_column():
+    """A study with its first sample ended: the first value is read against the paper's, the
+    series' claims are 'not judged' (never 'agrees' on nothing); a periodic cell's table has
+    no core column and names the whole cell."""
+    table = _as_the_paper(NONCONVEXITY, ETA)[:1]
+    comparison = paper_comparison(table, "eta")
+    assert not comparison["whole_box_agrees"].any()
+    by_quantity = dict(zip(comparison["quantity"], comparison["whole_box_verdict"],
+                           strict=True))
+    assert by_quantity["Z_c0"].startswith("first as the paper's 6")  # spheres: read
+    assert "not judged" in by_quantity["Z_c0"] and "not judged" in by_quantity["S*"]
+    box = comparison_markdown(comparison)
+    cell = comparison_markdown(comparison, cell=True)
+    assert "**agrees**" not in box and "**not judged** (core)" in box
+    assert cell.splitlines()[0] == "| quantity | paper | grainlab, whole cell | verdict |"
+    assert all(line.count("|") == 5 for line in cell.splitlines())
+    assert "**not judged** (whole cell)" in cell and "core" not in cell

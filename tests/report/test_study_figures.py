@@ -275,3 +275,28 @@ def test_window_averaged_polar_diagrams_and_force_pdfs_of_the_report(tmp_path):
     lo, hi = x[near] - 0.1, x[near] + 0.1  # bins of width 0.2 about the centres
     expected = (np.exp(-lo) - np.exp(-hi)) / 0.2
     np.testing.assert_allclose(density[near], expected, rtol=0.12)
+
+
+def test_without_a_core_the_figures_and_report_do_not_speak_of_a_box(tmp_path):
+    """A periodic cell has no walls: its packing fraction and connectivity are drawn without
+    the words "whole box", and the report calls its study periodic (a box study: not)."""
+    from grainlab.report.study_figures import connectivity_figure, packing_fraction_figure
+    from grainlab.report.study_report import periodic_study
+    from grainlab.study.series_presets import series_spec
+    from grainlab.study.study_runner import Study
+
+    table = summary_by_hand(with_micro=True)
+    for make in (packing_fraction_figure, connectivity_figure):
+        labels = make(table, "eta").axes[0].get_legend_handles_labels()[1]
+        assert labels and not any("box" in label or "core" in label for label in labels)
+    assert "residual" in packing_fraction_figure(table, "eta").axes[0] \
+        .get_legend_handles_labels()[1]
+    table["coordination_number_core_residual"] = 6.0
+    labels = connectivity_figure(table, "eta").axes[0].get_legend_handles_labels()[1]
+    assert "z, whole box residual" in labels and "z, core residual" in labels
+
+    names = pd.DataFrame({"name": ["eta-0.0", "eta-0.7"]})
+    cell = Study.create(tmp_path / "cell", series_spec("nonconvexity", n_particles=40,
+                                                        boundary="periodic"))
+    box = Study.create(tmp_path / "box", series_spec("nonconvexity", n_particles=40))
+    assert periodic_study(cell, names) and not periodic_study(box, names)

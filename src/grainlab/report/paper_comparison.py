@@ -120,12 +120,21 @@ def _against(value: float, std: float, paper: float, tolerance: float, where: st
     return f"{where} {'above' if gap > 0 else 'below'} the paper's {paper:g} by {abs(gap):.3g}"
 
 
+ONE_SAMPLE = "one sample: the series is not judged yet"
+"""The verdict's words where a study has one sample ended (a series still running)."""
+
+
 def verdict(claim: PaperClaim, values: np.ndarray, stds: np.ndarray,
             parameter: np.ndarray) -> tuple[str, bool]:
     """(the one-line verdict on ``values`` (and their error bars ``stds``) of the samples at
     ``parameter``, whether every part of the claim agrees)."""
+    if len(values) < 2 and claim.first is None:
+        return ONE_SAMPLE, False
     parts, agree = [], True
     checks = []
+    if len(values) < 2:  # the first sample only: the rest of the claim waits for the series
+        check = _against(values[0], stds[0], claim.first, claim.tolerance, "first")
+        return f"{check}; {ONE_SAMPLE}", False
     if claim.first is not None:
         checks.append(_against(values[0], stds[0], claim.first, claim.tolerance, "first"))
     if claim.last is not None:
@@ -212,17 +221,21 @@ def paper_comparison(table: pd.DataFrame, parameter: str) -> pd.DataFrame:
                                        "core_verdict", "core_agrees"])
 
 
-def comparison_markdown(comparison: pd.DataFrame) -> str:
+def comparison_markdown(comparison: pd.DataFrame, cell: bool = False) -> str:
     """The comparison as a Markdown table: quantity, paper, whole box, core, verdict (the
-    core's, where the core has values: the bulk, free of the wall layer)."""
-    lines = ["| quantity | paper | grainlab, whole box | grainlab, core | verdict |",
-             "|---|---|---|---|---|"]
+    core's, where the core has values: the bulk, free of the wall layer). A periodic
+    ``cell`` has no walls and no core: quantity, paper, whole cell, verdict."""
+    whole = "whole cell" if cell else "whole box"
+    lines = ([f"| quantity | paper | grainlab, {whole} | verdict |", "|---|---|---|---|"]
+             if cell else
+             [f"| quantity | paper | grainlab, {whole} | grainlab, core | verdict |",
+              "|---|---|---|---|---|"])
     for _, row in comparison.iterrows():
-        use_core = row["core"] != "-"
+        use_core = row["core"] != "-" and not cell
         text = row["core_verdict"] if use_core else row["whole_box_verdict"]
         mark = "agrees" if (row["core_agrees"] if use_core else row["whole_box_agrees"]) \
-            else "differs"
-        lines.append(f"| {row['quantity']} | {row['paper']} | {row['whole_box']} | "
-                     f"{row['core']} | **{mark}** ({'core' if use_core else 'whole box'}): "
-                     f"{text} |")
+            else "not judged" if ONE_SAMPLE in text else "differs"
+        core = "" if cell else f"{row['core']} | "
+        lines.append(f"| {row['quantity']} | {row['paper']} | {row['whole_box']} | {core}"
+                     f"**{mark}** ({'core' if use_core else whole}): {text} |")
     return "\n".join(lines)

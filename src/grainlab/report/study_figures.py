@@ -189,16 +189,22 @@ def strength_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
 def _initial_residual(table: pd.DataFrame, symbol: str, stems: Sequence[tuple[str, str]],
                       ylabel: str) -> Figure | None:
     """Initial and residual values of each (column stem, label), as the summary gives them
-    (whole box or core: the stems say which)."""
+    (whole box or core: the stems say which; with no core value at all, as in a periodic
+    cell, the whole sample's without the words "whole box")."""
     if not any(_has(table, f"{s}_initial") or _has(table, f"{s}_residual") for s, _ in stems):
         return None
+    if not any(_has(table, f"{s}_initial") or _has(table, f"{s}_residual")
+               for s, _ in stems if "core" in s):  # no core (a periodic cell): no "whole box"
+        stems = [(s, label.replace("whole box", "").strip(", ")) for s, label in stems
+                 if "core" not in s]
     figure, ax = new_figure_axes()
     markers = "osD^v<>"
     for k, (stem, label) in enumerate(stems):
         if _has(table, f"{stem}_initial"):
             ax.plot(_x(table), table[f"{stem}_initial"], markers[k % 7] + "--", mfc="none",
-                    label=f"{label} initial")
-        _errorbar(ax, table, stem, f"{label} residual", marker=markers[k % 7], core=False)
+                    label=f"{label} initial".strip())
+        _errorbar(ax, table, stem, f"{label} residual".strip(), marker=markers[k % 7],
+                  core=False)
     ax.set_ylabel(ylabel)
     return _finish(figure, (ax,), symbol)
 

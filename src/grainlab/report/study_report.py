@@ -103,6 +103,7 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
     from grainlab.report.run_curves import shear_from_its_start
     from grainlab.result.test_result import read_test_result
     spec = study.spec
+    cell = periodic_study(study, table)
     replicated = "n_seeds" in table and bool((table["n_seeds"] > 1).any())
     if "n_seeds" in table and not replicated:
         table = table.drop(columns="n_seeds")
@@ -131,7 +132,8 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
     profile = _wall_profiles(study, table, out, labels, spec.study.core_margin)
     if profile is not None:
         figures.append(profile)
-    networks = _window_distributions(study, table, out) + _force_networks(study, table, out)
+    networks = _window_distributions(study, table, out, "whole cell" if cell else "whole box") \
+        + _force_networks(study, table, out)
     lo, hi = spec.study.window
     total = float(pd.to_numeric(table["wall_time"], errors="coerce").sum())
     text = [
@@ -152,6 +154,8 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
         f"- peak (q/p)+: the largest running mean of q/p over eps_q windows of width "
         f"{spec.study.peak_window:g} (the largest single row, biased up by the rows' "
         "fluctuations, is `q_over_trace_peak_raw` in summary.csv)",
+        "- periodic cell: no walls, so no wall layer and no core; every value is over the "
+        "whole cell (for z and z_c, the rattlers included)" if cell else
         f"- core: the particles at least {spec.study.core_margin:g} mean diameters from every "
         "wall (columns and labels marked core; the others are over the whole box, the wall "
         "layer and, for z and z_c, the rattlers included); see the wall profile below",
@@ -170,21 +174,29 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
         n = int(table["n_particles"].max())
         comparison = paper_comparison(table, spec.study.parameter)
         comparison.to_csv(out / "against_the_paper.csv", index=False)
+        where = ("over the whole cell (± the standard deviation over the residual window, or "
+                 "over the seeds where a sample is pooled; none for a single initial state), "
+                 "and a verdict on them" if cell else
+                 "over the whole box and over the core (± the standard deviation over the "
+                 "residual window; none for the initial state), and a verdict on the core's "
+                 "values (the whole box's where the core has none)")
+        size = (f"The samples here hold {n} particles at most, in a periodic cell about "
+                f"{n ** (1 / 3):.0f} particles wide, where the papers' held 12 000 to 40 000: "
+                "there is no wall layer, but the residual values fluctuate more (the error "
+                "bars), so trends are to be compared, not values to the second decimal."
+                if cell else
+                f"The samples here hold {n} particles at most, in a box of walls about "
+                f"{n ** (1 / 3):.0f} particles wide, where the papers' held 12 000 to "
+                "40 000: the walls order the particles next to them (the whole-box packing "
+                "fraction and z include that layer; the core's values leave it out, over "
+                "fewer particles), and the residual values fluctuate more (the error bars), "
+                "so trends are to be compared, not values to the second decimal.")
         text += ["## Against the paper", "",
                  "Each quantity the paper reports along its series, grainlab's first and last "
-                 "sample over the whole box and over the core (± the standard deviation over "
-                 "the residual window; none for the initial state), and a verdict on the "
-                 "core's values (the whole box's where the core has none): a value agrees "
-                 "within the stated tolerance plus two standard deviations "
-                 "(`grainlab.report.paper_comparison`; both verdicts are in "
-                 "`against_the_paper.csv`).", "", comparison_markdown(comparison), "",
-                 "## The papers' values", "", PAPERS[spec.study.parameter], "",
-                 f"The samples here hold {n} particles at most, in a box of walls about "
-                 f"{n ** (1 / 3):.0f} particles wide, where the papers' held 12 000 to "
-                 "40 000: the walls order the particles next to them (the whole-box packing "
-                 "fraction and z include that layer; the core's values leave it out, over "
-                 "fewer particles), and the residual values fluctuate more (the error bars), "
-                 "so trends are to be compared, not values to the second decimal.", ""]
+                 f"sample {where}: a value agrees within the stated tolerance plus two "
+                 "standard deviations (`grainlab.report.paper_comparison`; the verdicts are in "
+                 "`against_the_paper.csv`).", "", comparison_markdown(comparison, cell), "",
+                 "## The papers' values", "", PAPERS[spec.study.parameter], "", size, ""]
     text += ["## Figures", ""]
     for title, name in figures + networks:
         text += [f"### {title}", "", f"![{title}]({name})", ""]
@@ -205,9 +217,18 @@ def _picked(table: pd.DataFrame) -> list[str]:
     return list(dict.fromkeys([names[0], names[len(names) // 2], names[-1]]))
 
 
-def _window_distributions(study, table: pd.DataFrame, out: Path) -> list[tuple[str, str]]:
+def periodic_study(study, table: pd.DataFrame) -> bool:
+    """Whether every ended sample of ``study`` (the rows of ``table``) ran in a periodic cell
+    (no walls: no wall layer, no core)."""
+    names = list(table["name"]) or list(study.spec.names)
+    return all(study.spec.sample_config(name).sample.boundary == "periodic" for name in names)
+
+
+def _window_distributions(study, table: pd.DataFrame, out: Path,
+                          whole: str = "whole box") -> list[tuple[str, str]]:
     """Polar diagrams and force PDFs of the first, middle and last sample, averaged over the
-    snapshots in the residual window (the core's contacts where the sample has a box)."""
+    snapshots in the residual window (the core's contacts where the sample has a box; else
+    ``whole``: "whole box", or "whole cell" for a periodic one)."""
     from grainlab.analysis.window_average import WindowAverage
     from grainlab.errors import InputError
     from grainlab.lab.discrete_run import SNAPSHOTS
@@ -229,13 +250,14 @@ def _window_distributions(study, table: pd.DataFrame, out: Path) -> list[tuple[s
             except InputError:  # no snapshot in the window
                 continue
             where = "core" if average.last is not None and average.last.core_parts \
-                else "whole box"
+                else whole
             distributions, n_snapshots = average.distributions, average.n_snapshots
         else:  # a slimmed sample: its digest's average
             kept = read_window(folder, (lo, hi))
             if kept is None:
                 continue
             distributions, n_snapshots, where = kept
+            where = whole if where == "whole box" else where  # a digest's words for the bulk
         span = f"{n_snapshots} snapshots, eps_q in [{lo:g}, {hi:g}], {where}"
         for stem, make, title in (("polar", averaged_polar_figure, "Angular distributions"),
                                   ("force_pdfs", averaged_force_pdf_figure, "Force PDFs")):
