@@ -15,6 +15,7 @@ from grainlab.engine.detect.periodic_detection import (
     PeriodicDetection,
     periodic_contacts_slow,
 )
+from grainlab.engine.detect.polyhedron_narrow_phase import world_polyhedra
 from grainlab.engine.quaternion import quat_multiply, quat_to_matrices
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import InputError
@@ -411,6 +412,41 @@ def test_detection_does_not_depend_on_the_number_of_threads():
                  "contact_type"):
         np.testing.assert_array_equal(getattr(one.contacts, name), getattr(many.contacts, name))
     np.testing.assert_array_equal(one.images, many.images)
+
+
+def test_the_polyhedra_pairs_tested_at_once_give_each_pair_s_own_rows_in_order():
+    """The narrow phase tests the polyhedra's pairs on the threads, then writes them in the
+    pairs' order: the rows of all the pairs at once are those of each pair detected alone,
+    one after the other, bit for bit, on one thread or on all of them (polyhedra with
+    polyhedra, with aggregates and with spheres in one library)."""
+    library, state, _ = random_sample("mixed", n=90, seed=4, far=False)
+    reach = library.bounding_radius[state.shape_ids]
+    gaps = np.linalg.norm(state.positions[:, None] - state.positions[None], axis=2) \
+        - reach[:, None] - reach[None]
+    pairs = np.argwhere(np.triu(gaps <= ALERT, 1))
+    is_poly = world_polyhedra(state, library).is_poly
+    with_polyhedron = is_poly[pairs[:, 0]] | is_poly[pairs[:, 1]]
+    # the sphere-based pairs' rows come first, then those of the pairs with a polyhedron
+    pairs = np.concatenate([pairs[~with_polyhedron], pairs[with_polyhedron]])
+    detection = NarrowPhase(ALERT)
+    names = ("body_i", "body_j", "member_i", "member_j", "gap", "normal", "point",
+             "contact_type")
+    alone = [detection.detect(state, library, pair[None]) for pair in pairs]
+    threads = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = detection.detect(state, library, pairs)
+    finally:
+        numba.set_num_threads(threads)
+    many = detection.detect(state, library, pairs)
+    kinds = set(np.unique(many.contact_type).tolist())
+    assert {1, 2, 3, 4} & kinds and 0 in kinds  # polyhedron pairs and sphere-based rows
+    assert (is_poly[pairs[:, 0]] & is_poly[pairs[:, 1]]).sum() >= 10
+    assert (is_poly[pairs[:, 0]] != is_poly[pairs[:, 1]]).sum() >= 10
+    for name in names:
+        expected = np.concatenate([getattr(c, name) for c in alone])
+        np.testing.assert_array_equal(getattr(one, name), expected, err_msg=name)
+        np.testing.assert_array_equal(getattr(many, name), expected, err_msg=name)
 
 
 # --------------------------------------------------------------------------------------------

@@ -212,44 +212,55 @@ def _features(b, s, polyhedra, topology):
                           t.vertex_neighbour_start)
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def polyhedron_pairs_kernel(pairs, shape_ids, positions, polyhedra, topology, spheres,
                             settings, start, rows):
     """Contacts (gap <= ``settings.alert``) of the candidate pairs (P, 2) with at least one
     polyhedron (``polyhedra``: :class:`WorldPolyhedra`; ``topology``:
     :class:`ShapeTopology`; ``spheres``: :class:`MemberSpheres`; ``settings``:
     :class:`ManifoldSettings`) into ``rows`` (:class:`ContactBuffers`), written from row
-    ``start``; returns start + rows needed."""
-    row = start
+    ``start``; returns start + rows needed.
+
+    Two passes: the polyhedron-polyhedron pairs are tested in parallel, each into its own
+    slots (at most ``MAX_POINTS`` points), then every pair's rows are written in the pairs'
+    order (a polyhedron-sphere pair's rows then, in that serial pass). Each pair's test is
+    independent of the others, so the rows, their order and every bit of them do not depend
+    on the number of threads."""
     is_poly, fv, nbrs = polyhedra.is_poly, topology.face_vertices, topology.vertex_neighbours
     alert = settings.alert
-    n_out = np.empty(3)
-    pts = np.empty((MAX_POINTS, 3))
-    gps = np.empty(MAX_POINTS)
-    ida = np.empty(MAX_POINTS, dtype=np.int64)
-    idb = np.empty(MAX_POINTS, dtype=np.int64)
-    nrm = np.empty((MAX_POINTS, 3))
-    for p in range(pairs.shape[0]):
+    n_pairs = pairs.shape[0]
+    counts = np.zeros(n_pairs, dtype=np.int64)
+    codes = np.zeros(n_pairs, dtype=np.int64)
+    pts = np.empty((n_pairs, MAX_POINTS, 3))
+    gps = np.empty((n_pairs, MAX_POINTS))
+    ida = np.empty((n_pairs, MAX_POINTS), dtype=np.int64)
+    idb = np.empty((n_pairs, MAX_POINTS), dtype=np.int64)
+    nrm = np.empty((n_pairs, MAX_POINTS, 3))
+    n_out = np.empty((n_pairs, 3))
+    for p in prange(n_pairs):
         i, j = pairs[p, 0], pairs[p, 1]
-        if not (is_poly[i] or is_poly[j]):
+        if not (is_poly[i] and is_poly[j]):
             continue
-        si, sj = shape_ids[i], shape_ids[j]
+        va, na, oa, fsa, ea, efa, nsa = _features(i, shape_ids[i], polyhedra, topology)
+        vb, nb, ob, fsb, eb, efb, nsb = _features(j, shape_ids[j], polyhedra, topology)
+        g, found = signed_distance(
+            va, na, oa, fsa, fv, ea, efa, nsa, nbrs, positions[i],
+            vb, nb, ob, fsb, fv, eb, efb, nsb, nbrs, positions[j], alert, n_out[p])
+        if not found:
+            continue
+        counts[p], codes[p] = pair_manifold(
+            va, na, oa, fsa, fv, ea, efa, nsa, nbrs, vb, nb, ob, fsb, fv, eb, efb, nsb, nbrs,
+            g, n_out[p], alert, settings.cos_tol, settings.sin_tol, settings.max_points,
+            pts[p], gps[p], nrm[p], ida[p], idb[p])
+    row = start
+    for p in range(n_pairs):
+        i, j = pairs[p, 0], pairs[p, 1]
         if is_poly[i] and is_poly[j]:
-            va, na, oa, fsa, ea, efa, nsa = _features(i, si, polyhedra, topology)
-            vb, nb, ob, fsb, eb, efb, nsb = _features(j, sj, polyhedra, topology)
-            g, found = signed_distance(
-                va, na, oa, fsa, fv, ea, efa, nsa, nbrs, positions[i],
-                vb, nb, ob, fsb, fv, eb, efb, nsb, nbrs, positions[j], alert, n_out)
-            if not found:
-                continue
-            count, code = pair_manifold(
-                va, na, oa, fsa, fv, ea, efa, nsa, nbrs, vb, nb, ob, fsb, fv, eb, efb, nsb, nbrs,
-                g, n_out, alert, settings.cos_tol, settings.sin_tol, settings.max_points, pts,
-                gps, nrm, ida, idb)
-            for r in range(count):
-                _store(row, i, j, ida[r], idb[r], gps[r], nrm[r], pts[r], code, rows)
+            for r in range(counts[p]):
+                _store(row, i, j, ida[p, r], idb[p, r], gps[p, r], nrm[p, r], pts[p, r],
+                       codes[p], rows)
                 row += 1
-        else:
+        elif is_poly[i] or is_poly[j]:
             poly, other = (i, j) if is_poly[i] else (j, i)
             wv, wn, wo, fs, ed, _, _ = _features(poly, shape_ids[poly], polyhedra, topology)
             first = spheres.body_start[other]
