@@ -9,6 +9,7 @@ import numba
 import numpy as np
 import pytest
 
+from grainlab.engine.detect import polyhedron_narrow_phase
 from grainlab.engine.detect.narrow_phase import NarrowPhase
 from grainlab.engine.detect.periodic_detection import (
     PeriodicContacts,
@@ -414,11 +415,15 @@ def test_detection_does_not_depend_on_the_number_of_threads():
     np.testing.assert_array_equal(one.images, many.images)
 
 
-def test_the_polyhedra_pairs_tested_at_once_give_each_pair_s_own_rows_in_order():
-    """The narrow phase tests the polyhedra's pairs on the threads, then writes them in the
-    pairs' order: the rows of all the pairs at once are those of each pair detected alone,
-    one after the other, bit for bit, on one thread or on all of them (polyhedra with
-    polyhedra, with aggregates and with spheres in one library)."""
+@pytest.mark.parametrize("parallel_from", [0, 10**9])
+def test_the_polyhedra_pairs_tested_at_once_give_each_pair_s_own_rows_in_order(
+        monkeypatch, parallel_from):
+    """The narrow phase tests the polyhedra's pairs on the threads (from
+    ``PARALLEL_PAIRS`` pairs on; here from none, or never), then writes them in the pairs'
+    order: the rows of all the pairs at once are those of each pair detected alone, one after
+    the other, bit for bit, on one thread or on all of them (polyhedra with polyhedra, with
+    aggregates and with spheres in one library)."""
+    monkeypatch.setattr(polyhedron_narrow_phase, "PARALLEL_PAIRS", parallel_from)
     library, state, _ = random_sample("mixed", n=90, seed=4, far=False)
     reach = library.bounding_radius[state.shape_ids]
     gaps = np.linalg.norm(state.positions[:, None] - state.positions[None], axis=2) \

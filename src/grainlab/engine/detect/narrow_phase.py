@@ -59,6 +59,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
+from grainlab.engine.detect import polyhedron_narrow_phase
 from grainlab.engine.detect.polyhedron_narrow_phase import (
     ContactBuffers,
     ManifoldSettings,
@@ -373,8 +374,9 @@ class NarrowPhase:
             n_pair = pair_contacts_kernel(
                 pairs, body_start, centres, radii, self.alert, 0, *sphere_rows)
             if any_poly:
-                n_pair = polyhedron_pairs_kernel(poly_pairs, shape_ids, positions, polyhedra,
-                                                 topology, spheres, settings, n_pair, rows)
+                n_pair = polyhedron_pairs_kernel(
+                    poly_pairs, shape_ids, positions, polyhedra, topology, spheres, settings,
+                    n_pair, rows, polyhedron_narrow_phase.PARALLEL_PAIRS)
             n_all = wall_contacts_kernel(
                 points, normals, positions, bounding, body_start, centres, radii, self.alert,
                 n_pair, *sphere_rows)

@@ -212,21 +212,49 @@ def _features(b, s, polyhedra, topology):
                           t.vertex_neighbour_start)
 
 
+PARALLEL_PAIRS = 256
+"""Fewest candidate pairs whose tests :func:`polyhedron_pairs_kernel` runs on the threads;
+fewer run on the calling thread (a parallel region's start costs more than their tests, and
+waits on every thread where the cores are shared)."""
+
+
+@njit(inline="always")
+def _pair_into_slots(p, pairs, shape_ids, positions, polyhedra, topology, settings, counts,
+                     codes, pts, gps, ida, idb, nrm, n_out):
+    """The test of candidate pair p when both bodies are polyhedra: its points into slots p
+    of the scratch arrays and their count into ``counts[p]``, its type into ``codes[p]``."""
+    i, j = pairs[p, 0], pairs[p, 1]
+    if not (polyhedra.is_poly[i] and polyhedra.is_poly[j]):
+        return
+    fv, nbrs = topology.face_vertices, topology.vertex_neighbours
+    va, na, oa, fsa, ea, efa, nsa = _features(i, shape_ids[i], polyhedra, topology)
+    vb, nb, ob, fsb, eb, efb, nsb = _features(j, shape_ids[j], polyhedra, topology)
+    g, found = signed_distance(
+        va, na, oa, fsa, fv, ea, efa, nsa, nbrs, positions[i],
+        vb, nb, ob, fsb, fv, eb, efb, nsb, nbrs, positions[j], settings.alert, n_out[p])
+    if found:
+        counts[p], codes[p] = pair_manifold(
+            va, na, oa, fsa, fv, ea, efa, nsa, nbrs, vb, nb, ob, fsb, fv, eb, efb, nsb, nbrs,
+            g, n_out[p], settings.alert, settings.cos_tol, settings.sin_tol,
+            settings.max_points, pts[p], gps[p], nrm[p], ida[p], idb[p])
+
+
 @njit(cache=True, parallel=True)
 def polyhedron_pairs_kernel(pairs, shape_ids, positions, polyhedra, topology, spheres,
-                            settings, start, rows):
+                            settings, start, rows, parallel_from=PARALLEL_PAIRS):
     """Contacts (gap <= ``settings.alert``) of the candidate pairs (P, 2) with at least one
     polyhedron (``polyhedra``: :class:`WorldPolyhedra`; ``topology``:
     :class:`ShapeTopology`; ``spheres``: :class:`MemberSpheres`; ``settings``:
     :class:`ManifoldSettings`) into ``rows`` (:class:`ContactBuffers`), written from row
     ``start``; returns start + rows needed.
 
-    Two passes: the polyhedron-polyhedron pairs are tested in parallel, each into its own
-    slots (at most ``MAX_POINTS`` points), then every pair's rows are written in the pairs'
-    order (a polyhedron-sphere pair's rows then, in that serial pass). Each pair's test is
+    Two passes: the polyhedron-polyhedron pairs are tested, each into its own slots (at
+    most ``MAX_POINTS`` points), on the threads from ``parallel_from`` pairs on
+    (:data:`PARALLEL_PAIRS`); then every pair's rows are written in the pairs' order (a
+    polyhedron-sphere pair's rows then, in that serial pass). Each pair's test is
     independent of the others, so the rows, their order and every bit of them do not depend
     on the number of threads."""
-    is_poly, fv, nbrs = polyhedra.is_poly, topology.face_vertices, topology.vertex_neighbours
+    is_poly, fv = polyhedra.is_poly, topology.face_vertices
     alert = settings.alert
     n_pairs = pairs.shape[0]
     counts = np.zeros(n_pairs, dtype=np.int64)
@@ -237,21 +265,14 @@ def polyhedron_pairs_kernel(pairs, shape_ids, positions, polyhedra, topology, sp
     idb = np.empty((n_pairs, MAX_POINTS), dtype=np.int64)
     nrm = np.empty((n_pairs, MAX_POINTS, 3))
     n_out = np.empty((n_pairs, 3))
-    for p in prange(n_pairs):
-        i, j = pairs[p, 0], pairs[p, 1]
-        if not (is_poly[i] and is_poly[j]):
-            continue
-        va, na, oa, fsa, ea, efa, nsa = _features(i, shape_ids[i], polyhedra, topology)
-        vb, nb, ob, fsb, eb, efb, nsb = _features(j, shape_ids[j], polyhedra, topology)
-        g, found = signed_distance(
-            va, na, oa, fsa, fv, ea, efa, nsa, nbrs, positions[i],
-            vb, nb, ob, fsb, fv, eb, efb, nsb, nbrs, positions[j], alert, n_out[p])
-        if not found:
-            continue
-        counts[p], codes[p] = pair_manifold(
-            va, na, oa, fsa, fv, ea, efa, nsa, nbrs, vb, nb, ob, fsb, fv, eb, efb, nsb, nbrs,
-            g, n_out[p], alert, settings.cos_tol, settings.sin_tol, settings.max_points,
-            pts[p], gps[p], nrm[p], ida[p], idb[p])
+    if n_pairs >= parallel_from:
+        for p in prange(n_pairs):
+            _pair_into_slots(p, pairs, shape_ids, positions, polyhedra, topology, settings,
+                             counts, codes, pts, gps, ida, idb, nrm, n_out)
+    else:
+        for p in range(n_pairs):
+            _pair_into_slots(p, pairs, shape_ids, positions, polyhedra, topology, settings,
+                             counts, codes, pts, gps, ida, idb, nrm, n_out)
     row = start
     for p in range(n_pairs):
         i, j = pairs[p, 0], pairs[p, 1]
