@@ -207,6 +207,40 @@ def test_samples_with_a_checkpoint_run_first_then_in_the_order_asked(tmp_path, m
     assert "a" not in outcome.skipped  # left as it is, neither run nor counted
 
 
+def test_a_worker_gets_one_sample_at_a_time_so_none_waits_behind_a_long_one(tmp_path,
+                                                                           monkeypatch):
+    """Two workers: c (resumed first) runs long; d, b and e follow on the other worker in the
+    order asked, none queued behind c (sent all at once, Dask would queue b on c's worker and
+    start e before it)."""
+    import time
+    from pathlib import Path
+
+    from distributed import LocalCluster
+
+    study = Study.create(tmp_path / "s", tiny_spec(("b", "c", "d", "e")))
+    (study.sample_folder("c")).mkdir(parents=True)
+    (study.sample_folder("c") / CHECKPOINT).write_bytes(b"")
+    order = tmp_path / "order.txt"
+
+    def record(folder, config, stop_file, threads):
+        name = os.path.basename(folder)
+        with open(order, "a") as taken:
+            taken.write(name + "\n")
+        if name == "c":  # long: until the others have started, or a minute
+            deadline = time.monotonic() + 60.0
+            while "e" not in Path(order).read_text().split() and time.monotonic() < deadline:
+                time.sleep(0.02)
+        return {"name": name, "was": "", "resumed": name == "c", "state": "ended"}
+
+    monkeypatch.setattr(study_runner, "run_sample", record)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                      dashboard_address=":0") as cluster:
+        outcome = study.run(scheduler=cluster.scheduler_address, progress=False,
+                            only=["d", "b", "e", "c"])
+    assert order.read_text().split() in (["c", "d", "b", "e"], ["d", "c", "b", "e"])
+    assert sorted(outcome.ran) == ["b", "c", "d", "e"]
+
+
 def test_grainlab_study_stop_from_another_shell_stops_the_running_samples(tmp_path,
                                                                           monkeypatch):
     """``grainlab study stop FOLDER`` writes the file the running samples look for: each

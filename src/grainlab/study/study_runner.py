@@ -18,7 +18,9 @@ worker). A sample that has ended is never rerun; one interrupted (Ctrl-C on the 
 worker killed, a machine gone) resumes from its last checkpoint the next time the study runs,
 or at once on another worker when Dask retries its task. The samples with a checkpoint are
 taken first (:func:`running_order`), so that a study gone on with ends what it began before
-it starts anything new. One display shows every sample's
+it starts anything new; they are sent to the cluster as its workers free up, as many as it
+runs at once, so none waits queued behind an hours-long sample on a busy worker while a
+later one starts on a free one. One display shows every sample's
 stage and progress (read from the samples' progress.json), and the whole study's.
 
 Ctrl-C stops the study cleanly: the study writes its stop file, every running sample
@@ -188,24 +190,37 @@ class Study:
                  scheduler or f"a local cluster of {len(client.scheduler_info()['workers'])} "
                  "worker(s)", ", ".join(todo))
         display = _Display(self, todo, progress, on_update)
-        try:
-            futures = {}
-            for rank, name in enumerate(todo):
+        waiting = list(todo)  # sent to the cluster as its workers free up, in this order
+        futures: dict[Any, str] = {}
+        pending = as_completed([], with_results=False)
+
+        def send() -> None:
+            """Send the next samples, as many as the cluster runs at once, unless the study
+            is asked to stop."""
+            running = sum(not future.done() for future in futures)
+            while waiting and running < _slots(client) and not stop.exists():
+                name = waiting.pop(0)
                 folder = self.sample_folder(name)
                 folder.parent.mkdir(parents=True, exist_ok=True)
                 config = self.spec.sample_config(name).model_dump()
                 future = client.submit(run_sample, str(folder), config, str(stop), threads,
                                        key=f"grainlab-sample-{name}-{os.getpid()}-{start}",
-                                       pure=False, priority=len(todo) - rank)
+                                       pure=False)
                 futures[future] = name
+                pending.add(future)
+                running += 1
+
+        try:
+            send()
             display.start()
-            pending = as_completed(list(futures), with_results=False)
             try:
-                while not pending.is_empty():
+                while not pending.is_empty() or (waiting and not stop.exists()):
                     for future in pending.next_batch(block=False):
                         self._collect(future, futures[future], outcome, log)
+                    send()
                     display.refresh()
                     time.sleep(DISPLAY_PERIOD)
+                outcome.interrupted += waiting  # asked to stop before they started
             except KeyboardInterrupt:
                 stop.touch()
                 display.on_update = None  # a caller's callback that interrupted is not recalled
@@ -218,7 +233,7 @@ class Study:
                     display.refresh()
                     time.sleep(DISPLAY_PERIOD)
                 left = [futures[f] for f in futures if not f.done()]
-                outcome.interrupted += left
+                outcome.interrupted += left + waiting
                 outcome.wall_time = time.perf_counter() - start
                 raise StudyInterrupted(
                     "study interrupted; every sample that was running checkpointed (or "
@@ -315,6 +330,13 @@ class _Display:
     def stop(self) -> None:
         if self.progress is not None:
             self.progress.stop()
+
+
+def _slots(client) -> int:
+    """How many samples the cluster runs at once: its workers' threads (at least 1; read
+    again each time, so a cluster that grows takes more)."""
+    workers = client.scheduler_info().get("workers", {})
+    return max(1, sum(int(w.get("nthreads", 1)) for w in workers.values()))
 
 
 def running_order(states: dict[str, str]) -> list[str]:
