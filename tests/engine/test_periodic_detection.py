@@ -399,18 +399,27 @@ def test_the_cell_lists_chunks_on_the_threads_give_the_serial_rows(monkeypatch, 
     np.testing.assert_array_equal(serial.images, chunked.images)
 
 
-def test_detection_does_not_depend_on_the_number_of_threads():
-    library, state, cell = random_sample("mixed", seed=2)
-    detection = PeriodicDetection(ALERT)
+CONTACT_FIELDS = ("body_i", "body_j", "member_i", "member_j", "point", "normal", "gap",
+                  "contact_type")
+"""The arrays of a contact table compared bit for bit."""
+
+
+def _on_one_thread(call):
+    """``call()`` run with Numba on one thread (its thread count put back after)."""
     threads = numba.get_num_threads()
     try:
         numba.set_num_threads(1)
-        one = detection.detect(state, library, cell)
+        return call()
     finally:
         numba.set_num_threads(threads)
+
+
+def test_detection_does_not_depend_on_the_number_of_threads():
+    library, state, cell = random_sample("mixed", seed=2)
+    detection = PeriodicDetection(ALERT)
+    one = _on_one_thread(lambda: detection.detect(state, library, cell))
     many = detection.detect(state, library, cell)
-    for name in ("body_i", "body_j", "member_i", "member_j", "point", "normal", "gap",
-                 "contact_type"):
+    for name in CONTACT_FIELDS:
         np.testing.assert_array_equal(getattr(one.contacts, name), getattr(many.contacts, name))
     np.testing.assert_array_equal(one.images, many.images)
 
@@ -434,21 +443,14 @@ def test_the_polyhedra_pairs_tested_at_once_give_each_pair_s_own_rows_in_order(
     # the sphere-based pairs' rows come first, then those of the pairs with a polyhedron
     pairs = np.concatenate([pairs[~with_polyhedron], pairs[with_polyhedron]])
     detection = NarrowPhase(ALERT)
-    names = ("body_i", "body_j", "member_i", "member_j", "gap", "normal", "point",
-             "contact_type")
     alone = [detection.detect(state, library, pair[None]) for pair in pairs]
-    threads = numba.get_num_threads()
-    try:
-        numba.set_num_threads(1)
-        one = detection.detect(state, library, pairs)
-    finally:
-        numba.set_num_threads(threads)
+    one = _on_one_thread(lambda: detection.detect(state, library, pairs))
     many = detection.detect(state, library, pairs)
     kinds = set(np.unique(many.contact_type).tolist())
     assert {1, 2, 3, 4} & kinds and 0 in kinds  # polyhedron pairs and sphere-based rows
     assert (is_poly[pairs[:, 0]] & is_poly[pairs[:, 1]]).sum() >= 10
     assert (is_poly[pairs[:, 0]] != is_poly[pairs[:, 1]]).sum() >= 10
-    for name in names:
+    for name in CONTACT_FIELDS:
         expected = np.concatenate([getattr(c, name) for c in alone])
         np.testing.assert_array_equal(getattr(one, name), expected, err_msg=name)
         np.testing.assert_array_equal(getattr(many, name), expected, err_msg=name)
