@@ -148,6 +148,23 @@ def test_the_progress_of_a_compaction_shows_its_settling(tmp_path):
     assert "of <= 20 in the stage" in info
 
 
+def test_the_progress_of_a_dilute_start_says_there_are_no_contacts_yet(tmp_path):
+    # a gas: the unbalanced force ratio is 0/0 and the kinetic energy ratio is over p ~ 0;
+    # printed, they read as a blow-up (nan, 1e+28) where nothing is wrong
+    run = start_run(tmp_path / "run", RunConfig.model_validate(TINY))
+    seen = []
+    run.test.on_record = lambda test, row: seen.append((progress_fields(test, row), dict(row)))
+    run.run(max_steps=15)
+    (_, info), row = seen[-1]
+    assert row["n_contacts"] > 0 and "unbalanced force" in info  # the packing's own words
+    gas = dict(row, n_contacts=0, unbalanced_force_ratio=math.nan, kinetic_energy_ratio=2.8e28,
+               p=8e-29)
+    gas_fraction, gas_info = progress_fields(run.test, gas)
+    assert "no contacts yet" in gas_info and "nan" not in gas_info and "e+28" not in gas_info
+    assert "packing fraction" in gas_info and "of <= 20 in the stage" in gas_info
+    assert 0.0 <= gas_fraction <= 0.5  # not settled: only the loading counts
+
+
 def test_reached_stage_words():
     stage = StageOutcome(name="compaction", ended=REACHED, reason="quasi-static", steps=460,
                          capped_steps=62, max_iterations=200)
@@ -279,7 +296,9 @@ def test_the_progress_of_a_periodic_compaction_reads_the_cells_stress(tmp_path):
     run.run(max_steps=12)
     assert len(seen) >= 10
     for (fraction, info), row in seen:
-        assert 0.0 <= fraction <= 1.0 and "unbalanced force" in info
+        assert 0.0 <= fraction <= 1.0
+        gas = row["n_contacts"] == 0 or not math.isfinite(row["unbalanced_force_ratio"])
+        assert ("no contacts yet" in info) == gas and ("unbalanced force" in info) != gas
         assert "wall_sigma_xx" not in row and "cell_sigma_xx" in row
     assert len({fraction for (fraction, _), _ in seen}) > 1  # it moves
 

@@ -107,7 +107,9 @@ def progress_fields(test: DiscreteTest, row: dict) -> tuple[float, str]:
     boundary stress (walls or cell) against its target, half the unbalanced force ratio
     against its quasi-static bound on a log scale (1 to the bound), the text showing both and
     the kinetic energy ratio with their targets, so that a compaction that does not settle is
-    seen stuck at its numbers, not at a percentage."""
+    seen stuck at its numbers, not at a percentage. Before the first contact (a dilute start)
+    the ratios are undefined (0/0) or meaningless (over a pressure of ~0): the text says that
+    there are no contacts yet instead of printing them."""
     stage = test.stage
     steps = f"step {row['step']} ({row['step'] - test.stage_start_step} of <= " \
             f"{test.settings.max_stage_steps} in the stage)"
@@ -127,7 +129,11 @@ def progress_fields(test: DiscreteTest, row: dict) -> tuple[float, str]:
     ratio, bound = row["unbalanced_force_ratio"], criteria.unbalanced_force
     settled = min(1.0, max(math.log(ratio) / math.log(bound), 0.0)) \
         if ratio > 0.0 and math.isfinite(ratio) else 0.0
+    state = f"p {row['p']:.4g} Pa  packing fraction {row['packing_fraction']:.4f}"
+    if row.get("n_contacts", 1) == 0 or not math.isfinite(ratio):
+        # a dilute start: both ratios divide by a contact force or a pressure of ~0 (nan,
+        # 1e+28), which reads as a blow-up where nothing is wrong
+        return 0.5 * loaded, f"{steps}  no contacts yet (a gas being compacted)  {state}"
     info = (f"{steps}  unbalanced force {ratio:.3g} (-> <= {bound:g})  kinetic energy "
-            f"{row['kinetic_energy_ratio']:.2g} (-> <= {criteria.kinetic_energy:g})  "
-            f"p {row['p']:.4g} Pa  packing fraction {row['packing_fraction']:.4f}")
+            f"{row['kinetic_energy_ratio']:.2g} (-> <= {criteria.kinetic_energy:g})  {state}")
     return 0.5 * loaded + 0.5 * settled, info
