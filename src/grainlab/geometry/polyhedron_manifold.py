@@ -23,7 +23,11 @@ The manifold is the "shadow overlap" of the near-plane parts of both bodies
 - the crossings, seen along n, of A's and B's cap edges that face each other (an edge of A
   bordering a face with n_f . n > 0, of B with n_f . n < 0),
 
-kept if their distance along n between the two surfaces is within the alert distance. A line
+kept if their distance along n between the two surfaces is within the alert distance. The
+pruned kernel cuts the caps to the levels a kept candidate needs: n . a >= lo - limit on A,
+n . b <= hi + limit on B (lo: B's lowest point along n, hi: A's highest; limit: the band, the
+larger of the alert distance and the gap), half the depth of the caps above for a shallow
+contact, the same candidates. A line
 from B's cap is cut only by the faces of A reaching above lo - limit (the kept entry points
 lie there, and by convexity those faces alone bound A's part above that level), a line from
 A's cap by the faces of B reaching below hi + limit; two cap edges are crossed only if their
@@ -379,7 +383,9 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     the crossings, seen along n, of the cap edges of A and B that face each other; those with
     gap <= max(alert, g) are reduced to ``max_points``. ``prune``: line entries
     only through the faces reaching the other cap, crossings only of edges whose boxes seen
-    along n overlap (module docstring; same result)."""
+    along n overlap, caps cut to the levels a kept candidate needs (lo - limit on A, hi +
+    limit on B, where the band's caps reach a band deeper: the caps hold half the vertices
+    and edges of a shallow contact); module docstring; same result."""
     nx, ny, nz = normal[0], normal[1], normal[2]
     nva, nea = va.shape[0], ea.shape[0]
     nvb, neb = vb.shape[0], eb.shape[0]
@@ -398,12 +404,23 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     # lengths within tie [m] are equal (round-off of the coordinates, far below any contact
     # length): entry points on a face plane, crossings at an edge end
     tie = 1e-9 * scale + 1e-12 * (abs(hi) + abs(lo))
-    # the caps reach at least through the whole overlap (an overlap deeper than the band
-    # must not leave features of the overlapping region out of the candidates)
-    floor_a = min(hi - band, lo) - limit
-    ceiling_b = max(lo + band, hi) + limit
     proj_a = _project(va, nx, ny, nz)
     proj_b = _project(vb, nx, ny, nz)
+    # a pad of 1e-6 of the extent along n covers the round-off of the levels below
+    pad = 1e-6 * (hi - proj_a.min() + proj_b.max() - lo)
+    if prune:
+        # the levels a kept candidate needs: B's surface lies at n . x >= lo, so a vertex of
+        # A whose line up enters B within limit, or the point of an edge of A crossing an
+        # edge of B with a gap within limit, lies at n . x >= lo - limit; A's surface at
+        # n . x <= hi, so those of B at n . x <= hi + limit
+        floor_a = lo - limit - pad
+        ceiling_b = hi + limit + pad
+    else:
+        # the caps of the module docstring: within the band of each body's extreme point,
+        # and at least through the whole overlap (an overlap deeper than the band must not
+        # leave features of the overlapping region out of the candidates)
+        floor_a = min(hi - band, lo) - limit
+        ceiling_b = max(lo + band, hi) + limit
     cap_a = np.empty(nva, dtype=np.int64)
     n_ca = 0
     for v in range(nva):
@@ -436,7 +453,6 @@ def _pair_manifold(va, na, oa, fsa, fva, ea, efa, nsa, nba,
     # below hi + limit likewise; a pad of 1e-6 of the extent covers round-off
     faces_a = np.empty(na.shape[0], dtype=np.int64)
     faces_b = np.empty(nb.shape[0], dtype=np.int64)
-    pad = 1e-6 * (hi - proj_a.min() + proj_b.max() - lo)
     if prune:
         n_fa = _faces_reaching(proj_a, fsa, fva, lo - limit - pad, True, faces_a)
         n_fb = _faces_reaching(proj_b, fsb, fvb, hi + limit + pad, False, faces_b)
