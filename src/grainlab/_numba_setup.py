@@ -64,6 +64,10 @@ The checks run once per loop entry; they change no result."""
 
 llvm.set_option("grainlab", f"-vectorize-scev-check-threshold={VECTORIZE_SCEV_CHECKS}")
 
+from grainlab._kernel_cache import install as _stamp_kernel_caches  # noqa: E402
+
+_stamp_kernel_caches()  # cached kernels recompile when a module they import changes
+
 numba.config.THREADING_LAYER = os.environ["NUMBA_THREADING_LAYER"]
 if "NUMBA_THREADING_LAYER_PRIORITY" in os.environ:
     numba.config.THREADING_LAYER_PRIORITY = os.environ["NUMBA_THREADING_LAYER_PRIORITY"].split()
