@@ -20,7 +20,8 @@ LAYERS = ("result", "geometry", "contact", "analysis", "engine", "micromech", "p
           "report", "study", "cli")
 """Lowest first: a module of layer k may import layers 0..k only."""
 
-SHARED = ("errors", "_validate", "_version", "_numba_setup", "_vector_loops", "_live_progress")
+SHARED = ("errors", "_validate", "_version", "_numba_setup", "_kernel_cache", "_vector_loops",
+          "_live_progress")
 """Top-level modules every layer may import; they import no layer themselves."""
 
 KNOWN_EXCEPTIONS = {
