@@ -6,8 +6,9 @@ polyhedra's manifold called by the narrow phase's pair kernel, a contact law cal
 pass), or an upgrade that rewrites some files and not others, the cache runs the old callee
 and gives other numbers without a word. Here the freshness stamp of a kernel of grainlab is
 the content hash of its own file and of every grainlab module that file imports, directly or
-through others (the import statements anywhere in the files, read once per process and again
-when a file changes): an edit anywhere in that closure recompiles the kernel on its next use.
+through others (the import statements anywhere in the files, read from their lines once per
+process and again when a file changes): an edit anywhere in that closure recompiles the
+kernel on its next use.
 
 The stamp replaces Numba's own for the files of the packages in :data:`PACKAGES` (grainlab;
 tests add their own); Numba's three file-backed places stay (``NUMBA_CACHE_DIR``, the
@@ -17,10 +18,10 @@ tests add their own); Numba's three file-backed places stay (``NUMBA_CACHE_DIR``
 
 from __future__ import annotations
 
-import ast
 import functools
 import hashlib
 import os
+import re
 import warnings
 from pathlib import Path
 
@@ -48,26 +49,43 @@ def _module_file(module: str, name: str, folder: Path) -> Path | None:
     return None
 
 
+_FROM_IMPORT = re.compile(r"^[ \t]*from[ \t]+(\.*)([\w.]*)[ \t]+import[ \t]+(\([^)]*\)|[^\n#;]+)",
+                          re.M)
+_IMPORT = re.compile(r"^[ \t]*import[ \t]+([^\n#;]+)", re.M)
+
+
+def _names(text: str) -> list[str]:
+    """The names of an import list (``a as b, c`` or a parenthesised one)."""
+    names = []
+    for part in text.strip().strip("()").split(","):
+        words = part.split()
+        if words:
+            names.append(words[0])
+    return names
+
+
 @functools.cache
 def _imported(path: str, mtime_ns: int, size: int, name: str, folder: Path) -> tuple[str, ...]:
     """The files of package ``name`` that the file at ``path`` imports (any import statement
-    in it, absolute or relative, ``from m import n`` counting m and m.n where that is a
-    module); memoized on the file's modification time and size."""
-    source = Path(path).read_text(encoding="utf-8")
+    in it, at any indentation, absolute or relative, ``from m import n`` counting m and m.n
+    where that is a module; read from its lines, a superset of what runs: a name in a string
+    that looks like an import only adds a file); memoized on the file's modification time and
+    size."""
+    source = Path(path).read_text(encoding="utf-8").replace("\\\n", " ")
     here = Path(path).resolve().relative_to(folder).with_suffix("").parts
     package = [name, *here[:-1]]  # the package a relative import starts from
     modules: set[str] = set()
-    for node in ast.walk(ast.parse(source, filename=path)):
-        if isinstance(node, ast.Import):
-            modules.update(alias.name for alias in node.names)
-        elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                stem = package[:len(package) - (node.level - 1)]
-                base = ".".join(stem + ([node.module] if node.module else []))
-            else:
-                base = node.module or ""
-            modules.add(base)
-            modules.update(f"{base}.{alias.name}" for alias in node.names)
+    for match in _IMPORT.finditer(source):
+        modules.update(_names(match.group(1)))
+    for match in _FROM_IMPORT.finditer(source):
+        dots, module, names = match.groups()
+        if dots:
+            stem = package[:len(package) - (len(dots) - 1)]
+            base = ".".join(stem + ([module] if module else []))
+        else:
+            base = module
+        modules.add(base)
+        modules.update(f"{base}.{n}" for n in _names(names))
     files = {_module_file(m, name, folder) for m in modules}
     return tuple(sorted(str(f) for f in files if f is not None))
 
