@@ -98,6 +98,13 @@ def test_core_reaching_the_cell_and_staying_there_is_found():
     assert "off the cell by -0.22 → -0.02 → -0.32" in text and "not shrinking" in text
 
 
+def test_one_box_size_is_read_without_a_trend():
+    table = pd.DataFrame(rows("z*", {500: (3.4, 0.05, 3.7, 0.05)}, (1000, 4.02, 0.03)))
+    text = verdict_text(convergence_verdicts(table).iloc[0])
+    assert "off the cell by -0.32 (N = 500: one size: no trend)" in text
+    assert "shrinking" not in text
+
+
 def test_initial_states_use_the_tolerance_and_a_quantity_without_core_the_whole_box():
     table = pd.DataFrame(
         rows("ν0", {500: (0.60, math.nan, 0.625, math.nan),

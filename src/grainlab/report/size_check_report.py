@@ -109,7 +109,8 @@ def verdict_text(row: pd.Series) -> str:
         parts = [f"{basis} within the cell's error bars from N = {row['reaches']}"]
     else:
         gaps = row["core_gaps"] if row["basis"] == "core" else row["whole_gaps"]
-        trend = "shrinking" if shrinking(gaps) else "not shrinking"
+        trend = ("shrinking" if shrinking(gaps) else "not shrinking") if len(sizes) > 1 \
+            else "one size: no trend"
         parts = [f"{basis} off the cell by {_gaps(gaps)} (N = "
                  f"{', '.join(str(n) for n in sizes)}: {trend})"]
     if sizes and row["basis"] == "core":
