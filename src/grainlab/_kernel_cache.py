@@ -25,7 +25,9 @@ import re
 import warnings
 from pathlib import Path
 
-PACKAGES: dict[str, Path] = {"grainlab": Path(__file__).resolve().parent}
+_THIS_MODULE = Path(__file__).resolve()
+
+PACKAGES: dict[str, Path] = {"grainlab": _THIS_MODULE.parent}
 """Package name -> its folder: the kernels whose stamp covers their imports."""
 
 
@@ -120,11 +122,10 @@ def dependency_stamp(path: str | Path) -> str:
     """The freshness stamp of the kernels defined in the file at ``path``: a SHA-256 over the
     content hashes of :func:`import_closure` (file names relative to the package folder, so
     that a moved checkout keeps its cache)."""
-    files = import_closure(path)
-    package = _package_of(str(files[0]))
+    package = _package_of(str(path))
     digest = hashlib.sha256()
-    for file in files:
-        if file == Path(__file__).resolve():
+    for file in import_closure(path):
+        if file == _THIS_MODULE:
             continue  # this module compiles nothing: its edits leave every kernel as it was
         stat = os.stat(file)
         label = str(file.relative_to(package[1])) if package else file.name
