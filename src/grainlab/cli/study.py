@@ -240,6 +240,48 @@ def size_check_command(
         raise typer.Exit(code=3)
 
 
+@app.command("compare")
+@friendly_errors
+def compare_command(
+    folder: Path = typer.Argument(..., help="A study folder: the rerun."),
+    reference: Path = typer.Option(..., "--reference", "-r", help=(
+        "The study it should reproduce: a study folder or a published one (study.toml and "
+        "summary.csv), e.g. docs/studies/nonconvexity-periodic-1000.")),
+) -> None:
+    """Whether a rerun reproduces a reference study: each sample's headline values (peak
+    and residual strength, packing fraction, coordination and connectivity, anisotropy,
+    sliding) against the reference's within their error bars (the residual window's
+    standard deviation, or the spread over packing seeds measured on the reference's
+    replicas), and the settings that differ; report/reproduction.md and .csv in the rerun's
+    folder. Exit status 3 when a value lies outside its error bars, a sample is missing or
+    the settings differ."""
+    from rich.markup import escape
+    from rich.table import Table
+
+    from grainlab.study.reproduction import reproduction_counts, write_reproduction
+
+    table, differences, path = write_reproduction(folder, reference)
+    for name, keys in differences.items():
+        console.print(f"[bold]settings differ[/bold] for {escape(name)}: "
+                      + escape("; ".join(keys)))
+    shown = Table(title=f"{folder} against {reference}", title_justify="left")
+    for heading in ("sample", "quantity", "rerun", "reference", "reading"):
+        shown.add_column(heading)
+    for row in table.to_dict("records"):
+        if row["quantity"] == "-":
+            shown.add_row(escape(row["sample"]), "-", "-", "-", escape(row["verdict"]))
+            continue
+        shown.add_row(escape(row["sample"]), escape(row["quantity"]), f"{row['new']:.4g}",
+                      f"{row['reference']:.4g}", escape(row["verdict"]))
+    console.print(shown)
+    counts = reproduction_counts(table)
+    console.print(f"{counts['agree']} values agree, {counts['disagree']} do not, "
+                  f"{counts['unjudged']} cannot be judged; {counts['missing']} of the "
+                  f"reference's samples are not in the rerun\nreport: {path}")
+    if counts["disagree"] or counts["missing"] or differences:
+        raise typer.Exit(code=3)
+
+
 @app.command("publish")
 @friendly_errors
 def publish_command(
