@@ -281,3 +281,50 @@ def test_interrupting_the_running_studies_asks_each_to_checkpoint(tmp_path, monk
         size_check.run_size_check(tmp_path, plan, workers=2, progress=False, on_end=interrupt)
     assert sorted(name for name, *_ in calls) == ["periodic-1000", "walls-1000", "walls-500"]
     assert FakeCluster.made[0].closed
+
+
+def series_in_a_cell(folder, n=1000, **options):
+    """A study of the angularity series in a periodic cell, as `grainlab study angularity
+    --length full --boundary periodic` creates it (no sample run)."""
+    from grainlab.study.series_presets import series_spec
+    from grainlab.study.study_runner import Study
+
+    spec = series_spec("angularity", n_particles=n, length="full", seed=0,
+                       boundary="periodic", **options)
+    return Study.create(folder, spec)
+
+
+def test_the_cell_can_be_a_series_run_with_the_checks_settings(tmp_path, monkeypatch):
+    series = series_in_a_cell(tmp_path / "series", replicas=3)
+    plan = SizeCheckPlan("angularity", ("S1", "S5"), walls=(500,), periodic=(2000,),
+                         cell_from=series.folder)
+    assert plan.periodic == (1000,)  # the series' size, not the check's own
+    cell = plan.runs[-1]
+    assert plan.study_folder(tmp_path / "check", cell) == series.folder
+    assert plan.study(tmp_path / "check", cell).folder == series.folder
+    assert not (tmp_path / "check" / "periodic-1000").exists()
+    fake_runs(tmp_path / "check", monkeypatch, plan, {500: 0.3})
+    table = size_check_table(tmp_path / "check", plan)
+    z = table[table["quantity"] == "z*"].set_index(["sample", "boundary", "n"])
+    assert z.loc[("S5", "periodic", 1000), "whole"] == 4.0
+    assert "of the series" in size_check_markdown(table, plan)
+
+
+def test_a_cell_series_with_other_settings_is_refused_naming_them(tmp_path):
+    walls = series_in_a_cell(tmp_path / "short")
+    (walls.folder / "study.toml").write_text(
+        (walls.folder / "study.toml").read_text().replace('boundary = "periodic"',
+                                                          'boundary = "walls"'))
+    with pytest.raises(InputError) as error:
+        SizeCheckPlan("angularity", ("S1",), walls=(500,), cell_from=walls.folder)
+    assert error.value.field == "cell_from"
+    assert "sample.boundary: 'walls' vs 'periodic'" in str(error.value)
+    with pytest.raises(InputError, match=r"lacks eta-0\.0"):
+        SizeCheckPlan("nonconvexity", ("eta-0.0",), walls=(500,), cell_from=walls.folder)
+    with pytest.raises(InputError, match="a study folder"):
+        SizeCheckPlan("angularity", ("S1",), walls=(500,), cell_from=tmp_path / "none")
+    result = CliRunner().invoke(app, ["study", "size-check", "angularity", "-o",
+                                      str(tmp_path / "check"), "--cell-from",
+                                      str(walls.folder), "--no-run"])
+    assert result.exit_code == 2
+    assert "cell_from" in result.output and "Traceback" not in result.output

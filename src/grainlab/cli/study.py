@@ -195,6 +195,12 @@ def size_check_command(
     length: str = typer.Option("full", "--length", help="; ".join(
         f"{name}: {spec.text}" for name, spec in LENGTHS.items()) + "."),
     seed: int = _SEED,
+    cell_from: Path = typer.Option(None, "--cell-from", help=(
+        "A study of the same series in a periodic cell (made with --boundary periodic and "
+        "the same --length and --seed, e.g. studies/angularity-periodic-1000): its samples "
+        "of the checked names are the check's cell, run and read there instead of a cell of "
+        "the check's own; --periodic is then the series' size. Refused, naming the keys, "
+        "where its settings differ.")),
     run: bool = typer.Option(True, "--run/--no-run", help=(
         "Run (or go on with) the studies; --no-run writes the table and report from the "
         "samples that have ended.")),
@@ -215,7 +221,8 @@ def size_check_command(
 
     names = _names(samples) or DEFAULT_SAMPLES.get(series, ())
     plan = SizeCheckPlan(series, names, walls=_sizes("--walls", walls),
-                         periodic=_sizes("--periodic", periodic), length=length, seed=seed)
+                         periodic=_sizes("--periodic", periodic), length=length, seed=seed,
+                         cell_from=cell_from)
     folder = out or Path(f"size-check-{series}")
     complete = True
     if run:

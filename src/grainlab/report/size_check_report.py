@@ -127,6 +127,9 @@ def size_check_markdown(table: pd.DataFrame, plan: Any) -> str:
     runs = [run for run in plan.runs
             if ((table["boundary"] == run.boundary) & (table["n"] == run.n)).any()]
     lines = []
+    if getattr(plan, "cell_from", None) is not None:
+        lines += [f"The cell's values are those of the series `{plan.cell_from}` (its samples "
+                  "of these names, run with the settings the check gives its own cell).", ""]
     for sample in plan.samples:
         part = table[table["sample"] == sample]
         if not len(part):

@@ -179,18 +179,19 @@ def reproduction_table(new: pd.DataFrame, reference: pd.DataFrame,
     return pd.DataFrame(rows)
 
 
-def settings_differences(new_spec, reference_spec) -> dict[str, list[str]]:
-    """For each sample both study specifications hold, the dotted keys of its run
-    configuration (``StudySpec.sample_config``) whose values differ, as "key: new vs
-    reference"; samples run alike are left out. The study's header (window, core margin,
-    peak window) is compared too, under "study"."""
+def settings_differences(new_spec, reference_spec, names=None) -> dict[str, list[str]]:
+    """For each sample both study specifications hold (of ``names`` only, where given), the
+    dotted keys of its run configuration (``StudySpec.sample_config``) whose values differ,
+    as "key: new vs reference"; samples run alike are left out. The study's header (window,
+    core margin, peak window) is compared too, under "study"."""
     out: dict[str, list[str]] = {}
     header = _differences(new_spec.study.model_dump(mode="json"),
                           reference_spec.study.model_dump(mode="json"),
                           skip=("description",))
     if header:
         out["study"] = header
-    names = [n for n in reference_spec.names if n in new_spec.names]
+    names = [n for n in reference_spec.names if n in new_spec.names
+             and (names is None or n in names)]
     for name in names:
         keys = _differences(new_spec.sample_config(name).model_dump(mode="json"),
                             reference_spec.sample_config(name).model_dump(mode="json"))

@@ -82,6 +82,11 @@ class SizeCheckPlan:
     periodic: tuple[int, ...] = (1000,)
     length: str = "full"
     seed: int = 0
+    cell_from: Path | None = None
+    """A study folder of the same series in a periodic cell (a series run with ``--boundary
+    periodic``) whose samples of the checked names are the check's cell: run there, read
+    from there, and no cell of the check's own (``periodic`` is then the series' size). Its
+    settings for those samples must be the ones the check would give its own cell."""
 
     def __post_init__(self) -> None:
         if self.series not in SERIES:
@@ -99,9 +104,39 @@ class SizeCheckPlan:
             for n in sizes:
                 if int(n) < 2:
                     raise InputError(field, n, "particle counts of at least 2")
+        if self.cell_from is not None:
+            object.__setattr__(self, "cell_from", Path(self.cell_from))
+            object.__setattr__(self, "periodic", (self._cell_source_size(),))
         if not self.periodic:
             raise InputError("periodic", "", "at least one size in the periodic cell (the "
                              "reference the walls' core values must approach)")
+
+    def _cell_source_size(self) -> int:
+        """The particles per sample of the :attr:`cell_from` series, after checking that its
+        samples of the checked names have the settings the check would give its own cell."""
+        from grainlab.study.reproduction import settings_differences
+        from grainlab.study.study_runner import SPEC
+        from grainlab.study.study_spec import StudySpec
+
+        source = Path(self.cell_from)
+        if not (source / SPEC).is_file():
+            raise InputError("cell_from", str(source), f"a study folder (with a {SPEC}) of "
+                             f"the {self.series} series in a periodic cell")
+        found = StudySpec.read(source / SPEC)
+        missing = [name for name in self.samples if name not in found.names]
+        if missing:
+            raise InputError("cell_from", str(source), "a study holding the checked samples "
+                             f"({', '.join(self.samples)}); it lacks {', '.join(missing)}")
+        n = int(found.base.get("sample", {}).get("n_particles", 0))
+        wanted = series_spec(self.series, n_particles=n, length=self.length, seed=self.seed,
+                             boundary="periodic")
+        differ = settings_differences(found, wanted, names=self.samples)
+        if differ:
+            raise InputError("cell_from", str(source), "a series run with the check's "
+                             "settings (the same length, seed and a periodic cell); differs: "
+                             + "; ".join(f"{name}: {', '.join(keys)}"
+                                         for name, keys in differ.items()))
+        return n
 
     @property
     def runs(self) -> list[SizeRun]:
@@ -114,12 +149,21 @@ class SizeCheckPlan:
         value without error bars (an initial state) against the cell's."""
         return {claim.quantity: claim.tolerance for claim in _claims(self.series)}
 
+    def study_folder(self, folder: str | Path, run: SizeRun) -> Path:
+        """Where the study of ``run`` lives: its subfolder of the check's ``folder``, or the
+        :attr:`cell_from` series for the cell."""
+        if run.boundary == "periodic" and self.cell_from is not None:
+            return Path(self.cell_from)
+        return Path(folder) / run.folder_name
+
     def study(self, folder: str | Path, run: SizeRun) -> Study:
-        """The study of ``run`` in its subfolder of ``folder`` (created or opened as it
-        is)."""
+        """The study of ``run`` (:meth:`study_folder`; created or opened as it is)."""
+        path = self.study_folder(folder, run)
+        if path != Path(folder) / run.folder_name:
+            return Study.open(path)
         spec = series_spec(self.series, n_particles=run.n, length=self.length, seed=self.seed,
                            boundary=run.boundary)
-        return Study.create(Path(folder) / run.folder_name, spec)
+        return Study.create(path, spec)
 
 
 def run_size_check(folder: str | Path, plan: SizeCheckPlan, *, scheduler: str | None = None,
@@ -230,7 +274,7 @@ def size_check_table(folder: str | Path, plan: SizeCheckPlan) -> pd.DataFrame:
     claims = _claims(plan.series)
     rows = []
     for run in plan.runs:
-        path = folder / run.folder_name
+        path = plan.study_folder(folder, run)
         if not path.is_dir():
             continue
         study = Study.open(path)
