@@ -88,6 +88,12 @@ def test_a_value_without_an_error_bar_is_not_judged_unless_equal():
     assert table.loc[("a", "packing fraction 0"), "verdict"] == "identical"
     assert agrees(table, "b", "packing fraction 0") is None
     assert "no error bar" in table.loc[("b", "packing fraction 0"), "verdict"]
+    # the rerun's replicas give the spread where the reference has none
+    new = pd.concat([new, pd.DataFrame({"name": ["a-seed1"], "replica_of": ["a"],
+                                        "packing_fraction_initial": [0.61]})])
+    table = reproduction_table(new, ref).set_index(["sample", "quantity"])
+    assert table.loc[("b", "packing fraction 0"), "bar"] == pytest.approx(4 * 0.01 / 2 ** 0.5)
+    assert agrees(table, "b", "packing fraction 0") is True  # 0.01 off, bars 0.028
 
 
 def test_a_sample_missing_from_the_rerun_is_said():

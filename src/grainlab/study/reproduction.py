@@ -10,11 +10,12 @@ when they are equal. The error bars are the ones the study's tables give:
 * the **spread of independent packings** of one shape, measured on the reference's replicas
   (the samples ``replica_of`` another: the same shape with other packing seeds): the
   standard deviation ``s`` over the seeds of each replicated shape, pooled over the shapes
-  (root mean square). An **initial** or **peak** value (one number per run: the state after
-  the compaction, the smoothed maximum of q/p) has only this error bar: the two values agree
-  when ``|new - reference| <= 2 (s + s)``, each error bar two standard deviations (the size
-  check's rule, :func:`grainlab.report.size_check_report._within`). A reference without
-  replicas gives these values no error bar, and they are compared only for equality;
+  (root mean square; the rerun's replicas where the reference has none). An **initial** or
+  **peak** value (one number per run: the state after the compaction, the smoothed maximum
+  of q/p) has only this error bar: the two values agree when
+  ``|new - reference| <= 2 (s + s)``, each error bar two standard deviations (the size
+  check's rule, :func:`grainlab.report.size_check_report._within`). Without replicas on
+  either side these values have no error bar, and they are compared only for equality;
 * a **residual** value (a mean over the residual window, ``X_residual``) also carries the
   standard deviation of the signal over that window (``X_residual_std``): the two agree when
   ``|new - reference| <= 2 (std_new + std_reference)``, or within the seeds' ``2 (s + s)``
@@ -147,7 +148,11 @@ def reproduction_table(new: pd.DataFrame, reference: pd.DataFrame,
     """
     rows: list[dict[str, Any]] = []
     present = [q for q in quantities if q.column in reference or q.column in new]
-    spreads = {q.column: seed_spread(reference, q.column) for q in present}
+    spreads = {}
+    for q in present:  # the reference's replicas, else the rerun's
+        spreads[q.column] = seed_spread(reference, q.column)
+        if not spreads[q.column][1]:
+            spreads[q.column] = seed_spread(new, q.column)
     by_name = {str(n): r for n, r in zip(new["name"], new.to_dict("records"), strict=True)}
     for ref_row in reference.to_dict("records"):
         name = str(ref_row["name"])
