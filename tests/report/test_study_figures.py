@@ -224,11 +224,51 @@ def test_strength_from_anisotropies_draws_the_peak_beside_the_residual():
     table["q_over_trace_27a_at_peak"] = [0.30, 0.35, 0.40, 0.45]
     table["q_over_trace_at_peak"] = [0.31, 0.37, 0.43, 0.47]
     ax = stress_dilatancy_figure(table, "eta").axes[0]
-    peak = {line.get_label(): list(line.get_ydata()) for line in ax.get_lines()
-            if "peak" in line.get_label()}
+    peak = {c.get_label(): list(_plotted(ax, c.get_label())) for c in ax.containers
+            if "peak" in c.get_label()}
     assert peak == {"measured peak": [0.31, 0.37, 0.43, 0.47],
                     "eq. 27a peak": [0.30, 0.35, 0.40, 0.45]}
     assert "eq. 27a residual" in ax.get_legend_handles_labels()[1]
+
+
+def _bar_heights(ax, label: str) -> np.ndarray:
+    """Half-heights of the error bars of the series ``label`` (0 where a point has none)."""
+    for container in ax.containers:
+        if container.get_label() == label:
+            y = np.asarray(container.lines[0].get_ydata(), float)
+            if not container.lines[2]:
+                return np.zeros_like(y)
+            segments = container.lines[2][0].get_segments()
+            return np.array([abs(seg[1][1] - seg[0][1]) / 2 for seg in segments])
+    raise AssertionError(f"no {label} in {[c.get_label() for c in ax.containers]}")
+
+
+def test_a_pooled_point_carries_the_seeds_spread_on_its_initial_state_and_peak():
+    """Seed 002's protocol with replicas: the pooled shape's peak and initial packing
+    fraction get the standard deviation over its seeds as error bars, a shape of one run
+    none (issue: every trend with an error bar from independent samples)."""
+    from grainlab.report.study_figures import packing_fraction_figure, strength_figure
+    from grainlab.study.study_summary import pooled_replicas
+
+    table = summary_by_hand(with_micro=False)
+    table["replica_of"] = ""
+    table["seed"] = 0
+    repeat = table.iloc[[0, 0]].copy()
+    repeat["name"] = ["a-seed1", "a-seed2"]
+    repeat["replica_of"] = table["name"].iloc[0]
+    repeat["seed"] = [1, 2]
+    first = table.index[0]
+    repeat["q_over_trace_peak"] = table.loc[first, "q_over_trace_peak"] + np.array([0.02, -0.02])
+    repeat["packing_fraction_initial"] = table.loc[first, "packing_fraction_initial"] + \
+        np.array([0.004, -0.004])
+    pooled = pooled_replicas(pd.concat([table, repeat], ignore_index=True))
+    left = strength_figure(pooled, "eta").axes[0]
+    bars = _bar_heights(left, "peak $(q/p)^+$")
+    assert bars[0] == pytest.approx(0.02) and not bars[1:].any()
+    ax = packing_fraction_figure(pooled, "eta").axes[0]
+    label = next(c.get_label() for c in ax.containers if "initial" in c.get_label())
+    bars = _bar_heights(ax, label)
+    assert bars[0] == pytest.approx(0.004) and not bars[1:].any()
 
 
 def test_window_averaged_polar_diagrams_and_force_pdfs_of_the_report(tmp_path):

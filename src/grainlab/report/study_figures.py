@@ -95,6 +95,19 @@ def _errorbar(ax, table: pd.DataFrame, stem: str, label: str, marker: str = "o",
     return True
 
 
+def _one_per_run(ax, table: pd.DataFrame, column: str, fmt: str, label: str, **style) -> None:
+    """Plot ``column``, a value with one number per run (an initial state, a peak), against
+    the shape parameter, with the spread over the packing seeds (``column_std`` of a pooled
+    row: :func:`~grainlab.study.study_summary.pooled_replicas`) as error bars where a point
+    has one; a point of one run has none."""
+    std = table.get(f"{column}_std")
+    yerr = None
+    if std is not None and np.isfinite(std.to_numpy(float)).any():
+        yerr = np.nan_to_num(std.to_numpy(float), nan=0.0)
+    ax.errorbar(_x(table), table[column].to_numpy(float), yerr=yerr, fmt=fmt, capsize=3,
+                label=label, **style)
+
+
 def _finish(figure: Figure, axes: Sequence, symbol: str) -> Figure:
     for ax in axes:
         ax.set_xlabel(symbol)
@@ -164,7 +177,7 @@ def strength_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
         return None
     figure, (left, right) = new_figure_axes(1, 2, figsize=(10.0, 3.8))
     if _has(table, "q_over_trace_peak"):
-        left.plot(_x(table), table["q_over_trace_peak"], "s-", label="peak $(q/p)^+$")
+        _one_per_run(left, table, "q_over_trace_peak", "s-", "peak $(q/p)^+$")
     _errorbar(left, table, "q_over_trace", "residual $(q/p)^*$", core=False)
     left.set_ylabel("q/p")
     if _has(table, "phi_residual"):
@@ -201,8 +214,8 @@ def _initial_residual(table: pd.DataFrame, symbol: str, stems: Sequence[tuple[st
     markers = "osD^v<>"
     for k, (stem, label) in enumerate(stems):
         if _has(table, f"{stem}_initial"):
-            ax.plot(_x(table), table[f"{stem}_initial"], markers[k % 7] + "--", mfc="none",
-                    label=f"{label} initial".strip())
+            _one_per_run(ax, table, f"{stem}_initial", markers[k % 7] + "--",
+                         f"{label} initial".strip(), mfc="none")
         _errorbar(ax, table, stem, f"{label} residual".strip(), marker=markers[k % 7],
                   core=False)
     ax.set_ylabel(ylabel)
@@ -298,8 +311,8 @@ def stress_dilatancy_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
         stem, suffix = core_stem(table, stem)
         column = f"{stem}_at_peak"
         if _has(table, column):
-            ax.plot(_x(table), table[column].to_numpy(float), ("o" + markers)[k] + ":",
-                    mfc="none", label=f"{label} peak{suffix}")
+            _one_per_run(ax, table, column, ("o" + markers)[k] + ":", f"{label} peak{suffix}",
+                         mfc="none")
     ax.set_ylabel("q/p: residual $(q/p)^*$, peak $(q/p)^+$")
     return _finish(figure, (ax,), symbol)
 
