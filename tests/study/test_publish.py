@@ -78,3 +78,35 @@ def test_publishing_refuses_what_it_cannot_publish(tmp_path):
     result = CliRunner().invoke(app, ["study", "publish", str(tmp_path / "empty"), "--to",
                                       str(tmp_path / "out")])
     assert result.exit_code != 0 and "study.toml" in result.output
+
+
+def test_the_source_commit_is_marked_changed_by_the_package_only(tmp_path):
+    """Provenance: an edited study log or doc elsewhere in the checkout leaves the commit as
+    it is; an edited module of the package marks it "+changes"."""
+    import shutil
+    import subprocess
+
+    from grainlab.study.publish import source_commit
+
+    if shutil.which("git") is None:
+        pytest.skip("git is not installed")
+    module = tmp_path / "src" / "grainlab" / "study"
+    module.mkdir(parents=True)
+    (module / "publish.py").write_text("x = 1\n")
+    (tmp_path / "studies").mkdir()
+    (tmp_path / "studies" / "study.log").write_text("one\n")
+
+    def git(*arguments):
+        subprocess.run(["git", "-C", str(tmp_path), *arguments], check=True,
+                       capture_output=True)
+
+    git("init", "-q")
+    git("add", "-A")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "one")
+    commit = source_commit(module)
+    assert len(commit) == 40 and not commit.endswith("+changes")
+    (tmp_path / "studies" / "study.log").write_text("two\n")
+    assert source_commit(module) == commit
+    (module / "publish.py").write_text("x = 2\n")
+    assert source_commit(module) == commit + "+changes"
+    assert source_commit(tmp_path.parent / "nowhere") == "unknown"

@@ -38,16 +38,19 @@ REPORT_FILES = (".md", ".html", ".png", ".csv", ".svg")
 SIZE_CHECK_FILES = ("size_check.csv", "size_check.md")
 
 
-def source_commit() -> str:
-    """The git commit of the grainlab source that runs, with "+changes" where its working
-    tree differs from it; "unknown" outside a git checkout."""
-    where = Path(__file__).resolve().parent
+def source_commit(where: Path | None = None) -> str:
+    """The git commit of the grainlab source that runs (``where``: a folder of the package,
+    by default this module's), with "+changes" where the package's files in the working tree
+    differ from it (data or docs elsewhere in the checkout do not count); "unknown" outside
+    a git checkout."""
+    where = Path(where) if where is not None else Path(__file__).resolve().parent
+    package = where.parent
     try:
         commit = subprocess.run(["git", "-C", str(where), "rev-parse", "HEAD"],
                                 capture_output=True, text=True, timeout=10, check=True)
         dirty = subprocess.run(["git", "-C", str(where), "status", "--porcelain",
-                                "--untracked-files=no"], capture_output=True, text=True,
-                               timeout=10, check=True)
+                                "--untracked-files=no", "--", str(package)],
+                               capture_output=True, text=True, timeout=10, check=True)
     except (OSError, subprocess.SubprocessError):
         return "unknown"
     return commit.stdout.strip() + ("+changes" if dirty.stdout.strip() else "")
