@@ -265,7 +265,11 @@ def compare_command(
     from rich.markup import escape
     from rich.table import Table
 
-    from grainlab.study.reproduction import reproduction_counts, write_reproduction
+    from grainlab.study.reproduction import (
+        counts_text,
+        reproduction_counts,
+        write_reproduction,
+    )
 
     table, differences, path = write_reproduction(folder, reference)
     for name, keys in differences.items():
@@ -282,9 +286,7 @@ def compare_command(
                       f"{row['reference']:.4g}", escape(row["verdict"]))
     console.print(shown)
     counts = reproduction_counts(table)
-    console.print(f"{counts['agree']} values agree, {counts['disagree']} do not, "
-                  f"{counts['unjudged']} cannot be judged; {counts['missing']} of the "
-                  f"reference's samples are not in the rerun\nreport: {path}")
+    console.print(f"{counts_text(counts)}\nreport: {path}")
     if counts["disagree"] or counts["missing"] or differences:
         raise typer.Exit(code=3)
 

@@ -235,6 +235,13 @@ def reproduction_counts(table: pd.DataFrame) -> dict[str, int]:
             "missing": int((table["quantity"] == "-").sum()) if len(table) else 0}
 
 
+def counts_text(counts: dict[str, int]) -> str:
+    """The counts of :func:`reproduction_counts` as one sentence."""
+    return (f"{counts['agree']} values agree, {counts['disagree']} do not, "
+            f"{counts['unjudged']} cannot be judged; {counts['missing']} of the "
+            "reference's samples are not in the rerun")
+
+
 def reproduction_markdown(table: pd.DataFrame, differences: dict[str, list[str]],
                           new_folder: str, reference_folder: str) -> str:
     """The comparison as Markdown: what was compared, the settings that differ, the counts,
@@ -249,9 +256,7 @@ def reproduction_markdown(table: pd.DataFrame, differences: dict[str, list[str]]
         lines += ["**Settings differ** (a different experiment where they do):", ""]
         lines += [f"- {name}: " + "; ".join(keys) for name, keys in differences.items()]
         lines.append("")
-    lines += [f"{counts['agree']} values agree, {counts['disagree']} do not, "
-              f"{counts['unjudged']} cannot be judged; {counts['missing']} of the "
-              "reference's samples are not in the rerun.", "",
+    lines += [counts_text(counts) + ".", "",
               "| sample | quantity | rerun | reference | reading |", "|---|---|---|---|---|"]
     for row in table.to_dict("records"):
         if row["quantity"] == "-":

@@ -159,7 +159,7 @@ class SizeCheckPlan:
     def study(self, folder: str | Path, run: SizeRun) -> Study:
         """The study of ``run`` (:meth:`study_folder`; created or opened as it is)."""
         path = self.study_folder(folder, run)
-        if path != Path(folder) / run.folder_name:
+        if run.boundary == "periodic" and self.cell_from is not None:
             return Study.open(path)
         spec = series_spec(self.series, n_particles=run.n, length=self.length, seed=self.seed,
                            boundary=run.boundary)
