@@ -284,10 +284,14 @@ class StageOutcome:
             text = f"{self.name}: not finished after {self.steps} steps ({self.reason})"
         held = self.inertia_held
         if held is not None:
-            ratio = self.inertia_max / self.inertia_bound
-            text += (f"; inertia number {'held' if held else 'EXCEEDED'} its bound "
-                     f"{self.inertia_bound:g} (median {_fmt(self.inertia_median)}, largest "
-                     f"{_fmt(self.inertia_max)} = {ratio:.3g} x the bound)")
+            bound = self.inertia_bound
+            text += (f"; inertia number {'within' if held else 'EXCEEDED'} its bound "
+                     f"{bound:g} (median {_fmt(self.inertia_median)} = "
+                     f"{self.inertia_median / bound:.3g} x, 90th percentile "
+                     f"{_fmt(self.inertia_q90)} = {self.inertia_q90 / bound:.3g} x, largest "
+                     f"{_fmt(self.inertia_max)} = {self.inertia_max / bound:.3g} x; allowed: "
+                     f"median <= {INERTIA_MEDIAN_FACTOR:g} x, 90th percentile <= "
+                     f"{INERTIA_QUANTILE_FACTOR:g} x)")
         if self.scheme_stable is False:
             text += f"; UNSTABLE sub-steps (velocity zigzag {self.zigzag:.3g})"
         if self.solid is False:
