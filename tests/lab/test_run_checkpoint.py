@@ -16,6 +16,7 @@ from grainlab.lab import run_checkpoint
 from grainlab.lab.discrete_run import RESULTS, SNAPSHOTS, resume_run, start_run
 from grainlab.lab.run_checkpoint import (
     CHECKPOINT,
+    LIBRARY_FIELDS,
     PREVIOUS_CHECKPOINT,
     CheckpointDamaged,
     NoCheckpoint,
@@ -156,3 +157,73 @@ def test_a_full_disk_while_writing_the_results_keeps_the_previous_ones(tmp_path,
     assert (folder / RESULTS).read_bytes() == results
     assert not (folder / (RESULTS + ".tmp")).exists()
     assert _step(folder / CHECKPOINT) == 25
+
+
+def _library_files(folder):
+    return sorted(p.name for p in folder.glob("shapes-*.h5"))
+
+
+def test_the_shape_library_is_written_once_and_named_by_both_checkpoints(tmp_path):
+    folder = tmp_path / "run"
+    run = start_run(folder, RunConfig.model_validate(TINY))
+    run.run(max_steps=45)
+    [name] = _library_files(folder)
+    library = run.test.sample.library
+    for checkpoint in (CHECKPOINT, PREVIOUS_CHECKPOINT):
+        with h5py.File(folder / checkpoint, "r") as handle:
+            assert "library" not in handle and handle.attrs["library_file"] == name
+        saved = read_checkpoint(folder / checkpoint)["library"]
+        for field in LIBRARY_FIELDS:
+            np.testing.assert_array_equal(getattr(saved, field), getattr(library, field))
+    written = (folder / name).stat().st_mtime_ns
+    run.run(max_steps=20)
+    assert _library_files(folder) == [name] and (folder / name).stat().st_mtime_ns == written
+
+
+def test_a_checkpoint_with_its_library_inline_is_read_and_resumed(tmp_path):
+    # checkpoints written before the library file held the library in a group of their own
+    folder = tmp_path / "run"
+    start_run(folder, RunConfig.model_validate(TINY)).run(max_steps=45)
+    [name] = _library_files(folder)
+    for checkpoint in (CHECKPOINT, PREVIOUS_CHECKPOINT):
+        with h5py.File(folder / name, "r") as shapes, \
+                h5py.File(folder / checkpoint, "a") as handle:
+            shapes.copy("library", handle)
+            del handle.attrs["library_file"], handle.attrs["library_digest"]
+    (folder / name).unlink()
+    run = resume_run(folder)
+    assert run.test.simulation.step_index == 40
+    run.run(max_steps=20)
+    # the next checkpoint writes the library file; the previous one still holds its own
+    assert len(_library_files(folder)) == 1
+    assert read_checkpoint(folder / PREVIOUS_CHECKPOINT)["progress"]["step_index"] == 40
+
+
+def test_a_missing_or_foreign_library_file_is_named_and_nothing_touched(tmp_path):
+    folder, other = tmp_path / "run", tmp_path / "other"
+    start_run(folder, RunConfig.model_validate(TINY)).run(max_steps=45)
+    start_run(other, RunConfig.model_validate(TINY).with_updates(
+        {"sample": {"n_particles": 31}})).run(max_steps=25)
+    [name] = _library_files(folder)
+    [foreign] = _library_files(other)
+    (folder / name).unlink()
+    before = {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
+    with pytest.raises(CheckpointDamaged) as error:
+        resume_run(folder)
+    said = str(error.value)
+    assert f"its shape library {name} is missing" in said and "checkpoint.prev.h5" in said
+    assert {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()} == before
+    (folder / name).write_bytes((other / foreign).read_bytes())  # another run's shapes
+    with pytest.raises(CheckpointDamaged, match=f"its shape library {name} holds other shapes"):
+        resume_run(folder)
+
+
+def test_restart_moves_the_library_file_aside_with_the_checkpoints(tmp_path):
+    folder = tmp_path / "run"
+    start_run(folder, RunConfig.model_validate(TINY)).run(max_steps=25)
+    [name] = _library_files(folder)
+    run = resume_run(folder, restart=True)
+    assert _library_files(folder / "previous-1") == [name]
+    assert read_checkpoint(folder / "previous-1" / CHECKPOINT)["progress"]["step_index"] == 20
+    run.run(max_steps=25)
+    assert _library_files(folder) == [name]  # the same sample: the same shapes

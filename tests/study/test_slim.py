@@ -40,6 +40,7 @@ def test_a_slimmed_study_keeps_its_summary_and_figures_and_goes_on_elsewhere(tmp
     assert study.run(workers=1, progress=False, only=["a"]).complete
     runs = [study.sample_folder("a")]
     size = sum(p.stat().st_size for run in runs for p in run.rglob("*") if p.is_file())
+    assert all(list(run.glob("shapes-*.h5")) for run in runs)
 
     # the command writes the summary and report from the snapshots, then slims
     result = CliRunner().invoke(app, ["study", "slim", str(study.folder)])
@@ -51,6 +52,7 @@ def test_a_slimmed_study_keeps_its_summary_and_figures_and_goes_on_elsewhere(tmp
     assert any(n.startswith("force_network_") for n in drawn)
     for run in runs:
         assert not (run / SNAPSHOTS).exists() and not (run / CHECKPOINT).exists()
+        assert not list(run.glob("shapes-*.h5"))  # the checkpoints' shape library
         assert (run / RESULTS_H5).exists() and sample_state(run) == "ended"
         assert (run / DIGEST / "snapshots.h5").stat().st_size > 0
     assert sum(p.stat().st_size for run in runs for p in run.rglob("*") if p.is_file()) \

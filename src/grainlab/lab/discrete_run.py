@@ -80,6 +80,7 @@ from grainlab.lab.run_config import CHANGEABLE_ON_RESUME, RunConfig, parse_assig
 from grainlab.lab.run_estimate import refuse_endless_run
 from grainlab.lab.run_operations import Every, ProblemWriter, ProgressBar
 from grainlab.lab.run_outcome import RunCost, RunOutcome
+from grainlab.lab.shape_library_file import library_files
 from grainlab.lab.stage_numerics import COMPACTION, SHEAR
 from grainlab.prep.inscribed_sample import deposited_sample, inscribed_sample
 from grainlab.prep.loose_sample import loose_sample
@@ -98,7 +99,8 @@ LOG = "run.log"
 PROBLEMS = "problems"
 RUN_FILES = (CHECKPOINT, PREVIOUS_CHECKPOINT, CHECKPOINT + DAMAGED_SUFFIX, RESULTS, RESULTS_H5,
              SNAPSHOTS, LOG, "curves.png", "vtk", "vtk-checkpoint", PROBLEMS, "report")
-"""What ``--restart`` moves aside (config.toml stays, a copy goes with them)."""
+"""What ``--restart`` moves aside (config.toml stays, a copy goes with them), with the run's
+shape library files (:mod:`grainlab.lab.shape_library_file`)."""
 DT_BLAME_FACTOR = 10.0
 """A blow-up is put down to the given time step (``solver.dt``, ``--dt``) when it is at least
 this many times the stage's own step (:meth:`DiscreteRun._blamed_setting`)."""
@@ -608,7 +610,7 @@ def _move_aside(folder: Path) -> Path:
     aside = folder / f"previous-{n}"
     aside.mkdir()
     shutil.copy2(folder / CONFIG, aside / CONFIG)
-    for name in RUN_FILES:
+    for name in RUN_FILES + tuple(path.name for path in library_files(folder)):
         if (folder / name).exists():
             os.replace(folder / name, aside / name)
     return aside

@@ -11,6 +11,10 @@ folder is fsynced. A crash at any moment leaves at least one complete checkpoint
 first rename both old ones, between the renames ``checkpoint.prev.h5`` alone, after them both
 new ones.
 
+The shape library does not change during a run: it is written once, to ``shapes-<digest>.h5``
+beside the checkpoints, and each checkpoint names it (:mod:`grainlab.lab.shape_library_file`;
+checkpoints before it hold the library inline).
+
 Reading (:func:`load_checkpoint`) tries ``checkpoint.h5``, then ``checkpoint.prev.h5``; a file
 that is missing, truncated, empty or not a checkpoint is named with what is wrong with it
 (:class:`CheckpointDamaged`), and with none usable nothing in the folder is touched. A write
@@ -24,7 +28,7 @@ import errno
 import json
 import math
 import os
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +37,14 @@ import h5py
 from grainlab.engine.state import BodyState, ShapeLibrary
 from grainlab.errors import GrainlabError
 from grainlab.lab.boundary_registry import restore_boundary
+from grainlab.lab.shape_library_file import (
+    LIBRARY_DIGEST_ATTR,
+    LIBRARY_FILE_ATTR,
+    LibraryFileError,
+    read_library_file,
+    remove_unnamed_library_files,
+    write_library_file,
+)
 
 CHECKPOINT = "checkpoint.h5"
 PREVIOUS_CHECKPOINT = "checkpoint.prev.h5"
@@ -136,9 +148,20 @@ def storage_error(error: OSError, what: str, kept: str) -> RunStorageError:
 def write_checkpoint(folder: Path, contents: CheckpointContents, *, kept: str = "",
                      rotate: bool = True) -> Path:
     """Write a checkpoint into ``folder`` with rotation (module docstring; ``rotate=False``:
-    replace the last one, atomically too); returns its path. A failed write raises
-    :class:`RunStorageError` (``kept`` says what is still on disk)."""
+    replace the last one, atomically too); returns its path. A ``library`` group goes to the
+    run's library file, written once (:mod:`grainlab.lab.shape_library_file`). A failed write
+    raises :class:`RunStorageError` (``kept`` says what is still on disk)."""
     path = folder / CHECKPOINT
+    groups = dict(contents.groups)
+    library = groups.pop("library", None)
+    if library is not None:
+        try:
+            name, digest = write_library_file(folder, library)
+        except OSError as error:
+            raise storage_error(error, f"the shape library in {folder}", kept) from None
+        contents = replace(contents, groups=groups,
+                           attrs={**contents.attrs, LIBRARY_FILE_ATTR: name,
+                                  LIBRARY_DIGEST_ATTR: digest})
     tmp = path.with_name(path.name + ".tmp")
     try:
         _write_file(tmp, contents)
@@ -149,6 +172,8 @@ def write_checkpoint(folder: Path, contents: CheckpointContents, *, kept: str = 
         os.replace(path, folder / PREVIOUS_CHECKPOINT)
     os.replace(tmp, path)
     _fsync_folder(folder)
+    if library is not None:
+        remove_unnamed_library_files(folder, (path, folder / PREVIOUS_CHECKPOINT))
     return path
 
 
@@ -159,6 +184,8 @@ def _damage(error: BaseException) -> str:
         return "truncated (the file ends early)"
     if "file signature not found" in text:
         return "not an HDF5 file (empty or overwritten)"
+    if isinstance(error, LibraryFileError):
+        return str(error)
     if isinstance(error, KeyError):
         return f"incomplete (no {text})"
     return f"unreadable ({type(error).__name__}: {text})"
@@ -173,6 +200,15 @@ def _boundary(group) -> Any:
     return restore_boundary(None if kind is None else str(kind), arrays)
 
 
+def _library_arrays(handle, path: Path) -> dict[str, Any]:
+    """The library arrays of a checkpoint: inline (older checkpoints) or from the library
+    file it names, checked against its digest."""
+    if "library" in handle:
+        return {n: handle["library"][n][()] for n in LIBRARY_FIELDS if n in handle["library"]}
+    return read_library_file(path.parent / str(handle.attrs[LIBRARY_FILE_ATTR]),
+                             str(handle.attrs[LIBRARY_DIGEST_ATTR]), LIBRARY_FIELDS)
+
+
 def read_checkpoint(path: str | Path) -> dict[str, Any]:
     """Everything a checkpoint holds: ``library``, ``state``, ``box`` (objects),
     ``warm_start`` (arrays), ``rng_state``, ``progress``, ``outcome``, ``description``,
@@ -185,8 +221,7 @@ def read_checkpoint(path: str | Path) -> dict[str, Any]:
             if handle.attrs.get("format") != CHECKPOINT_FORMAT:
                 raise CheckpointDamaged(f"{path} is damaged: not a {CHECKPOINT_FORMAT} file")
             saved: dict[str, Any] = {
-                "library": ShapeLibrary(**{n: handle["library"][n][()]
-                                           for n in LIBRARY_FIELDS if n in handle["library"]}),
+                "library": ShapeLibrary(**_library_arrays(handle, path)),
                 "state": BodyState(**{n: handle["state"][n][()] for n in STATE_FIELDS},
                                    density=float(handle["state"].attrs["density"])),
                 "box": _boundary(handle["box"]),

@@ -19,7 +19,7 @@ never reruns an ended sample), a series built a few samples at a time:
     (its force network).
 
 The results (``results.h5``, ``results.csv``), the config and the log stay; the snapshots, the
-checkpoints and any stored contact problems go. A slimmed sample's row is frozen as it was
+checkpoints (with their shape library) and any stored contact problems go. A slimmed sample's row is frozen as it was
 computed: a summary asked with other settings leaves its microstructure out.
 """
 
@@ -42,12 +42,14 @@ from grainlab.lab.discrete_run import (
     RESULTS_H5,
     SNAPSHOTS,
 )
+from grainlab.lab.shape_library_file import library_files
 
 DIGEST = "digest"
 ROW = "row.json"
 WINDOW = "window"
 BULKY = (SNAPSHOTS, CHECKPOINT, PREVIOUS_CHECKPOINT, PROBLEMS)
-"""What slimming removes from an ended run folder."""
+"""What slimming removes from an ended run folder, with the checkpoints' shape library files
+(:mod:`grainlab.lab.shape_library_file`)."""
 
 
 def row_settings(window: tuple[float, float], core_margin: float, peak_window: float,
@@ -161,7 +163,7 @@ def slim_sample(folder: str | Path, row: dict[str, Any], settings: dict[str, Any
         write_window(folder, window, core_margin)
         write_report_snapshots(folder)
     freed = 0
-    for name in BULKY:
+    for name in BULKY + tuple(path.name for path in library_files(folder)):
         path = folder / name
         if path.is_dir():
             freed += sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
