@@ -19,8 +19,9 @@ never reruns an ended sample), a series built a few samples at a time:
     (its force network).
 
 The results (``results.h5``, ``results.csv``), the config and the log stay; the snapshots, the
-checkpoints (with their shape library) and any stored contact problems go. A slimmed sample's row is frozen as it was
-computed: a summary asked with other settings leaves its microstructure out.
+checkpoints (with their shape library) and any stored contact problems go. A slimmed sample's
+row is frozen as it was computed: a summary asked with other settings leaves its
+microstructure out.
 """
 
 from __future__ import annotations
