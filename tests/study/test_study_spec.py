@@ -58,7 +58,7 @@ def test_bad_base_key_is_named_in_base():
 
 
 def test_angularity_preset_is_table_one():
-    s = series_spec("angularity", n_particles=50, length="full")
+    s = series_spec("angularity", n_particles=50, length="full", boundary="walls")
     assert s.names == [f"S{k}" for k in range(1, 9)]
     faces = [s.sample_config(n).sample.n_faces for n in s.names[1:]]
     assert faces == [596, 176, 96, 46, 30, 20, 8]
@@ -74,7 +74,7 @@ def test_angularity_preset_is_table_one():
 
 
 def test_nonconvexity_preset_is_seed_003():
-    s = series_spec("nonconvexity", length="full")
+    s = series_spec("nonconvexity", length="full", boundary="walls")
     configs = [s.sample_config(n) for n in s.names]
     assert [c.sample.shape for c in configs] == ["sphere"] + ["aggregate"] * 7
     assert [c.sample.eta for c in configs[1:]] == list(ETAS[1:])
@@ -100,7 +100,7 @@ def test_every_length_keeps_the_papers_protocol_and_its_window_inside_the_path(n
     inertia number, walls and preparation; its window ends at the strain the samples reach,
     and snapshots fall in it."""
     for length, spec in LENGTHS.items():
-        s = series_spec(name, length=length)
+        s = series_spec(name, length=length, boundary="walls")
         config = s.sample_config(s.names[-1])
         lo, hi = s.study.window
         assert 0.0 < lo < hi == config.test.eps_q_max == spec.eps_q_max, length
@@ -123,7 +123,7 @@ def test_the_study_lengths_are_ordered():
 @pytest.mark.parametrize("length", list(LENGTHS))
 def test_the_periodic_presets_run_loose_samples_in_a_cell_large_enough(name, length):
     from grainlab.study.series_presets import cell_height_ratio, cell_particles
-    walls = series_spec(name, length=length)
+    walls = series_spec(name, length=length, boundary="walls")
     cell = series_spec(name, length=length, boundary="periodic")
     assert cell.names == walls.names
     size_ratio = walls.sample_config(walls.names[0]).sample.size_ratio
@@ -179,6 +179,22 @@ def test_a_periodic_sample_keeps_the_room_of_the_detection_with_its_own_particle
     assert narrowest >= limit
     needed = s.n_particles * (limit / narrowest) ** 3
     assert s.n_particles <= 1.25 * needed
+
+
+@pytest.mark.parametrize("name", ["angularity", "nonconvexity"])
+def test_a_full_study_runs_in_a_cell_and_a_quick_one_in_walls_unless_told(name):
+    """The papers' values are the bulk's: a full study runs in a periodic cell by default, a
+    smoke or short one in the papers' box; --boundary overrides either."""
+    for length, expected in (("smoke", "walls"), ("short", "walls"), ("full", "periodic")):
+        assert LENGTHS[length].boundary == expected
+        default = series_spec(name, length=length, n_particles=50)
+        told = series_spec(name, length=length, n_particles=50, boundary=expected)
+        assert default == told, length
+        other = "walls" if expected == "periodic" else "periodic"
+        overridden = series_spec(name, length=length, n_particles=50, boundary=other)
+        first = overridden.sample_config(overridden.names[0]).sample
+        assert first.boundary == ("periodic" if other == "periodic" else "walls")
+        assert ("periodic cell" in overridden.study.description) == (other == "periodic")
 
 
 def test_an_unknown_boundary_is_refused_by_name():

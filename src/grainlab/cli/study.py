@@ -41,13 +41,14 @@ _ONLY = typer.Option(None, "--only", help=(
     "Run only these samples (comma-separated names, e.g. S1,S8), in this order, those with a "
     "checkpoint first; the others are left as they are, and the report covers every sample "
     "that has ended."))
-_BOUNDARY = typer.Option("walls", "--boundary", help="; ".join(
-    f"{name}: {words}" for name, words in BOUNDARIES.items()) + ".")
+_BOUNDARY = typer.Option(None, "--boundary", help="; ".join(
+    f"{name}: {words}" for name, words in BOUNDARIES.items()) + ". Default: the length's ("
+    + ", ".join(f"{name}: {length.boundary}" for name, length in LENGTHS.items()) + ").")
 _SEED = typer.Option(0, "--seed", min=0, help="Seed of the sphere packing shared by the "
                                               "samples, and of their shapes.")
 _REPLICAS = typer.Option(1, "--replicas", min=1, help=(
     "Packings per repeated sample: the samples of --replicated run again with the seeds "
-    "seed + 1, ..., seed + replicas - 1 (named <sample>-seed<s>), and the report pools each "
+    "seed + 1, ..., seed + replicas - 1 (named like S4-seed1), and the report pools each "
     "with its repeats into one point whose error bars are the spread over the seeds."))
 _REPLICATED = typer.Option(None, "--replicated", help=(
     "The samples --replicas repeats (comma-separated; default: "
@@ -95,7 +96,7 @@ def _preset(series: str, out: Path, n_particles, length, seed, scheduler, worker
             progress, only, **options) -> None:
     if length not in LENGTHS:
         raise InputError("--length", length, "one of " + ", ".join(LENGTHS))
-    if options.get("boundary") not in BOUNDARIES:
+    if options.get("boundary") not in (None, *BOUNDARIES):
         raise InputError("--boundary", options.get("boundary"), "one of " + ", ".join(BOUNDARIES))
     spec = series_spec(series, n_particles=n_particles, length=length, seed=seed, **options)
     _run_study(Study.create(out, spec), scheduler, workers, threads, progress, only)
@@ -109,13 +110,14 @@ def angularity_command(
     templates: int = typer.Option(None, "--templates", min=0, help=(
         "Polyhedra drawn once and reused in random orientations (0: every particle its own, "
         "as the paper; default 12 for short, 0 for full).")),
-    boundary: str = _BOUNDARY, replicas: int = _REPLICAS, replicated: str = _REPLICATED,
+    boundary: str | None = _BOUNDARY, replicas: int = _REPLICAS, replicated: str = _REPLICATED,
     scheduler: str = _SCHEDULER, workers: int = _WORKERS, threads: int = _THREADS,
     only: str = _ONLY, progress: bool = _PROGRESS,
 ) -> None:
     """Seed 002's angularity series: spheres (S1) and polyhedra of 596, 176, 96, 46, 30, 20
-    and 8 faces (S2 ... S8) inscribed in one sphere packing; triaxial compression after a
-    frictionless isotropic compaction. Run it again to resume."""
+    and 8 faces (S2 ... S8), inscribed in one sphere packing (walls) or each compacted from
+    a loose packing of its own (a periodic cell, the full length's default); triaxial
+    compression after a frictionless isotropic compaction. Run it again to resume."""
     _preset("angularity", out, n_particles, length, seed, scheduler, workers, threads,
             progress, only, templates=templates, boundary=boundary, replicas=replicas,
             replicated=_names(replicated))
@@ -126,13 +128,14 @@ def angularity_command(
 def nonconvexity_command(
     out: Path = typer.Option(Path("study-nonconvexity"), "--out", "-o", help="Study folder."),
     n_particles: int = _N, length: str = _LENGTH, seed: int = _SEED,
-    boundary: str = _BOUNDARY, replicas: int = _REPLICAS, replicated: str = _REPLICATED,
+    boundary: str | None = _BOUNDARY, replicas: int = _REPLICAS, replicated: str = _REPLICATED,
     scheduler: str = _SCHEDULER, workers: int = _WORKERS, threads: int = _THREADS,
     only: str = _ONLY, progress: bool = _PROGRESS,
 ) -> None:
     """Seed 003's non-convexity series: aggregates of four spheres with eta = 0, 0.1, ...,
-    0.7 inscribed in one sphere packing; triaxial compression after a frictionless
-    isotropic compaction. Run it again to resume."""
+    0.7, inscribed in one sphere packing (walls) or each compacted from a loose packing of
+    its own (a periodic cell, the full length's default); triaxial compression after a
+    frictionless isotropic compaction. Run it again to resume."""
     _preset("nonconvexity", out, n_particles, length, seed, scheduler, workers, threads,
             progress, only, boundary=boundary, replicas=replicas,
             replicated=_names(replicated))

@@ -49,7 +49,8 @@ class StudyLength:
     residual ``window`` (eps_q) of each series; ``particles`` per sample by default, the
     ``height_ratio`` (height / width) of the deposited packing, about ``snapshots_per_window``
     contact-network snapshots in the window, and the polyhedron ``templates`` drawn once and
-    reused in random orientations (0: every particle its own, as the paper)."""
+    reused in random orientations (0: every particle its own, as the paper); the ``boundary``
+    (:data:`BOUNDARIES`) a study of this length runs in unless told otherwise."""
 
     eps_q_max: float
     window: dict[str, tuple[float, float]]
@@ -58,6 +59,7 @@ class StudyLength:
     snapshots_per_window: int
     templates: int
     text: str
+    boundary: str = "walls"
 
 
 LENGTHS = {
@@ -74,7 +76,9 @@ LENGTHS = {
     "full": StudyLength(0.9, {"angularity": (0.6, 0.9), "nonconvexity": (0.5, 0.9)},
                         1000, 2.0, 20, 0,
                         "the papers' strain, eps_q = 0.9, window [0.6, 0.9] (002) or "
-                        "[0.5, 0.9] (003) (hours at 1000 particles)"),
+                        "[0.5, 0.9] (003) (hours at 1000 particles), in a periodic cell unless "
+                        "--boundary walls",
+                        boundary="periodic"),
 }
 """The lengths of a preset study. Particles: a study in minutes, and the papers' protocol at
 the size a 2-core machine runs in hours (the papers used 40 000 polyhedra and 12 000
@@ -85,7 +89,13 @@ exp(-eps_zz), eps_zz <= 2/3 eps_q (0.57 measured at eps_q = 0.9): to eps_q = 0.9
 particles high, where they lock in one or two layers (such a run is refused before it
 starts: at 500 particles eps_q <= 0.41 for eta = 0.7); the papers' 12 000 to 40 000
 particles had the room. A short study's few particles need 1.5 to reach eps_q = 0.3.
-Templates: drawing a hull of few faces takes ~0.25 s."""
+Templates: drawing a hull of few faces takes ~0.25 s. Boundary: a smoke or short study runs
+in the papers' box of walls, which a few particles fill in seconds; a full one in a periodic
+cell, whose values are the bulk's, as the papers' 12 000 to 40 000 particles give: in walls
+about half the centres of 500 particles, and 29 % of 4000, lie within a diameter of a wall
+(docs/explanations/studies.md, "The walls and the core"; the size check measures how the core
+values approach the cell's). A periodic cell needs more particles for a smoke study's room
+(292 and 641 for eta = 0 and 0.7: three minutes, against 19 s in walls)."""
 
 ETAS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7)
 """Seed 003's eight packings."""
@@ -213,13 +223,14 @@ def _snapshot_every(n_particles: int, length: str) -> int:
 
 def angularity_series(*, n_particles: int | None = None, length: str = "short",
                       seed: int = 0, templates: int | None = None,
-                      boundary: str = "walls", replicas: int = 1,
+                      boundary: str | None = None, replicas: int = 1,
                       replicated: tuple[str, ...] | None = None) -> StudySpec:
     """Seed 002's eight samples S1 ... S8 (module docstring). ``templates``: polyhedra drawn
     once and reused in random orientations (0: every particle its own, as the paper; default:
-    the length's, :data:`LENGTHS`); ``boundary``: one of :data:`BOUNDARIES`; ``replicas``
-    and ``replicated``: :func:`with_replicas`."""
+    the length's, :data:`LENGTHS`); ``boundary``: one of :data:`BOUNDARIES` (default: the
+    length's); ``replicas`` and ``replicated``: :func:`with_replicas`."""
     length = _length(length)
+    boundary = _boundary(LENGTHS[length].boundary if boundary is None else boundary)
     n = n_particles or LENGTHS[length].particles
     if templates is None:
         templates = LENGTHS[length].templates
@@ -238,11 +249,13 @@ def angularity_series(*, n_particles: int | None = None, length: str = "short",
 
 
 def nonconvexity_series(*, n_particles: int | None = None, length: str = "short",
-                        seed: int = 0, boundary: str = "walls", replicas: int = 1,
+                        seed: int = 0, boundary: str | None = None, replicas: int = 1,
                         replicated: tuple[str, ...] | None = None) -> StudySpec:
     """Seed 003's eight samples eta = 0 ... 0.7 (module docstring); ``boundary``: one of
-    :data:`BOUNDARIES`; ``replicas`` and ``replicated``: :func:`with_replicas`."""
+    :data:`BOUNDARIES` (default: the length's); ``replicas`` and ``replicated``:
+    :func:`with_replicas`."""
     length = _length(length)
+    boundary = _boundary(LENGTHS[length].boundary if boundary is None else boundary)
     n = n_particles or LENGTHS[length].particles
     base = _protocol(n, length, seed, 3.0, _snapshot_every(n, length), boundary)
     samples = []
