@@ -290,12 +290,14 @@ def test_window_averaged_polar_diagrams_and_force_pdfs_of_the_report(tmp_path):
     folder.mkdir(parents=True)
     write_snapshots(folder / "snapshots.h5", networks)
     study = SimpleNamespace(sample_folder=lambda name: tmp_path / "samples" / name,
-                            spec=SimpleNamespace(study=SimpleNamespace(window=(0.5, 0.9),
-                                                                       core_margin=1.0)))
+                            spec=SimpleNamespace(study=SimpleNamespace(
+                                window=(0.5, 0.9), core_margin=1.0, parameter="eta")))
     figures = _window_distributions(study, pd.DataFrame({"name": ["A"]}), tmp_path)
     assert [f for _, f in figures] == ["polar_A.png", "force_pdfs_A.png"]
     assert all((tmp_path / f).stat().st_size > 0 for _, f in figures)
     assert "3 snapshots" in figures[0][0] and "whole box" in figures[0][0]  # no box here
+    assert figures[0][0].endswith("(seed 003 insets of Figs. 12, 13, 17, 22)")
+    assert figures[1][0].endswith("(seed 003 Figs. 14, 16)")
 
     distributions = WindowAverage((0.5, 0.9)).run(networks).distributions
     # P(theta) with its harmonic fit: the fit drawn (red) has 1 + a_c (3 cos^2 - 1) of the
@@ -340,3 +342,23 @@ def test_without_a_core_the_figures_and_report_do_not_speak_of_a_box(tmp_path):
                                                         boundary="periodic"))
     box = Study.create(tmp_path / "box", series_spec("nonconvexity", n_particles=40))
     assert periodic_study(cell, names) and not periodic_study(box, names)
+
+
+def test_every_report_figure_names_its_counterpart_in_each_seed_or_has_none_on_purpose():
+    """Each figure against the shape parameter names the seeds' figure it draws; the ones a
+    paper does not draw are listed as such (seed 002 has no sliding by contact type, seed 003
+    no partial anisotropies by type), so a figure added without its reference is caught."""
+    from grainlab.report.study_figures import PAPER_FIGURES, paper_figure
+    absent = {("partial_anisotropies", "eta"), ("sliding_by_type", "mean_angularity"),
+              ("force_pdfs", "mean_angularity")}
+    stems = [stem for stem, _, _ in STUDY_FIGURES] + ["curves", "polar", "force_pdfs",
+                                                      "force_network"]
+    for stem in stems:
+        for parameter, seed in (("mean_angularity", "seed 002"), ("eta", "seed 003")):
+            words = paper_figure(stem, parameter)
+            if (stem, parameter) in absent:
+                assert words == "", (stem, parameter)
+            else:
+                assert words.startswith(f" ({seed} ") and "Fig" in words, (stem, parameter)
+    assert set(PAPER_FIGURES) == set(stems)
+    assert paper_figure("strength", "aspect_ratio") == ""  # a study of another parameter

@@ -120,6 +120,7 @@ def test_interrupted_study_goes_on_where_it_stopped(tmp_path, monkeypatch):
     assert study.states() == {"a": "ended", "b": "ended"}
     report = (study.folder / "report" / "report.md").read_text()
     assert "| a |" in report and "| b |" in report
+    assert "### Shear strength (seed 003 Fig. 4)" in report  # the seed's figure it draws
 
 
 def test_a_folder_holding_another_study_is_refused(tmp_path):

@@ -11,23 +11,8 @@ The walls of a small box order the particles next to them; the microstructure fi
 :mod:`grainlab.analysis.wall_layer`) wherever the summary has them, and say so in their
 labels; the packing fraction and the connectivity draw the whole box beside the core.
 
-===================================  =========================  =========================
-figure                               seed 002 (angularity)      seed 003 (non-convexity)
-===================================  =========================  =========================
-:func:`curves_figure`                Figs. 5, 7                 Figs. 3, 5
-:func:`strength_figure`              Fig. 6 (eq. 12's fit)      Fig. 4
-:func:`packing_fraction_figure`      Fig. 8                     Fig. 7
-:func:`connectivity_figure`          Fig. 10                    Fig. 9
-:func:`contact_types_figure`         Fig. 11                    Fig. 10
-:func:`anisotropies_figure`          Figs. 15-17                Figs. 12, 13, 17, 22
-:func:`sliding_figure`               Fig. 19                    Fig. 19
-:func:`stress_dilatancy_figure`      Fig. 20 (eqs. 27a, 27b,    Fig. 23 (eqs. 35a, 35b)
-                                     B1)
-:func:`partial_strength_figure`      Fig. 22                    Fig. 18
-:func:`partial_anisotropies_figure`  Figs. 23-24                -
-:func:`sliding_by_type_figure`       -                          Fig. 20
-:func:`wall_profile_figure`          -                          -
-===================================  =========================  =========================
+The figures of the seeds each one draws are :data:`PAPER_FIGURES` (the report's headings
+name them).
 
 :func:`stress_dilatancy_figure` draws the peak state (the summary's ``M_at_peak``, from the
 snapshot nearest the peak) beside the residual one where the summary has it. The friction
@@ -407,6 +392,46 @@ STUDY_FIGURES = (
 )
 """The figures against the shape parameter, in the report's order: (file stem, function,
 title)."""
+
+
+ANGULARITY, NONCONVEXITY = "mean_angularity", "eta"
+"""The shape parameters of the seeds' series (seed 002, seed 003)."""
+
+PAPER_FIGURES: dict[str, dict[str, str]] = {
+    "curves": {ANGULARITY: "seed 002 Figs. 5, 7", NONCONVEXITY: "seed 003 Figs. 3, 5"},
+    "strength": {ANGULARITY: "seed 002 Fig. 6 (eq. 12's fit)", NONCONVEXITY: "seed 003 Fig. 4"},
+    "packing_fraction": {ANGULARITY: "seed 002 Fig. 8", NONCONVEXITY: "seed 003 Fig. 7"},
+    "connectivity": {ANGULARITY: "seed 002 Fig. 10", NONCONVEXITY: "seed 003 Fig. 9"},
+    "contact_types": {ANGULARITY: "seed 002 Fig. 11", NONCONVEXITY: "seed 003 Fig. 10"},
+    "anisotropies": {ANGULARITY: "seed 002 Figs. 15-17",
+                     NONCONVEXITY: "seed 003 Figs. 12, 13, 17, 22"},
+    "sliding": {ANGULARITY: "seed 002 Fig. 19", NONCONVEXITY: "seed 003 Fig. 19"},
+    "stress_dilatancy": {ANGULARITY: "seed 002 Fig. 20 (eqs. 27a, 27b, B1)",
+                         NONCONVEXITY: "seed 003 Fig. 23 (eqs. 35a, 35b)"},
+    "partial_strength": {ANGULARITY: "seed 002 Fig. 22", NONCONVEXITY: "seed 003 Fig. 18"},
+    "partial_anisotropies": {ANGULARITY: "seed 002 Figs. 23-24"},
+    "sliding_by_type": {NONCONVEXITY: "seed 003 Fig. 20"},
+    "polar": {ANGULARITY: "seed 002 Fig. 14",
+              NONCONVEXITY: "seed 003 insets of Figs. 12, 13, 17, 22"},
+    "force_pdfs": {NONCONVEXITY: "seed 003 Figs. 14, 16"},
+    "force_network": {ANGULARITY: "seed 002 Figs. 12, 18, 21",
+                      NONCONVEXITY: "seed 003 Fig. 15"},
+}
+"""The seeds' figures each report figure draws (file stem -> shape parameter -> figure),
+read from the seeds' captions; a stem absent for a series has no counterpart in its paper
+(the wall profile has none in either). Seed 002 draws no force PDFs; seed 003 no partial
+anisotropies by contact type, and seed 002 no sliding by contact type."""
+
+
+def paper_figure(stem: str, parameter: str) -> str:
+    """`` (seed 00N Fig. K)`` for the report figure ``stem`` of a series of ``parameter``,
+    or "" where the paper has none (or the study is not one of the seeds' series).
+
+    >>> paper_figure("strength", "eta"), paper_figure("force_pdfs", "mean_angularity")
+    (' (seed 003 Fig. 4)', '')
+    """
+    figure = PAPER_FIGURES.get(stem, {}).get(parameter)
+    return f" ({figure})" if figure else ""
 
 
 def finite(value: float) -> bool:

@@ -23,7 +23,7 @@ from pathlib import Path
 import pandas as pd
 
 from grainlab.report.curves import save_figure
-from grainlab.report.study_figures import STUDY_FIGURES, curves_figure, finite
+from grainlab.report.study_figures import STUDY_FIGURES, curves_figure, finite, paper_figure
 
 REPORT = "report"
 
@@ -111,7 +111,7 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
     out.mkdir(exist_ok=True)
     for stale in out.glob("*.png"):  # a figure an earlier report drew, not drawn now
         stale.unlink()
-    symbol = spec.symbol
+    symbol, parameter = spec.symbol, spec.study.parameter
     labels = {r["name"]: f"{r['name']} ({symbol} = {r['measured']:.3g})"
               for _, r in table.iterrows()}
     curves = {}
@@ -122,13 +122,13 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
     figure = curves_figure(curves, labels)
     if figure is not None:
         save_figure(figure, out / "curves.png")
-        figures.append(("Stress, volume change and packing fraction against eps_q",
-                        "curves.png"))
+        figures.append(("Stress, volume change and packing fraction against eps_q"
+                        + paper_figure("curves", parameter), "curves.png"))
     for stem, make, title in STUDY_FIGURES:
         figure = make(table, symbol)
         if figure is not None:
             save_figure(figure, out / f"{stem}.png")
-            figures.append((title, f"{stem}.png"))
+            figures.append((title + paper_figure(stem, parameter), f"{stem}.png"))
     profile = _wall_profiles(study, table, out, labels, spec.study.core_margin)
     if profile is not None:
         figures.append(profile)
@@ -263,7 +263,8 @@ def _window_distributions(study, table: pd.DataFrame, out: Path,
                                   ("force_pdfs", averaged_force_pdf_figure, "Force PDFs")):
             file = f"{stem}_{name}.png"
             save_figure(make(distributions), out / file)
-            figures.append((f"{title}, {name} ({span})", file))
+            figures.append((f"{title}, {name} ({span})"
+                            + paper_figure(stem, study.spec.study.parameter), file))
     return figures
 
 
@@ -287,7 +288,8 @@ def _force_networks(study, table: pd.DataFrame, out: Path) -> list[tuple[str, st
         file = f"force_network_{name}.png"
         save_figure(figure, out / file)
         eps = last.state.get("eps_q", math.nan)
-        figures.append((f"Radial forces, {name}, eps_q = {eps:.2f}", file))
+        figures.append((f"Radial forces, {name}, eps_q = {eps:.2f}"
+                        + paper_figure("force_network", study.spec.study.parameter), file))
     return figures
 
 
