@@ -399,15 +399,15 @@ ANGULARITY, NONCONVEXITY = "mean_angularity", "eta"
 
 PAPER_FIGURES: dict[str, dict[str, str]] = {
     "curves": {ANGULARITY: "seed 002 Figs. 5, 7", NONCONVEXITY: "seed 003 Figs. 3, 5"},
-    "strength": {ANGULARITY: "seed 002 Fig. 6 (eq. 12's fit)", NONCONVEXITY: "seed 003 Fig. 4"},
+    "strength": {ANGULARITY: "seed 002 Fig. 6, eq. 12's fit", NONCONVEXITY: "seed 003 Fig. 4"},
     "packing_fraction": {ANGULARITY: "seed 002 Fig. 8", NONCONVEXITY: "seed 003 Fig. 7"},
     "connectivity": {ANGULARITY: "seed 002 Fig. 10", NONCONVEXITY: "seed 003 Fig. 9"},
     "contact_types": {ANGULARITY: "seed 002 Fig. 11", NONCONVEXITY: "seed 003 Fig. 10"},
     "anisotropies": {ANGULARITY: "seed 002 Figs. 15-17",
                      NONCONVEXITY: "seed 003 Figs. 12, 13, 17, 22"},
     "sliding": {ANGULARITY: "seed 002 Fig. 19", NONCONVEXITY: "seed 003 Fig. 19"},
-    "stress_dilatancy": {ANGULARITY: "seed 002 Fig. 20 (eqs. 27a, 27b, B1)",
-                         NONCONVEXITY: "seed 003 Fig. 23 (eqs. 35a, 35b)"},
+    "stress_dilatancy": {ANGULARITY: "seed 002 Fig. 20, eqs. 27a, 27b, B1",
+                         NONCONVEXITY: "seed 003 Fig. 23, eqs. 35a, 35b"},
     "partial_strength": {ANGULARITY: "seed 002 Fig. 22", NONCONVEXITY: "seed 003 Fig. 18"},
     "partial_anisotropies": {ANGULARITY: "seed 002 Figs. 23-24"},
     "sliding_by_type": {NONCONVEXITY: "seed 003 Fig. 20"},
