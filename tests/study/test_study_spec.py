@@ -250,3 +250,16 @@ def test_replicas_are_refused_by_name_where_they_make_no_sense():
             a, {"name": "b", "value": 0.1, "replica_of": "a"},
             {"name": "c", "value": 0.1, "replica_of": "b"}]})
     assert error.value.field == "samples[2].replica_of"
+
+
+@pytest.mark.parametrize("series, folder", [
+    ("angularity", "studies/angularity-periodic-1000"),
+    ("nonconvexity", "docs/studies/nonconvexity-periodic-1000")])
+def test_the_committed_series_are_what_the_bare_full_command_builds(series, folder):
+    """`grainlab study SERIES --length full -n 1000 --replicas 3` (the issue's command with
+    its seeds option) builds the very study the committed series ran: a rerun from a clean
+    clone runs the same samples with the same settings, and `grainlab study compare` reads
+    it against them."""
+    from pathlib import Path
+    committed = StudySpec.read(Path(__file__).parents[2] / folder / "study.toml")
+    assert series_spec(series, length="full", n_particles=1000, replicas=3) == committed
