@@ -14,6 +14,7 @@ from grainlab.report.html_report import markdown_html
 from grainlab.report.paper_comparison import (
     ANGULARITY,
     NONCONVEXITY,
+    RISES_THEN_FALLS,
     PaperClaim,
     comparison_markdown,
     paper_comparison,
@@ -30,6 +31,8 @@ def _as_the_paper(claims, x) -> pd.DataFrame:
     for claim in claims:
         if claim.peak_at is not None:
             values = claim.peak - 0.05 * np.abs(x - claim.peak_at)
+        elif claim.trend == RISES_THEN_FALLS:
+            values = 0.5 - 0.1 * np.abs(x - x[len(x) // 2]) / (x[-1] - x[0])
         elif claim.trend is not None and claim.first is None and claim.last is None:
             values = 0.3 + 0.1 * (x - x[0]) / (x[-1] - x[0])
         else:
@@ -42,7 +45,8 @@ def _as_the_paper(claims, x) -> pd.DataFrame:
             if claim.rest is not None:
                 values[1:] = claim.rest
         for column in (claim.column, claim.core_column):
-            table[column] = values
+            if column is not None:
+                table[column] = values
     return pd.DataFrame(table)
 
 
@@ -52,8 +56,10 @@ def test_values_as_the_paper_agree_everywhere(claims, parameter):
     table = _as_the_paper(claims, ETA if parameter == "eta" else np.linspace(0, 1.27, 8))
     comparison = paper_comparison(table, parameter)
     assert list(comparison["quantity"]) == [c.quantity for c in claims]
-    assert comparison["core_agrees"].all() and comparison["whole_box_agrees"].all(), \
-        comparison[["quantity", "core_verdict"]]
+    cored = np.array([c.core_column is not None for c in claims])
+    assert comparison["core_agrees"][cored].all() and comparison["whole_box_agrees"].all(), \
+        comparison[["quantity", "whole_box_verdict", "core_verdict"]]
+    assert (comparison["core_verdict"][~cored] == "no value").all()  # a peak, an angle
     assert "**agrees** (core)" in comparison_markdown(comparison)
 
 
@@ -78,6 +84,28 @@ def test_a_trend_must_exceed_the_error_bars_of_its_ends():
     assert not agrees and "does not rise beyond its error bars" in text
     falling = PaperClaim("nu*", "n", None, "falls", 0.01, trend="falls")
     assert verdict(falling, np.array([0.58, 0.56, 0.54]), np.zeros(3), x)[1]
+
+
+def test_a_rise_then_fall_needs_an_inner_maximum_above_both_ends_beyond_their_bars():
+    """Seed 002's (q/p)+: it rises with <alpha> to a maximum, then falls for the most angular
+    shapes."""
+    claim = next(c for c in ANGULARITY if c.quantity == "(q/p)+")
+    assert claim.trend == RISES_THEN_FALLS
+    x = np.array([0.0, 0.34, 0.5, 0.77, 1.27])
+    bars = np.full(5, 0.005)
+    text, agrees = verdict(claim, np.array([0.34, 0.50, 0.53, 0.51, 0.48]), bars, x)
+    assert agrees and "largest at 0.5 (0.53): rises to it from 0.34; then falls to 0.48" in text
+    # the fall within the error bars: 0.53 - 0.525 < 0.005 + 0.005
+    text, agrees = verdict(claim, np.array([0.34, 0.50, 0.53, 0.51, 0.525]), bars, x)
+    assert not agrees and "does not fall after it beyond the error bars" in text
+    # the largest at the last sample: a rise, no maximum inside the series
+    text, agrees = verdict(claim, np.array([0.34, 0.50, 0.51, 0.52, 0.53]), bars, x)
+    assert not agrees and "the last sample is its largest" in text
+    # a top without an error bar of its own (one packing seed) takes the others' root mean
+    # square (0.01 here), not zero: a fall of 0.015 is not beyond 0.01 + 0.005
+    stds = np.array([0.014, 0.01, 0.0, 0.0, 0.005])
+    text, agrees = verdict(claim, np.array([0.341, 0.521, 0.527, 0.528, 0.513]), stds, x)
+    assert not agrees and "error bars 0.01 at the top" in text
 
 
 def test_a_peak_away_from_the_papers_location_differs():

@@ -10,14 +10,19 @@ tolerance per quantity):
   most non-convex shape): ``first``, ``last``;
 * its level over every sample but the first (the polyhedra, the aggregates): ``rest``;
 * where along the series it peaks, and its value there: ``peak_at``, ``peak``;
-* only the direction it moves along the series: ``trend`` ("rises" or "falls").
+* only the direction it moves along the series: ``trend`` ("rises" or "falls"), or that it
+  rises to a maximum inside the series and falls after it (:data:`RISES_THEN_FALLS`).
 
 Each is checked on grainlab's values of the same samples, in the study's order: a value
 agrees when it lies within ``tolerance + 2 std`` of the paper's (std: the standard deviation
 over the residual window, the error bar of the papers' figures; none for an initial state); a
 trend agrees when the last sample's value differs from the first's by more than their error
 bars in the paper's direction; a peak agrees when the sample of the largest value lies within
-``peak_tolerance`` of the paper's location. The verdict names what agrees and, for what does
+``peak_tolerance`` of the paper's location; a rise then fall agrees when the largest value
+lies above both the first and the last by more than their error bars. A value without an
+error bar of its own there (a peak of one packing seed) takes the root mean square of the
+others' (the seeds' spread of the shapes run on several packings), so that one seed's peak
+is not read as exact. The verdict names what agrees and, for what does
 not, by how much and in which direction.
 """
 
@@ -28,6 +33,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+
+RISES_THEN_FALLS = "rises, then falls"
+"""The ``trend`` of a quantity that rises to a maximum inside the series, then falls."""
 
 
 @dataclass(frozen=True)
@@ -53,9 +61,15 @@ class PaperClaim:
 
 
 ANGULARITY = (
+    PaperClaim("(q/p)+", "q_over_trace_peak", None,
+               "rises with <α> to a maximum, then falls for the most angular shapes", 0.0,
+               trend=RISES_THEN_FALLS),
     PaperClaim("(q/p)*", "q_over_trace_residual", "q_over_trace_core_residual",
                "rises from about 0.2 (spheres) and saturates near 0.4", 0.03,
                first=0.2, last=0.4),
+    PaperClaim("φ* [rad]", "phi_residual", None,
+               "from about 0.3 (spheres), tending to about 0.5 (eq. 12's fit)", 0.03,
+               first=0.3, last=0.5),
     PaperClaim("ν0", "packing_fraction_initial", "packing_fraction_core_initial",
                "peaks near <α> = 0.5, at about 0.75", 0.02, peak_at=0.5, peak=0.75),
     PaperClaim("ν*", "packing_fraction_residual", "packing_fraction_core_residual",
@@ -75,6 +89,7 @@ ANGULARITY = (
 """Seed 002 (Azéma, Radjaï & Dubois 2013, 40 000 particles), against <α>."""
 
 NONCONVEXITY = (
+    PaperClaim("(q/p)+", "q_over_trace_peak", None, "rises with η", 0.0, trend="rises"),
     PaperClaim("(q/p)*", "q_over_trace_residual", "q_over_trace_core_residual",
                "rises with η at a decreasing rate", 0.02, trend="rises"),
     PaperClaim("ρ0", "packing_fraction_initial", "packing_fraction_core_initial",
@@ -149,7 +164,11 @@ def verdict(claim: PaperClaim, values: np.ndarray, stds: np.ndarray,
     for check in checks:
         agree &= " as the paper's " in check
     parts += checks
-    if claim.trend is not None:
+    if claim.trend == RISES_THEN_FALLS:
+        text, follows = _rise_then_fall(values, stds, parameter)
+        agree &= follows
+        parts.append(text)
+    elif claim.trend is not None:
         change = values[-1] - values[0]
         bar = stds[-1] + stds[0]
         sign = 1.0 if claim.trend == "rises" else -1.0
@@ -174,6 +193,31 @@ def verdict(claim: PaperClaim, values: np.ndarray, stds: np.ndarray,
             agree = False
             parts.append("no value")
     return "; ".join(parts), agree
+
+
+def _rise_then_fall(values: np.ndarray, stds: np.ndarray,
+                    parameter: np.ndarray) -> tuple[str, bool]:
+    """(words, whether the largest value lies inside the series above the first and the
+    last by more than their error bars); a value without a bar of its own takes the root
+    mean square of the others' (module docstring)."""
+    finite = np.isfinite(values)
+    if not finite.any():
+        return "no value", False
+    given = stds[np.isfinite(stds) & (stds > 0)]
+    fill = float(np.sqrt(np.mean(given ** 2))) if given.size else 0.0
+    bars = np.where(np.isfinite(stds) & (stds > 0), stds, fill)
+    k = int(np.nanargmax(values))
+    rises = k > 0 and values[k] - values[0] > bars[k] + bars[0]
+    falls = k < len(values) - 1 and values[k] - values[-1] > bars[k] + bars[-1]
+    top = f"largest at {parameter[k]:.2g} ({values[k]:.3g})"
+    rise = "rises to it from" if rises else "not above, beyond the error bars,"
+    fall = ("then falls to" if falls else
+            "the last sample is its largest" if k == len(values) - 1 else
+            "does not fall after it beyond the error bars, to")
+    return (f"{top}: {rise} {values[0]:.3g}; {fall}"
+            + ("" if k == len(values) - 1 and not falls else f" {values[-1]:.3g}")
+            + (f" (error bars {bars[k]:.2g} at the top, {bars[-1]:.2g} at the last)"
+               if not falls and k < len(values) - 1 else "")), rises and falls
 
 
 def _shown(series: tuple[np.ndarray, np.ndarray] | None) -> str:

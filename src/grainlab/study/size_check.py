@@ -234,8 +234,11 @@ def run_size_check(folder: str | Path, plan: SizeCheckPlan, *, scheduler: str | 
 
 
 def _claims(series: str) -> tuple[PaperClaim, ...]:
+    """The quantities the check compares: the paper's claims, with the peak first where the
+    paper makes none of it."""
     parameter = series_spec(series, n_particles=2).study.parameter
-    return (PEAK, *PAPER_CLAIMS.get(parameter, ()))
+    claims = PAPER_CLAIMS.get(parameter, ())
+    return claims if any(c.column == PEAK.column for c in claims) else (PEAK, *claims)
 
 
 def paper_value(claim: PaperClaim, index: int, count: int, parameter: float) -> float:
