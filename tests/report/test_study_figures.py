@@ -348,17 +348,18 @@ def test_every_report_figure_names_its_counterpart_in_each_seed_or_has_none_on_p
     """Each figure against the shape parameter names the seeds' figure it draws; the ones a
     paper does not draw are listed as such (seed 002 has no sliding by contact type, seed 003
     no partial anisotropies by type), so a figure added without its reference is caught."""
-    from grainlab.report.study_figures import PAPER_FIGURES, paper_figure
+    from grainlab.report.study_figures import PAPER_FIGURES, seed_figure_words
     absent = {("partial_anisotropies", "eta"), ("sliding_by_type", "mean_angularity"),
-              ("force_pdfs", "mean_angularity")}
-    stems = [stem for stem, _, _ in STUDY_FIGURES] + ["curves", "polar", "force_pdfs",
-                                                      "force_network"]
+              ("force_pdfs", "mean_angularity"), ("connectivity_map", "eta")}
+    stems = [stem for stem, _, _ in STUDY_FIGURES] + [
+        "curves", "polar", "force_pdfs", "force_network", "mobilised_network",
+        "connectivity_map"]
     for stem in stems:
         for parameter, seed in (("mean_angularity", "seed 002"), ("eta", "seed 003")):
-            words = paper_figure(stem, parameter)
+            words = seed_figure_words(stem, parameter)
             if (stem, parameter) in absent:
                 assert words == "", (stem, parameter)
             else:
                 assert words.startswith(f" ({seed} ") and "Fig" in words, (stem, parameter)
     assert set(PAPER_FIGURES) == set(stems)
-    assert paper_figure("strength", "aspect_ratio") == ""  # a study of another parameter
+    assert seed_figure_words("strength", "aspect_ratio") == ""  # a study of another parameter

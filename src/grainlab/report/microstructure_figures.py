@@ -5,7 +5,8 @@
 * both, averaged over a strain window with the standard deviation as error bars (the residual
   state of 002/003; :class:`~grainlab.analysis.window_average.WindowAverage`);
 * the radial ("neighbour") force network, lines scaled by force and coloured by contact type or
-  by sliding (002 Figs. 12, 18, 21; 003 Fig. 15);
+  by friction mobilisation (002 Figs. 12, 18, 21; 003 Figs. 15, 21);
+* the particles of a slab shaded by their number of contact neighbours (002 Fig. 9);
 * anisotropies and q/p (direct and harmonic) against strain (002 Figs. 16–20).
 """
 
@@ -13,8 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from matplotlib.collections import LineCollection
+from matplotlib.collections import LineCollection, PatchCollection
 from matplotlib.figure import Figure
+from matplotlib.patches import Circle
 from matplotlib.ticker import MaxNLocator
 
 from grainlab.analysis.angular_distributions import AngularDistributions
@@ -163,6 +165,19 @@ def pair_mobilisation(network: ContactNetwork) -> np.ndarray | None:
     return best
 
 
+def _slab(network: ContactNetwork, points: np.ndarray, plane: tuple[int, int],
+          thickness: float) -> tuple[np.ndarray, int, int]:
+    """(mask of ``points`` within ``thickness`` / 2 of the sample's mid-plane normal to the
+    axis not in ``plane``, the two drawn axes); every point in 2D."""
+    d = network.dimension
+    a, b = plane[0] % d, plane[1] % d
+    if d == 2:
+        return np.ones(len(points), dtype=bool), a, b
+    depth = ({0, 1, 2} - {a, b}).pop()
+    centre = 0.5 * (network.positions[:, depth].min() + network.positions[:, depth].max())
+    return np.abs(points[:, depth] - centre) <= thickness / 2, a, b
+
+
 def force_network_figure(
     network: ContactNetwork,
     color_by: str = "type",
@@ -183,15 +198,9 @@ def force_network_figure(
     lengths = np.linalg.norm(branches, axis=1)
     radial = np.einsum("pi,pi->p", forces, branches) / np.where(lengths > 0, lengths, 1.0)
     start = network.positions[network.pair_particles[:, 0]]
-    keep = radial > 0
-    d = network.dimension
-    a, b = plane[0] % d, plane[1] % d
-    if d == 3:
-        depth = ({0, 1, 2} - {a, b}).pop()
-        middle = start[:, depth] + 0.5 * branches[:, depth]
-        centre = 0.5 * (network.positions[:, depth].min() + network.positions[:, depth].max())
-        thickness = 3.0 * float(np.mean(lengths)) if slab is None else slab
-        keep &= np.abs(middle - centre) <= thickness / 2
+    thickness = 3.0 * float(np.mean(lengths)) if slab is None else slab
+    near, a, b = _slab(network, start + 0.5 * branches, plane, thickness)
+    keep = (radial > 0) & near
     segments = np.stack([start[keep][:, [a, b]], (start + branches)[keep][:, [a, b]]], axis=1)
     mean_radial = max(float(np.mean(radial[radial > 0])) if np.any(radial > 0) else 0.0, 1e-300)
     widths = np.clip(1.2 * radial[keep] / mean_radial, 0.1, 6.0)
@@ -204,7 +213,8 @@ def force_network_figure(
         ax.legend(fontsize="small", loc="upper right")
     elif color_by == "sliding" and mobilisation is not None:
         colors = [(m, 0.1, 1.0 - m) for m in np.clip(mobilisation[keep], 0.0, 1.0)]
-        ax.plot([], [], color=(1.0, 0.1, 0.0), lw=3, label="fully mobilised")
+        ax.plot([], [], color=(1.0, 0.1, 0.0), lw=3, label="fully mobilised, I_c = 1")
+        ax.plot([], [], color=(0.0, 0.1, 1.0), lw=3, label="I_c = 0")
         ax.legend(fontsize="small", loc="upper right")
     else:
         colors = "0.2"
@@ -216,6 +226,40 @@ def force_network_figure(
     ax.set_ylabel(f"{names[b]} [m]")
     ax.set_title("radial force network (width proportional to f_n', capped at 5 <f_n'>)",
                  fontsize="medium")
+    return figure
+
+
+def connectivity_map_figure(network: ContactNetwork, plane: tuple[int, int] = (0, -1),
+                            slab: float | None = None) -> Figure:
+    """The particles whose centre lies within ``slab`` / 2 of the sample's mid-plane (default
+    slab: one mean volume-equivalent diameter), each a disc of its volume-equivalent radius,
+    shaded by its number of contact neighbours z_i (pairs with a positive normal force): seed
+    002 Fig. 9, "color intensity is proportional to coordination number". A rattler is white.
+    Projected on ``plane`` (axis indices)."""
+    d = network.dimension
+    counts = np.zeros(network.n_particles)
+    active = network.active_pairs()
+    np.add.at(counts, network.pair_particles[active].ravel(), 1.0)
+    volumes = np.asarray(network.volumes, dtype=float)
+    radii = (3.0 * volumes / (4.0 * np.pi)) ** (1.0 / 3.0) if d == 3 else \
+        np.sqrt(volumes / np.pi)
+    thickness = 2.0 * float(np.mean(radii)) if slab is None else slab
+    keep, a, b = _slab(network, network.positions, plane, thickness)
+    figure, ax = new_figure_axes(figsize=(6.5, 6.5))
+    discs = PatchCollection([Circle((x[a], x[b]), r) for x, r in
+                             zip(network.positions[keep], radii[keep], strict=True)],
+                            cmap="Greys", edgecolor="0.5", linewidth=0.3)
+    discs.set_array(counts[keep])
+    discs.set_clim(0.0, max(float(counts.max()), 1.0))
+    ax.add_collection(discs)
+    ax.autoscale()
+    ax.set_aspect("equal")
+    names = "xyz"
+    ax.set_xlabel(f"{names[a]} [m]")
+    ax.set_ylabel(f"{names[b]} [m]")
+    figure.colorbar(discs, ax=ax, shrink=0.8, label="contact neighbours z_i")
+    ax.set_title(f"{int(keep.sum())} particles in a slab {thickness:.3g} m thick\n"
+                 f"(mean z_i {float(np.mean(counts)):.2f} over the sample)", fontsize="medium")
     return figure
 
 

@@ -414,20 +414,24 @@ PAPER_FIGURES: dict[str, dict[str, str]] = {
     "polar": {ANGULARITY: "seed 002 Fig. 14",
               NONCONVEXITY: "seed 003 insets of Figs. 12, 13, 17, 22"},
     "force_pdfs": {NONCONVEXITY: "seed 003 Figs. 14, 16"},
-    "force_network": {ANGULARITY: "seed 002 Figs. 12, 18, 21",
-                      NONCONVEXITY: "seed 003 Fig. 15"},
+    "force_network": {ANGULARITY: "seed 002 Figs. 12, 21", NONCONVEXITY: "seed 003 Fig. 15"},
+    "mobilised_network": {ANGULARITY: "seed 002 Fig. 18", NONCONVEXITY: "seed 003 Fig. 21"},
+    "connectivity_map": {ANGULARITY: "seed 002 Fig. 9"},
 }
 """The seeds' figures each report figure draws (file stem -> shape parameter -> figure),
 read from the seeds' captions; a stem absent for a series has no counterpart in its paper
-(the wall profile has none in either). Seed 002 draws no force PDFs; seed 003 no partial
-anisotropies by contact type, and seed 002 no sliding by contact type."""
+(the wall profile has none in either). Seed 002 draws no force PDFs and no sliding by contact
+type; seed 003 no partial anisotropies by contact type and no map of the particles'
+connectivity. Not drawn here: the papers' snapshots of the packings (002 Fig. 3, 003 Fig. 2)
+and seed 003's map of particle velocities (Fig. 6), whose velocities the snapshots do not
+keep."""
 
 
-def paper_figure(stem: str, parameter: str) -> str:
+def seed_figure_words(stem: str, parameter: str) -> str:
     """`` (seed 00N Fig. K)`` for the report figure ``stem`` of a series of ``parameter``,
     or "" where the paper has none (or the study is not one of the seeds' series).
 
-    >>> paper_figure("strength", "eta"), paper_figure("force_pdfs", "mean_angularity")
+    >>> seed_figure_words("strength", "eta"), seed_figure_words("force_pdfs", "mean_angularity")
     (' (seed 003 Fig. 4)', '')
     """
     figure = PAPER_FIGURES.get(stem, {}).get(parameter)

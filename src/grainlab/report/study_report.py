@@ -18,12 +18,13 @@ from __future__ import annotations
 
 import math
 from datetime import UTC, datetime
+from functools import partial
 from pathlib import Path
 
 import pandas as pd
 
 from grainlab.report.curves import save_figure
-from grainlab.report.study_figures import STUDY_FIGURES, curves_figure, finite, paper_figure
+from grainlab.report.study_figures import STUDY_FIGURES, curves_figure, finite, seed_figure_words
 
 REPORT = "report"
 
@@ -123,12 +124,12 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
     if figure is not None:
         save_figure(figure, out / "curves.png")
         figures.append(("Stress, volume change and packing fraction against eps_q"
-                        + paper_figure("curves", parameter), "curves.png"))
+                        + seed_figure_words("curves", parameter), "curves.png"))
     for stem, make, title in STUDY_FIGURES:
         figure = make(table, symbol)
         if figure is not None:
             save_figure(figure, out / f"{stem}.png")
-            figures.append((title + paper_figure(stem, parameter), f"{stem}.png"))
+            figures.append((title + seed_figure_words(stem, parameter), f"{stem}.png"))
     profile = _wall_profiles(study, table, out, labels, spec.study.core_margin)
     if profile is not None:
         figures.append(profile)
@@ -264,15 +265,21 @@ def _window_distributions(study, table: pd.DataFrame, out: Path,
             file = f"{stem}_{name}.png"
             save_figure(make(distributions), out / file)
             figures.append((f"{title}, {name} ({span})"
-                            + paper_figure(stem, study.spec.study.parameter), file))
+                            + seed_figure_words(stem, study.spec.study.parameter), file))
     return figures
 
 
 def _force_networks(study, table: pd.DataFrame, out: Path) -> list[tuple[str, str]]:
-    """Radial-force networks of the last snapshot of the first, middle and last sample."""
+    """The last snapshot of the first, middle and last sample: its radial-force network
+    coloured by contact type and by friction mobilisation, and its particles shaded by their
+    contact neighbours."""
     from grainlab.analysis.snapshot_files import count_snapshots, read_snapshots
     from grainlab.lab.run_digest import snapshots_for_report
-    from grainlab.report.microstructure_figures import force_network_figure
+    from grainlab.report.microstructure_figures import (
+        connectivity_map_figure,
+        force_network_figure,
+        pair_mobilisation,
+    )
 
     figures = []
     for name in _picked(table):
@@ -284,12 +291,23 @@ def _force_networks(study, table: pd.DataFrame, out: Path) -> list[tuple[str, st
             last = network
         if last is None or last.n_pairs == 0:
             continue
-        figure = force_network_figure(last, color_by="type")
-        file = f"force_network_{name}.png"
-        save_figure(figure, out / file)
+        parameter = study.spec.study.parameter
         eps = last.state.get("eps_q", math.nan)
-        figures.append((f"Radial forces, {name}, eps_q = {eps:.2f}"
-                        + paper_figure("force_network", study.spec.study.parameter), file))
+        drawn = [("force_network", f"Radial forces by contact type, {name}, eps_q = {eps:.2f}",
+                  partial(force_network_figure, last, color_by="type"))]
+        mobilisation = pair_mobilisation(last)
+        if mobilisation is not None:
+            drawn.append(("mobilised_network",
+                          f"Radial forces by friction mobilisation (red: |f_t| = mu f_n), "
+                          f"{name}, eps_q = {eps:.2f}",
+                          partial(force_network_figure, last, color_by="sliding",
+                                  mobilisation=mobilisation)))
+        drawn.append(("connectivity_map", f"Contact neighbours of each particle, {name}, "
+                      f"eps_q = {eps:.2f}", partial(connectivity_map_figure, last)))
+        for stem, title, make in drawn:
+            file = f"{stem}_{name}.png"
+            save_figure(make(), out / file)
+            figures.append((title + seed_figure_words(stem, parameter), file))
     return figures
 
 
