@@ -76,8 +76,7 @@ LENGTHS = {
     "full": StudyLength(0.9, {"angularity": (0.6, 0.9), "nonconvexity": (0.5, 0.9)},
                         1000, 2.0, 20, 0,
                         "the papers' strain, eps_q = 0.9, window [0.6, 0.9] (002) or "
-                        "[0.5, 0.9] (003) (hours at 1000 particles), in a periodic cell unless "
-                        "--boundary walls",
+                        "[0.5, 0.9] (003) (hours at 1000 particles)",
                         boundary="periodic"),
 }
 """The lengths of a preset study. Particles: a study in minutes, and the papers' protocol at
