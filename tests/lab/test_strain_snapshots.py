@@ -88,3 +88,30 @@ def test_strains_not_positive_and_increasing_are_refused_by_name(marks):
     with pytest.raises(InputError) as caught:
         DiscreteTestSettings(snapshot_eps_q=marks)
     assert caught.value.field == "snapshot_eps_q"
+
+
+def test_snapshots_every_n_steps_fall_at_the_first_record_past_each_multiple(tmp_path):
+    """With records every 4 steps and a snapshot asked every 7, a snapshot is taken at the
+    first record at or past each multiple of 7 (about every 7 steps), not every 28 where
+    the two counts meet; a run interrupted and resumed takes them at the same steps."""
+    config = RunConfig.model_validate({**CONFIG, "output": {
+        "record_every": 4, "snapshot_every": 7, "checkpoint_every": 8,
+        "snapshot_eps_q": []}})
+    folder = tmp_path / "straight"
+    table = start_run(folder, config).run().table
+    steps = [int(s) for s in table["step"]]
+    first = -1 if steps[0] == 0 else 0
+    expected = [s for before, s in zip([first, *steps], steps, strict=False)
+                if s // 7 > before // 7]
+    taken = sorted({step for _, step, _ in snapshot_rows(folder)})
+    ends = {int(table[table["stage"] == name]["step"].iloc[-1]) for name in ("compaction",
+                                                                             "shear")}
+    assert taken == sorted(set(expected) | ends)
+    assert len(expected) >= steps[-1] // 7  # one per multiple of 7 reached
+    gaps = np.diff(expected)
+    assert gaps.max() <= 8 and gaps.min() >= 4  # about 7: records of 4 around multiples of 7
+    # interrupted after 30 steps, resumed from its checkpoint: the same snapshot steps
+    resumed = tmp_path / "resumed"
+    start_run(resumed, config).run(max_steps=30)
+    resume_run(resumed).run()
+    assert sorted({step for _, step, _ in snapshot_rows(resumed)}) == taken

@@ -10,7 +10,8 @@ their strains, progress, ends and thickness checks; its solver is a record of
 :mod:`grainlab.lab.solver_registry`. The test runs them on a
 :class:`~grainlab.engine.simulation.Simulation` through two operations: the stage control
 (boundary driven, stage ends decided) and the recorder (one results row every
-``record_every`` steps, a contact-network snapshot every ``snapshot_every``, at the first
+``record_every`` steps, a contact-network snapshot at the first record at or past each
+multiple of ``snapshot_every`` steps, at the first
 record past each strain of ``snapshot_eps_q`` in a strain-driven stage, and of the state
 each stage ends in, so that a short run has its compaction and its end to analyse).
 Everything it needs to go on is plain data (:meth:`DiscreteTest.progress_arrays`), so a run
@@ -545,13 +546,27 @@ class DiscreteTest:
         self.rows.append(full)
         every = self.settings.snapshot_every
         self._unsnapped = None
-        if (every and sim.step_index % every == 0) or self._passes_a_strain_mark(full):
+        if (every and self._passes_a_snapshot_step(every)) or self._passes_a_strain_mark(full):
             self._snapshot(network, full)
         elif every or self.settings.snapshot_eps_q:
             self._unsnapped = (network, full)  # snapshotted if the stage ends on this row
         if self.on_record is not None:
             self.on_record(self, full)
         return full
+
+    def _passes_a_snapshot_step(self, every: int) -> bool:
+        """Whether the row just recorded is the first at or past a multiple of ``every``
+        steps: a multiple lies in (the previous row's step, this row's]. Snapshots are taken
+        on records, so with ``record_every`` not dividing ``every`` a test asking for one
+        every 53 steps, recording every 10, gets one about every 53 steps (at the records
+        after 53, 106, ...), not every 530 where the two counts meet. Read from the rows, so
+        a resumed test snapshots where the test run straight through did."""
+        step = self.rows[-1]["step"]
+        if len(self.rows) > 1:
+            before = self.rows[-2]["step"]
+        else:  # the first record: a multiple in (0, step], or step 0 itself
+            before = -1 if step == 0 else 0
+        return step // every > before // every
 
     def _passes_a_strain_mark(self, row: dict[str, Any]) -> bool:
         """Whether ``row`` (just recorded) is the first of its strain-driven stage whose eps_q

@@ -74,7 +74,8 @@ class DiscreteTestSettings:
         the reference.
     record_every, snapshot_every:
         Steps between results rows and between contact-network snapshots (0: none; with
-        snapshots on, the state each stage ends in is one too).
+        snapshots on, the state each stage ends in is one too). Snapshots are taken on
+        records: at the first record at or past each multiple of ``snapshot_every``.
     snapshot_eps_q:
         Deviatoric strains eps_q [-] (increasing, > 0) at which a strain-driven stage also
         snapshots the contact network: at the first record where eps_q has risen past each
