@@ -102,16 +102,6 @@ def read_library_file(path: Path, digest: str, names: Iterable[str]) -> dict[str
     return arrays
 
 
-def named_library_file(checkpoint: Path) -> str | None:
-    """The library file a checkpoint names (None: inline, unreadable or no checkpoint)."""
-    try:
-        with h5py.File(checkpoint, "r") as handle:
-            name = handle.attrs.get(LIBRARY_FILE_ATTR)
-    except OSError:
-        return None
-    return None if name is None else str(name)
-
-
 def library_files(folder: Path) -> list[Path]:
     """The library files in a run folder."""
     return sorted(folder.glob(LIBRARY_FILE_GLOB))
@@ -124,16 +114,15 @@ def remove_unnamed_library_files(folder: Path, checkpoints: Iterable[Path]) -> N
     for checkpoint in checkpoints:
         if not checkpoint.exists():
             continue
-        name = named_library_file(checkpoint)
-        if name is None:
-            try:
-                with h5py.File(checkpoint, "r") as handle:
-                    if "library" in handle:  # inline: names no file
-                        continue
-            except OSError:
-                pass
-            return
-        named.add(name)
+        try:
+            with h5py.File(checkpoint, "r") as handle:
+                name, inline = handle.attrs.get(LIBRARY_FILE_ATTR), "library" in handle
+        except OSError:
+            return  # unreadable: it may name any of them
+        if name is not None:
+            named.add(str(name))
+        elif not inline:
+            return  # neither inline nor named: keep them all
     for path in library_files(folder):
         if path.name not in named:
             path.unlink(missing_ok=True)
