@@ -84,3 +84,24 @@ def test_replicas_pool_into_one_point_with_the_spread_over_their_seeds():
     assert again["q_over_trace_residual"] == pytest.approx(s1["q_over_trace_residual"])
     assert again["q_over_trace_residual_std"] == pytest.approx(
         s1["q_over_trace_residual_std"])
+
+
+def test_replicas_whose_own_sample_has_not_ended_still_make_their_point():
+    from grainlab.study.study_summary import pooled_replicas
+
+    table = pd.DataFrame({
+        "name": ["S4", "S1-seed1", "S1-seed2", "S8-seed2"],
+        "replica_of": ["", "S1", "S1", "S8"], "seed": [0, 1, 2, 2],
+        "q_over_trace_residual": [0.34, 0.23, 0.25, 0.41],
+        "q_over_trace_residual_std": [0.02, 0.01, 0.03, 0.02],
+        "wall_time": [200.0, 110.0, 120.0, 300.0]})
+    pooled = pooled_replicas(table)
+    # one point per shape, in the table's order, none dropped
+    assert list(pooled["name"]) == ["S4", "S1-seed1", "S8-seed2"]
+    assert list(pooled["n_seeds"]) == [1, 2, 1]
+    s1 = pooled.iloc[1]
+    assert s1["q_over_trace_residual"] == pytest.approx(0.24)
+    assert s1["q_over_trace_residual_std"] == pytest.approx(np.std([0.23, 0.25], ddof=1))
+    assert s1["seeds"] == "1,2" and s1["wall_time"] == 230.0
+    assert pooled.iloc[2]["seeds"] == "2"
+    assert pooled.iloc[2]["q_over_trace_residual_std"] == 0.02  # its window's

@@ -250,8 +250,9 @@ def pooled_replicas(table: pd.DataFrame) -> pd.DataFrame:
     standard deviation: the error bar from independent samples, for the initial state too;
     the window's standard deviation it replaces, averaged over the seeds, stays as
     ``X_window_std``. ``wall_time`` is the seeds' sum, the point's cost. A row without
-    replicas stays as it is, with ``n_seeds`` = 1. A table without ``replica_of`` is returned
-    as it is.
+    replicas stays as it is, with ``n_seeds`` = 1. Replicas whose own sample has not ended
+    (a study run ``--only`` on them) make their point on their own, under the first one's
+    name, with ``seeds`` saying which. A table without ``replica_of`` is returned as it is.
 
     >>> table = pd.DataFrame({"name": ["a", "b", "a-seed1"], "replica_of": ["", "", "a"],
     ...                       "x_residual": [1.0, 5.0, 3.0], "x_residual_std": [0.1, 0.2, 0.3],
@@ -268,12 +269,17 @@ def pooled_replicas(table: pd.DataFrame) -> pd.DataFrame:
     groups = base.where(base != "", table["name"])
     numeric = [c for c in table.columns if pd.api.types.is_numeric_dtype(table[c])
                and c not in ("seed",)]
+    ended = set(table["name"])
+    points = list(dict.fromkeys(key for key, own in zip(groups, base)
+                                if own == "" or own not in ended))
     rows = []
-    for name in table.loc[base == "", "name"]:
+    for name in points:
         group = pd.concat([table[table["name"] == name],  # the sample itself first
                            table[(groups == name) & (table["name"] != name)]])
         row = group.iloc[0].to_dict()
         row["n_seeds"] = len(group)
+        if name not in ended and "seed" in group:  # replicas without their own sample
+            row["seeds"] = ",".join(str(int(v)) for v in group["seed"])
         if len(group) > 1:
             for column in numeric:
                 values = group[column].to_numpy(float)
