@@ -290,8 +290,10 @@ def test_window_averaged_polar_diagrams_and_force_pdfs_of_the_report(tmp_path):
     folder.mkdir(parents=True)
     write_snapshots(folder / "snapshots.h5", networks)
     study = SimpleNamespace(sample_folder=lambda name: tmp_path / "samples" / name,
+                            states=lambda: {"A": "ended"},
                             spec=SimpleNamespace(study=SimpleNamespace(
-                                window=(0.5, 0.9), core_margin=1.0, parameter="eta")))
+                                window=(0.5, 0.9), core_margin=1.0, parameter="eta"),
+                                samples=[SimpleNamespace(name="A", replica_of="")]))
     figures = _window_distributions(study, pd.DataFrame({"name": ["A"]}), tmp_path)
     assert [f for _, f in figures] == ["polar_A.png", "force_pdfs_A.png"]
     assert all((tmp_path / f).stat().st_size > 0 for _, f in figures)

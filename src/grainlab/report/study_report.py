@@ -225,15 +225,50 @@ def periodic_study(study, table: pd.DataFrame) -> bool:
     return all(study.spec.sample_config(name).sample.boundary == "periodic" for name in names)
 
 
-def _window_distributions(study, table: pd.DataFrame, out: Path,
-                          whole: str = "whole box") -> list[tuple[str, str]]:
-    """Polar diagrams and force PDFs of the first, middle and last sample, averaged over the
-    snapshots in the residual window (the core's contacts where the sample has a box; else
-    ``whole``: "whole box", or "whole cell" for a periodic one)."""
+def _seeds_of(study, name: str) -> list[str]:
+    """The ended samples of the point ``name``: its shape's sample and that sample's replicas
+    (other packing seeds), the point's own first."""
+    samples = {s.name: s for s in study.spec.samples}
+    base = samples[name].replica_of or name if name in samples else name
+    states = study.states()
+    group = [s.name for s in study.spec.samples
+             if (s.name == base or s.replica_of == base) and states.get(s.name) == "ended"]
+    return [name] + [n for n in group if n != name]
+
+
+def _sample_window(study, name: str, window: tuple[float, float], whole: str):
+    """The window average of one ended sample: (distributions, snapshots, where), from its
+    snapshots, else from its digest (a slimmed sample); None without a snapshot in the
+    window."""
     from grainlab.analysis.window_average import WindowAverage
     from grainlab.errors import InputError
     from grainlab.lab.discrete_run import SNAPSHOTS
     from grainlab.lab.run_digest import read_window
+
+    folder = study.sample_folder(name)
+    if (folder / SNAPSHOTS).exists():
+        try:
+            average = WindowAverage(window, distributions="core",
+                                    core_margin=study.spec.study.core_margin
+                                    ).run(folder / SNAPSHOTS)
+        except InputError:  # no snapshot in the window
+            return None
+        where = "core" if average.last is not None and average.last.core_parts else whole
+        return average.distributions, average.n_snapshots, where
+    kept = read_window(folder, window)
+    if kept is None:
+        return None
+    distributions, n_snapshots, where = kept
+    return distributions, n_snapshots, (whole if where == "whole box" else where)
+
+
+def _window_distributions(study, table: pd.DataFrame, out: Path,
+                          whole: str = "whole box") -> list[tuple[str, str]]:
+    """Polar diagrams and force PDFs of the first, middle and last point, averaged over the
+    snapshots in the residual window of every packing seed of the point
+    (:mod:`grainlab.analysis.pooled_windows`; the core's contacts where the sample has a box;
+    else ``whole``: "whole box", or "whole cell" for a periodic one)."""
+    from grainlab.analysis.pooled_windows import pooled_distributions
     from grainlab.report.microstructure_figures import (
         averaged_force_pdf_figure,
         averaged_polar_figure,
@@ -242,24 +277,15 @@ def _window_distributions(study, table: pd.DataFrame, out: Path,
     lo, hi = study.spec.study.window
     figures = []
     for name in _picked(table):
-        folder = study.sample_folder(name)
-        if (folder / SNAPSHOTS).exists():
-            try:
-                average = WindowAverage((lo, hi), distributions="core",
-                                        core_margin=study.spec.study.core_margin
-                                        ).run(folder / SNAPSHOTS)
-            except InputError:  # no snapshot in the window
-                continue
-            where = "core" if average.last is not None and average.last.core_parts \
-                else whole
-            distributions, n_snapshots = average.distributions, average.n_snapshots
-        else:  # a slimmed sample: its digest's average
-            kept = read_window(folder, (lo, hi))
-            if kept is None:
-                continue
-            distributions, n_snapshots, where = kept
-            where = whole if where == "whole box" else where  # a digest's words for the bulk
-        span = f"{n_snapshots} snapshots, eps_q in [{lo:g}, {hi:g}], {where}"
+        kept = [average for seed in _seeds_of(study, name)
+                if (average := _sample_window(study, seed, (lo, hi), whole)) is not None]
+        if not kept:
+            continue
+        distributions = pooled_distributions([average[0] for average in kept])
+        n_snapshots = sum(average[1] for average in kept)
+        where = ", ".join(dict.fromkeys(average[2] for average in kept))
+        seeds = f"{len(kept)} packing seeds, " if len(kept) > 1 else ""
+        span = f"{seeds}{n_snapshots} snapshots, eps_q in [{lo:g}, {hi:g}], {where}"
         for stem, make, title in (("polar", averaged_polar_figure, "Angular distributions"),
                                   ("force_pdfs", averaged_force_pdf_figure, "Force PDFs")):
             file = f"{stem}_{name}.png"
