@@ -270,7 +270,7 @@ def pooled_replicas(table: pd.DataFrame) -> pd.DataFrame:
     numeric = [c for c in table.columns if pd.api.types.is_numeric_dtype(table[c])
                and c not in ("seed",)]
     ended = set(table["name"])
-    points = list(dict.fromkeys(key for key, own in zip(groups, base)
+    points = list(dict.fromkeys(key for key, own in zip(groups, base, strict=True)
                                 if own == "" or own not in ended))
     rows = []
     for name in points:
