@@ -311,6 +311,19 @@ def test_window_averaged_polar_diagrams_and_force_pdfs_of_the_report(tmp_path):
     shape = 3 * np.cos(theta) ** 2 - 1
     a_c = (y[0] - y[-1]) / (y[-1] * shape[0] - y[0] * shape[-1])
     assert a_c == pytest.approx(0.2, abs=0.03)
+    # the tangential forces drawn are the meridional components their harmonic curve
+    # models (seed 002 eq. 26), not the mean magnitudes
+    sheared = [synthetic_network(3000, a_c=0.2, a_fn=0.3, a_ft=0.15, seed=10 + k)
+               for k in range(2)]
+    for net in sheared:
+        net.state.update(eps_q=0.7, stage="shear")
+    tangential = WindowAverage((0.5, 0.9)).run(sheared).distributions
+    axes = averaged_polar_figure(tangential).axes
+    table = tangential["contact_frame"]
+    f_t = next(a for a in axes if a.get_title().startswith("f_t (meridional)\ncontact"))
+    drawn = np.asarray(f_t.containers[0].lines[0].get_ydata(), float)[:len(table)]
+    np.testing.assert_array_equal(drawn, np.abs(table["f_t_meridional_mean"].to_numpy()))
+    assert not np.allclose(drawn, table["f_t_mean"].to_numpy())
     # normal forces exponential about their mean: the density of f / <f> is exp(-x)
     pdf = averaged_force_pdf_figure(distributions).axes[0]
     drawn = pdf.containers[0].lines[0]

@@ -46,6 +46,7 @@ def _polar_panel(ax, theta: np.ndarray, values: np.ndarray, fit: np.ndarray,
     ax.plot(np.concatenate([part for copy in copies for part in (gap, copy)][1:]),
             np.concatenate([part for _ in copies for part in (gap, np.abs(fit))][1:]),
             "-", lw=1.0, color="tab:red")
+    ax.set_ylim(bottom=0.0)  # r = 0 at the centre: error bars below zero would shift it
     ax.set_xticks(np.radians(np.arange(0.0, 360.0, 45.0)))
     ax.yaxis.set_major_locator(MaxNLocator(3))
     ax.set_xticklabels([])
@@ -56,7 +57,10 @@ def _polar_grid(frames: list[tuple[pd.DataFrame, str]], suffixes: tuple[str, str
                 ) -> Figure:
     """Rows of polar diagrams, one row per frame, one panel per quantity with a harmonic
     column; ``suffixes`` name the data, fit and error columns (``"", "_harmonic", None`` for
-    one snapshot's table)."""
+    one snapshot's table). A tangential quantity is drawn as its signed meridional component
+    (``f_t_meridional``, ``l_t_meridional``), the one its harmonic curve, <f_n> a_ft sin 2
+    theta, describes (seed 002 eq. 26; :mod:`grainlab.analysis.angular_distributions`): the
+    mean magnitude ``f_t`` is no projection and lies above the curve at every angle."""
     data, harmonic, error = suffixes
     columns = set(frames[0][0].columns)
     bases = [c[:len(c) - len(data)] for c in frames[0][0].columns if c.endswith(data)]
@@ -67,11 +71,14 @@ def _polar_grid(frames: list[tuple[pd.DataFrame, str]], suffixes: tuple[str, str
         for k, column in enumerate(columns):
             ax = figure.add_subplot(2, len(quantities), row * len(quantities) + k + 1,
                                     projection="polar")
+            shown = f"{column}_meridional"
+            shown = shown if f"{shown}{data}" in table.columns else column
             _polar_panel(ax, np.radians(table["theta_deg"].to_numpy()),
-                         table[f"{column}{data}"].to_numpy(),
+                         table[f"{shown}{data}"].to_numpy(),
                          table[f"{column}{harmonic}{data}"].to_numpy(),
-                         None if error is None else table[f"{column}{error}"].to_numpy())
-            ax.set_title(f"{column}\n{title}", fontsize="small")
+                         None if error is None else table[f"{shown}{error}"].to_numpy())
+            words = f"{column} (meridional)" if shown != column else column
+            ax.set_title(f"{words}\n{title}", fontsize="small")
     figure.set_layout_engine("tight")
     return figure
 
