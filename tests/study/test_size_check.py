@@ -98,6 +98,16 @@ def test_core_reaching_the_cell_and_staying_there_is_found():
     assert "off the cell by -0.22 → -0.02 → -0.32" in text and "not shrinking" in text
 
 
+def test_a_distance_that_shrinks_only_overall_is_said_so():
+    from grainlab.report.size_check_report import trend_words
+
+    assert trend_words(np.array([-0.05, -0.02, -0.01])) == "shrinking"
+    assert trend_words(np.array([-0.051, -0.019, -0.033])) == \
+        "smaller at the largest size, not at every step"
+    assert trend_words(np.array([-0.02, -0.03, -0.04])) == "not shrinking"
+    assert trend_words(np.array([+0.03, -0.02])) == "shrinking"  # distances, not signs
+
+
 def test_one_box_size_is_read_without_a_trend():
     table = pd.DataFrame(rows("z*", {500: (3.4, 0.05, 3.7, 0.05)}, (1000, 4.02, 0.03)))
     text = verdict_text(convergence_verdicts(table).iloc[0])

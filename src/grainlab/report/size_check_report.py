@@ -88,6 +88,18 @@ def shrinking(gaps: np.ndarray) -> bool:
     return gaps.size >= 2 and gaps[-1] < gaps[0]
 
 
+def trend_words(gaps: np.ndarray) -> str:
+    """How the box's distance from the cell goes as the box grows: "shrinking" (at every
+    size), "smaller at the largest size, not at every step", or "not shrinking"."""
+    distance = np.abs(np.asarray(gaps, float))
+    distance = distance[np.isfinite(distance)]
+    if not shrinking(distance):
+        return "not shrinking"
+    if np.all(np.diff(distance) < 0):
+        return "shrinking"
+    return "smaller at the largest size, not at every step"
+
+
 def _pm(value: float, std: float) -> str:
     if not math.isfinite(value):
         return "-"
@@ -109,8 +121,7 @@ def verdict_text(row: pd.Series) -> str:
         parts = [f"{basis} within the cell's error bars from N = {row['reaches']}"]
     else:
         gaps = row["core_gaps"] if row["basis"] == "core" else row["whole_gaps"]
-        trend = ("shrinking" if shrinking(gaps) else "not shrinking") if len(sizes) > 1 \
-            else "one size: no trend"
+        trend = trend_words(gaps) if len(sizes) > 1 else "one size: no trend"
         parts = [f"{basis} off the cell by {_gaps(gaps)} (N = "
                  f"{', '.join(str(n) for n in sizes)}: {trend})"]
     if sizes and row["basis"] == "core":
