@@ -20,6 +20,7 @@ from grainlab.analysis.partial_stress import PartialStresses
 from grainlab.analysis.synthetic import cubic_lattice
 from grainlab.analysis.wall_layer import (
     CoreConnectivity,
+    core_by_margin,
     core_network,
     packing_profile,
     region_volume,
@@ -75,6 +76,25 @@ def test_the_core_of_a_cubic_lattice_is_its_bulk():
     # 27 core spheres x 6 contacts, each a claim: 54 pairs inside listed twice, 54 once
     assert claimed.n_pairs == 27 * 6
     np.testing.assert_allclose(stress_from_network(claimed), np.eye(3) / 4.0, atol=1e-12)
+
+
+def test_the_core_at_several_margins_reads_low_where_its_edge_cuts_a_layer():
+    """A lattice of 5 x 5 x 5 spheres of diameter 2 in a box 10 wide (centres at 1, 3, 5, ...
+    from a wall). A margin of a whole number of diameters (1, 2) ends the core between two
+    layers: the bulk's pi/6. Half a diameter runs the edge through the first layer's centres:
+    all 125 counted over 8^3, it reads high (the pile-up); 0.75 diameters keeps the 27 centres
+    of 1 diameter over 7^3 instead of 6^3: it reads low, as a margin just past a wall layer
+    does."""
+    net = cubic_lattice(5, 1.0)
+    table = core_by_margin(net, [0.5, 0.75, 1.0, 2.0])
+    assert list(table["n_core"]) == [125, 27, 27, 1]
+    sphere = 4.0 / 3.0 * np.pi
+    np.testing.assert_allclose(table["packing_fraction"],
+                               [125 * sphere / 8.0**3, 27 * sphere / 7.0**3, np.pi / 6,
+                                np.pi / 6])
+    np.testing.assert_allclose(table["coordination_number"], [2 * 300 / 125, 6, 6, 6])
+    np.testing.assert_allclose(table["connectivity_number"], table["coordination_number"])
+    assert list(table["margin"]) == [0.5, 0.75, 1.0, 2.0]
 
 
 def test_a_core_holding_no_centre_measures_nothing():

@@ -21,6 +21,7 @@ from grainlab.report.size_check_report import (
     convergence_verdicts,
     size_check_markdown,
     verdict_text,
+    write_size_check_report,
 )
 from grainlab.study.size_check import SizeCheckPlan, paper_value, size_check_table
 
@@ -187,6 +188,39 @@ def test_command_writes_the_report_from_ended_runs(tmp_path, monkeypatch):
     assert (tmp_path / "size_check-S1.png").stat().st_size > 0
     table = pd.read_csv(tmp_path / "size_check.csv")
     assert "| z* |" in size_check_markdown(table, plan)
+
+
+def test_the_walls_cores_after_the_compaction_are_read_at_other_margins(tmp_path,
+                                                                       monkeypatch):
+    """Each walls run's last compaction snapshot, here a 5 x 5 x 5 lattice of spheres of
+    diameter 2 in a box 10 wide: its core holds pi/6 where the margin ends it between two
+    layers (1, 2 diameters), reads high at half a diameter (the first layer's centres) and
+    low at 0.75 (27 centres over 7^3); the report gives the table with the cell's value."""
+    from grainlab.analysis.snapshot_files import write_snapshots
+    from grainlab.analysis.synthetic import cubic_lattice
+    from grainlab.study.size_check import margin_table
+
+    plan = SizeCheckPlan("angularity", ("S1",), walls=(500,), periodic=(1000,))
+    fake_runs(tmp_path, monkeypatch, plan, {500: 0.3})
+    lattice = cubic_lattice(5, 1.0)
+    lattice.state.update(stage="compaction", eps_q=0.0)
+    sheared = cubic_lattice(5, 1.0)
+    sheared.state.update(stage="shear", eps_q=0.5)
+    run = plan.study(tmp_path, plan.runs[0]).sample_folder("S1")
+    run.mkdir(parents=True, exist_ok=True)
+    write_snapshots(run / "snapshots.h5", [lattice, sheared])
+    margins = margin_table(tmp_path, plan, (0.5, 0.75, 1.0, 2.0))
+    assert (tmp_path / "size_check_margins.csv").exists()
+    assert list(margins["n"]) == [500] * 4 and list(margins["n_core"]) == [125, 27, 27, 1]
+    sphere = 4.0 / 3.0 * np.pi
+    np.testing.assert_allclose(margins["packing_fraction"],
+                               [125 * sphere / 512, 27 * sphere / 343, np.pi / 6, np.pi / 6])
+    table = size_check_table(tmp_path, plan)
+    report = write_size_check_report(tmp_path, plan, table, margins).read_text()
+    assert "### S1: the core after the compaction at other margins" in report
+    assert f"| 500 | packing fraction | 1.02 (125) | 0.33 (27) | {np.pi / 6:.3g} (27) |" \
+        in report
+    assert "| 500 | z | 4.8 | 6 | 6 | 6 |" in report  # the lattice's z_c is its z: one row
 
 
 def test_command_refuses_bad_sizes_by_name(tmp_path):

@@ -32,6 +32,11 @@ with the core's volume V_core = prod_a (L_a - 2 margin).
   contacts (2 x claimed pairs / N_core, every neighbour counted), and the rattlers of the whole
   network (walls counted as supports) among the core.
 
+* :func:`core_by_margin`: the core's packing fraction, z and z_c at several margins: where
+  the margin cuts through the wall layer (the first layer's centres pile up at h below the
+  largest radius, the shell behind it is depleted) the centre count reads low; past the layer
+  the values scatter about the bulk's.
+
 For a simple cubic lattice of spheres of diameter d in a box that fits it, a margin of a whole
 number of diameters gives a core packing fraction of pi/6 and z = 6 exactly
 (``tests/analysis/test_wall_layer.py``).
@@ -39,7 +44,10 @@ number of diameters gives a core packing fraction of pi/6 and z = 6 exactly
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
+import pandas as pd
 
 from grainlab.analysis.compute import Compute
 from grainlab.analysis.connectivity import find_rattlers, wall_interactions
@@ -236,6 +244,16 @@ class CoreConnectivity(Compute):
         halves / N_core [-]."""
         return self._get("coordination_number")
 
+    @property
+    def connectivity_number(self) -> float:
+        """z_c of the core: the claimed halves weighted by their contact points / N_core [-]."""
+        return self._get("connectivity_number")
+
+    @property
+    def n_core(self) -> int:
+        """The number of core particles."""
+        return int(self._get("n_core"))
+
     def descriptors(self) -> dict[str, float]:
         """Flat dict, each name with ``_core``: packing_fraction, coordination_number,
         connectivity_number, rattler_fraction, coordination_number_no_rattlers,
@@ -247,3 +265,18 @@ class CoreConnectivity(Compute):
         out["n_core"] = float(self._get("n_core"))
         out["core_margin"] = float(self._get("margin"))
         return out
+
+
+def core_by_margin(network: ContactNetwork, margins: Iterable[float],
+                   min_contacts: int = 2) -> pd.DataFrame:
+    """The core at each of ``margins`` [mean diameters <d>] (module docstring): a DataFrame
+    with ``margin`` [<d>], ``n_core``, ``packing_fraction``, ``coordination_number``,
+    ``connectivity_number`` (NaN where the core is empty)."""
+    rows = []
+    for margin in margins:
+        core = CoreConnectivity(float(margin), min_contacts).compute(network)
+        rows.append({"margin": float(margin), "n_core": core.n_core,
+                     "packing_fraction": core.packing_fraction,
+                     "coordination_number": core.coordination_number,
+                     "connectivity_number": core.connectivity_number})
+    return pd.DataFrame(rows)

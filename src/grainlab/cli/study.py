@@ -213,11 +213,13 @@ def size_check_command(
     """The size check of a preset series: its samples in boxes of walls of several sizes
     and in a periodic cell, the core values (away from the walls) against the cell's as the
     box grows, and the cell's against the paper's; size_check.csv, size_check.md and a
-    figure per sample. Run it again to resume."""
+    figure per sample, and the walls' cores after the compaction at other margins
+    (size_check_margins.csv). Run it again to resume."""
     from grainlab.report.size_check_report import write_size_check_report
     from grainlab.study.size_check import (
         DEFAULT_SAMPLES,
         SizeCheckPlan,
+        margin_table,
         run_size_check,
         size_check_table,
     )
@@ -243,7 +245,7 @@ def size_check_command(
     if not len(table):
         console.print("no sample has ended yet: no table or report")
     else:
-        path = write_size_check_report(folder, plan, table)
+        path = write_size_check_report(folder, plan, table, margin_table(folder, plan))
         console.print(f"table: {folder / 'size_check.csv'}\nreport: {path}")
     if not complete:
         console.print("the size check is not complete: run the same command again to go on")

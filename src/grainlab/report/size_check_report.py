@@ -227,9 +227,52 @@ def size_check_figure(table: pd.DataFrame, sample: str) -> Figure | None:
     return figure
 
 
+_MARGIN_COLUMNS = (("packing_fraction", "packing fraction", ("packing_fraction_initial",)),
+                   ("coordination_number", "z", ("z_initial",)),
+                   ("connectivity_number", "z_c", ("z_c_initial",)))
+"""The core's values after the compaction read at several margins, and the summary columns
+whose cell value they compare with."""
+
+
+def margin_markdown(margins: pd.DataFrame, table: pd.DataFrame, sample: str) -> list[str]:
+    """The lines of ``sample``'s table of the walls' cores after the compaction at several
+    margins (:func:`~grainlab.study.size_check.margin_table`), with the cell's value; none
+    without a row."""
+    part = margins[margins["sample"] == sample] if len(margins) else margins
+    if not len(part):
+        return []
+    values = sorted(set(float(m) for m in part["margin"]))
+    lines = [f"### {sample}: the core after the compaction at other margins", "",
+             "A core whose edge cuts through the wall layer (the first layer's centres pile up "
+             "within about the largest radius of a wall, the shell behind them is depleted) "
+             "reads its packing fraction low; past the layer the values scatter about the "
+             "bulk's. In brackets: the particles in the core.", "",
+             "| walls | quantity | " + " | ".join(f"{m:g} <d>" for m in values)
+             + " | cell |", "|" + "---|" * (len(values) + 3)]
+    cells = table[(table["sample"] == sample) & (table["boundary"] == "periodic")]
+    for n, run in part.groupby("n", sort=True):
+        run = run.set_index("margin")
+        for column, words, sources in _MARGIN_COLUMNS:
+            if column == "connectivity_number" and np.allclose(
+                    run["connectivity_number"], run["coordination_number"], equal_nan=True):
+                continue  # spheres: z_c is z
+            row = [f"{n}", words]
+            for m in values:
+                value = run.loc[m, column] if m in run.index else math.nan
+                count = f" ({int(run.loc[m, 'n_core'])})" if column == "packing_fraction" \
+                    and m in run.index else ""
+                row.append(f"{value:.3g}{count}" if math.isfinite(value) else f"-{count}")
+            cell = cells[cells["column"].isin(sources)]
+            row.append(f"{float(cell['whole'].iloc[0]):.3g}" if len(cell) else "-")
+            lines.append("| " + " | ".join(row) + " |")
+    return [*lines, ""]
+
+
 def write_size_check_report(folder: str | Path, plan: Any,
-                            table: pd.DataFrame) -> Path:
-    """``size_check.md`` and the figures in ``folder``; returns the report's path."""
+                            table: pd.DataFrame, margins: pd.DataFrame | None = None) -> Path:
+    """``size_check.md`` and the figures in ``folder``, with the cores at other margins
+    where ``margins`` (:func:`~grainlab.study.size_check.margin_table`) is given; returns the
+    report's path."""
     folder = Path(folder)
     sizes = ", ".join(f"{r.boundary} {r.n}" for r in plan.runs)
     lines = [f"# Size check: {plan.series}", "",
@@ -246,6 +289,8 @@ def write_size_check_report(folder: str | Path, plan: Any,
             name = f"size_check-{sample}.png"
             save_figure(figure, folder / name)
             lines += [f"![{sample}]({name})", ""]
+        if margins is not None:
+            lines += margin_markdown(margins, table, sample)
     path = folder / REPORT
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path

@@ -35,7 +35,7 @@ from grainlab.study.study_runner import SPEC
 REPORT_FILES = (".md", ".html", ".png", ".csv", ".svg")
 """What a study's ``report/`` folder publishes."""
 
-SIZE_CHECK_FILES = ("size_check.csv", "size_check.md")
+SIZE_CHECK_FILES = ("size_check.csv", "size_check.md", "size_check_margins.csv")
 
 
 def source_commit(where: Path | None = None) -> str:

@@ -18,7 +18,10 @@ an initial state), and the paper's value for that sample where its paper gives o
 quantity: how far the core and the whole box sit from the cell at each size,
 whether the core reaches the cell within their error bars, and where the cell's value lands
 against the paper's; :func:`~grainlab.report.size_check_report.write_size_check_report`
-writes the check's report.
+writes the check's report. :func:`margin_table` measures the walls' cores after the
+compaction at several margins (:func:`~grainlab.analysis.wall_layer.core_by_margin`): a core
+whose edge cuts through the wall layer reads its packing fraction low, so the report shows
+where the values settle.
 
 >>> plan = SizeCheckPlan("angularity", ("S1",), walls=(500, 1000), periodic=(1000,))
 >>> [run.folder_name for run in plan.runs]
@@ -55,6 +58,11 @@ PEAK = PaperClaim("(q/p)+", "q_over_trace_peak", None, "", 0.0)
 """The smoothed peak of q/p, checked for size though no paper value is read for it."""
 
 TABLE = "size_check.csv"
+
+MARGINS = (1.0, 1.25, 1.5, 2.0, 2.5)
+"""The core margins [mean diameters] at which :func:`margin_table` reads each box."""
+
+MARGIN_TABLE = "size_check_margins.csv"
 
 
 @dataclass(frozen=True)
@@ -309,4 +317,45 @@ def size_check_table(folder: str | Path, plan: SizeCheckPlan) -> pd.DataFrame:
                                       "capped_share", "wall_time"])
     folder.mkdir(parents=True, exist_ok=True)
     out.to_csv(folder / TABLE, index=False)
+    return out
+
+
+def margin_table(folder: str | Path, plan: SizeCheckPlan,
+                 margins: tuple[float, ...] = MARGINS) -> pd.DataFrame:
+    """The core of every ended walls run of ``plan`` after its compaction (its last
+    compaction snapshot, from the run's snapshots or, once slimmed, its digest) at each of
+    ``margins`` [mean diameters]: one row per sample, size and margin with ``sample``, ``n``,
+    ``margin``, ``n_core``, ``packing_fraction``, ``coordination_number``,
+    ``connectivity_number``. Written to ``size_check_margins.csv`` in ``folder``."""
+    from grainlab.analysis.snapshot_files import read_snapshots
+    from grainlab.analysis.wall_layer import core_by_margin
+    from grainlab.lab.run_digest import snapshots_for_report
+
+    folder = Path(folder)
+    parts = []
+    for run in plan.runs:
+        path = plan.study_folder(folder, run)
+        if run.boundary != "walls" or not path.is_dir():
+            continue
+        study = Study.open(path)
+        for name in plan.samples:
+            run_folder = study.sample_folder(name)
+            snapshots = snapshots_for_report(run_folder)
+            if sample_state(run_folder) != "ended" or snapshots is None:
+                continue
+            compacted = None
+            for network in read_snapshots(snapshots):
+                if network.state.get("stage") == "compaction":
+                    compacted = network
+            if compacted is None or not compacted.has_box:
+                continue
+            part = core_by_margin(compacted, margins)
+            part.insert(0, "n", run.n)
+            part.insert(0, "sample", name)
+            parts.append(part)
+    columns = ["sample", "n", "margin", "n_core", "packing_fraction", "coordination_number",
+               "connectivity_number"]
+    out = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=columns)
+    folder.mkdir(parents=True, exist_ok=True)
+    out.to_csv(folder / MARGIN_TABLE, index=False)
     return out
