@@ -220,7 +220,7 @@ def test_the_walls_cores_after_the_compaction_are_read_at_other_margins(tmp_path
     assert "### S1: the core after the compaction at other margins" in report
     assert f"| 500 | packing fraction | 1.02 (125) | 0.33 (27) | {np.pi / 6:.3g} (27) |" \
         in report
-    assert "| 500 | z | 4.8 | 6 | 6 | 6 |" in report  # the lattice's z_c is its z: one row
+    assert "| 500 | z = z_c | 4.8 | 6 | 6 | 6 |" in report  # spheres: z_c is z, one row
 
 
 def test_command_refuses_bad_sizes_by_name(tmp_path):

@@ -252,10 +252,13 @@ def margin_markdown(margins: pd.DataFrame, table: pd.DataFrame, sample: str) -> 
     cells = table[(table["sample"] == sample) & (table["boundary"] == "periodic")]
     for n, run in part.groupby("n", sort=True):
         run = run.set_index("margin")
+        spheres = np.allclose(run["connectivity_number"], run["coordination_number"],
+                              equal_nan=True)
         for column, words, sources in _MARGIN_COLUMNS:
-            if column == "connectivity_number" and np.allclose(
-                    run["connectivity_number"], run["coordination_number"], equal_nan=True):
-                continue  # spheres: z_c is z
+            if column == "connectivity_number" and spheres:
+                continue  # spheres: z_c is z, one row
+            if column == "coordination_number" and spheres:
+                words, sources = "z = z_c", ("z_initial", "z_c_initial")
             row = [f"{n}", words]
             for m in values:
                 value = run.loc[m, column] if m in run.index else math.nan
