@@ -97,6 +97,19 @@ def snapshots_for_report(folder: str | Path) -> Path | None:
     return None
 
 
+def compacted_snapshot(folder: str | Path):
+    """The run's last compaction snapshot (a ContactNetwork; from its snapshots, or its
+    digest's once slimmed), the packing at the end of its compaction; None without one."""
+    path = snapshots_for_report(folder)
+    if path is None:
+        return None
+    compacted = None
+    for network in read_snapshots(path):
+        if network.state.get("stage") == "compaction":
+            compacted = network
+    return compacted
+
+
 def write_window(folder: str | Path, window: tuple[float, float], core_margin: float) -> bool:
     """Average the run's snapshots over the residual ``window`` (the core's contacts) and keep
     the distributions in its digest; False when no snapshot lies in the window."""

@@ -341,20 +341,13 @@ def _wall_profiles(study, table: pd.DataFrame, out: Path, labels: dict[str, str]
                    margin: float) -> tuple[str, str] | None:
     """The packing fraction against the distance to the nearest wall of every sample at the
     end of its compaction (its last compaction snapshot), with the core's margin."""
-    from grainlab.analysis.snapshot_files import read_snapshots
     from grainlab.analysis.wall_layer import mean_diameter, packing_profile
-    from grainlab.lab.run_digest import snapshots_for_report
+    from grainlab.lab.run_digest import compacted_snapshot
     from grainlab.report.study_figures import wall_profile_figure
 
     profiles = {}
     for name in table["name"]:
-        path = snapshots_for_report(study.sample_folder(name))
-        if path is None:
-            continue
-        initial = None
-        for network in read_snapshots(path):
-            if network.state.get("stage") == "compaction":
-                initial = network
+        initial = compacted_snapshot(study.sample_folder(name))
         if initial is None or not initial.has_box:
             continue
         d = mean_diameter(initial)

@@ -327,9 +327,8 @@ def margin_table(folder: str | Path, plan: SizeCheckPlan,
     ``margins`` [mean diameters]: one row per sample, size and margin with ``sample``, ``n``,
     ``margin``, ``n_core``, ``packing_fraction``, ``coordination_number``,
     ``connectivity_number``. Written to ``size_check_margins.csv`` in ``folder``."""
-    from grainlab.analysis.snapshot_files import read_snapshots
     from grainlab.analysis.wall_layer import core_by_margin
-    from grainlab.lab.run_digest import snapshots_for_report
+    from grainlab.lab.run_digest import compacted_snapshot
 
     folder = Path(folder)
     parts = []
@@ -340,13 +339,9 @@ def margin_table(folder: str | Path, plan: SizeCheckPlan,
         study = Study.open(path)
         for name in plan.samples:
             run_folder = study.sample_folder(name)
-            snapshots = snapshots_for_report(run_folder)
-            if sample_state(run_folder) != "ended" or snapshots is None:
+            if sample_state(run_folder) != "ended":
                 continue
-            compacted = None
-            for network in read_snapshots(snapshots):
-                if network.state.get("stage") == "compaction":
-                    compacted = network
+            compacted = compacted_snapshot(run_folder)
             if compacted is None or not compacted.has_box:
                 continue
             part = core_by_margin(compacted, margins)
