@@ -24,6 +24,7 @@ from grainlab.analysis.wall_layer import (
     core_network,
     packing_profile,
     region_volume,
+    solid_in_box,
 )
 from grainlab.errors import InputError
 
@@ -81,20 +82,61 @@ def test_the_core_of_a_cubic_lattice_is_its_bulk():
 def test_the_core_at_several_margins_reads_low_where_its_edge_cuts_a_layer():
     """A lattice of 5 x 5 x 5 spheres of diameter 2 in a box 10 wide (centres at 1, 3, 5, ...
     from a wall). A margin of a whole number of diameters (1, 2) ends the core between two
-    layers: the bulk's pi/6. Half a diameter runs the edge through the first layer's centres:
-    all 125 counted over 8^3, it reads high (the pile-up); 0.75 diameters keeps the 27 centres
-    of 1 diameter over 7^3 instead of 6^3: it reads low, as a margin just past a wall layer
-    does."""
+    layers, and half a diameter runs its edge through the first layer's centres, whose halves
+    inside balance the box's: the bulk's pi/6 each time. 0.75 diameters cuts the first layer
+    a radius/2 off its centres: per axis 3 whole spheres and twice a cap of 5/32 over a width
+    of 7 instead of 3.5 periods, it reads low, as a margin through a wall layer does. The
+    count of centres holds the first layer at 0.5 <d> (125) and not at 0.75 (27)."""
     net = cubic_lattice(5, 1.0)
     table = core_by_margin(net, [0.5, 0.75, 1.0, 2.0])
     assert list(table["n_core"]) == [125, 27, 27, 1]
     sphere = 4.0 / 3.0 * np.pi
     np.testing.assert_allclose(table["packing_fraction"],
-                               [125 * sphere / 8.0**3, 27 * sphere / 7.0**3, np.pi / 6,
-                                np.pi / 6])
+                               [np.pi / 6, sphere * (3.0 + 2.0 * 5.0 / 32.0) ** 3 / 7.0**3,
+                                np.pi / 6, np.pi / 6])
     np.testing.assert_allclose(table["coordination_number"], [2 * 300 / 125, 6, 6, 6])
     np.testing.assert_allclose(table["connectivity_number"], table["coordination_number"])
     assert list(table["margin"]) == [0.5, 0.75, 1.0, 2.0]
+
+
+def _one(position, radius: float = 1.0, dimension: int = 3) -> ContactNetwork:
+    volume = 4.0 / 3.0 * np.pi * radius**3 if dimension == 3 else np.pi * radius**2
+    return ContactNetwork(positions=np.atleast_2d(np.asarray(position, float)),
+                          volumes=np.array([volume]), volume=1.0,
+                          pair_particles=np.zeros((0, 2), int),
+                          pair_branches=np.zeros((0, dimension)),
+                          point_pairs=np.zeros(0, int),
+                          point_positions=np.zeros((0, dimension)),
+                          point_normals=np.zeros((0, dimension)),
+                          point_forces=np.zeros((0, dimension)))
+
+
+@pytest.mark.parametrize("s", [-1.5, -1.0, -0.6, -0.25, 0.0, 0.3, 0.8, 1.0, 2.0])
+def test_the_solid_in_a_box_is_the_cap_of_a_sphere_cut_by_one_face(s):
+    """A sphere of radius 1 whose centre lies s inside the box's face x = 0: the part inside
+    is the cap of height h = 1 + s, pi h^2 (3 - h) / 3; its disc is the segment of the same
+    height, acos(-s) + s sqrt(1 - s^2); whole inside from s = 1, none from s = -1."""
+    far = np.array([10.0, 10.0, 10.0])
+    h = float(np.clip(1.0 + s, 0.0, 2.0))
+    cap = np.pi * h * h * (3.0 - h) / 3.0
+    assert solid_in_box(_one([s, 0.0, 0.0]), np.array([0.0, -10, -10]), far) == \
+        pytest.approx(cap, abs=1e-12)
+    t = float(np.clip(s, -1.0, 1.0))
+    segment = np.arccos(-t) + t * np.sqrt(1.0 - t * t)
+    assert solid_in_box(_one([s, 0.0], dimension=2), np.array([0.0, -10]), far[:2]) == \
+        pytest.approx(segment, abs=1e-12)
+
+
+def test_the_solid_in_a_box_at_an_edge_and_a_corner_through_the_centre():
+    """A sphere centred on an edge of the box keeps a quarter inside, on a corner an eighth;
+    one inside a slab thinner than itself, the sphere's slice between the two planes."""
+    sphere = 4.0 / 3.0 * np.pi
+    lower, upper = np.zeros(3), np.full(3, 5.0)
+    assert solid_in_box(_one([0.0, 0.0, 2.5]), lower, upper) == pytest.approx(sphere / 4)
+    assert solid_in_box(_one([0.0, 0.0, 0.0]), lower, upper) == pytest.approx(sphere / 8)
+    # the slice |x| <= 1/2 of the unit sphere: pi (1 - x^2) integrated, 11 pi / 12
+    assert solid_in_box(_one([0.0, 0.0, 0.0]), np.array([-0.5, -9, -9]),
+                        np.array([0.5, 9, 9])) == pytest.approx(11.0 * np.pi / 12.0)
 
 
 def test_a_core_holding_no_centre_measures_nothing():
@@ -111,7 +153,7 @@ def test_a_core_holding_no_centre_measures_nothing():
 
 def test_snapshot_analysis_gives_both_the_box_and_the_core():
     net = cubic_lattice(5, 1.0, (1.0, 1.0, 2.0))
-    d = SnapshotAnalysis().compute(net).descriptors
+    d = SnapshotAnalysis(core_margin=1.0).compute(net).descriptors  # the 3 x 3 x 3 inside
     assert d["packing_fraction"] == pytest.approx(np.pi / 6.0)  # the lattice fits the box
     assert d["coordination_number"] == pytest.approx(4.8)
     assert d["coordination_number_core"] == pytest.approx(6.0)

@@ -194,8 +194,9 @@ def test_the_walls_cores_after_the_compaction_are_read_at_other_margins(tmp_path
                                                                        monkeypatch):
     """Each walls run's last compaction snapshot, here a 5 x 5 x 5 lattice of spheres of
     diameter 2 in a box 10 wide: its core holds pi/6 where the margin ends it between two
-    layers (1, 2 diameters), reads high at half a diameter (the first layer's centres) and
-    low at 0.75 (27 centres over 7^3); the report gives the table with the cell's value."""
+    layers (1, 2 diameters) or through the first layer's centres (half a diameter), and
+    reads low at 0.75 (per axis 3 spheres and two caps of 5/32 over 7); the report gives the
+    table with the cell's value."""
     from grainlab.analysis.snapshot_files import write_snapshots
     from grainlab.analysis.synthetic import cubic_lattice
     from grainlab.study.size_check import margin_table
@@ -214,11 +215,12 @@ def test_the_walls_cores_after_the_compaction_are_read_at_other_margins(tmp_path
     assert list(margins["n"]) == [500] * 4 and list(margins["n_core"]) == [125, 27, 27, 1]
     sphere = 4.0 / 3.0 * np.pi
     np.testing.assert_allclose(margins["packing_fraction"],
-                               [125 * sphere / 512, 27 * sphere / 343, np.pi / 6, np.pi / 6])
+                               [np.pi / 6, sphere * (3 + 2 * 5 / 32) ** 3 / 343, np.pi / 6,
+                                np.pi / 6])
     table = size_check_table(tmp_path, plan)
     report = write_size_check_report(tmp_path, plan, table, margins).read_text()
     assert "### S1: the core after the compaction at other margins" in report
-    assert f"| 500 | packing fraction | 1.02 (125) | 0.33 (27) | {np.pi / 6:.3g} (27) |" \
+    assert f"| 500 | packing fraction | {np.pi / 6:.3g} (125) | 0.444 (27) | {np.pi / 6:.3g} (27) |" \
         in report
     assert "| 500 | z = z_c | 4.8 | 6 | 6 | 6 |" in report  # spheres: z_c is z, one row
 

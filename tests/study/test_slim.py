@@ -80,3 +80,40 @@ def test_a_slimmed_study_keeps_its_summary_and_figures_and_goes_on_elsewhere(tmp
     assert outcome.complete and outcome.skipped == ["a"] and not outcome.ran
     assert (moved.sample_folder("a") / RESULTS_H5).stat().st_mtime_ns == stamp
     assert sample_state(moved.sample_folder("b")) == "new"
+
+    # asked with another core margin: the digest's core values were read at the former one,
+    # so the row says so and holds none of them
+    data = moved.spec.model_dump(mode="json")
+    data["study"]["core_margin"] = 2.5
+    other = Study.create(moved.folder, StudySpec.model_validate(data))
+    row = study_summary(other).iloc[0]
+    assert "slimmed with another core margin (1.5 <d>)" in row["note"]
+    assert row["core_margin_diameters"] == 2.5
+    core = [c for c in row.index if "_core" in c and c != "core_margin_diameters"]
+    assert core and all(np.isnan(float(row[c])) for c in core)
+    for column in ("q_over_trace_residual", "a_c_residual", "z_residual"):
+        assert row[column] == before[column].iloc[0], column  # the whole box's, as kept
+
+
+def test_a_kept_window_average_of_the_core_serves_its_own_margin_only(tmp_path):
+    """digest/window.json names the core margin it was averaged with; a whole-box average (a
+    periodic cell) holds for any margin, and one that names none was kept at 1."""
+    import json
+
+    from grainlab.lab.run_digest import WINDOW, read_window
+
+    tables = tmp_path / DIGEST / WINDOW
+    tables.mkdir(parents=True)
+    pd.DataFrame({"theta_deg": [2.5], "c": [1.0]}).to_csv(tables / "polar.csv", index=False)
+    kept = {"window": [0.6, 0.9], "n_snapshots": 3, "names": ["polar"]}
+    for held, where, asked, served in [(1.5, "core", 1.5, True), (1.5, "core", 1.0, False),
+                                       (None, "core", 1.0, True), (None, "core", 1.5, False),
+                                       (1.0, "whole box", 2.0, True)]:
+        record = dict(kept, where=where) | ({} if held is None else {"core_margin": held})
+        (tmp_path / DIGEST / f"{WINDOW}.json").write_text(json.dumps(record))
+        found = read_window(tmp_path, (0.6, 0.9), asked)
+        assert (found is not None) == served, (held, where, asked)
+        if served:
+            assert found[1] == 3 and found[2] == where
+            assert found[0]["polar"]["c"].tolist() == [1.0]
+    assert read_window(tmp_path, (0.5, 0.9), 1.0) is None  # another window

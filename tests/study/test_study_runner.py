@@ -143,6 +143,20 @@ def test_a_folder_differing_only_in_its_snapshot_strains_goes_on_as_it_is_held(t
         Study.create(tmp_path / "s", StudySpec.model_validate(data))
 
 
+def test_a_folder_asked_with_another_core_margin_takes_it(tmp_path):
+    """The core margin is read by the analysis alone: a folder asked with another one takes
+    it (its study.toml rewritten), the snapshot schedule it holds kept as held."""
+    Study.create(tmp_path / "s", tiny_spec())
+    data = tiny_spec().model_dump(mode="json")
+    data["study"]["core_margin"] = 2.25
+    data["base"]["output"]["snapshot_eps_q"] = [0.01, 0.02]
+    opened = Study.create(tmp_path / "s", StudySpec.model_validate(data))
+    assert opened.spec.study.core_margin == 2.25
+    assert opened.spec.sample_config("a").output.snapshot_eps_q == ()
+    assert Study.open(tmp_path / "s").spec == opened.spec
+    assert "study.core_margin = 2.25" in (tmp_path / "s" / "study.log").read_text()
+
+
 
 WORKER_SCRIPT = """
 import os

@@ -27,19 +27,28 @@ with the core's volume V_core = prod_a (L_a - 2 margin).
   average over contacts weights a contact by its share of core ends, and the stress
   (1/(2 V_core)) sum f (x) l is the mean stress of the core particles, sum over the core of
   their particle stresses (seed 002 eq. 3, particle form, wall contacts included) over V_core.
-* :class:`CoreConnectivity`: packing fraction sum_core v_i / V_core (the centre count in a
-  region estimates the bulk without bias), z and z_c counted from the core particles' own
-  contacts (2 x claimed pairs / N_core, every neighbour counted), and the rattlers of the whole
-  network (walls counted as supports) among the core.
+* :func:`solid_in_box`: the solid inside the core's box, sum_i v_i w_i, w_i the part of
+  particle i inside the box, read from its volume-equivalent sphere (disc in 2D) of radius
+  r_i = (3 v_i / (4 pi))^(1/3): w_i = prod_a f(lo_a, hi_a), f the part of the sphere between
+  two planes of axis a (the spherical caps, pi h^2 (3 r - h) / 3 of height h; circular
+  segments in 2D). Exact for a sphere cut by one face, and at an edge or corner through its
+  centre; a particle cut by two faces off its centre is read to the product's few percent.
+  Any shape of the same volume and centroid gives the same mean where the centres are spread
+  evenly across the box's faces, so the equivalent sphere carries no bias for polyhedra or
+  aggregates; and the part inside, unlike a count of centres, does not jump where the box's
+  face falls between two layers of centres.
+* :class:`CoreConnectivity`: packing fraction solid_in_box / V_core, z and z_c counted from
+  the core particles' own contacts (2 x claimed pairs / N_core, every neighbour counted), and
+  the rattlers of the whole network (walls counted as supports) among the core.
 
 * :func:`core_by_margin`: the core's packing fraction, z and z_c at several margins: where
   the margin cuts through the wall layer (the first layer's centres pile up at h below the
-  largest radius, the shell behind it is depleted) the centre count reads low; past the layer
-  the values scatter about the bulk's.
+  largest radius, the shell behind it is depleted) the values depart from the bulk's; past
+  the layer they scatter about it.
 
 For a simple cubic lattice of spheres of diameter d in a box that fits it, a margin of a whole
-number of diameters gives a core packing fraction of pi/6 and z = 6 exactly
-(``tests/analysis/test_wall_layer.py``).
+or half number of diameters gives a core packing fraction of pi/6 exactly, and a whole number
+z = 6 (``tests/analysis/test_wall_layer.py``).
 """
 
 from __future__ import annotations
@@ -54,9 +63,11 @@ from grainlab.analysis.connectivity import find_rattlers, wall_interactions
 from grainlab.analysis.contact_network import ContactNetwork
 from grainlab.errors import InputError
 
-CORE_MARGIN = 1.0
-"""Default margin of the core, in mean volume-equivalent diameters <d_v> (see
-docs/explanations/studies.md for the profiles it was read from)."""
+CORE_MARGIN = 1.5
+"""Default margin of the core, in mean volume-equivalent diameters <d_v>: past the first
+layer (centres at h < r_max, 0.75-1 <d> for the seeds' size ratios) and the depleted shell
+behind it (docs/benchmarks/studies.md, "The core's margin", for the profiles and the margins
+it was read from)."""
 
 
 def mean_diameter(network: ContactNetwork) -> float:
@@ -91,6 +102,34 @@ def core_mask(network: ContactNetwork, margin: float) -> np.ndarray:
     if not (np.isfinite(margin) and margin >= 0.0):
         raise InputError("margin", margin, "a distance >= 0 [m]")
     return wall_distances(network) >= margin
+
+
+def _part_between(lo: np.ndarray, hi: np.ndarray, r: np.ndarray, dimension: int) -> np.ndarray:
+    """The part of a sphere (disc in 2D) of radius ``r`` between two planes at signed
+    distances ``lo`` < ``hi`` from its centre [-] (0 to 1)."""
+
+    def below(s: np.ndarray) -> np.ndarray:  # the part on the side s of a plane at s
+        t = np.clip(s / r, -1.0, 1.0)
+        if dimension == 3:
+            return 0.25 * (1.0 + t) ** 2 * (2.0 - t)  # cap of height r (1 + t)
+        return (np.arccos(-t) + t * np.sqrt(1.0 - t * t)) / np.pi  # segment, same height
+
+    return np.clip(below(hi) - below(lo), 0.0, 1.0)
+
+
+def solid_in_box(network: ContactNetwork, lower: np.ndarray, upper: np.ndarray) -> float:
+    """sum_i v_i w_i [m^3]: the solid inside the box [``lower``, ``upper``] (module
+    docstring; w_i from each particle's volume-equivalent sphere, disc in 2D)."""
+    v = network.volumes
+    if network.dimension == 3:
+        r = np.cbrt(3.0 * v / (4.0 * np.pi))
+    else:
+        r = np.sqrt(v / np.pi)
+    x = network.positions
+    w = np.ones(v.shape)
+    for a in range(x.shape[1]):
+        w *= _part_between(lower[a] - x[:, a], upper[a] - x[:, a], r, network.dimension)
+    return float(v @ w)
 
 
 def packing_profile(network: ContactNetwork, bin_width: float,
@@ -209,8 +248,9 @@ class CoreConnectivity(Compute):
         self._store(
             margin=margin, core=core, core_volume=volume, n_core=n_core,
             # no centre in the core: nothing measured there (not a packing fraction of 0)
-            packing_fraction=ratio(float(network.volumes[core].sum()), volume) if n_core
-            else float("nan"),
+            packing_fraction=ratio(solid_in_box(network, network.box_lower + margin,
+                                                network.box_upper - margin), volume)
+            if n_core else float("nan"),
             coordination_number=ratio(ends.sum(), n_core),
             connectivity_number=ratio(ends @ points, n_core),
             rattler_fraction=ratio(int((core & rattlers).sum()), n_core),
@@ -235,7 +275,7 @@ class CoreConnectivity(Compute):
 
     @property
     def packing_fraction(self) -> float:
-        """sum_core v_i / V_core [-]."""
+        """The solid inside the core's box over V_core, :func:`solid_in_box` [-]."""
         return self._get("packing_fraction")
 
     @property

@@ -80,13 +80,18 @@ def write_row(folder: str | Path, row: dict[str, Any], settings: dict[str, Any])
     return path
 
 
-def read_row(folder: str | Path, settings: dict[str, Any]) -> dict[str, Any] | None:
-    """The kept row of the run ``folder`` if it was computed with ``settings``, else None."""
+def read_row(folder: str | Path, settings: dict[str, Any], ignore: tuple[str, ...] = ()
+             ) -> dict[str, Any] | None:
+    """The kept row of the run ``folder`` if it was computed with ``settings`` (the keys in
+    ``ignore`` aside), else None."""
     path = Path(folder) / DIGEST / ROW
     if not path.exists():
         return None
     kept = json.loads(path.read_text(encoding="utf-8"))
-    return kept["row"] if kept.get("settings") == settings else None
+    held = {key: value for key, value in (kept.get("settings") or {}).items()
+            if key not in ignore}
+    asked = {key: value for key, value in settings.items() if key not in ignore}
+    return kept["row"] if held == asked else None
 
 
 def snapshots_for_report(folder: str | Path) -> Path | None:
@@ -127,20 +132,26 @@ def write_window(folder: str | Path, window: tuple[float, float], core_margin: f
         table.to_csv(tables / f"{name}.csv", index=False)
     where = "core" if average.last is not None and average.last.core_parts else "whole box"
     (folder / DIGEST / f"{WINDOW}.json").write_text(json.dumps(
-        {"window": list(window), "n_snapshots": average.n_snapshots, "where": where,
+        {"window": list(window), "core_margin": float(core_margin),
+         "n_snapshots": average.n_snapshots, "where": where,
          "names": sorted(average.distributions)}, indent=1), encoding="utf-8")
     return True
 
 
-def read_window(folder: str | Path, window: tuple[float, float]
+def read_window(folder: str | Path, window: tuple[float, float], core_margin: float
                 ) -> tuple[dict[str, pd.DataFrame], int, str] | None:
-    """The kept window average of the run ``folder`` over ``window`` (distributions by name,
-    snapshots averaged, "core" or "whole box"), else None."""
+    """The kept window average of the run ``folder`` over ``window`` with the core
+    ``core_margin`` [mean diameters] from the walls (distributions by name, snapshots
+    averaged, "core" or "whole box"), else None. A whole-box average (a periodic cell) holds
+    for any margin; a digest that does not name its margin was kept at 1, the only margin
+    before it was named."""
     path = Path(folder) / DIGEST / f"{WINDOW}.json"
     if not path.exists():
         return None
     kept = json.loads(path.read_text(encoding="utf-8"))
     if not np.allclose(kept["window"], window):
+        return None
+    if kept["where"] == "core" and not np.isclose(kept.get("core_margin", 1.0), core_margin):
         return None
     tables = {name: pd.read_csv(Path(folder) / DIGEST / WINDOW / f"{name}.csv")
               for name in kept["names"]}

@@ -255,7 +255,7 @@ def _sample_window(study, name: str, window: tuple[float, float], whole: str):
             return None
         where = "core" if average.last is not None and average.last.core_parts else whole
         return average.distributions, average.n_snapshots, where
-    kept = read_window(folder, window)
+    kept = read_window(folder, window, study.spec.study.core_margin)
     if kept is None:
         return None
     distributions, n_snapshots, where = kept

@@ -99,8 +99,18 @@ class Study:
         folder = Path(folder)
         if (folder / SPEC).exists():
             held = StudySpec.read(folder / SPEC)
-            if held != spec and set(_differences(held, spec)) <= set(KEPT_AS_HELD):
-                return cls(folder, held)  # the folder's own snapshot schedule
+            differ = set(_differences(held, spec))
+            if differ and differ <= set(KEPT_AS_HELD) | set(ANALYSED_AS_ASKED):
+                kept = {key for key in differ if key in KEPT_AS_HELD}
+                updated = held.model_copy(update={"study": held.study.model_copy(update={
+                    key.split(".", 1)[1]: getattr(spec.study, key.split(".", 1)[1])
+                    for key in differ - kept})})
+                if updated != held:
+                    updated.write(folder / SPEC)
+                    _logger(folder).info("analysis settings now as asked: %s", ", ".join(
+                        f"{key} = {_differences(held, spec)[key][1]!r}"
+                        for key in sorted(differ - kept)))
+                return cls(folder, updated)  # its own snapshot schedule, the asked analysis
             if held != spec:
                 raise InputError("study folder", str(folder), (
                     "a new folder, or the folder of this same study (it holds another: "
@@ -368,6 +378,13 @@ KEPT_AS_HELD = ("base.output.snapshot_eps_q",)
 opened as it is held: when to snapshot changes no run's physics, and a folder made before
 the preset took more snapshots goes on with its own schedule (so its samples resume as they
 started)."""
+
+
+ANALYSED_AS_ASKED = ("study.core_margin",)
+"""Keys of the ``[study]`` table that only the analysis reads: a study folder asked with
+another value takes the asked one (its study.toml is rewritten; the summary is computed again
+from each sample's snapshots, and a slimmed sample, whose digest holds the values of the
+former setting, gives no core values until it is run again)."""
 
 
 def _differences(held: StudySpec, asked: StudySpec) -> dict[str, tuple[Any, Any]]:

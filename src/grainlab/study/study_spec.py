@@ -59,6 +59,7 @@ import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from grainlab._validate import read_toml
+from grainlab.analysis.wall_layer import CORE_MARGIN
 from grainlab.errors import InputError
 from grainlab.lab.run_config import RunConfig, current_layout
 
@@ -77,7 +78,7 @@ class StudyHeader(_Model):
     parameter: str = Field("value", min_length=1)
     symbol: str = ""
     window: tuple[float, float] = (0.5, 0.9)
-    core_margin: float = Field(1.0, ge=0.0)
+    core_margin: float = Field(CORE_MARGIN, ge=0.0)
     peak_window: float = Field(0.01, ge=0.0)
     description: str = ""
 

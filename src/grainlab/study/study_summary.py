@@ -49,6 +49,7 @@ import pandas as pd
 
 from grainlab.errors import InputError
 from grainlab.lab.discrete_run import RESULTS_H5, SNAPSHOTS
+from grainlab.analysis.wall_layer import CORE_MARGIN
 from grainlab.lab.run_digest import read_row, row_settings, slim_sample, write_row
 from grainlab.report.run_curves import shear_from_its_start
 from grainlab.result.test_result import read_test_result
@@ -96,7 +97,7 @@ def smoothed_peak(eps_q: np.ndarray, values: np.ndarray, width: float) -> tuple[
 
 
 def sample_row(folder: str | Path, window: tuple[float, float], value: float,
-               microstructure: bool = True, core_margin: float = 1.0,
+               microstructure: bool = True, core_margin: float = CORE_MARGIN,
                peak_window: float = 0.01) -> dict[str, Any]:
     """The summary row of the ended run in ``folder`` (module docstring); ``core_margin``:
     the core's distance from every wall in mean diameters (``core_margin_diameters``);
@@ -208,14 +209,26 @@ def study_summary(study, microstructure: bool = True) -> pd.DataFrame:
 def _row(folder: Path, study, value: float, microstructure: bool) -> dict[str, Any]:
     """The summary row of an ended sample: computed from its run folder (and kept in its
     digest), or, once slimmed (no snapshots left), the row kept for the same settings
-    (:mod:`~grainlab.lab.run_digest`)."""
+    (:mod:`~grainlab.lab.run_digest`). A cell has no walls and no core, so its kept row holds
+    for any core margin; a box's kept row asked at another margin keeps its whole-box values
+    and loses its core ones (``*_core*``: NaN, with a note), which need the run again."""
     header = study.spec.study
     settings = row_settings(header.window, header.core_margin, header.peak_window,
                             microstructure)
+    cell = study.spec.sample_config(folder.name).sample.boundary == "periodic"
     if microstructure and not (folder / SNAPSHOTS).exists():
-        kept = read_row(folder, settings)
+        kept = read_row(folder, settings, ignore=("core_margin",) if cell else ())
         if kept is not None:
             return kept
+        kept = read_row(folder, settings, ignore=("core_margin",))
+        if kept is not None:
+            row = {key: (math.nan if "_core" in key and not isinstance(item, str) else item)
+                   for key, item in kept.items()}
+            row["core_margin_diameters"] = header.core_margin
+            row["note"] = " ".join(filter(None, (str(row.get("note") or ""), (
+                f"slimmed with another core margin ({kept.get('core_margin_diameters')} "
+                "<d>): no core values until the sample is run again"))))
+            return row
     row = sample_row(folder, header.window, value, microstructure,
                      core_margin=header.core_margin, peak_window=header.peak_window)
     if (folder / SNAPSHOTS).exists():
