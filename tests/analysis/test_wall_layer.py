@@ -25,6 +25,7 @@ from grainlab.analysis.wall_layer import (
     packing_profile,
     region_volume,
     solid_in_box,
+    solid_profile,
 )
 from grainlab.errors import InputError
 
@@ -176,6 +177,26 @@ def test_packing_profile_accounts_for_every_particle():
     assert np.count_nonzero(fraction > 0) == 3
     with pytest.raises(InputError, match="bin_width"):
         packing_profile(net, 0.0)
+
+
+def test_solid_profile_of_a_lattice_reads_its_packing_fraction_over_every_period():
+    """A 6 x 6 x 6 lattice of spheres of diameter 2 in a box 12 wide: shells of one diameter
+    hold whole layers, pi/6 each; shells of half a diameter split each layer into its outer
+    and inner half, equal by symmetry, pi/6 again; every shell's solid sums to the spheres'."""
+    net = cubic_lattice(6, 1.0)
+    for width in (2.0, 1.0):
+        edges, fraction = solid_profile(net, width)
+        shells = -np.diff([region_volume(net, s) for s in edges])
+        assert edges[-1] == pytest.approx(6.0)
+        np.testing.assert_allclose(fraction, np.pi / 6)
+        assert np.sum(fraction * shells) == pytest.approx(net.volumes.sum())
+    edges, fraction = solid_profile(net, 0.5)  # quarter diameters: the layering shows,
+    # the spheres' caps (thin) in the outer quarter, their middles (thick) in the next
+    assert fraction[0] < np.pi / 6 < fraction[1]
+    assert np.sum(fraction * -np.diff([region_volume(net, s) for s in edges])) == \
+        pytest.approx(net.volumes.sum())
+    with pytest.raises(InputError, match="bin_width"):
+        solid_profile(net, -1.0)
 
 
 def test_a_particle_held_by_two_walls_and_a_neighbour_is_not_a_rattler():

@@ -17,9 +17,10 @@ with the core's volume V_core = prod_a (L_a - 2 margin).
   V(h >= s) = prod_a max(L_a - 2 s, 0). A bulk packing is flat; the wall layer shows as the
   first shells' departure from the plateau. Each particle's volume counts in its centre's
   shell, so a shell thinner than a particle can read above 1 where the centres pile up (the
-  first layer, at h ~ the radius): only the plateau is a packing fraction. The margin is
-  chosen where the profile has reached its plateau (:data:`CORE_MARGIN`; the study report
-  draws the profile).
+  first layer, at h ~ the radius): only the plateau is a packing fraction.
+* :func:`solid_profile`: the solid fraction of shells of points at a distance h from the
+  nearest wall (from :func:`solid_in_box`): a packing fraction at every h. The margin is
+  chosen where it has reached its plateau (:data:`CORE_MARGIN`; the study report draws it).
 * :func:`core_network`: the contacts of the core particles as they see them, for the
   statistics of contacts (fabric, forces, sliding, contact types, partial stresses). Each
   core particle claims half of each of its contacts: a pair between two core particles is
@@ -139,20 +140,44 @@ def packing_profile(network: ContactNetwork, bin_width: float,
     Returns the (K + 1,) shell edges h_k [m] (from 0 to the box's half-width, in steps of
     ``bin_width`` [m]) and the (K,) packing fraction of each shell [-] (NaN for an empty
     shell volume)."""
-    if not (np.isfinite(bin_width) and bin_width > 0.0):
-        raise InputError("bin_width", bin_width, "a shell width > 0 [m]")
-    lower, upper = _box(network)
-    half = 0.5 * float(np.min(upper - lower))
-    edges = np.arange(0.0, half + bin_width, bin_width)
-    edges = edges[edges <= half + 1e-12 * half]
-    if edges.size < 2:
-        edges = np.array([0.0, half])
+    edges = _shell_edges(network, bin_width)
     h = wall_distances(network)
     solid, _ = np.histogram(h, bins=edges, weights=network.volumes)
     shells = -np.diff([region_volume(network, s) for s in edges])
     with np.errstate(invalid="ignore", divide="ignore"):
         fraction = np.where(shells > 0, solid / shells, np.nan)
     return edges, fraction
+
+
+def solid_profile(network: ContactNetwork, bin_width: float,
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The solid fraction against the distance h of a point to the nearest wall: the solid
+    of the shell of points h in [h_k, h_k+1) (:func:`solid_in_box` of the box h >= h_k less
+    that of h >= h_k+1, each particle read as its volume-equivalent sphere) over the shell's
+    volume. A packing fraction at every h, which the first layer's pile-up and the depleted
+    shell behind it modulate for two to three diameters before the bulk's plateau; the
+    core's packing fraction is this profile's mean over h >= margin.
+
+    Returns the (K + 1,) shell edges h_k [m] (from 0 to the box's half-width, in steps of
+    ``bin_width`` [m]) and the (K,) solid fraction of each shell [-] (NaN for an empty shell
+    volume)."""
+    edges = _shell_edges(network, bin_width)
+    lower, upper = _box(network)
+    solid = np.array([solid_in_box(network, lower + h, upper - h) for h in edges])
+    shells = -np.diff([region_volume(network, h) for h in edges])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fraction = np.where(shells > 0, -np.diff(solid) / shells, np.nan)
+    return edges, fraction
+
+
+def _shell_edges(network: ContactNetwork, bin_width: float) -> np.ndarray:
+    if not (np.isfinite(bin_width) and bin_width > 0.0):
+        raise InputError("bin_width", bin_width, "a shell width > 0 [m]")
+    lower, upper = _box(network)
+    half = 0.5 * float(np.min(upper - lower))
+    edges = np.arange(0.0, half + bin_width, bin_width)
+    edges = edges[edges <= half + 1e-12 * half]
+    return edges if edges.size >= 2 else np.array([0.0, half])
 
 
 def core_network(network: ContactNetwork, core: np.ndarray,

@@ -359,19 +359,19 @@ def partial_strength_figure(table: pd.DataFrame, symbol: str) -> Figure | None:
 
 def wall_profile_figure(profiles: dict[str, tuple[np.ndarray, np.ndarray]],
                         margin: float) -> Figure | None:
-    """Packing fraction against the distance h of the centres to the nearest wall, in mean
-    diameters, one line per sample (``profiles``: label -> (shell edges h / <d_v>, packing
-    fraction of each shell), :func:`~grainlab.analysis.wall_layer.packing_profile`), with the
-    core's ``margin`` [<d_v>] marked: the core is meant to begin where the profiles reach
-    their plateau. None without profiles."""
+    """Packing fraction against the distance h to the nearest wall, in mean diameters, one
+    line per sample (``profiles``: label -> (shell edges h / <d_v>, solid fraction of each
+    shell), :func:`~grainlab.analysis.wall_layer.solid_profile`), with the core's ``margin``
+    [<d_v>] marked: the core is meant to begin where the profiles reach their plateau. None
+    without profiles."""
     if not profiles:
         return None
     figure, ax = new_figure_axes()
     for label, (edges, fraction) in profiles.items():
         ax.step(edges[:-1], fraction, where="post", lw=1, label=label)
     ax.axvline(margin, color="k", ls="--", lw=1, label=f"core margin {margin:g} $<d>$")
-    ax.set_xlabel("distance of the centre to the nearest wall / $<d>$")
-    ax.set_ylabel("packing fraction of the shell")
+    ax.set_xlabel("distance to the nearest wall / $<d>$")
+    ax.set_ylabel("solid fraction of the shell")
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
     figure.tight_layout()

@@ -341,7 +341,7 @@ def _wall_profiles(study, table: pd.DataFrame, out: Path, labels: dict[str, str]
                    margin: float) -> tuple[str, str] | None:
     """The packing fraction against the distance to the nearest wall of every sample at the
     end of its compaction (its last compaction snapshot), with the core's margin."""
-    from grainlab.analysis.wall_layer import mean_diameter, packing_profile
+    from grainlab.analysis.wall_layer import mean_diameter, solid_profile
     from grainlab.lab.run_digest import compacted_snapshot
     from grainlab.report.study_figures import wall_profile_figure
 
@@ -351,7 +351,7 @@ def _wall_profiles(study, table: pd.DataFrame, out: Path, labels: dict[str, str]
         if initial is None or not initial.has_box:
             continue
         d = mean_diameter(initial)
-        edges, fraction = packing_profile(initial, PROFILE_BIN * d)
+        edges, fraction = solid_profile(initial, PROFILE_BIN * d)
         profiles[labels.get(name, name)] = (edges / d, fraction)
     figure = wall_profile_figure(profiles, margin)
     if figure is None:
