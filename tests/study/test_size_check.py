@@ -345,6 +345,15 @@ def test_the_cell_can_be_a_series_run_with_the_checks_settings(tmp_path, monkeyp
     plan = SizeCheckPlan("angularity", ("S1", "S5"), walls=(500,), periodic=(2000,),
                          cell_from=series.folder)
     assert plan.periodic == (1000,)  # the series' size, not the check's own
+    # summarised with another core margin: a cell has no core, it is still the check's cell
+    toml = series.folder / "study.toml"
+    toml.write_text(toml.read_text().replace("core_margin = 1.5", "core_margin = 1.0"))
+    assert SizeCheckPlan("angularity", ("S1",), walls=(500,),
+                         cell_from=series.folder).periodic == (1000,)
+    toml.write_text(toml.read_text().replace("window = [\n    0.6,", "window = [\n    0.5,"))
+    with pytest.raises(InputError, match="window"):
+        SizeCheckPlan("angularity", ("S1",), walls=(500,), cell_from=series.folder)
+    toml.write_text(toml.read_text().replace("window = [\n    0.5,", "window = [\n    0.6,"))
     cell = plan.runs[-1]
     assert plan.study_folder(tmp_path / "check", cell) == series.folder
     assert plan.study(tmp_path / "check", cell).folder == series.folder
