@@ -163,8 +163,11 @@ def fake_runs(tmp_path, monkeypatch, plan, offsets):
 def test_table_reads_every_run_and_writes_its_csv(tmp_path, monkeypatch):
     plan = SizeCheckPlan("angularity", ("S1",), walls=(500, 2000), periodic=(1000,))
     fake_runs(tmp_path, monkeypatch, plan, {500: 0.3, 2000: 0.01})
+    held = tmp_path / "walls-500" / "study.toml"  # made when the core margin was 1
+    held.write_text(held.read_text().replace("core_margin = 1.5", "core_margin = 1.0"))
     table = size_check_table(tmp_path, plan)
     assert (tmp_path / "size_check.csv").exists()
+    assert "core_margin = 1.5" in held.read_text()  # read with the preset's margin
     z = table[table["quantity"] == "z*"].set_index(["boundary", "n"])
     assert z.loc[("walls", 500), "core"] == pytest.approx(3.7)
     # the cell's core is its whole packing

@@ -243,10 +243,12 @@ def margin_markdown(margins: pd.DataFrame, table: pd.DataFrame, sample: str) -> 
         return []
     values = sorted(set(float(m) for m in part["margin"]))
     lines = [f"### {sample}: the core after the compaction at other margins", "",
-             "A core whose edge cuts through the wall layer (the first layer's centres pile up "
-             "within about the largest radius of a wall, the shell behind them is depleted) "
-             "reads its packing fraction low; past the layer the values scatter about the "
-             "bulk's. In brackets: the particles in the core.", "",
+             "The packing fraction is the solid inside the core's box (each particle's "
+             "volume-equivalent sphere cut by its faces); z and z_c count the core "
+             "particles' contacts (centres at least the margin from every wall). A core "
+             "whose edge cuts through the wall layer (the first layer within about the "
+             "largest diameter of a wall) departs from the bulk; past the layer the values "
+             "settle. In brackets: the particles in the core.", "",
              "| walls | quantity | " + " | ".join(f"{m:g} <d>" for m in values)
              + " | cell |", "|" + "---|" * (len(values) + 3)]
     cells = table[(table["sample"] == sample) & (table["boundary"] == "periodic")]

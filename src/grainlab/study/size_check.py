@@ -20,8 +20,9 @@ whether the core reaches the cell within their error bars, and where the cell's 
 against the paper's; :func:`~grainlab.report.size_check_report.write_size_check_report`
 writes the check's report. :func:`margin_table` measures the walls' cores after the
 compaction at several margins (:func:`~grainlab.analysis.wall_layer.core_by_margin`): a core
-whose edge cuts through the wall layer reads its packing fraction low, so the report shows
-where the values settle.
+whose edge cuts through the wall layer departs from the bulk, so the report shows where the
+values settle. The check's studies are read with the analysis settings of the preset (the
+core margin: :data:`~grainlab.study.study_runner.ANALYSED_AS_ASKED`).
 
 >>> plan = SizeCheckPlan("angularity", ("S1",), walls=(500, 1000), periodic=(1000,))
 >>> [run.folder_name for run in plan.runs]
@@ -292,7 +293,7 @@ def size_check_table(folder: str | Path, plan: SizeCheckPlan) -> pd.DataFrame:
         path = plan.study_folder(folder, run)
         if not path.is_dir():
             continue
-        study = Study.open(path)
+        study = plan.study(folder, run)  # as held, with the check's analysis settings
         if not any(sample_state(study.sample_folder(name)) == "ended"
                    for name in plan.samples):
             continue
