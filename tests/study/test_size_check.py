@@ -223,8 +223,8 @@ def test_the_walls_cores_after_the_compaction_are_read_at_other_margins(tmp_path
     table = size_check_table(tmp_path, plan)
     report = write_size_check_report(tmp_path, plan, table, margins).read_text()
     assert "### S1: the core after the compaction at other margins" in report
-    assert f"| 500 | packing fraction | {np.pi / 6:.3g} (125) | 0.444 (27) | {np.pi / 6:.3g} (27) |" \
-        in report
+    sixth = f"{np.pi / 6:.3g}"
+    assert f"| 500 | packing fraction | {sixth} (125) | 0.444 (27) | {sixth} (27) |" in report
     assert "| 500 | z = z_c | 4.8 | 6 | 6 | 6 |" in report  # spheres: z_c is z, one row
 
 

@@ -47,9 +47,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from grainlab.analysis.wall_layer import CORE_MARGIN
 from grainlab.errors import InputError
 from grainlab.lab.discrete_run import RESULTS_H5, SNAPSHOTS
-from grainlab.analysis.wall_layer import CORE_MARGIN
 from grainlab.lab.run_digest import read_row, row_settings, slim_sample, write_row
 from grainlab.report.run_curves import shear_from_its_start
 from grainlab.result.test_result import read_test_result
