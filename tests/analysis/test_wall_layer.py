@@ -102,8 +102,13 @@ def test_the_core_at_several_margins_reads_low_where_its_edge_cuts_a_layer():
 
 def _one(position, radius: float = 1.0, dimension: int = 3) -> ContactNetwork:
     volume = 4.0 / 3.0 * np.pi * radius**3 if dimension == 3 else np.pi * radius**2
-    return ContactNetwork(positions=np.atleast_2d(np.asarray(position, float)),
-                          volumes=np.array([volume]), volume=1.0,
+    return _particles(np.atleast_2d(np.asarray(position, float)), np.array([volume]))
+
+
+def _particles(positions: np.ndarray, volumes: np.ndarray) -> ContactNetwork:
+    """Particles without contacts (what the solid inside a box reads)."""
+    dimension = positions.shape[1]
+    return ContactNetwork(positions=positions, volumes=volumes, volume=1.0,
                           pair_particles=np.zeros((0, 2), int),
                           pair_branches=np.zeros((0, dimension)),
                           point_pairs=np.zeros(0, int),
@@ -177,6 +182,34 @@ def test_packing_profile_accounts_for_every_particle():
     assert np.count_nonzero(fraction > 0) == 3
     with pytest.raises(InputError, match="bin_width"):
         packing_profile(net, 0.0)
+
+
+def test_the_solid_in_a_box_does_not_depend_on_labels_place_or_mirror():
+    """Relabelling the particles, translating them with the box, or mirroring both through a
+    plane leaves the solid inside unchanged; a box holding every particle whole holds all
+    their volume."""
+    rng = np.random.default_rng(7)
+    n = 60
+    x = rng.uniform(0.0, 10.0, (n, 3))
+    v = 4.0 / 3.0 * np.pi * rng.uniform(0.3, 0.9, n) ** 3
+
+    def solid(positions, volumes, lower, upper):
+        return solid_in_box(_particles(positions, volumes), np.asarray(lower, float),
+                            np.asarray(upper, float))
+
+    lower, upper = np.array([2.0, 1.5, 3.0]), np.array([7.5, 8.0, 6.5])
+    reference = solid(x, v, lower, upper)
+    order = rng.permutation(n)
+    assert solid(x[order], v[order], lower, upper) == pytest.approx(reference, rel=1e-12)
+    shift = np.array([-3.0, 12.5, 0.25])
+    assert solid(x + shift, v, lower + shift, upper + shift) == \
+        pytest.approx(reference, rel=1e-12)
+    mirror = np.array([1.0, -1.0, 1.0])
+    assert solid(x * mirror, v, np.minimum(lower * mirror, upper * mirror),
+                 np.maximum(lower * mirror, upper * mirror)) == pytest.approx(reference,
+                                                                          rel=1e-12)
+    assert solid(x, v, np.full(3, -5.0), np.full(3, 15.0)) == pytest.approx(v.sum())
+    assert 0.0 < reference < v.sum()
 
 
 def test_solid_profile_of_a_lattice_reads_its_packing_fraction_over_every_period():
