@@ -99,18 +99,17 @@ class Study:
         folder = Path(folder)
         if (folder / SPEC).exists():
             held = StudySpec.read(folder / SPEC)
-            differ = set(_differences(held, spec))
-            if differ and differ <= set(KEPT_AS_HELD) | set(ANALYSED_AS_ASKED):
-                kept = {key for key in differ if key in KEPT_AS_HELD}
-                updated = held.model_copy(update={"study": held.study.model_copy(update={
-                    key.split(".", 1)[1]: getattr(spec.study, key.split(".", 1)[1])
-                    for key in differ - kept})})
-                if updated != held:
-                    updated.write(folder / SPEC)
+            differences = _differences(held, spec)
+            if differences and set(differences) <= set(KEPT_AS_HELD) | set(ANALYSED_AS_ASKED):
+                asked = {key.split(".", 1)[1]: getattr(spec.study, key.split(".", 1)[1])
+                         for key in differences if key in ANALYSED_AS_ASKED}
+                if asked:
+                    held = held.model_copy(update={"study": held.study.model_copy(
+                        update=asked)})
+                    held.write(folder / SPEC)
                     _logger(folder).info("analysis settings now as asked: %s", ", ".join(
-                        f"{key} = {_differences(held, spec)[key][1]!r}"
-                        for key in sorted(differ - kept)))
-                return cls(folder, updated)  # its own snapshot schedule, the asked analysis
+                        f"study.{name} = {value!r}" for name, value in sorted(asked.items())))
+                return cls(folder, held)  # its own snapshot schedule, the asked analysis
             if held != spec:
                 raise InputError("study folder", str(folder), (
                     "a new folder, or the folder of this same study (it holds another: "

@@ -217,10 +217,10 @@ def _row(folder: Path, study, value: float, microstructure: bool) -> dict[str, A
                             microstructure)
     cell = study.spec.sample_config(folder.name).sample.boundary == "periodic"
     if microstructure and not (folder / SNAPSHOTS).exists():
-        kept = read_row(folder, settings, ignore=("core_margin",) if cell else ())
-        if kept is not None:
-            return kept
         kept = read_row(folder, settings, ignore=("core_margin",))
+        if kept is not None and (cell or math.isclose(
+                float(kept.get("core_margin_diameters", math.nan)), header.core_margin)):
+            return kept
         if kept is not None:
             row = {key: (math.nan if "_core" in key and not isinstance(item, str) else item)
                    for key, item in kept.items()}
