@@ -93,7 +93,7 @@ def test_report_table_gives_mean_and_standard_deviation():
     assert "0.300 ± 0.020" in rows[0]  # (q/p)* of B
     assert "0.590 ± 0.005" in rows[0]  # nu* of B
     assert f"| {3 * 0.3 / 2.3:.3f} |" in rows[0]  # sin phi* = 3 (q/p)* / (2 + (q/p)*), eq. 11
-    assert "10%" in rows[0]
+    assert "10.00%" in rows[0]
 
 
 def test_wall_profile_figure_draws_the_profile_and_the_margin():

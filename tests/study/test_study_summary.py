@@ -105,3 +105,31 @@ def test_replicas_whose_own_sample_has_not_ended_still_make_their_point():
     assert s1["seeds"] == "1,2" and s1["wall_time"] == 230.0
     assert pooled.iloc[2]["seeds"] == "2"
     assert pooled.iloc[2]["q_over_trace_residual_std"] == 0.02  # its window's
+
+
+@pytest.mark.parametrize("folder", ["angularity-periodic-1000", "nonconvexity-periodic-1000"])
+def test_the_committed_series_tables_are_what_their_kept_digests_give(folder, tmp_path):
+    """The committed series (slimmed: each sample's kept row and window average) summarised
+    again from a copy give their committed summary.csv value for value, and every sample's
+    capped share is within the series' bound: the published tables are the runs'."""
+    import shutil
+    from pathlib import Path
+
+    from grainlab.report.size_check_report import CAPPED_BOUND
+    from grainlab.study.study_runner import Study
+    from grainlab.study.study_summary import study_summary
+
+    source = Path(__file__).resolve().parents[2] / "studies" / folder
+    copy = shutil.copytree(source, tmp_path / folder, ignore=shutil.ignore_patterns("report"))
+    study_summary(Study.open(copy))
+    again = pd.read_csv(copy / "summary.csv")
+    committed = pd.read_csv(source / "summary.csv")
+    assert list(again.columns) == list(committed.columns)
+    assert again["name"].tolist() == committed["name"].tolist()
+    for column in committed.columns:
+        if pd.api.types.is_numeric_dtype(committed[column]):
+            np.testing.assert_array_equal(again[column].to_numpy(float),
+                                          committed[column].to_numpy(float), err_msg=column)
+    assert (committed["status"] == "as asked").all()
+    assert (committed["capped_share"] <= CAPPED_BOUND).all(), \
+        committed[["name", "capped_share"]]

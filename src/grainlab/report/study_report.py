@@ -50,7 +50,7 @@ COLUMNS = (
     ("value", "parameter", "{:.3g}"), ("measured", "measured", "{:.3g}"),
     ("n_seeds", "seeds", "{:.0f}"),
     ("status", "outcome", "{}"), ("wall_time", "wall time [s]", "{:.0f}"),
-    ("capped_share", "capped steps", "{:.0%}"),
+    ("capped_share", "capped steps", "{:.2%}"),
     ("q_over_trace_peak", "(q/p)+", "pm"), ("q_over_trace_residual", "(q/p)*", "pm"),
     ("phi_residual", "phi* [rad]", "{:.3f}"), ("sin_phi_star", "sin phi* (eq. 11)", "{:.3f}"),
     ("packing_fraction_initial", "nu0", "pm"), ("packing_fraction_residual", "nu*", "pm"),

@@ -210,16 +210,19 @@ def _row(folder: Path, study, value: float, microstructure: bool) -> dict[str, A
     """The summary row of an ended sample: computed from its run folder (and kept in its
     digest), or, once slimmed (no snapshots left), the row kept for the same settings
     (:mod:`~grainlab.lab.run_digest`). A cell has no walls and no core, so its kept row holds
-    for any core margin; a box's kept row asked at another margin keeps its whole-box values
-    and loses its core ones (``*_core*``: NaN, with a note), which need the run again."""
+    for any core margin (and names the study's); a box's kept row asked at another margin
+    keeps its whole-box values and loses its core ones (``*_core*``: NaN, with a note), which
+    need the run again."""
     header = study.spec.study
     settings = row_settings(header.window, header.core_margin, header.peak_window,
                             microstructure)
     cell = study.spec.sample_config(folder.name).sample.boundary == "periodic"
     if microstructure and not (folder / SNAPSHOTS).exists():
         kept = read_row(folder, settings, ignore=("core_margin",))
-        if kept is not None and (cell or math.isclose(
-                float(kept.get("core_margin_diameters", math.nan)), header.core_margin)):
+        if kept is not None and cell:
+            return {**kept, "core_margin_diameters": header.core_margin}
+        if kept is not None and math.isclose(
+                float(kept.get("core_margin_diameters", math.nan)), header.core_margin):
             return kept
         if kept is not None:
             row = {key: (math.nan if "_core" in key and not isinstance(item, str) else item)
