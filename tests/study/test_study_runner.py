@@ -128,7 +128,15 @@ def test_a_folder_holding_another_study_is_refused(tmp_path):
     with pytest.raises(InputError) as caught:
         Study.create(tmp_path / "s", tiny_spec(("a", "c")))
     assert caught.value.field == "study folder"
-    assert "samples" in caught.value.allowed
+    assert "samples b held, not asked; samples c asked, not held" in caught.value.allowed
+    # the same samples, one set otherwise: the message names the sample and its key alone
+    data = tiny_spec().model_dump(mode="json")
+    data["samples"][1]["set"]["solver"] = {"shear": {"max_iterations": 4000}}
+    with pytest.raises(InputError) as caught:
+        Study.create(tmp_path / "s", StudySpec.model_validate(data))
+    assert "sample b: set.solver.shear.max_iterations = None, asked 4000" \
+        in caught.value.allowed
+    assert "sample a" not in caught.value.allowed
 
 
 def test_a_folder_differing_only_in_its_snapshot_strains_goes_on_as_it_is_held(tmp_path):

@@ -396,9 +396,28 @@ def _differences(held: StudySpec, asked: StudySpec) -> dict[str, tuple[Any, Any]
 
 
 def _first_difference(held: StudySpec, asked: StudySpec) -> str:
-    """The first key where two studies differ, in words."""
+    """The first key where two studies differ, in words; in the samples, the first sample
+    whose settings differ and the key, or the sample names where those differ."""
+    from grainlab.lab.run_config import flat_keys
+
     for key, (a, b) in _differences(held, asked).items():
-        return f"{key} = {a!r}, asked {b!r}"
+        if key != "samples" or not isinstance(a, list) or not isinstance(b, list):
+            return f"{key} = {a!r}, asked {b!r}"
+        names = [s.get("name") for s in a], [s.get("name") for s in b]
+        if names[0] != names[1]:
+            only = ([n for n in names[0] if n not in names[1]],
+                    [n for n in names[1] if n not in names[0]])
+            if not any(only):
+                return f"samples in the order {', '.join(names[0])}"
+            return "; ".join(f"samples {', '.join(n)} {where}" for n, where in
+                             zip(only, ("held, not asked", "asked, not held"), strict=True)
+                             if n)
+        for mine, theirs in zip(a, b, strict=True):
+            x, y = flat_keys(mine), flat_keys(theirs)
+            for inner in sorted(set(x) | set(y)):
+                if x.get(inner) != y.get(inner):
+                    return (f"sample {mine['name']}: {inner} = {x.get(inner)!r}, "
+                            f"asked {y.get(inner)!r}")
     return "the same keys"
 
 
