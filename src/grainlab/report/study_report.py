@@ -151,7 +151,8 @@ def write_study_report(study, table: pd.DataFrame) -> Path:
         *(["- independent samples: a sample repeated with other packing seeds (n_seeds > "
             "1) is one point, the mean over its seeds, and its error bars are the standard "
             "deviation over the seeds (for the initial state too), not over the window; "
-            "each seed's own row is in summary.csv"] if replicated else []),
+            "its wall time is the seeds' sum and its capped steps the largest share of "
+            "its seeds' runs; each seed's own row is in summary.csv"] if replicated else []),
         f"- peak (q/p)+: the largest running mean of q/p over eps_q windows of width "
         f"{spec.study.peak_window:g} (the largest single row, biased up by the rows' "
         "fluctuations, is `q_over_trace_peak_raw` in summary.csv)",

@@ -258,6 +258,10 @@ def slim_study(study) -> dict[str, int]:
     return freed
 
 
+SUMMED_OVER_SEEDS = ("wall_time", "steps")
+"""The columns a pooled point sums over its seeds' runs (:func:`pooled_replicas`)."""
+
+
 def pooled_replicas(table: pd.DataFrame) -> pd.DataFrame:
     """One row per sample of its own, its replicas (``replica_of``: the same shape with
     other packing seeds) pooled into it, in the table's order of those samples. A pooled row
@@ -265,17 +269,20 @@ def pooled_replicas(table: pd.DataFrame) -> pd.DataFrame:
     standard deviation over the seeds (ddof = 1) of every number X that is not itself a
     standard deviation: the error bar from independent samples, for the initial state too;
     the window's standard deviation it replaces, averaged over the seeds, stays as
-    ``X_window_std``. ``wall_time`` is the seeds' sum, the point's cost. A row without
+    ``X_window_std``. ``wall_time`` and ``steps`` are the seeds' sums, the point's cost;
+    ``capped_share`` the largest of the seeds' (the bound on steps at the sweep cap holds run
+    by run). A row without
     replicas stays as it is, with ``n_seeds`` = 1. Replicas whose own sample has not ended
     (a study run ``--only`` on them) make their point on their own, under the first one's
     name, with ``seeds`` saying which. A table without ``replica_of`` is returned as it is.
 
     >>> table = pd.DataFrame({"name": ["a", "b", "a-seed1"], "replica_of": ["", "", "a"],
     ...                       "x_residual": [1.0, 5.0, 3.0], "x_residual_std": [0.1, 0.2, 0.3],
-    ...                       "wall_time": [10.0, 20.0, 30.0]})
+    ...                       "wall_time": [10.0, 20.0, 30.0],
+    ...                       "capped_share": [0.004, 0.001, 0.009]})
     >>> pooled = pooled_replicas(table)
-    >>> pooled[["name", "n_seeds", "x_residual", "wall_time"]].values.tolist()
-    [['a', 2, 2.0, 40.0], ['b', 1, 5.0, 20.0]]
+    >>> pooled[["name", "n_seeds", "x_residual", "wall_time", "capped_share"]].values.tolist()
+    [['a', 2, 2.0, 40.0, 0.009], ['b', 1, 5.0, 20.0, 0.001]]
     >>> [round(float(pooled.loc[0, c]), 4) for c in ("x_residual_std", "x_residual_window_std")]
     [1.4142, 0.2]
     """
@@ -299,15 +306,19 @@ def pooled_replicas(table: pd.DataFrame) -> pd.DataFrame:
         if len(group) > 1:
             for column in numeric:
                 values = group[column].to_numpy(float)
-                if column == "wall_time":
+                if column in SUMMED_OVER_SEEDS:
                     row[column] = float(np.nansum(values))
+                    continue
+                if column == "capped_share":
+                    row[column] = float(np.nanmax(values))
                     continue
                 row[column] = float(np.nanmean(values)) if np.isfinite(values).any() \
                     else math.nan
                 if column.endswith("_std"):
                     row[column.removesuffix("_std") + "_window_std"] = row[column]
             for column in numeric:
-                if column.endswith("_std") or column == "wall_time":
+                if column.endswith("_std") or column in SUMMED_OVER_SEEDS \
+                        or column == "capped_share":
                     continue
                 values = group[column].to_numpy(float)
                 finite = values[np.isfinite(values)]
