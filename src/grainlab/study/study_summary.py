@@ -16,7 +16,11 @@ Columns (SI, dimensionless unless stated):
   mean bounding diameter from every wall, as the results table records them):
   ``X_initial`` (end of the isotropic compaction), ``X_residual`` and ``X_residual_std``
   (mean and sample standard deviation, ddof = 1, of the recorded rows with eps_q in the
-  window, as :mod:`grainlab.analysis.window_average` for the snapshots),
+  window, as :mod:`grainlab.analysis.window_average` for the snapshots; where the snapshot
+  analysis has a descriptor of the same name -- q_over_trace, sin_phi, packing_fraction --
+  its values, from the snapshots, replace the rows': the window's (q/p)* and nu* are the
+  snapshots' means, measured on the contact network the anisotropies of eqs. 27 are, and
+  depend on where the snapshots fall),
   and the peak: ``q_over_trace_peak`` the largest running mean of q/p over the rows within
   ``peak_window`` (a width of eps_q, centred: :func:`smoothed_peak`) and ``eps_q_peak`` its
   centre, with ``peak_window`` itself; ``q_over_trace_peak_raw``, the largest recorded
