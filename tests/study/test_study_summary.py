@@ -133,3 +133,15 @@ def test_the_committed_series_tables_are_what_their_kept_digests_give(folder, tm
     assert (committed["status"] == "as asked").all()
     assert (committed["capped_share"] <= CAPPED_BOUND).all(), \
         committed[["name", "capped_share"]]
+    # (q/p)* is the window's mean over the recorded rows (not over the fewer snapshots),
+    # and sin phi* is eq. 11 of that (q/p)*
+    lo, hi = Study.open(copy).spec.study.window
+    for _, row in committed.iterrows():
+        table = pd.read_csv(source / "samples" / row["name"] / "results.csv", comment="#")
+        shear = table[table["stage"] != "compaction"]
+        window = shear[(shear["eps_q"] >= lo) & (shear["eps_q"] <= hi)]
+        assert len(window) > 50
+        assert row["q_over_trace_residual"] == pytest.approx(
+            window["q_over_trace"].mean(), rel=1e-12), row["name"]
+        q = row["q_over_trace_residual"]
+        assert row["sin_phi_star"] == pytest.approx(3 * q / (2 + q), rel=1e-12)

@@ -18,9 +18,9 @@ Columns (SI, dimensionless unless stated):
   (mean and sample standard deviation, ddof = 1, of the recorded rows with eps_q in the
   window, as :mod:`grainlab.analysis.window_average` for the snapshots; where the snapshot
   analysis has a descriptor of the same name -- q_over_trace, sin_phi, packing_fraction --
-  its values, from the snapshots, replace the rows': the window's (q/p)* and nu* are the
-  snapshots' means, measured on the contact network the anisotropies of eqs. 27 are, and
-  depend on where the snapshots fall),
+  the rows' values stand: a row every ``record_every`` steps, against a snapshot every
+  ``snapshot_every``, so that (q/p)*, sin phi* and nu* do not depend on where the snapshots
+  fall, and sin phi* (eq. 11) is that of the (q/p)* beside it),
   and the peak: ``q_over_trace_peak`` the largest running mean of q/p over the rows within
   ``peak_window`` (a width of eps_q, centred: :func:`smoothed_peak`) and ``eps_q_peak`` its
   centre, with ``peak_window`` itself; ``q_over_trace_peak_raw``, the largest recorded
@@ -105,7 +105,23 @@ def sample_row(folder: str | Path, window: tuple[float, float], value: float,
                peak_window: float = 0.01) -> dict[str, Any]:
     """The summary row of the ended run in ``folder`` (module docstring); ``core_margin``:
     the core's distance from every wall in mean diameters (``core_margin_diameters``);
-    ``peak_window``: the eps_q width of the running mean of the peak."""
+    ``peak_window``: the eps_q width of the running mean of the peak. The recorded rows'
+    values (:func:`recorded_row`) stand where the snapshots' descriptors share their names."""
+    folder = Path(folder)
+    row = recorded_row(folder, window, value, core_margin, peak_window)
+    if microstructure and (folder / SNAPSHOTS).exists():
+        micro = _microstructure(folder / SNAPSHOTS, window, core_margin, row["eps_q_peak"])
+        row.update({key: item for key, item in micro.items() if key not in row})
+    return row
+
+
+def recorded_row(folder: str | Path, window: tuple[float, float], value: float,
+                 core_margin: float = CORE_MARGIN, peak_window: float = 0.01
+                 ) -> dict[str, Any]:
+    """The part of a sample's summary row read from its run's results table (kept when the
+    sample is slimmed): the run's outcome and cost, the macroscopic state (``MACRO``) at the
+    end of the compaction and over the window, the smoothed peak, phi* and sin phi* (seed
+    002 eq. 11)."""
     folder = Path(folder)
     result = read_test_result(folder / RESULTS_H5)
     specimen, outcome = result.specimen, result.outcome
@@ -143,9 +159,6 @@ def sample_row(folder: str | Path, window: tuple[float, float], value: float,
     if not len(in_window):
         row["note"] = (f"the run reached eps_q = {row['eps_q_end']:.3g}, not the window "
                        f"[{lo:g}, {hi:g}]")
-    if microstructure and (folder / SNAPSHOTS).exists():
-        row.update(_microstructure(folder / SNAPSHOTS, window, core_margin,
-                                   row["eps_q_peak"]))
     return row
 
 
@@ -213,26 +226,28 @@ def study_summary(study, microstructure: bool = True) -> pd.DataFrame:
 def _row(folder: Path, study, value: float, microstructure: bool) -> dict[str, Any]:
     """The summary row of an ended sample: computed from its run folder (and kept in its
     digest), or, once slimmed (no snapshots left), the row kept for the same settings
-    (:mod:`~grainlab.lab.run_digest`). A cell has no walls and no core, so its kept row holds
-    for any core margin (and names the study's); a box's kept row asked at another margin
-    keeps its whole-box values and loses its core ones (``*_core*``: NaN, with a note), which
-    need the run again."""
+    (:mod:`~grainlab.lab.run_digest`), its recorded part (:func:`recorded_row`) read again
+    from the kept results table. A cell has no walls and no core, so its kept row holds for
+    any core margin (and names the study's); a box's kept row asked at another margin keeps
+    its whole-box values and loses its core ones from the snapshots (``*_core*``: NaN, with a
+    note), which need the run again."""
     header = study.spec.study
     settings = row_settings(header.window, header.core_margin, header.peak_window,
                             microstructure)
     cell = study.spec.sample_config(folder.name).sample.boundary == "periodic"
     if microstructure and not (folder / SNAPSHOTS).exists():
         kept = read_row(folder, settings, ignore=("core_margin",))
-        if kept is not None and cell:
-            return {**kept, "core_margin_diameters": header.core_margin}
-        if kept is not None and math.isclose(
-                float(kept.get("core_margin_diameters", math.nan)), header.core_margin):
-            return kept
+        if kept is not None:
+            recorded = recorded_row(folder, header.window, value, header.core_margin,
+                                    header.peak_window)  # the results table is kept
+        if kept is not None and (cell or math.isclose(
+                float(kept.get("core_margin_diameters", math.nan)), header.core_margin)):
+            return {**kept, **recorded}
         if kept is not None:
             row = {key: (math.nan if "_core" in key and not isinstance(item, str) else item)
                    for key, item in kept.items()}
-            row["core_margin_diameters"] = header.core_margin
-            row["note"] = " ".join(filter(None, (str(row.get("note") or ""), (
+            row.update(recorded)
+            row["note"] = " ".join(filter(None, (str(recorded.get("note") or ""), (
                 f"slimmed with another core margin ({kept.get('core_margin_diameters')} "
                 "<d>): no core values until the sample is run again"))))
             return row
