@@ -277,8 +277,9 @@ def slim_study(study) -> dict[str, int]:
     return freed
 
 
-SUMMED_OVER_SEEDS = ("wall_time", "steps")
-"""The columns a pooled point sums over its seeds' runs (:func:`pooled_replicas`)."""
+POOLED_OTHERWISE = {"wall_time": np.nansum, "steps": np.nansum, "capped_share": np.nanmax}
+"""The columns a pooled point does not average over its seeds' runs, and how it pools them
+(:func:`pooled_replicas`): the cost summed, the capped share the largest."""
 
 
 def pooled_replicas(table: pd.DataFrame) -> pd.DataFrame:
@@ -325,19 +326,15 @@ def pooled_replicas(table: pd.DataFrame) -> pd.DataFrame:
         if len(group) > 1:
             for column in numeric:
                 values = group[column].to_numpy(float)
-                if column in SUMMED_OVER_SEEDS:
-                    row[column] = float(np.nansum(values))
-                    continue
-                if column == "capped_share":
-                    row[column] = float(np.nanmax(values))
+                if column in POOLED_OTHERWISE:
+                    row[column] = float(POOLED_OTHERWISE[column](values))
                     continue
                 row[column] = float(np.nanmean(values)) if np.isfinite(values).any() \
                     else math.nan
                 if column.endswith("_std"):
                     row[column.removesuffix("_std") + "_window_std"] = row[column]
             for column in numeric:
-                if column.endswith("_std") or column in SUMMED_OVER_SEEDS \
-                        or column == "capped_share":
+                if column.endswith("_std") or column in POOLED_OTHERWISE:
                     continue
                 values = group[column].to_numpy(float)
                 finite = values[np.isfinite(values)]
